@@ -1,0 +1,81 @@
+# MiniSkeleton: the two commands are `make demo` and `make test`; everything else is a step of them.
+# Each target sets up what it needs (virtualenv, bpy from PyPI, Rust build), so a fresh clone works.
+
+SHELL      := /bin/bash
+PYTHON     ?= $(shell command -v python3.11 || command -v python3)
+VENV       ?= .venv
+VPY        := $(VENV)/bin/python
+VERSION    := 0.1.0
+WHEEL      := addon/wheels/miniskeleton_core-$(VERSION)-cp311-abi3-manylinux_2_28_x86_64.whl
+EXT_ZIP    := dist/miniskeleton-$(VERSION)-linux_x64.zip
+BPY_42     ?= 4.2.0
+VENV42     ?= .venv-bpy42
+MODEL      ?=
+PUPPET     ?=
+export CARGO_TERM_COLOR ?= never
+export MINISKELETON_EXTENSION_ZIP := $(abspath $(EXT_ZIP))
+
+RUST_SRC   := $(shell find rust -name '*.rs' -o -name Cargo.toml) Cargo.toml Cargo.lock pyproject.toml
+ADDON_SRC  := $(shell find addon -name '*.py' -o -name '*.toml')
+
+.PHONY: all demo test test-rust test-python test-blender test-blender-4.2 extension wheel venv bench clean
+
+all: extension
+
+## Virtualenv with bpy, numpy, pytest, maturin (pip's cache makes reruns fast).
+venv: $(VENV)/.installed
+$(VENV)/.installed: requirements-dev.txt
+	test -x $(VPY) || $(PYTHON) -m venv $(VENV)
+	$(VPY) -m pip install --upgrade --quiet pip
+	$(VPY) -m pip install --quiet -r requirements-dev.txt
+	touch $@
+
+## Release wheel of the Rust core (abi3-py311, manylinux_2_28) into addon/wheels/.
+wheel: $(WHEEL)
+$(WHEEL): $(VENV)/.installed $(RUST_SRC) miniskeleton_core.pyi
+	rm -f addon/wheels/*.whl
+	$(VENV)/bin/maturin build --release --quiet --out addon/wheels --interpreter $(VPY)
+	test -f $@
+	# tests/ import it from .build/core; the venv itself never has it, so Blender tests can only
+	# find the copy bundled in the installed extension.
+	rm -rf .build/core
+	$(VPY) -m pip install --quiet --no-deps --target .build/core $@
+
+## The installable Blender extension, built with Blender's own extension builder.
+extension: $(EXT_ZIP)
+$(EXT_ZIP): $(WHEEL) $(ADDON_SRC)
+	mkdir -p dist
+	rm -f dist/miniskeleton-*.zip
+	$(VPY) "$$(ls $(VENV)/lib/python3.11/site-packages/bpy/*/scripts/addons_core/bl_pkg/cli/blender_ext.py | head -1)" \
+	    build --source-dir addon --output-dir dist --split-platforms
+	test -f $@
+
+## Headless demo on a creature the project generates (or MODEL=path.glb).
+demo: $(EXT_ZIP)
+	$(VPY) scripts/demo.py --out out $(if $(MODEL),--model $(MODEL)) $(if $(PUPPET),--puppet $(PUPPET))
+
+## All tests: Rust, Python API, then Blender (installing the extension zip like a user).
+test: test-rust test-python test-blender
+
+test-rust:
+	cargo test -p miniskeleton-core --release
+
+test-python: $(WHEEL)
+	PYTHONPATH=.build/core $(VPY) -m pytest -q tests
+
+test-blender: $(EXT_ZIP)
+	$(VPY) -m pytest -q blender_tests
+
+## The same Blender tests on Blender 4.2 LTS.
+test-blender-4.2: $(EXT_ZIP)
+	test -x $(VENV42)/bin/python || $(PYTHON) -m venv $(VENV42)
+	$(VENV42)/bin/python -m pip install --quiet "bpy==$(BPY_42)" "numpy<2" pytest
+	$(VENV42)/bin/python -m pytest -q blender_tests
+
+## Benchmarks (speed is measured here, never asserted in tests).
+bench: $(EXT_ZIP)
+	cargo bench -p miniskeleton-core
+	$(VPY) bench/bench_weights.py
+
+clean:
+	rm -rf dist addon/wheels out .build

@@ -1,0 +1,27 @@
+"""MiniSkeleton: automatic skinning, skeleton fitting and puppet IK backed by a Rust core.
+
+This file only registers; see operators_*.py (operators), ui.py (menus and panels) and
+mesh_io.py (Blender data to arrays and back).
+"""
+
+from . import operators_weights, ui
+
+_modules = (operators_weights, ui)
+
+
+def register() -> None:
+    import bpy
+
+    for mod in _modules:
+        for cls in mod.classes:
+            bpy.utils.register_class(cls)
+    ui.register_menus()
+
+
+def unregister() -> None:
+    import bpy
+
+    ui.unregister_menus()
+    for mod in reversed(_modules):
+        for cls in reversed(mod.classes):
+            bpy.utils.unregister_class(cls)

@@ -1,0 +1,130 @@
+"""Scene builders for the Blender tests: generated meshes and armatures, made with bpy itself."""
+
+from __future__ import annotations
+
+import math
+
+import bpy
+import numpy as np
+
+
+def cylinder_arrays(radius=0.5, height=4.0, rings=40, segments=24):
+    """Closed capped cylinder along +Z (z in [0, height]) as (verts (n,3), quads+tris faces)."""
+    verts, faces = [], []
+    for r in range(rings + 1):
+        z = height * r / rings
+        for s in range(segments):
+            a = 2 * math.pi * s / segments
+            verts.append((radius * math.cos(a), radius * math.sin(a), z))
+    for r in range(rings):
+        for s in range(segments):
+            a, b = r * segments + s, r * segments + (s + 1) % segments
+            faces.append((a, b, b + segments, a + segments))
+    bottom, top = len(verts), len(verts) + 1
+    verts += [(0, 0, 0), (0, 0, height)]
+    for s in range(segments):
+        faces.append((bottom, (s + 1) % segments, s))
+        t = rings * segments
+        faces.append((top, t + s, t + (s + 1) % segments))
+    return np.array(verts, dtype=np.float32), faces
+
+
+def mesh_object(name, verts, faces, location=(0, 0, 0), rotation=(0, 0, 0), scale=(1, 1, 1)):
+    me = bpy.data.meshes.new(name)
+    me.from_pydata([tuple(map(float, v)) for v in verts], [], faces)
+    me.update()
+    ob = bpy.data.objects.new(name, me)
+    bpy.context.scene.collection.objects.link(ob)
+    ob.location, ob.rotation_euler, ob.scale = location, rotation, scale
+    return ob
+
+
+def cylinder(name="Cylinder", **kw):
+    verts, faces = cylinder_arrays(**{k: kw.pop(k) for k in list(kw) if k in ("radius", "height", "rings", "segments")})
+    return mesh_object(name, verts, faces, **kw)
+
+
+def armature(name="Armature", bones=(), location=(0, 0, 0), rotation=(0, 0, 0), scale=(1, 1, 1)):
+    """bones: [(name, head, tail, parent_name_or_None, connected)] in armature space."""
+    arm = bpy.data.armatures.new(name)
+    ob = bpy.data.objects.new(name, arm)
+    bpy.context.scene.collection.objects.link(ob)
+    ob.location, ob.rotation_euler, ob.scale = location, rotation, scale
+    set_active(ob)
+    bpy.ops.object.mode_set(mode="EDIT")
+    made = {}
+    for bname, head, tail, parent, connected in bones:
+        eb = arm.edit_bones.new(bname)
+        eb.head, eb.tail = head, tail
+        if parent:
+            eb.parent = made[parent]
+            eb.use_connect = connected
+        made[bname] = eb
+    bpy.ops.object.mode_set(mode="OBJECT")
+    return ob
+
+
+def chain(name="Armature", count=4, height=4.0, margin=0.2, **kw):
+    """A straight connected chain Bone0..Bone{count-1} along +Z from margin to height-margin."""
+    zs = np.linspace(margin, height - margin, count + 1)
+    bones = [(f"Bone{i}", (0, 0, zs[i]), (0, 0, zs[i + 1]), f"Bone{i-1}" if i else None, True)
+             for i in range(count)]
+    return armature(name, bones, **kw)
+
+
+def set_active(ob, selected=()):
+    for o in bpy.context.view_layer.objects:
+        o.select_set(False)
+    for o in selected:
+        o.select_set(True)
+    ob.select_set(True)
+    bpy.context.view_layer.objects.active = ob
+
+
+def select_for_parenting(meshes, arm):
+    """Ctrl+P convention: meshes selected, armature selected and active."""
+    set_active(arm, selected=meshes)
+
+
+def weights_matrix(ob, names):
+    """Dense (n, len(names)) weights read back from ``ob``'s vertex groups."""
+    index = {g.index: names.index(g.name) for g in ob.vertex_groups if g.name in names}
+    w = np.zeros((len(ob.data.vertices), len(names)))
+    for v in ob.data.vertices:
+        for g in v.groups:
+            if g.group in index:
+                w[v.index, index[g.group]] = g.weight
+    return w
+
+
+def world_vertices(ob):
+    m = np.array(ob.matrix_world)
+    co = np.array([v.co for v in ob.data.vertices])
+    return co @ m[:3, :3].T + m[:3, 3]
+
+
+def evaluated_world_vertices(ob):
+    """World positions after modifiers (the Armature modifier's deformation)."""
+    dg = bpy.context.evaluated_depsgraph_get()
+    ev = ob.evaluated_get(dg)
+    me = ev.to_mesh()
+    m = np.array(ev.matrix_world)
+    co = np.array([v.co for v in me.vertices])
+    ev.to_mesh_clear()
+    return co @ m[:3, :3].T + m[:3, 3]
+
+
+def segment_distances(points, heads, tails):
+    """(n, b) distances from points to segments."""
+    p = points[:, None, :]
+    a, b = np.asarray(heads)[None], np.asarray(tails)[None]
+    ab = b - a
+    t = np.clip(((p - a) * ab).sum(-1) / np.maximum((ab * ab).sum(-1), 1e-30), 0, 1)
+    return np.linalg.norm(p - (a + t[..., None] * ab), axis=-1)
+
+
+def bone_segments_world(arm_ob, names):
+    m = np.array(arm_ob.matrix_world)
+    h = np.array([arm_ob.data.bones[n].head_local for n in names]) @ m[:3, :3].T + m[:3, 3]
+    t = np.array([arm_ob.data.bones[n].tail_local for n in names]) @ m[:3, :3].T + m[:3, 3]
+    return h, t

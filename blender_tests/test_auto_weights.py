@@ -1,0 +1,256 @@
+"""object.miniskeleton_auto_weights in real Blender: every method, write-back, undo, bad input."""
+
+import math
+import os
+
+import bpy
+import numpy as np
+import pytest
+
+import builders as B
+
+METHODS = ["HEAT", "BILINEAR", "IDW"]
+NAMES = [f"Bone{i}" for i in range(4)]
+
+
+def bind(meshes, arm, **props):
+    B.select_for_parenting(meshes, arm)
+    return bpy.ops.object.miniskeleton_auto_weights(**props)
+
+
+# ---------------------------------------------------------------- install
+
+
+def test_installed_from_zip_like_a_user():
+    import miniskeleton_core
+
+    assert "bl_ext.user_default.miniskeleton" in bpy.context.preferences.addons.keys()
+    # The core must come from the wheel bundled in the extension, not from the source tree.
+    user = os.environ["BLENDER_USER_RESOURCES"]
+    assert os.path.realpath(miniskeleton_core.__file__).startswith(os.path.realpath(user))
+    assert hasattr(bpy.ops.object, "miniskeleton_auto_weights")
+
+
+def test_menus_offer_the_operator():
+    for menu in ("VIEW3D_MT_object_parent", "VIEW3D_MT_paint_weight"):
+        funcs = getattr(bpy.types, menu)._dyn_ui_initialize()
+        assert any(getattr(f, "__module__", "").endswith("miniskeleton.ui") for f in funcs), menu
+    assert hasattr(bpy.types, "MINISKELETON_PT_weights")
+    assert bpy.types.MINISKELETON_PT_weights.bl_category == "MiniSkeleton"
+
+
+# ---------------------------------------------------------------- per method
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_weights_on_cylinder_chain(method):
+    ob = B.cylinder()
+    arm = B.chain(count=4)
+    assert bind([ob], arm, method=method) == {"FINISHED"}
+
+    w = B.weights_matrix(ob, NAMES)
+    np.testing.assert_allclose(w.sum(1), 1.0, atol=1e-5)
+
+    # Strongest bone = nearest segment, wherever the nearest is unambiguous.
+    verts = B.world_vertices(ob)
+    heads, tails = B.bone_segments_world(arm, NAMES)
+    d = B.segment_distances(verts, heads, tails)
+    order = np.sort(d, axis=1)
+    clear = order[:, 1] - order[:, 0] > 0.2
+    assert clear.sum() > 100
+    assert (w[clear].argmax(1) == d[clear].argmin(1)).mean() == 1.0
+
+    # Neighbours blend across the joint at z = 2.0 (between Bone1 and Bone2).
+    at_joint = np.abs(verts[:, 2] - 2.0) < 1e-4
+    assert at_joint.sum() >= 24
+    assert (w[at_joint, 1] > 0.25).all() and (w[at_joint, 2] > 0.25).all()
+
+    # The Armature modifier and parenting are in place; bending moves the top, not the bottom.
+    assert [m.type for m in ob.modifiers].count("ARMATURE") == 1
+    assert ob.parent == arm
+    rest = B.evaluated_world_vertices(ob)
+    np.testing.assert_allclose(rest, verts, atol=1e-5)
+    arm.pose.bones["Bone2"].rotation_mode = "XYZ"
+    arm.pose.bones["Bone2"].rotation_euler = (math.radians(60), 0, 0)
+    bpy.context.view_layer.update()
+    posed = B.evaluated_world_vertices(ob)
+    moved = np.linalg.norm(posed - verts, axis=1)
+    top, bottom = verts[:, 2] > 3.5, verts[:, 2] < 0.5
+    assert moved[top].min() > 0.5
+    assert moved[bottom].max() < 0.1 * moved[top].min()
+
+
+def test_heat_is_default_and_rebinding_does_not_duplicate_modifier():
+    ob = B.cylinder()
+    arm = B.chain()
+    bind([ob], arm)
+    bind([ob], arm)
+    assert [m.type for m in ob.modifiers].count("ARMATURE") == 1
+    assert sorted(g.name for g in ob.vertex_groups) == NAMES
+    op = bpy.context.window_manager.operator_properties_last("object.miniskeleton_auto_weights")
+    assert op.method == "HEAT"
+
+
+def test_foreign_groups_untouched_bone_groups_replaced():
+    ob = B.cylinder()
+    arm = B.chain()
+    mine = ob.vertex_groups.new(name="MyGroup")
+    mine.add(list(range(0, 200, 3)), 0.37, "REPLACE")
+    stale = ob.vertex_groups.new(name="Bone3")
+    stale.add(list(range(len(ob.data.vertices))), 1.0, "REPLACE")  # junk: everything on Bone3
+    other_mod = ob.modifiers.new("Keep", "SUBSURF")
+    bind([ob], arm, method="IDW")
+
+    g = ob.vertex_groups["MyGroup"]
+    got = {v.index: grp.weight for v in ob.data.vertices for grp in v.groups if grp.group == g.index}
+    assert got == pytest.approx({i: 0.37 for i in range(0, 200, 3)})
+    w = B.weights_matrix(ob, NAMES)
+    assert w[:, 3].max() < 1.0 and (w[:, 3] > 0).sum() < len(w)  # stale Bone3 group replaced
+    assert ob.modifiers.get("Keep") is other_mod
+
+
+def test_selected_bones_only_writes_only_those():
+    ob = B.cylinder()
+    arm = B.chain()
+    for name in NAMES:
+        pb = arm.pose.bones[name]
+        sel = name in ("Bone1", "Bone2")
+        if hasattr(pb, "select"):
+            pb.select = sel
+        else:
+            arm.data.bones[name].select = sel
+    bind([ob], arm, method="HEAT", selected_bones_only=True)
+    assert sorted(g.name for g in ob.vertex_groups) == ["Bone1", "Bone2"]
+
+
+def test_multiple_meshes_with_own_transforms_world_space():
+    arm = B.chain(location=(1, 2, 0))
+    a = B.cylinder("A", location=(1, 2, 0))
+    # B: the same world shape, made from a half-height cylinder scaled by 2 and rotated about Z
+    b = B.cylinder("B", height=2.0, location=(1, 2, 0), rotation=(0, 0, 0.7), scale=(1, 1, 2))
+    assert bind([a, b], arm, method="BILINEAR") == {"FINISHED"}
+    wa, wb = B.weights_matrix(a, NAMES), B.weights_matrix(b, NAMES)
+    heads, tails = B.bone_segments_world(arm, NAMES)
+    for ob, w in ((a, wa), (b, wb)):
+        verts = B.world_vertices(ob)
+        d = B.segment_distances(verts, heads, tails)
+        order = np.sort(d, axis=1)
+        clear = order[:, 1] - order[:, 0] > 0.2
+        assert (w[clear].argmax(1) == d[clear].argmin(1)).all(), ob.name
+        np.testing.assert_allclose(w.sum(1), 1, atol=1e-5)
+    # same world shape -> the same weights for vertices at the same world height on the axis ring
+    za = B.world_vertices(a)[:, 2]
+    zb = B.world_vertices(b)[:, 2]
+    ia, ib = np.argmin(np.abs(za - 3.0)), np.argmin(np.abs(zb - 3.0))
+    np.testing.assert_allclose(wa[ia], wb[ib], atol=1e-3)
+
+
+def test_undo_restores_previous_groups_exactly():
+    ob = B.cylinder()
+    arm = B.chain()
+    g = ob.vertex_groups.new(name="Bone1")
+    g.add([1, 2, 3], 0.5, "REPLACE")
+    ob.vertex_groups.new(name="Extra").add([7], 0.25, "REPLACE")
+    B.select_for_parenting([ob], arm)
+    bpy.ops.ed.undo_push(message="before MiniSkeleton")
+    before = _group_state(ob)
+    bind([ob], arm, method="HEAT")
+    assert _group_state(bpy.data.objects["Cylinder"]) != before
+    bpy.ops.ed.undo()
+    ob = bpy.data.objects["Cylinder"]
+    assert _group_state(ob) == before
+    assert not any(m.type == "ARMATURE" for m in ob.modifiers)
+
+
+def _group_state(ob):
+    names = {g.index: g.name for g in ob.vertex_groups}
+    return (sorted(names.values()),
+            sorted((v.index, names[g.group], round(g.weight, 6)) for v in ob.data.vertices for g in v.groups))
+
+
+# ---------------------------------------------------------------- bad input
+
+
+def _untouched(ob):
+    return not ob.vertex_groups and not ob.modifiers and ob.parent is None
+
+
+def test_no_armature_reports_error():
+    ob = B.cylinder()
+    B.set_active(ob)
+    with pytest.raises(RuntimeError, match="No armature"):
+        bpy.ops.object.miniskeleton_auto_weights()
+    assert _untouched(ob)
+
+
+def test_no_mesh_selected_reports_error():
+    arm = B.chain()
+    B.set_active(arm)
+    with pytest.raises(RuntimeError, match="No mesh selected"):
+        bpy.ops.object.miniskeleton_auto_weights()
+
+
+def test_no_deform_bones_reports_error():
+    ob = B.cylinder()
+    arm = B.chain()
+    for b in arm.data.bones:
+        b.use_deform = False
+    with pytest.raises(RuntimeError, match="no deform bones"):
+        bind([ob], arm)
+    assert _untouched(ob)
+
+
+def test_nan_coordinates_report_count_and_leave_mesh_untouched():
+    ob = B.cylinder()
+    arm = B.chain()
+    ob.data.vertices[5].co = (float("nan"), 0, 0)
+    ob.data.vertices[9].co = (0, float("inf"), 0)
+    with pytest.raises(RuntimeError, match="2 vertices with NaN"):
+        bind([ob], arm, method="HEAT")
+    assert _untouched(ob)
+
+
+def test_armature_in_edit_mode_reports_error():
+    ob = B.cylinder()
+    arm = B.chain()
+    B.select_for_parenting([ob], arm)
+    bpy.ops.object.mode_set(mode="EDIT")
+    with pytest.raises(RuntimeError, match="Edit Mode"):
+        bpy.ops.object.miniskeleton_auto_weights()
+    bpy.ops.object.mode_set(mode="OBJECT")
+    assert _untouched(ob)
+
+
+def test_zero_length_bone_skipped_with_warning(capsys):
+    # Scaling the armature to zero along Z collapses the vertical bone in world space.
+    ob = B.cylinder(height=1.0)
+    arm = B.armature(bones=[("Up", (0, 0, 0), (0, 0, 1), None, False),
+                            ("Side", (-0.4, 0, 0), (0.4, 0, 0), None, False)],
+                     location=(0, 0, 0.5), scale=(1, 1, 0))
+    assert bind([ob], arm, method="IDW") == {"FINISHED"}
+    assert [g.name for g in ob.vertex_groups] == ["Side"]
+    w = B.weights_matrix(ob, ["Side"])
+    np.testing.assert_allclose(w[:, 0], 1.0, atol=1e-6)
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_mesh_without_faces_still_weighted(method):
+    verts, _ = B.cylinder_arrays()
+    ob = B.mesh_object("Points", verts, [])
+    arm = B.chain()
+    assert bind([ob], arm, method=method) == {"FINISHED"}
+    w = B.weights_matrix(ob, NAMES)
+    np.testing.assert_allclose(w.sum(1), 1.0, atol=1e-5)
+
+
+def test_weight_paint_mode_uses_painted_mesh_and_its_armature():
+    ob = B.cylinder()
+    arm = B.chain()
+    bind([ob], arm, method="IDW")
+    for g in list(ob.vertex_groups):
+        ob.vertex_groups.remove(g)
+    B.set_active(ob)
+    bpy.ops.object.mode_set(mode="WEIGHT_PAINT")
+    assert bpy.ops.object.miniskeleton_auto_weights(method="BILINEAR") == {"FINISHED"}
+    bpy.ops.object.mode_set(mode="OBJECT")
+    assert sorted(g.name for g in ob.vertex_groups) == NAMES

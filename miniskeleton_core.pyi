@@ -1,0 +1,62 @@
+"""Type stubs for the Rust extension module ``miniskeleton_core``.
+
+Arrays: ``vertices``/``bone_heads``/``bone_tails`` are (n, 3) float32 in one common space
+(world space in the add-on); ``triangles`` (m, 3) uint32; results are dense top-k
+``indices`` int32 (n, k) (-1 = unused slot) and ``weights`` float32 (n, k), rows summing to 1.
+"""
+
+from typing import Callable, Optional, Tuple
+
+import numpy as np
+import numpy.typing as npt
+
+__version__: str
+
+class Cancelled(Exception):
+    """A progress callback returned False."""
+
+ArrayLike = npt.ArrayLike
+Influences = Tuple[npt.NDArray[np.int32], npt.NDArray[np.float32]]
+
+def idw_weights(
+    vertices: ArrayLike, bone_heads: ArrayLike, bone_tails: ArrayLike, *,
+    max_influences: int = 4, power: float = 2.0, epsilon: float = 1e-4,
+) -> Influences:
+    """Inverse-distance weights w_b = (d_b+eps)^-p / sum_k (d_k+eps)^-p to bone segments (eps relative to mesh size)."""
+
+def bilinear_weights(
+    vertices: ArrayLike, bone_heads: ArrayLike, bone_tails: ArrayLike,
+    parents: Optional[ArrayLike] = None, *, max_influences: int = 4, nearest: int = 3,
+    falloff: str = "gaussian", sigma: Optional[float] = None, power: float = 2.0,
+) -> Influences:
+    """K nearest bones with radial falloff, each share split with the neighbour across the nearer joint."""
+
+def heat_weights(
+    vertices: ArrayLike, triangles: ArrayLike, bone_heads: ArrayLike, bone_tails: ArrayLike, *,
+    max_influences: int = 4, min_weight: float = 1e-3, visibility: bool = True,
+    weld_tolerance: float = 1e-5, heat_constant: float = 1.0, bone_mirror: Optional[ArrayLike] = None,
+    symmetry_axis: int = 0, symmetry_tolerance: float = 1e-3,
+    progress: Optional[Callable[[float], Optional[bool]]] = None,
+) -> Influences:
+    """Bone-heat weights (Baran & Popovic 2007) on the position-welded surface; never leaves a vertex unweighted."""
+
+def heat_weights_report(
+    vertices: ArrayLike, triangles: ArrayLike, bone_heads: ArrayLike, bone_tails: ArrayLike, *,
+    max_influences: int = 4, min_weight: float = 1e-3, visibility: bool = True,
+    weld_tolerance: float = 1e-5, heat_constant: float = 1.0, bone_mirror: Optional[ArrayLike] = None,
+    symmetry_axis: int = 0, symmetry_tolerance: float = 1e-3,
+    progress: Optional[Callable[[float], Optional[bool]]] = None,
+) -> Tuple[npt.NDArray[np.int32], npt.NDArray[np.float32], dict]:
+    """As heat_weights, plus a report: pieces, fallback_pieces, rigid_pieces, welded_vertices, timings."""
+
+def capped_cylinder(radius: float = 0.5, height: float = 4.0, rings: int = 32, segments: int = 32
+                    ) -> Tuple[npt.NDArray[np.float32], npt.NDArray[np.uint32]]:
+    """Closed capped cylinder along +Z from z=0 to z=height."""
+
+def bone_chain(height: float = 4.0, bones: int = 4
+               ) -> Tuple[npt.NDArray[np.float32], npt.NDArray[np.float32], npt.NDArray[np.int32]]:
+    """Straight chain of equal bones along +Z inside a cylinder of that height: (heads, tails, parents)."""
+
+def split_flat(vertices: ArrayLike, triangles: ArrayLike
+               ) -> Tuple[npt.NDArray[np.float32], npt.NDArray[np.uint32]]:
+    """Flat-shaded copy: three vertices per triangle."""

@@ -1,0 +1,53 @@
+//! numpy <-> slice conversion. Any float/int array-like is accepted and cast; shapes are checked.
+
+use numpy::ndarray::Array2;
+use numpy::{AllowTypeChange, IntoPyArray, PyArray2, PyArrayLike1, PyArrayLike2};
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+
+/// An (n, C) array as `Vec<[T; C]>`; `name` is used in the error message.
+pub fn rows<T: numpy::Element + Copy + Default, const C: usize>(
+    arr: &PyArrayLike2<'_, T, AllowTypeChange>,
+    name: &str,
+) -> PyResult<Vec<[T; C]>> {
+    let view = arr.as_array();
+    let (n, c) = view.dim();
+    if c != C && !(n == 0) {
+        return Err(PyValueError::new_err(format!(
+            "{name} must have shape (n, {C}), got ({n}, {c})"
+        )));
+    }
+    let mut out = vec![[T::default(); C]; n];
+    for (i, row) in view.outer_iter().enumerate() {
+        for (j, v) in row.iter().enumerate().take(C) {
+            out[i][j] = *v;
+        }
+    }
+    Ok(out)
+}
+
+/// A 1-D array as a `Vec<T>`.
+pub fn vector<T: numpy::Element + Copy>(arr: &PyArrayLike1<'_, T, AllowTypeChange>) -> Vec<T> {
+    arr.as_array().iter().copied().collect()
+}
+
+/// A row-major buffer of `n * k` values as an (n, k) numpy array.
+pub fn matrix<'py, T: numpy::Element>(
+    py: Python<'py>,
+    data: Vec<T>,
+    n: usize,
+    k: usize,
+) -> PyResult<Bound<'py, PyArray2<T>>> {
+    Array2::from_shape_vec((n, k), data)
+        .map(|a| a.into_pyarray(py))
+        .map_err(|e| PyValueError::new_err(e.to_string()))
+}
+
+/// `Vec<[T; C]>` as an (n, C) numpy array.
+pub fn from_rows<'py, T: numpy::Element + Copy, const C: usize>(
+    py: Python<'py>,
+    data: &[[T; C]],
+) -> PyResult<Bound<'py, PyArray2<T>>> {
+    let flat: Vec<T> = data.iter().flat_map(|r| r.iter().copied()).collect();
+    matrix(py, flat, data.len(), C)
+}

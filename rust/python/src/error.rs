@@ -1,0 +1,46 @@
+//! The one place core errors become Python exceptions, and panics are stopped at the boundary.
+
+use miniskeleton_core::Error;
+use pyo3::exceptions::{PyRuntimeError, PyValueError};
+use pyo3::prelude::*;
+use std::panic::{catch_unwind, AssertUnwindSafe};
+
+pyo3::create_exception!(
+    miniskeleton_core,
+    Cancelled,
+    pyo3::exceptions::PyException,
+    "Raised when a progress callback returned False."
+);
+
+/// Map a core error: bad input is `ValueError`, a failed solve `RuntimeError`, cancel `Cancelled`.
+pub fn to_py(err: Error) -> PyErr {
+    match err {
+        Error::Cancelled => Cancelled::new_err("cancelled by the progress callback"),
+        Error::Factorization(_) => PyRuntimeError::new_err(err.to_string()),
+        _ => PyValueError::new_err(err.to_string()),
+    }
+}
+
+/// Run `f` without the GIL and turn a Rust panic into `RuntimeError` instead of letting it
+/// unwind into Python (pyo3's own `PanicException` is a `BaseException`, which Blender
+/// operators would not catch).
+pub fn guarded<T: Send>(
+    py: Python<'_>,
+    f: impl FnOnce() -> Result<T, Error> + Send,
+) -> PyResult<T> {
+    let out = py.detach(|| catch_unwind(AssertUnwindSafe(f)));
+    match out {
+        Ok(Ok(v)) => Ok(v),
+        Ok(Err(e)) => Err(to_py(e)),
+        Err(panic) => {
+            let msg = panic
+                .downcast_ref::<&str>()
+                .map(|s| s.to_string())
+                .or_else(|| panic.downcast_ref::<String>().cloned())
+                .unwrap_or_else(|| "unknown panic".into());
+            Err(PyRuntimeError::new_err(format!(
+                "internal error in miniskeleton_core (please report): {msg}"
+            )))
+        }
+    }
+}

@@ -1,0 +1,44 @@
+//! Bindings for `miniskeleton_core::primitives`: generated test meshes and bone chains.
+
+use crate::convert::from_rows;
+use numpy::{PyArray1, PyArray2};
+use pyo3::prelude::*;
+
+/// Closed capped cylinder along +Z: (vertices float32 (n,3), triangles uint32 (m,3)).
+#[pyfunction]
+#[pyo3(signature = (radius=0.5, height=4.0, rings=32, segments=32))]
+pub fn capped_cylinder<'py>(
+    py: Python<'py>,
+    radius: f32,
+    height: f32,
+    rings: usize,
+    segments: usize,
+) -> PyResult<(Bound<'py, PyArray2<f32>>, Bound<'py, PyArray2<u32>>)> {
+    let (v, t) = miniskeleton_core::primitives::capped_cylinder(radius, height, rings.max(1), segments.max(3));
+    Ok((from_rows(py, &v)?, from_rows(py, &t)?))
+}
+
+/// Straight chain of equal bones along +Z: (heads (b,3), tails (b,3), parents int32 (b,)).
+#[pyfunction]
+#[pyo3(signature = (height=4.0, bones=4))]
+pub fn bone_chain<'py>(
+    py: Python<'py>,
+    height: f32,
+    bones: usize,
+) -> PyResult<(Bound<'py, PyArray2<f32>>, Bound<'py, PyArray2<f32>>, Bound<'py, PyArray1<i32>>)> {
+    let (h, t, p) = miniskeleton_core::primitives::bone_chain(height, bones.max(1));
+    Ok((from_rows(py, &h)?, from_rows(py, &t)?, PyArray1::from_vec(py, p)))
+}
+
+/// Flat-shaded copy: every triangle gets its own three vertices (like a glTF import of a flat mesh).
+#[pyfunction]
+pub fn split_flat<'py>(
+    py: Python<'py>,
+    vertices: numpy::PyArrayLike2<'py, f32, numpy::AllowTypeChange>,
+    triangles: numpy::PyArrayLike2<'py, u32, numpy::AllowTypeChange>,
+) -> PyResult<(Bound<'py, PyArray2<f32>>, Bound<'py, PyArray2<u32>>)> {
+    let v = crate::convert::rows::<f32, 3>(&vertices, "vertices")?;
+    let t = crate::convert::rows::<u32, 3>(&triangles, "triangles")?;
+    let (sv, st) = miniskeleton_core::primitives::split_flat(&v, &t);
+    Ok((from_rows(py, &sv)?, from_rows(py, &st)?))
+}

@@ -1,0 +1,212 @@
+//! Bindings for `miniskeleton_core::{idw, bilinear, heat}`: skinning weights as dense top-k arrays.
+
+use crate::convert::{matrix, rows, vector};
+use crate::error::guarded;
+use miniskeleton_core::bilinear::{bilinear_weights as core_bilinear, BilinearOptions, Falloff};
+use miniskeleton_core::heat::{heat_weights as core_heat, HeatOptions, HeatReport, Symmetry};
+use miniskeleton_core::idw::{idw_weights as core_idw, IdwOptions};
+use miniskeleton_core::influence::Influences;
+use numpy::{AllowTypeChange, PyArray2, PyArrayLike1, PyArrayLike2};
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+
+type F32Rows<'py> = PyArrayLike2<'py, f32, AllowTypeChange>;
+type Pair<'py> = (Bound<'py, PyArray2<i32>>, Bound<'py, PyArray2<f32>>);
+
+fn to_pair<'py>(py: Python<'py>, inf: Influences) -> PyResult<Pair<'py>> {
+    let n = inf.n();
+    Ok((matrix(py, inf.indices, n, inf.k)?, matrix(py, inf.weights, n, inf.k)?))
+}
+
+fn positive_k(max_influences: usize) -> PyResult<usize> {
+    if max_influences == 0 {
+        return Err(PyValueError::new_err("max_influences must be at least 1"));
+    }
+    Ok(max_influences)
+}
+
+/// Inverse-distance weights: w_b = (d_b + eps)^-p / sum_k (d_k + eps)^-p, top-k, renormalized.
+#[pyfunction]
+#[pyo3(signature = (vertices, bone_heads, bone_tails, *, max_influences=4, power=2.0, epsilon=1e-4))]
+pub fn idw_weights<'py>(
+    py: Python<'py>,
+    vertices: F32Rows<'py>,
+    bone_heads: F32Rows<'py>,
+    bone_tails: F32Rows<'py>,
+    max_influences: usize,
+    power: f32,
+    epsilon: f32,
+) -> PyResult<Pair<'py>> {
+    let v = rows::<f32, 3>(&vertices, "vertices")?;
+    let h = rows::<f32, 3>(&bone_heads, "bone_heads")?;
+    let t = rows::<f32, 3>(&bone_tails, "bone_tails")?;
+    let opts = IdwOptions { power, max_influences: positive_k(max_influences)?, epsilon };
+    let inf = guarded(py, || core_idw(&v, &h, &t, &opts))?;
+    to_pair(py, inf)
+}
+
+/// Nearest-bone weights with joint blending (see `bilinear.rs`).
+#[pyfunction]
+#[pyo3(signature = (vertices, bone_heads, bone_tails, parents=None, *, max_influences=4, nearest=3,
+                    falloff="gaussian", sigma=None, power=2.0))]
+#[allow(clippy::too_many_arguments)]
+pub fn bilinear_weights<'py>(
+    py: Python<'py>,
+    vertices: F32Rows<'py>,
+    bone_heads: F32Rows<'py>,
+    bone_tails: F32Rows<'py>,
+    parents: Option<PyArrayLike1<'py, i32, AllowTypeChange>>,
+    max_influences: usize,
+    nearest: usize,
+    falloff: &str,
+    sigma: Option<f32>,
+    power: f32,
+) -> PyResult<Pair<'py>> {
+    let v = rows::<f32, 3>(&vertices, "vertices")?;
+    let h = rows::<f32, 3>(&bone_heads, "bone_heads")?;
+    let t = rows::<f32, 3>(&bone_tails, "bone_tails")?;
+    let p = match parents {
+        Some(p) => vector(&p),
+        None => vec![-1; h.len()],
+    };
+    let falloff = match falloff.to_ascii_lowercase().as_str() {
+        "gaussian" => Falloff::Gaussian { sigma },
+        "inverse_power" | "power" => Falloff::InversePower { power },
+        other => {
+            return Err(PyValueError::new_err(format!(
+                "falloff must be 'gaussian' or 'inverse_power', got {other:?}"
+            )))
+        }
+    };
+    let opts = BilinearOptions { nearest: nearest.max(1), falloff, max_influences: positive_k(max_influences)? };
+    let inf = guarded(py, || core_bilinear(&v, &h, &t, &p, &opts))?;
+    to_pair(py, inf)
+}
+
+fn report_dict<'py>(py: Python<'py>, r: &HeatReport) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    d.set_item("pieces", r.pieces)?;
+    d.set_item("fallback_pieces", r.fallback_pieces)?;
+    d.set_item("rigid_pieces", r.rigid_pieces)?;
+    d.set_item("welded_vertices", r.welded_vertices)?;
+    d.set_item("regularized", r.regularized)?;
+    d.set_item("factorization_failed", r.factorization_failed)?;
+    let t = PyDict::new(py);
+    for (name, secs) in &r.timings {
+        t.set_item(*name, *secs)?;
+    }
+    d.set_item("timings", t)?;
+    Ok(d)
+}
+
+/// Shared body of `heat_weights` and `heat_weights_report`.
+#[allow(clippy::too_many_arguments)]
+fn heat_impl<'py>(
+    py: Python<'py>,
+    vertices: F32Rows<'py>,
+    triangles: PyArrayLike2<'py, u32, AllowTypeChange>,
+    bone_heads: F32Rows<'py>,
+    bone_tails: F32Rows<'py>,
+    max_influences: usize,
+    min_weight: f32,
+    visibility: bool,
+    weld_tolerance: f32,
+    heat_constant: f32,
+    bone_mirror: Option<PyArrayLike1<'py, i32, AllowTypeChange>>,
+    symmetry_axis: usize,
+    symmetry_tolerance: f32,
+    progress: Option<Py<PyAny>>,
+) -> PyResult<(Pair<'py>, Bound<'py, PyDict>)> {
+    let v = rows::<f32, 3>(&vertices, "vertices")?;
+    let tri = rows::<u32, 3>(&triangles, "triangles")?;
+    let h = rows::<f32, 3>(&bone_heads, "bone_heads")?;
+    let t = rows::<f32, 3>(&bone_tails, "bone_tails")?;
+    if symmetry_axis > 2 {
+        return Err(PyValueError::new_err("symmetry_axis must be 0, 1 or 2"));
+    }
+    let symmetry = bone_mirror.map(|m| Symmetry {
+        axis: symmetry_axis,
+        bone_mirror: vector(&m),
+        tolerance: symmetry_tolerance,
+    });
+    let opts = HeatOptions {
+        max_influences: positive_k(max_influences)?,
+        min_weight,
+        visibility,
+        weld_tolerance,
+        heat_constant,
+        symmetry,
+    };
+    // A Python progress callable is called with the GIL re-acquired; returning False cancels.
+    let callback = progress.map(|cb| {
+        move |f: f32| -> bool {
+            Python::attach(|py| match cb.call1(py, (f,)) {
+                Ok(r) => r.is_none(py) || r.is_truthy(py).unwrap_or(true),
+                Err(_) => false,
+            })
+        }
+    });
+    let (inf, report) = guarded(py, || {
+        core_heat(&v, &tri, &h, &t, &opts, callback.as_ref().map(|c| c as &(dyn Fn(f32) -> bool + Sync)))
+    })?;
+    Ok((to_pair(py, inf)?, report_dict(py, &report)?))
+}
+
+/// Bone-heat weights (Baran & Popovic 2007) on the welded surface; returns (indices, weights).
+#[pyfunction]
+#[pyo3(signature = (vertices, triangles, bone_heads, bone_tails, *, max_influences=4, min_weight=1e-3,
+                    visibility=true, weld_tolerance=1e-5, heat_constant=1.0, bone_mirror=None,
+                    symmetry_axis=0, symmetry_tolerance=1e-3, progress=None))]
+#[allow(clippy::too_many_arguments)]
+pub fn heat_weights<'py>(
+    py: Python<'py>,
+    vertices: F32Rows<'py>,
+    triangles: PyArrayLike2<'py, u32, AllowTypeChange>,
+    bone_heads: F32Rows<'py>,
+    bone_tails: F32Rows<'py>,
+    max_influences: usize,
+    min_weight: f32,
+    visibility: bool,
+    weld_tolerance: f32,
+    heat_constant: f32,
+    bone_mirror: Option<PyArrayLike1<'py, i32, AllowTypeChange>>,
+    symmetry_axis: usize,
+    symmetry_tolerance: f32,
+    progress: Option<Py<PyAny>>,
+) -> PyResult<Pair<'py>> {
+    let (pair, _) = heat_impl(
+        py, vertices, triangles, bone_heads, bone_tails, max_influences, min_weight, visibility,
+        weld_tolerance, heat_constant, bone_mirror, symmetry_axis, symmetry_tolerance, progress,
+    )?;
+    Ok(pair)
+}
+
+/// As `heat_weights`, plus a report dict (pieces, fallback_pieces, rigid_pieces, timings, ...).
+#[pyfunction]
+#[pyo3(signature = (vertices, triangles, bone_heads, bone_tails, *, max_influences=4, min_weight=1e-3,
+                    visibility=true, weld_tolerance=1e-5, heat_constant=1.0, bone_mirror=None,
+                    symmetry_axis=0, symmetry_tolerance=1e-3, progress=None))]
+#[allow(clippy::too_many_arguments)]
+pub fn heat_weights_report<'py>(
+    py: Python<'py>,
+    vertices: F32Rows<'py>,
+    triangles: PyArrayLike2<'py, u32, AllowTypeChange>,
+    bone_heads: F32Rows<'py>,
+    bone_tails: F32Rows<'py>,
+    max_influences: usize,
+    min_weight: f32,
+    visibility: bool,
+    weld_tolerance: f32,
+    heat_constant: f32,
+    bone_mirror: Option<PyArrayLike1<'py, i32, AllowTypeChange>>,
+    symmetry_axis: usize,
+    symmetry_tolerance: f32,
+    progress: Option<Py<PyAny>>,
+) -> PyResult<(Bound<'py, PyArray2<i32>>, Bound<'py, PyArray2<f32>>, Bound<'py, PyDict>)> {
+    let ((i, w), report) = heat_impl(
+        py, vertices, triangles, bone_heads, bone_tails, max_influences, min_weight, visibility,
+        weld_tolerance, heat_constant, bone_mirror, symmetry_axis, symmetry_tolerance, progress,
+    )?;
+    Ok((i, w, report))
+}

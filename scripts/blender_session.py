@@ -1,0 +1,48 @@
+"""Start headless Blender (the PyPI ``bpy`` module) with MiniSkeleton installed like a user does.
+
+``start()`` points Blender at a throw-away user directory *before* ``bpy`` is imported, then
+installs the extension zip built by ``make extension`` with ``package_install_files``.
+Used by the demo, the benchmarks and blender_tests/conftest.py.
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+ADDON_MODULE = "bl_ext.user_default.miniskeleton"
+
+
+def extension_zip() -> Path:
+    """The zip from ``make extension`` ($MINISKELETON_EXTENSION_ZIP, else the newest in dist/)."""
+    env = os.environ.get("MINISKELETON_EXTENSION_ZIP")
+    if env and Path(env).exists():
+        return Path(env)
+    zips = sorted((ROOT / "dist").glob("miniskeleton-*-linux_x64.zip"))
+    if not zips:
+        raise RuntimeError("no extension zip in dist/: run `make extension`")
+    return zips[-1]
+
+
+def start(user_dir: str | None = None):
+    """Import bpy with a fresh user directory and the extension installed and enabled; returns bpy."""
+    if "bpy" not in __import__("sys").modules:
+        os.environ["BLENDER_USER_RESOURCES"] = user_dir or tempfile.mkdtemp(prefix="miniskeleton-user-")
+    import bpy
+
+    if ADDON_MODULE not in bpy.context.preferences.addons.keys():
+        result = bpy.ops.extensions.package_install_files(
+            filepath=str(extension_zip()), repo="user_default", enable_on_install=True)
+        if result != {"FINISHED"}:
+            raise RuntimeError(f"installing the extension failed: {result}")
+    return bpy
+
+
+def reset_scene() -> None:
+    """Empty factory scene, extension still enabled (factory settings disable add-ons)."""
+    import bpy
+
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    bpy.ops.preferences.addon_enable(module=ADDON_MODULE)

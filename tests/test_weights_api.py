@@ -1,0 +1,135 @@
+"""The weights API of miniskeleton_core from plain Python: shapes, dtypes, invariants, errors."""
+
+import numpy as np
+import pytest
+
+import miniskeleton_core as msc
+
+
+@pytest.fixture(scope="module")
+def cyl():
+    v, t = msc.capped_cylinder(0.5, 4.0, 40, 24)
+    h, tl, p = msc.bone_chain(4.0, 4)
+    return v, t, h, tl, p
+
+
+def check_influences(idx, w, n, k, bones):
+    assert idx.shape == (n, k) and w.shape == (n, k)
+    assert idx.dtype == np.int32 and w.dtype == np.float32
+    np.testing.assert_allclose(w.sum(1), 1.0, atol=1e-5)
+    assert (w >= 0).all()
+    assert ((idx >= 0) | (w == 0)).all()  # unused slots carry weight 0
+    assert idx.max() < bones
+
+
+def dense(idx, w, b):
+    out = np.zeros((len(idx), b))
+    for j in range(idx.shape[1]):
+        ok = idx[:, j] >= 0
+        out[np.nonzero(ok)[0], idx[ok, j]] += w[ok, j]
+    return out
+
+
+def test_generated_cylinder_and_chain(cyl):
+    v, t, h, tl, p = cyl
+    assert v.dtype == np.float32 and v.shape[1] == 3 and t.dtype == np.uint32
+    assert v[:, 2].min() == pytest.approx(0) and v[:, 2].max() == pytest.approx(4)
+    assert list(p) == [-1, 0, 1, 2]
+    np.testing.assert_allclose(tl[:-1], h[1:])  # connected chain
+
+
+@pytest.mark.parametrize("fn", ["idw", "bilinear", "heat"])
+def test_rows_sum_to_one_and_nearest_bone_wins(cyl, fn):
+    v, t, h, tl, p = cyl
+    if fn == "idw":
+        idx, w = msc.idw_weights(v, h, tl, max_influences=3)
+    elif fn == "bilinear":
+        idx, w = msc.bilinear_weights(v, h, tl, p, max_influences=3)
+    else:
+        idx, w = msc.heat_weights(v, t, h, tl, max_influences=3)
+    check_influences(idx, w, len(v), 3, len(h))
+    # nearest bone: along the axis, by height
+    z = v[:, 2]
+    joints = np.append(h[:, 2], tl[-1, 2])
+    inner = np.array([np.min(np.abs(zz - joints)) > 0.3 for zz in z])
+    expected = np.clip(np.searchsorted(joints, z) - 1, 0, len(h) - 1)
+    assert inner.sum() > 100
+    assert (dense(idx, w, 4)[inner].argmax(1) == expected[inner]).all()
+
+
+def test_float64_and_lists_accepted(cyl):
+    v, t, h, tl, p = cyl
+    idx, w = msc.idw_weights(v.astype(np.float64), h.tolist(), tl.tolist())
+    assert idx.shape == (len(v), 4)
+
+
+def test_heat_two_pieces_all_weighted_and_report(cyl):
+    v, t, h, tl, p = cyl
+    far = v + np.array([5.0, 0, 0], np.float32)  # second cylinder, no bone inside it
+    v2 = np.vstack([v, far])
+    t2 = np.vstack([t, t + len(v)])
+    idx, w, report = msc.heat_weights_report(v2, t2, h, tl)
+    check_influences(idx, w, len(v2), 4, len(h))
+    assert report["pieces"] == 2
+    assert report["fallback_pieces"] == 1
+
+
+def test_heat_split_flat_matches_welded(cyl):
+    v, t, h, tl, p = cyl
+    sv, st = msc.split_flat(v, t)
+    assert len(sv) == 3 * len(t)
+    i1, w1 = msc.heat_weights(v, t, h, tl)
+    i2, w2 = msc.heat_weights(sv, st, h, tl)
+    d1, d2 = dense(i1, w1, 4), dense(i2, w2, 4)
+    np.testing.assert_allclose(d2, d1[t.reshape(-1)], atol=1e-4)
+
+
+@pytest.mark.parametrize("s", [1e-3, 1e3])
+def test_heat_scale_free(cyl, s):
+    v, t, h, tl, p = cyl
+    d1 = dense(*msc.heat_weights(v, t, h, tl), 4)
+    d2 = dense(*msc.heat_weights(v * s, t, h * s, tl * s), 4)
+    np.testing.assert_allclose(d2, d1, atol=1e-4)
+
+
+def test_progress_callback_and_cancel(cyl):
+    v, t, h, tl, p = cyl
+    seen = []
+    msc.heat_weights(v, t, h, tl, progress=lambda f: seen.append(f))
+    assert seen and 0 <= min(seen) and max(seen) <= 1.0
+    with pytest.raises(msc.Cancelled):
+        msc.heat_weights(v, t, h, tl, progress=lambda f: False)
+
+
+def test_bad_inputs_raise_clear_errors(cyl):
+    v, t, h, tl, p = cyl
+    bad = v.copy()
+    bad[[3, 8, 9]] = np.nan
+    with pytest.raises(ValueError, match="3 "):
+        msc.heat_weights(bad, t, h, tl)
+    with pytest.raises(ValueError, match="3 "):
+        msc.idw_weights(bad, h, tl)
+    with pytest.raises(ValueError):
+        msc.heat_weights(v, t + len(v), h, tl)  # indices out of range
+    with pytest.raises(ValueError, match="shape"):
+        msc.idw_weights(v[:, :2], h, tl)
+    with pytest.raises(ValueError):
+        msc.heat_weights(v, t, h[:0], tl[:0])  # no bones
+    with pytest.raises(ValueError):
+        msc.idw_weights(v, h, tl, max_influences=0)
+    with pytest.raises(ValueError):
+        msc.heat_weights(v[:0], t[:0], h, tl)  # empty mesh
+
+
+def test_symmetric_mesh_symmetric_weights():
+    # Two legs: cylinders at x = +-1 with a bone each, named as mirror pairs.
+    v, t = msc.capped_cylinder(0.4, 3.0, 20, 16)
+    left, right = v + [1, 0, 0], v * [-1, 1, 1] + [-1, 0, 0]
+    verts = np.vstack([left, right]).astype(np.float32)
+    tri = np.vstack([t, t[:, ::-1] + len(v)])
+    heads = np.array([[1, 0, 0.2], [-1, 0, 0.2], [0, 0, 0.2]], np.float32)
+    tails = np.array([[1, 0, 2.8], [-1, 0, 2.8], [0, 0, 2.8]], np.float32)
+    i, w = msc.heat_weights(verts, tri, heads, tails, bone_mirror=[1, 0, 2])
+    d = dense(i, w, 3)
+    np.testing.assert_allclose(d[: len(v), 0], d[len(v):, 1], atol=1e-5)
+    np.testing.assert_allclose(d[: len(v), 2], d[len(v):, 2], atol=1e-5)
