@@ -1,1 +1,160 @@
-//! (to be written)
+//! Sparse per-vertex bone influences (the top `k` bones per vertex), the output of every
+//! weighting method and the input of linear blend skinning.
+
+use rayon::prelude::*;
+
+/// Dense top-`k` influences, row-major: row `v` is `indices[v*k .. v*k+k]` /
+/// `weights[v*k .. v*k+k]`, sorted by decreasing weight. Unused slots have index `-1` and
+/// weight `0`; every row with at least one used slot sums to 1.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Influences {
+    /// Slots per vertex (>= 1).
+    pub k: usize,
+    /// `(n * k,)` bone indices, `-1` for unused.
+    pub indices: Vec<i32>,
+    /// `(n * k,)` weights in `[0, 1]`.
+    pub weights: Vec<f32>,
+}
+
+impl Influences {
+    /// Number of vertices (rows).
+    pub fn n(&self) -> usize {
+        if self.k == 0 { 0 } else { self.indices.len() / self.k }
+    }
+
+    /// `n` empty rows of `k` slots (`k` clamped to >= 1).
+    pub fn empty(n: usize, k: usize) -> Influences {
+        let k = k.max(1);
+        Influences { k, indices: vec![-1; n * k], weights: vec![0.0; n * k] }
+    }
+
+    /// Row `v`: `(indices, weights)`, each of length `k`.
+    pub fn row(&self, v: usize) -> (&[i32], &[f32]) {
+        let r = v * self.k..(v + 1) * self.k;
+        (&self.indices[r.clone()], &self.weights[r])
+    }
+
+    /// Expand to a dense `(n, b)` row-major matrix (indices `>= b` are ignored).
+    pub fn to_dense(&self, b: usize) -> Vec<f32> {
+        let mut d = vec![0.0f32; self.n() * b];
+        for v in 0..self.n() {
+            let (idx, w) = self.row(v);
+            for (&i, &w) in idx.iter().zip(w) {
+                if i >= 0 && (i as usize) < b {
+                    d[v * b + i as usize] += w;
+                }
+            }
+        }
+        d
+    }
+}
+
+/// Keep the `k` largest positive values of one row and normalize them.
+///
+/// `value(j)` for `j in 0..b` gives the row (NaN, negative and zero values are ignored).
+/// Writes sorted `(index, weight)` pairs into `out_idx` / `out_w` (length `k >= 1`), unused
+/// slots `-1` / `0`. After a first normalization to sum 1, entries below `min_weight` are
+/// dropped (the largest one is always kept) and the rest renormalized. A row without any
+/// positive value is left empty. Returns the number of used slots.
+pub fn top_k_row(value: impl Fn(usize) -> f32, b: usize, min_weight: f32, out_idx: &mut [i32], out_w: &mut [f32]) -> usize {
+    let k = out_idx.len().min(out_w.len());
+    out_idx.fill(-1);
+    out_w.fill(0.0);
+    if k == 0 {
+        return 0;
+    }
+    let mut used = 0usize;
+    for j in 0..b {
+        let w = value(j);
+        if !(w > 0.0) || !w.is_finite() {
+            continue;
+        }
+        if used == k && w <= out_w[k - 1] {
+            continue;
+        }
+        // Insertion into the descending list; strict '>' keeps lower bone indices first on ties.
+        let mut pos = if used < k { used } else { k - 1 };
+        while pos > 0 && w > out_w[pos - 1] {
+            out_w[pos] = out_w[pos - 1];
+            out_idx[pos] = out_idx[pos - 1];
+            pos -= 1;
+        }
+        out_w[pos] = w;
+        out_idx[pos] = j as i32;
+        used = (used + 1).min(k);
+    }
+    if used == 0 {
+        return 0;
+    }
+    let sum: f32 = out_w[..used].iter().sum();
+    let mut keep = 1;
+    for s in 1..used {
+        if out_w[s] / sum >= min_weight {
+            keep = s + 1;
+        } else {
+            break;
+        }
+    }
+    for s in keep..used {
+        out_w[s] = 0.0;
+        out_idx[s] = -1;
+    }
+    let sum: f32 = out_w[..keep].iter().sum();
+    out_w[..keep].iter_mut().for_each(|w| *w /= sum);
+    keep
+}
+
+/// Top-`k` influences of a dense weight matrix.
+///
+/// Inputs: `dense` `(n, b)` row-major non-negative weights (values past the end of a short
+/// slice count as 0; NaN / negative count as 0), `k` slots per vertex (clamped to >= 1),
+/// `min_weight` pruning threshold *relative to the row's kept total*: the `k` largest
+/// positive entries are normalized to sum 1, entries below `min_weight` dropped (never the
+/// largest), the rest renormalized to sum 1 (so a row with any positive value always keeps
+/// at least its argmax bone at weight <= 1). A row with no positive value stays empty
+/// (`-1` / `0`): the caller decides what such a vertex gets.
+/// Output: [`Influences`] with `n` rows. Parallel over rows.
+pub fn top_k_normalized(dense: &[f32], n: usize, b: usize, k: usize, min_weight: f32) -> Influences {
+    let mut out = Influences::empty(n, k);
+    let k = out.k;
+    out.indices
+        .par_chunks_mut(k)
+        .zip(out.weights.par_chunks_mut(k))
+        .enumerate()
+        .with_min_len(1024)
+        .for_each(|(v, (idx, w))| {
+            let base = v * b;
+            top_k_row(|j| dense.get(base + j).copied().unwrap_or(0.0), b, min_weight, idx, w);
+        });
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn keeps_largest_and_normalizes() {
+        let dense = [
+            0.1, 0.5, 0.0, 0.3, 0.2, // -> 1, 3, 4 (top 3)
+            0.0, 0.0, 0.0, 0.0, 0.0, // empty
+            f32::NAN, -1.0, 2.0, 0.0, 1e-6, // -> 2 only after pruning
+            0.25, 0.25, 0.25, 0.25, 0.0, // ties -> lowest indices
+        ];
+        let inf = top_k_normalized(&dense, 4, 5, 3, 1e-3);
+        assert_eq!(inf.n(), 4);
+        let (i, w) = inf.row(0);
+        assert_eq!(i, &[1, 3, 4]);
+        assert!((w.iter().sum::<f32>() - 1.0).abs() < 1e-6);
+        assert!((w[0] - 0.5 / 1.0).abs() < 1e-6);
+        assert_eq!(inf.row(1).0, &[-1, -1, -1]);
+        assert_eq!(inf.row(2), (&[2, -1, -1][..], &[1.0, 0.0, 0.0][..]));
+        assert_eq!(inf.row(3).0, &[0, 1, 2]);
+        let d = inf.to_dense(5);
+        assert!((d[1] - 0.5).abs() < 1e-6 && d[0] == 0.0);
+        // k = 0 is clamped to 1.
+        let inf = top_k_normalized(&dense, 4, 5, 0, 0.0);
+        assert_eq!(inf.k, 1);
+        assert_eq!(inf.row(0), (&[1][..], &[1.0][..]));
+    }
+}

@@ -1,1 +1,169 @@
-//! (to be written)
+//! Mesh input validation and normalization to a unit-size frame.
+//!
+//! Every weighting algorithm first validates its slices here and then works in a frame
+//! where the mesh's bounding box is centred at the origin and has diagonal 1, so that all
+//! tolerances are relative and the results do not depend on the scene's unit.
+
+use crate::{Error, Result};
+use glam::DVec3;
+use rayon::prelude::*;
+
+/// Count the NaN / infinite coordinates of a point array.
+///
+/// Input: `points`, `(n, 3)`. Output: number of non-finite scalar coordinates (0..=3n).
+pub fn count_non_finite(points: &[[f32; 3]]) -> usize {
+    points
+        .par_iter()
+        .with_min_len(4096)
+        .map(|p| p.iter().filter(|c| !c.is_finite()).count())
+        .sum()
+}
+
+/// Validate a triangle mesh.
+///
+/// Inputs: `vertices` `(n, 3)` positions, `triangles` `(m, 3)` vertex indices.
+/// Errors: [`Error::EmptyMesh`] if `n == 0` (or `m == 0` when `need_faces`),
+/// [`Error::NonFinite`] with the number of bad coordinates, [`Error::BadIndex`] for the
+/// first triangle that refers past the end of `vertices`.
+pub fn validate_mesh(vertices: &[[f32; 3]], triangles: &[[u32; 3]], need_faces: bool) -> Result<()> {
+    if vertices.is_empty() {
+        return Err(Error::EmptyMesh("the mesh has no vertices".into()));
+    }
+    if need_faces && triangles.is_empty() {
+        return Err(Error::EmptyMesh("the mesh has no triangles".into()));
+    }
+    let bad = count_non_finite(vertices);
+    if bad > 0 {
+        return Err(Error::NonFinite { what: "vertex", count: bad });
+    }
+    let n = vertices.len();
+    let first_bad = triangles
+        .par_iter()
+        .with_min_len(4096)
+        .position_first(|t| t.iter().any(|&i| i as usize >= n));
+    if let Some(ti) = first_bad {
+        let index = triangles[ti].iter().copied().find(|&i| i as usize >= n).unwrap_or(0);
+        return Err(Error::BadIndex { triangle: ti, index: index as i64, vertex_count: n });
+    }
+    Ok(())
+}
+
+/// Validate a bone list: `heads` and `tails` `(b, 3)` must have equal, non-zero length
+/// and finite coordinates. Errors: [`Error::NoBones`], [`Error::Shape`], [`Error::NonFinite`].
+pub fn validate_bones(heads: &[[f32; 3]], tails: &[[f32; 3]]) -> Result<()> {
+    if heads.len() != tails.len() {
+        return Err(Error::Shape(format!(
+            "{} bone heads but {} bone tails",
+            heads.len(),
+            tails.len()
+        )));
+    }
+    if heads.is_empty() {
+        return Err(Error::NoBones("the bone list is empty".into()));
+    }
+    let bad = count_non_finite(heads) + count_non_finite(tails);
+    if bad > 0 {
+        return Err(Error::NonFinite { what: "bone", count: bad });
+    }
+    Ok(())
+}
+
+/// Axis-aligned bounding box `(min, max)` of `points` `(n, 3)`; `(0, 0)` when empty.
+pub fn bounding_box(points: &[[f32; 3]]) -> (DVec3, DVec3) {
+    if points.is_empty() {
+        return (DVec3::ZERO, DVec3::ZERO);
+    }
+    points
+        .par_iter()
+        .with_min_len(4096)
+        .fold(
+            || (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
+            |(lo, hi), p| {
+                let q = to_dvec(*p);
+                (lo.min(q), hi.max(q))
+            },
+        )
+        .reduce(
+            || (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
+            |a, b| (a.0.min(b.0), a.1.max(b.1)),
+        )
+}
+
+/// `[f32; 3]` -> `DVec3`.
+#[inline]
+pub fn to_dvec(p: [f32; 3]) -> DVec3 {
+    DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64)
+}
+
+/// A similarity frame: `unit = (p - centre) / diagonal`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Frame {
+    /// Bounding-box centre in input units.
+    pub centre: DVec3,
+    /// Bounding-box diagonal in input units (> 0; 1 for a mesh collapsed to a point).
+    pub diagonal: f64,
+}
+
+impl Frame {
+    /// Frame of the bounding box of `points` `(n, 3)`. A zero-size box gets diagonal 1.
+    pub fn of_points(points: &[[f32; 3]]) -> Frame {
+        let (lo, hi) = bounding_box(points);
+        let d = (hi - lo).length();
+        Frame {
+            centre: (lo + hi) * 0.5,
+            diagonal: if d.is_finite() && d > 0.0 { d } else { 1.0 },
+        }
+    }
+
+    /// Input units -> unit frame.
+    #[inline]
+    pub fn to_unit(&self, p: [f32; 3]) -> DVec3 {
+        (to_dvec(p) - self.centre) / self.diagonal
+    }
+
+    /// Unit frame -> input units.
+    #[inline]
+    pub fn from_unit(&self, p: DVec3) -> DVec3 {
+        p * self.diagonal + self.centre
+    }
+
+    /// Map every point to the unit frame (parallel). Output `(n,)` of `DVec3`.
+    pub fn normalize(&self, points: &[[f32; 3]]) -> Vec<DVec3> {
+        points.par_iter().with_min_len(4096).map(|p| self.to_unit(*p)).collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn validation_errors() {
+        let v = [[0.0, 0.0, 0.0], [1.0, f32::NAN, 0.0], [0.0, 1.0, f32::INFINITY]];
+        assert_eq!(
+            validate_mesh(&v, &[[0, 1, 2]], true),
+            Err(Error::NonFinite { what: "vertex", count: 2 })
+        );
+        let v = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
+        assert!(validate_mesh(&v, &[[0, 1, 2]], true).is_ok());
+        assert_eq!(
+            validate_mesh(&v, &[[0, 1, 2], [0, 1, 7]], true),
+            Err(Error::BadIndex { triangle: 1, index: 7, vertex_count: 3 })
+        );
+        assert!(matches!(validate_mesh(&[], &[], false), Err(Error::EmptyMesh(_))));
+        assert!(matches!(validate_mesh(&v, &[], true), Err(Error::EmptyMesh(_))));
+        assert!(matches!(validate_bones(&[], &[]), Err(Error::NoBones(_))));
+        assert!(matches!(validate_bones(&v, &v[..2]), Err(Error::Shape(_))));
+    }
+
+    #[test]
+    fn frame_is_unit() {
+        let v = [[10.0, 10.0, 10.0], [13.0, 14.0, 10.0]];
+        let f = Frame::of_points(&v);
+        assert!((f.diagonal - 5.0).abs() < 1e-12);
+        let u = f.normalize(&v);
+        assert!(((u[1] - u[0]).length() - 1.0).abs() < 1e-12);
+        assert!((f.from_unit(u[1]) - to_dvec(v[1])).length() < 1e-9);
+        assert_eq!(Frame::of_points(&[[1.0, 1.0, 1.0]]).diagonal, 1.0);
+    }
+}

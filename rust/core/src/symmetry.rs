@@ -1,1 +1,180 @@
-//! (to be written)
+//! Left/right symmetry: vertex mirror maps and symmetric averaging of bone weights.
+
+use crate::{Error, Result};
+use glam::DVec3;
+
+/// Mirror `p` across the plane `x[axis] = plane`.
+#[inline]
+pub fn mirror_point(p: DVec3, axis: usize, plane: f64) -> DVec3 {
+    let mut q = p;
+    q[axis] = 2.0 * plane - p[axis];
+    q
+}
+
+/// Vertex mirror map.
+///
+/// Inputs: `points` `(n,)`, `axis` 0/1/2 (X/Y/Z), `plane` the coordinate of the mirror plane
+/// along `axis`, `tolerance` (same unit) for matching a mirrored position.
+/// Output `(n,)`: `m[v]` = the point nearest to the mirror image of `v` if it lies within
+/// `tolerance`, else `-1`; made an involution (`m[m[v]] == v`; one-sided matches are dropped
+/// to `-1`). Points on the plane map to themselves. Hash grid with cell `2 tolerance`:
+/// O(n) expected. Errors: `axis > 2`.
+pub fn mirror_map(points: &[DVec3], axis: usize, plane: f64, tolerance: f64) -> Result<Vec<i32>> {
+    if axis > 2 {
+        return Err(Error::InvalidArgument(format!("symmetry axis must be 0, 1 or 2, got {axis}")));
+    }
+    let tol = if tolerance.is_finite() && tolerance > 0.0 { tolerance } else { 0.0 };
+    let cell = (2.0 * tol).max(1e-12);
+    let inv = 1.0 / cell;
+    let n = points.len();
+    let bits = (usize::BITS - (2 * n.max(8)).leading_zeros()).min(40);
+    let mask = (1u64 << bits) - 1;
+    let key = |c: DVec3| -> usize {
+        let h = (c.x as i64 as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15)
+            ^ (c.y as i64 as u64).wrapping_mul(0xC2B2_AE3D_27D4_EB4F)
+            ^ (c.z as i64 as u64).wrapping_mul(0x1656_67B1_9E37_79F9);
+        ((h ^ (h >> 29)) & mask) as usize
+    };
+    let mut head = vec![u32::MAX; 1usize << bits];
+    let mut next = vec![u32::MAX; n];
+    for (i, p) in points.iter().enumerate() {
+        let k = key((*p * inv).floor());
+        next[i] = head[k];
+        head[k] = i as u32;
+    }
+    let tol2 = tol * tol;
+    let mut map: Vec<i32> = points
+        .iter()
+        .map(|p| {
+            let q = mirror_point(*p, axis, plane);
+            let lo = ((q - DVec3::splat(tol)) * inv).floor();
+            let hi = ((q + DVec3::splat(tol)) * inv).floor();
+            let mut best = (f64::INFINITY, -1i32);
+            let mut c = lo;
+            while c.x <= hi.x {
+                c.y = lo.y;
+                while c.y <= hi.y {
+                    c.z = lo.z;
+                    while c.z <= hi.z {
+                        let mut i = head[key(c)];
+                        while i != u32::MAX {
+                            let d2 = (points[i as usize] - q).length_squared();
+                            if d2 <= tol2 && (d2 < best.0 || (d2 == best.0 && (i as i32) < best.1)) {
+                                best = (d2, i as i32);
+                            }
+                            i = next[i as usize];
+                        }
+                        c.z += 1.0;
+                    }
+                    c.y += 1.0;
+                }
+                c.x += 1.0;
+            }
+            best.1
+        })
+        .collect();
+    let snapshot = map.clone();
+    for (v, m) in map.iter_mut().enumerate() {
+        if *m >= 0 && snapshot[*m as usize] != v as i32 {
+            *m = -1;
+        }
+    }
+    Ok(map)
+}
+
+/// Check a bone mirror map: `(b,)`, entries in `0..b`, an involution. Errors otherwise.
+pub fn validate_bone_mirror(bone_mirror: &[i32], b: usize) -> Result<()> {
+    if bone_mirror.len() != b {
+        return Err(Error::Shape(format!("bone_mirror has {} entries for {} bones", bone_mirror.len(), b)));
+    }
+    for (i, &m) in bone_mirror.iter().enumerate() {
+        if m < 0 || m as usize >= b || bone_mirror[m as usize] != i as i32 {
+            return Err(Error::InvalidArgument(format!(
+                "bone_mirror must pair bones both ways (bone {i} -> {m})"
+            )));
+        }
+    }
+    Ok(())
+}
+
+/// Symmetric averaging of dense weights, in place.
+///
+/// Inputs: `cols` `(b, n)` **column-major** (bone `j`'s weights are `cols[j*n .. j*n+n]`),
+/// `vertex_mirror` `(n,)` from [`mirror_map`] (involution, `-1` = unmatched),
+/// `bone_mirror` `(b,)` (involution, see [`validate_bone_mirror`]).
+/// Output: `w[v][j] <- 0.5 (w[v][j] + w[m(v)][m(j)])` for every matched vertex; unmatched
+/// vertices keep their weights. Because both maps are involutions the update pairs entries
+/// and can be done in place.
+pub fn symmetrize_columns(cols: &mut [f64], n: usize, vertex_mirror: &[i32], bone_mirror: &[i32]) {
+    let b = bone_mirror.len();
+    if cols.len() < n * b || vertex_mirror.len() < n {
+        return;
+    }
+    for j in 0..b {
+        let mj = bone_mirror[j];
+        if mj < 0 || (mj as usize) < j || mj as usize >= b {
+            continue;
+        }
+        let mj = mj as usize;
+        if mj == j {
+            let col = &mut cols[j * n..(j + 1) * n];
+            for v in 0..n {
+                let mv = vertex_mirror[v];
+                if mv > v as i32 && (mv as usize) < n {
+                    let avg = 0.5 * (col[v] + col[mv as usize]);
+                    col[v] = avg;
+                    col[mv as usize] = avg;
+                }
+            }
+        } else {
+            let (left, right) = cols.split_at_mut(mj * n);
+            let cj = &mut left[j * n..(j + 1) * n];
+            let cm = &mut right[..n];
+            for v in 0..n {
+                let mv = vertex_mirror[v];
+                if mv >= 0 && (mv as usize) < n {
+                    let avg = 0.5 * (cj[v] + cm[mv as usize]);
+                    cj[v] = avg;
+                    cm[mv as usize] = avg;
+                }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn mirror_and_average() {
+        let p = [
+            DVec3::new(-1.0, 0.0, 0.0),
+            DVec3::new(1.0 + 1e-9, 0.0, 0.0),
+            DVec3::new(0.0, 1.0, 0.0),
+            DVec3::new(0.5, 0.0, 0.0),
+        ];
+        let m = mirror_map(&p, 0, 0.0, 1e-6).unwrap();
+        assert_eq!(m, vec![1, 0, 2, -1]);
+        assert!(mirror_map(&p, 3, 0.0, 1e-6).is_err());
+        // bones: 0 <-> 1, 2 centre.
+        let bm = [1, 0, 2];
+        validate_bone_mirror(&bm, 3).unwrap();
+        assert!(validate_bone_mirror(&[1, 1, 2], 3).is_err());
+        let n = 4;
+        let mut cols = vec![
+            1.0, 0.0, 0.5, 0.3, // bone 0
+            0.2, 0.8, 0.5, 0.7, // bone 1
+            0.0, 0.4, 1.0, 0.0, // bone 2
+        ];
+        symmetrize_columns(&mut cols, n, &m, &bm);
+        // v0/b0 pairs with v1/b1: (1.0 + 0.8) / 2
+        assert!((cols[0] - 0.9).abs() < 1e-12 && (cols[4 + 1] - 0.9).abs() < 1e-12);
+        // centre vertex 2: b0 pairs with its own b1
+        assert!((cols[2] - 0.5).abs() < 1e-12 && (cols[4 + 2] - 0.5).abs() < 1e-12);
+        // centre bone 2, v0 with v1
+        assert!((cols[8] - 0.2).abs() < 1e-12 && (cols[9] - 0.2).abs() < 1e-12);
+        // unmatched vertex 3 unchanged
+        assert_eq!((cols[3], cols[7], cols[11]), (0.3, 0.7, 0.0));
+    }
+}
