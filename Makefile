@@ -34,7 +34,8 @@ $(VENV)/.installed: requirements-dev.txt
 wheel: $(WHEEL)
 $(WHEEL): $(VENV)/.installed $(RUST_SRC) miniskeleton_core.pyi
 	rm -f addon/wheels/*.whl
-	$(VENV)/bin/maturin build --release --quiet --out addon/wheels --interpreter $(VPY)
+	# zig (PyPI's ziglang) links against glibc 2.28 so the wheel really is manylinux_2_28.
+	PATH=$(abspath $(VENV))/bin:$$PATH maturin build --release --zig --quiet --out addon/wheels --interpreter $(VPY)
 	test -f $@
 	# tests/ import it from .build/core; the venv itself never has it, so Blender tests can only
 	# find the copy bundled in the installed extension.

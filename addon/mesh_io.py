@@ -172,8 +172,8 @@ def parent_keep_transform(ob: bpy.types.Object, arm_ob: bpy.types.Object) -> Non
     world = ob.matrix_world.copy()
     ob.parent = arm_ob
     ob.parent_type = "OBJECT"
-    ob.matrix_parent_inverse = arm_ob.matrix_world.inverted()
-    ob.matrix_basis = (arm_ob.matrix_world @ ob.matrix_parent_inverse).inverted() @ world
+    ob.matrix_parent_inverse = arm_ob.matrix_world.inverted_safe()
+    ob.matrix_basis = (arm_ob.matrix_world @ ob.matrix_parent_inverse).inverted_safe() @ world
 
 
 def mesh_size(vertices: np.ndarray) -> float:

@@ -77,7 +77,8 @@ def test_weights_on_cylinder_chain(method):
     moved = np.linalg.norm(posed - verts, axis=1)
     top, bottom = verts[:, 2] > 3.5, verts[:, 2] < 0.5
     assert moved[top].min() > 0.5
-    assert moved[bottom].max() < 0.1 * moved[top].min()
+    # IDW is long-range by construction (every bone keeps some d^-2 share), the others local.
+    assert moved[bottom].max() < (0.25 if method == "IDW" else 0.05) * moved[top].min()
 
 
 def test_heat_is_default_and_rebinding_does_not_duplicate_modifier():
@@ -99,14 +100,15 @@ def test_foreign_groups_untouched_bone_groups_replaced():
     stale = ob.vertex_groups.new(name="Bone3")
     stale.add(list(range(len(ob.data.vertices))), 1.0, "REPLACE")  # junk: everything on Bone3
     other_mod = ob.modifiers.new("Keep", "SUBSURF")
-    bind([ob], arm, method="IDW")
+    bind([ob], arm, method="HEAT")
 
     g = ob.vertex_groups["MyGroup"]
     got = {v.index: grp.weight for v in ob.data.vertices for grp in v.groups if grp.group == g.index}
     assert got == pytest.approx({i: 0.37 for i in range(0, 200, 3)})
     w = B.weights_matrix(ob, NAMES)
     assert w[:, 3].max() < 1.0 and (w[:, 3] > 0).sum() < len(w)  # stale Bone3 group replaced
-    assert ob.modifiers.get("Keep") is other_mod
+    assert ob.modifiers.get("Keep") == other_mod and other_mod.type == "SUBSURF"
+    assert [m.type for m in ob.modifiers] == ["SUBSURF", "ARMATURE"]
 
 
 def test_selected_bones_only_writes_only_those():
@@ -152,14 +154,18 @@ def test_undo_restores_previous_groups_exactly():
     g.add([1, 2, 3], 0.5, "REPLACE")
     ob.vertex_groups.new(name="Extra").add([7], 0.25, "REPLACE")
     B.select_for_parenting([ob], arm)
-    bpy.ops.ed.undo_push(message="before MiniSkeleton")
+    bpy.ops.ed.undo_push(message="scene built")
     before = _group_state(ob)
-    bind([ob], arm, method="HEAT")
-    assert _group_state(bpy.data.objects["Cylinder"]) != before
+    # As from a menu: the operator's UNDO flag pushes its step (undo=True, like the UI does).
+    assert bpy.ops.object.miniskeleton_auto_weights("EXEC_DEFAULT", True, method="HEAT") == {"FINISHED"}
+    after = _group_state(bpy.data.objects["Cylinder"])
+    assert after != before
     bpy.ops.ed.undo()
     ob = bpy.data.objects["Cylinder"]
     assert _group_state(ob) == before
-    assert not any(m.type == "ARMATURE" for m in ob.modifiers)
+    assert not any(m.type == "ARMATURE" for m in ob.modifiers) and ob.parent is None
+    bpy.ops.ed.redo()
+    assert _group_state(bpy.data.objects["Cylinder"]) == after
 
 
 def _group_state(ob):
@@ -204,7 +210,7 @@ def test_nan_coordinates_report_count_and_leave_mesh_untouched():
     ob = B.cylinder()
     arm = B.chain()
     ob.data.vertices[5].co = (float("nan"), 0, 0)
-    ob.data.vertices[9].co = (0, float("inf"), 0)
+    ob.data.vertices[9].co = (0, float("nan"), 0)  # (RNA clamps inf to FLT_MAX on assignment)
     with pytest.raises(RuntimeError, match="2 vertices with NaN"):
         bind([ob], arm, method="HEAT")
     assert _untouched(ob)

@@ -71,7 +71,33 @@ def test_heat_two_pieces_all_weighted_and_report(cyl):
     idx, w, report = msc.heat_weights_report(v2, t2, h, tl)
     check_influences(idx, w, len(v2), 4, len(h))
     assert report["pieces"] == 2
-    assert report["fallback_pieces"] == 1
+    # its near side sees the chain through empty space, so it is solved normally
+    assert report["fallback_pieces"] == 0
+
+
+def test_heat_piece_that_sees_no_bone_falls_back_rigidly(cyl):
+    # A small part sealed inside a closed shell far from the bones: every ray to a bone is
+    # blocked by the shell, the case where Blender's heat goes singular and writes nothing.
+    v, t, h, tl, p = cyl
+    shell_v, shell_t = msc.capped_cylinder(1.5, 4.0, 20, 24)
+    part_v, part_t = msc.capped_cylinder(0.2, 0.5, 4, 8)
+    pieces = [(v, t), (shell_v + [6, 0, 0], shell_t), (part_v + [6, 0, 2.25], part_t)]
+    verts, tris, off = [], [], 0
+    for pv, pt in pieces:
+        verts.append(pv)
+        tris.append(pt + off)
+        off += len(pv)
+    verts, tris = np.vstack(verts).astype(np.float32), np.vstack(tris)
+    idx, w, report = msc.heat_weights_report(verts, tris, h, tl)
+    check_influences(idx, w, len(verts), 4, len(h))
+    assert report["pieces"] == 3
+    assert report["fallback_pieces"] == 1 and report["rigid_pieces"] == 1
+    part = slice(len(v) + len(shell_v), None)
+    assert (w[part, 0] == 1).all() and len(set(idx[part, 0])) == 1  # rigid on one bone
+    # that bone is the one nearest the part (centre at z = 2.5, the middle of Bone2)
+    zc = verts[part, 2].mean()
+    mids = (h[:, 2] + tl[:, 2]) / 2
+    assert idx[part, 0][0] == np.argmin(np.abs(mids - zc))
 
 
 def test_heat_split_flat_matches_welded(cyl):
@@ -105,9 +131,9 @@ def test_bad_inputs_raise_clear_errors(cyl):
     v, t, h, tl, p = cyl
     bad = v.copy()
     bad[[3, 8, 9]] = np.nan
-    with pytest.raises(ValueError, match="3 "):
+    with pytest.raises(ValueError, match="3 vertex"):
         msc.heat_weights(bad, t, h, tl)
-    with pytest.raises(ValueError, match="3 "):
+    with pytest.raises(ValueError, match="3 vertex"):
         msc.idw_weights(bad, h, tl)
     with pytest.raises(ValueError):
         msc.heat_weights(v, t + len(v), h, tl)  # indices out of range

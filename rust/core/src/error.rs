@@ -8,7 +8,7 @@ use std::fmt;
 pub enum Error {
     /// The mesh has no vertices (or, where faces are required, no usable faces).
     EmptyMesh(String),
-    /// `count` input coordinates are NaN or infinite.
+    /// `count` inputs of kind `what` (vertices, bone ends, matrices...) hold NaN or infinity.
     NonFinite { what: &'static str, count: usize },
     /// A triangle refers to a vertex that does not exist.
     BadIndex { triangle: usize, index: i64, vertex_count: usize },
@@ -29,7 +29,7 @@ impl fmt::Display for Error {
         match self {
             Error::EmptyMesh(s) => write!(f, "empty mesh: {s}"),
             Error::NonFinite { what, count } => {
-                write!(f, "{count} {what} coordinate(s) are NaN or infinite")
+                write!(f, "{count} {what}(s) have NaN or infinite values")
             }
             Error::BadIndex { triangle, index, vertex_count } => write!(
                 f,

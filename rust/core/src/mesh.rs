@@ -8,22 +8,23 @@ use crate::{Error, Result};
 use glam::DVec3;
 use rayon::prelude::*;
 
-/// Count the NaN / infinite coordinates of a point array.
+/// Count the points of an array that have a NaN / infinite coordinate.
 ///
-/// Input: `points`, `(n, 3)`. Output: number of non-finite scalar coordinates (0..=3n).
+/// Input: `points`, `(n, 3)`. Output: number of points (0..=n) with a non-finite coordinate,
+/// so the error can say "3 vertices", which is what a rigger can look for.
 pub fn count_non_finite(points: &[[f32; 3]]) -> usize {
     points
         .par_iter()
         .with_min_len(4096)
-        .map(|p| p.iter().filter(|c| !c.is_finite()).count())
-        .sum()
+        .filter(|p| p.iter().any(|c| !c.is_finite()))
+        .count()
 }
 
 /// Validate a triangle mesh.
 ///
 /// Inputs: `vertices` `(n, 3)` positions, `triangles` `(m, 3)` vertex indices.
 /// Errors: [`Error::EmptyMesh`] if `n == 0` (or `m == 0` when `need_faces`),
-/// [`Error::NonFinite`] with the number of bad coordinates, [`Error::BadIndex`] for the
+/// [`Error::NonFinite`] with the number of bad vertices, [`Error::BadIndex`] for the
 /// first triangle that refers past the end of `vertices`.
 pub fn validate_mesh(vertices: &[[f32; 3]], triangles: &[[u32; 3]], need_faces: bool) -> Result<()> {
     if vertices.is_empty() {
@@ -142,7 +143,7 @@ mod tests {
         let v = [[0.0, 0.0, 0.0], [1.0, f32::NAN, 0.0], [0.0, 1.0, f32::INFINITY]];
         assert_eq!(
             validate_mesh(&v, &[[0, 1, 2]], true),
-            Err(Error::NonFinite { what: "vertex", count: 2 })
+            Err(Error::NonFinite { what: "vertex", count: 2 }) // two vertices, one bad coordinate each
         );
         let v = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
         assert!(validate_mesh(&v, &[[0, 1, 2]], true).is_ok());
