@@ -35,7 +35,7 @@ fn main() {
         }
         let get = |k: &str| timings.iter().find(|(n, _)| *n == k).map_or(0.0, |x| x.1);
         println!(
-            "heat {:>7} verts {:>7} tris {:>3} bones: total {:.3} s | factor+solve {:.3} s (symbolic {:.3}, factor {:.3}, solve {:.3})",
+            "heat {:>7} verts {:>7} tris {:>3} bones: total {:.3} s | factor+solve {:.3} s (symbolic {:.3} [overlapped with visibility], factor {:.3}, solve {:.3})",
             v.len(),
             t.len(),
             nb,

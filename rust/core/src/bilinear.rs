@@ -44,7 +44,9 @@ pub const JOINT_TOLERANCE: f64 = 1e-4;
 /// Inputs: `vertices` `(n, 3)`, `heads` / `tails` `(b, 3)` (same unit), `parents` `(b,)` the
 /// parent bone index or `-1`.
 /// Per vertex: the `K = nearest` closest bone segments get a radial share
-/// `s = falloff(d) / falloff(d_min)`. Along a bone with closest-point parameter `t in [0, 1]`
+/// `s = (falloff(d) - falloff(d_K+1)) / falloff(d_min)` (minus the share the next, `K+1`-th
+/// bone would get, so that a bone fades to 0 before it leaves the `K` nearest and weights stay
+/// continuous; raw shares are kept if this would leave nothing). Along a bone with closest-point parameter `t in [0, 1]`
 /// the nearer joint is the tail if `t > 0.5`, else the head; the neighbour across it is the
 /// connected child (`parents[c] == bone` and `|head_c - tail| < JOINT_TOLERANCE` diagonals; of
 /// several, the one nearest the vertex) or the connected parent (whose tail touches this
@@ -149,12 +151,17 @@ pub fn bilinear_weights(
                 order.clear();
                 order.extend(0..b);
                 if kn < b {
-                    order.select_nth_unstable_by(kn - 1, |&a, &c| dist[a].total_cmp(&dist[c]).then(a.cmp(&c)));
+                    order.select_nth_unstable_by(kn, |&a, &c| dist[a].total_cmp(&dist[c]).then(a.cmp(&c)));
                 }
                 let near = &order[..kn];
                 let dmin = near.iter().map(|&j| dist[j]).fold(f64::INFINITY, f64::min);
+                // Fade out the K-th share as the (K+1)-th bone catches up with it (continuity
+                // when the K-nearest set changes); keep raw shares if that leaves nothing.
+                let cut = if kn < b { share(dist[order[kn]], dmin) } else { 0.0 };
+                let total: f64 = near.iter().map(|&j| (share(dist[j], dmin) - cut).max(0.0)).sum();
+                let cut = if total > 1e-9 { cut } else { 0.0 };
                 for &j in near {
-                    let s = share(dist[j], dmin);
+                    let s = (share(dist[j], dmin) - cut).max(0.0);
                     let t = tpar[j];
                     let neighbour = if t > 0.5 {
                         children[child_start[j]..child_start[j + 1]]

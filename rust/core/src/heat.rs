@@ -25,10 +25,11 @@ use crate::symmetry::{mirror_map, symmetrize_columns, validate_bone_mirror};
 use crate::visibility::RayMesh;
 use crate::weld::weld;
 use crate::{Error, Result};
-use faer::linalg::solvers::Solve;
-use faer::sparse::linalg::solvers::{Llt, SymbolicLlt};
+use faer::dyn_stack::{MemBuffer, MemStack};
+use faer::linalg::cholesky::llt::factor::LltRegularization;
+use faer::sparse::linalg::cholesky::{factorize_symbolic_cholesky, LltRef, SymbolicCholesky, SymmetricOrdering};
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
-use faer::{MatMut, Side};
+use faer::{Conj, MatMut, Par, Side};
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 use std::time::Instant;
@@ -93,8 +94,10 @@ pub struct HeatReport {
     pub regularized: bool,
     /// Every Cholesky attempt failed: nearest-bone weights were returned instead.
     pub factorization_failed: bool,
-    /// Wall-clock seconds per stage: "prepare", "visibility", "assemble", "symbolic",
-    /// "factor", "solve", "finish".
+    /// Wall-clock seconds per stage, in order: "prepare" (normalize, weld, faces, pieces,
+    /// cotangents), "stiffness" (sparse pattern), "visibility+symbolic" (wall time of the
+    /// two overlapped tasks, followed by their own durations "bvh", "rays", "symbolic"),
+    /// "assemble", "factor", "solve", "finish" (clip, rigid, symmetry, top-k), "total".
     pub timings: Vec<(&'static str, f64)>,
 }
 
@@ -217,23 +220,38 @@ pub fn heat_weights(
     lap(&mut report, "prepare");
     tick(0.05)?;
 
-    // 5. Nearest visible bone per vertex.
-    let ray_mesh = if opts.visibility {
-        let wpos32: Vec<[f32; 3]> = wpos.iter().map(|p| p.as_vec3().to_array()).collect();
-        Some(RayMesh::new(&wpos32, &tris))
-    } else {
-        None
-    };
-    let mut sources: Vec<Source> = Vec::with_capacity(nw);
-    wpos.par_iter()
-        .with_min_len(256)
-        .map_init(
-            || vec![0.0f64; b],
-            |dist, x| nearest_visible_bone(*x, &bones, ray_mesh.as_ref(), dist),
-        )
-        .collect_into_vec(&mut sources);
-    drop(ray_mesh);
-    lap(&mut report, "visibility");
+    // 5. Nearest visible bone per vertex, overlapped with the symbolic Cholesky analysis
+    //    (AMD ordering + supernodes), which only needs the sparsity pattern of L.
+    let csc = stiffness_lower_csc(nw, &cot.edges);
+    let symbolic_mat = SymbolicSparseColMatRef::new_checked(nw, nw, &csc.col_ptr, None, &csc.row_idx);
+    lap(&mut report, "stiffness");
+    let ((mut symbolic, t_sym), (sources, t_bvh, t_vis)) = rayon::join(
+        || {
+            let s = Instant::now();
+            (symbolic_factor(symbolic_mat), s.elapsed().as_secs_f64())
+        },
+        || {
+            let s = Instant::now();
+            let ray_mesh = opts.visibility.then(|| {
+                let wpos32: Vec<[f32; 3]> = wpos.par_iter().map(|p| p.as_vec3().to_array()).collect();
+                RayMesh::new(&wpos32, &tris)
+            });
+            let t_bvh = s.elapsed().as_secs_f64();
+            let s = Instant::now();
+            let mut sources: Vec<Source> = Vec::with_capacity(nw);
+            wpos.par_iter()
+                .with_min_len(256)
+                .map_init(
+                    || vec![0.0f64; b],
+                    |dist, x| nearest_visible_bone(*x, &bones, ray_mesh.as_ref(), dist),
+                )
+                .collect_into_vec(&mut sources);
+            (sources, t_bvh, s.elapsed().as_secs_f64())
+        },
+    );
+    let mut sources = sources;
+    lap(&mut report, "visibility+symbolic");
+    report.timings.extend([("bvh", t_bvh), ("rays", t_vis), ("symbolic", t_sym)]);
     tick(0.2)?;
 
     // 6. Pieces: fallback and rigid accessories; isolated vertices.
@@ -297,7 +315,6 @@ pub fn heat_weights(
         .with_min_len(4096)
         .map(|(s, &m)| if m > 0.0 && s.count > 0 { m * c / s.dist.max(MIN_DISTANCE).powi(2) } else { 0.0 })
         .collect();
-    let csc = stiffness_lower_csc(nw, &cot.edges);
     drop(cot.edges);
     let mut x = vec![0.0f64; nw * b];
     for v in 0..nw {
@@ -321,32 +338,30 @@ pub fn heat_weights(
     tick(0.3)?;
 
     // 8. Factor once, solve all bones.
-    let symbolic_mat = SymbolicSparseColMatRef::new_checked(nw, nw, &csc.col_ptr, None, &csc.row_idx);
-    let symbolic = SymbolicLlt::try_new(symbolic_mat, Side::Lower).ok();
-    lap(&mut report, "symbolic");
-    tick(0.35)?;
-    let mut llt: Option<Llt<usize, f64>> = None;
-    if let Some(symbolic) = symbolic {
-        for (attempt, &r) in REGULARIZATION.iter().enumerate() {
-            let vals = values_for(r);
-            let a = SparseColMatRef::new(symbolic_mat, &vals);
-            if let Ok(f) = Llt::try_new_with_symbolic(symbolic.clone(), a, Side::Lower) {
+    let mut llt: Option<Factor> = None;
+    for (attempt, &r) in REGULARIZATION.iter().enumerate() {
+        let Some(s) = symbolic.take() else { break };
+        let vals = values_for(r);
+        match numeric_factor(s, SparseColMatRef::new(symbolic_mat, &vals)) {
+            Ok(f) => {
                 report.regularized = attempt > 0;
                 llt = Some(f);
                 break;
             }
+            Err(s) => symbolic = Some(s),
         }
     }
+    drop(symbolic);
     lap(&mut report, "factor");
     tick(0.6)?;
     match &llt {
         Some(llt) => {
-            let chunk = b.div_ceil(4).max(1);
+            let threads = rayon::current_num_threads().max(1);
+            let chunk = threads * b.div_ceil(4 * threads).max(1);
             let mut done = 0usize;
             for cols in x.chunks_mut(chunk * nw) {
-                let nc = cols.len() / nw;
-                llt.solve_in_place(MatMut::from_column_major_slice_mut(cols, nw, nc));
-                done += nc;
+                llt.solve_columns(cols, nw);
+                done += cols.len() / nw;
                 tick(0.6 + 0.3 * done as f32 / b as f32)?;
             }
             // Clip; non-finite (should not happen) counts as 0.
@@ -422,6 +437,71 @@ pub fn heat_weights(
     report.timings.push(("total", t0.elapsed().as_secs_f64()));
     tick(1.0)?;
     Ok((out, report))
+}
+
+/// A numeric Cholesky factor `A = L L^T` (faer, supernodal or simplicial, AMD ordering).
+struct Factor {
+    symbolic: SymbolicCholesky<usize>,
+    values: Vec<f64>,
+}
+
+impl Factor {
+    /// Solve `A X = B` in place for the column-major `(n, k)` block `cols`, columns split
+    /// across the rayon pool (each worker solves sequentially: many cheap supernodes make
+    /// fine-grained parallelism inside one solve a loss).
+    fn solve_columns(&self, cols: &mut [f64], n: usize) {
+        let k = cols.len() / n.max(1);
+        if k == 0 {
+            return;
+        }
+        let threads = rayon::current_num_threads().max(1);
+        let per = k.div_ceil(threads).max(1);
+        cols.par_chunks_mut(per * n).for_each(|chunk| {
+            let kc = chunk.len() / n;
+            let llt = LltRef::<usize, f64>::new(&self.symbolic, &self.values);
+            let req = self.symbolic.solve_in_place_scratch::<f64>(kc, Par::Seq);
+            let mut buf = MemBuffer::new(req);
+            llt.solve_in_place_with_conj(
+                Conj::No,
+                MatMut::from_column_major_slice_mut(chunk, n, kc),
+                Par::Seq,
+                MemStack::new(&mut buf),
+            );
+        });
+    }
+}
+
+/// Symbolic analysis (AMD ordering, elimination tree, supernodes) of the lower pattern.
+fn symbolic_factor(a: SymbolicSparseColMatRef<'_, usize>) -> Option<SymbolicCholesky<usize>> {
+    factorize_symbolic_cholesky(a, Side::Lower, SymmetricOrdering::Amd, Default::default()).ok()
+}
+
+/// Numeric factorization; `None` on a non-positive pivot or allocation failure.
+fn numeric_factor(symbolic: SymbolicCholesky<usize>, a: SparseColMatRef<'_, usize, f64>) -> std::result::Result<Factor, SymbolicCholesky<usize>> {
+    let par = Par::rayon(0);
+    let mut values = Vec::new();
+    if values.try_reserve_exact(symbolic.len_val()).is_err() {
+        return Err(symbolic);
+    }
+    values.resize(symbolic.len_val(), 0.0);
+    let req = symbolic.factorize_numeric_llt_scratch::<f64>(par, Default::default());
+    let Ok(mut buf) = MemBuffer::try_new(req) else { return Err(symbolic) };
+    let ok = symbolic
+        .factorize_numeric_llt::<f64>(
+            &mut values,
+            a,
+            Side::Lower,
+            LltRegularization { dynamic_regularization_delta: 0.0, dynamic_regularization_epsilon: 0.0 },
+            par,
+            MemStack::new(&mut buf),
+            Default::default(),
+        )
+        .is_ok();
+    if ok {
+        Ok(Factor { symbolic, values })
+    } else {
+        Err(symbolic)
+    }
 }
 
 /// Nearest visible bone(s) of the point `x` (unit frame). `dist` is `(b,)` scratch.
@@ -501,5 +581,37 @@ mod tests {
             assert!(idx[0] >= 0);
             assert!((w.iter().sum::<f32>() - 1.0).abs() < 1e-5);
         }
+    }
+}
+
+#[cfg(test)]
+mod visibility_tests {
+    use super::*;
+
+    /// A bone outside the mesh that is nearer than the inner bone but hidden behind a wall
+    /// must not be chosen; with visibility off it is.
+    #[test]
+    fn hidden_bone_is_skipped() {
+        let v: Vec<[f32; 3]> = (0..8)
+            .map(|i| [(i & 1) as f32, ((i >> 1) & 1) as f32, ((i >> 2) & 1) as f32])
+            .collect();
+        let q = [[0, 1, 3, 2], [4, 6, 7, 5], [0, 4, 5, 1], [2, 3, 7, 6], [0, 2, 6, 4], [1, 5, 7, 3]];
+        let t: Vec<[u32; 3]> = q.iter().flat_map(|q| [[q[0], q[1], q[2]], [q[0], q[2], q[3]]]).collect();
+        let rm = RayMesh::new(&v, &t);
+        let bones = [
+            (DVec3::new(1.2, 0.5, 0.2), DVec3::new(1.2, 0.5, 0.8)), // outside, nearer
+            (DVec3::new(0.5, 0.5, 0.2), DVec3::new(0.5, 0.5, 0.8)), // inside
+        ];
+        let mut scratch = vec![0.0; 2];
+        let p = DVec3::new(0.9, 0.5, 0.5);
+        let s = nearest_visible_bone(p, &bones, Some(&rm), &mut scratch);
+        assert_eq!((s.count, s.bones[0], s.nearest), (1, 1, 0));
+        assert!((s.dist - 0.4).abs() < 1e-9);
+        let s = nearest_visible_bone(p, &bones, None, &mut scratch);
+        assert_eq!((s.count, s.bones[0]), (1, 0));
+        // Equidistant bones tie.
+        let tie = [bones[1], (DVec3::new(0.5, 0.5, 0.8), DVec3::new(0.5, 0.5, 0.2))];
+        let s = nearest_visible_bone(p, &tie, Some(&rm), &mut scratch);
+        assert_eq!((s.count, s.bones[0], s.bones[1]), (2, 0, 1));
     }
 }

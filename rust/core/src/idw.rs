@@ -73,6 +73,9 @@ pub fn idw_weights(vertices: &[[f32; 3]], heads: &[[f32; 3]], tails: &[[f32; 3]]
                     let d = dist(j) + eps;
                     if d <= 0.0 {
                         1.0
+                    } else if p == 2.0 {
+                        let r = dmin / d;
+                        (r * r) as f32
                     } else {
                         (dmin / d).powf(p) as f32
                     }

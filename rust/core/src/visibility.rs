@@ -8,6 +8,7 @@
 
 use crate::cotan::DEGENERATE_RATIO;
 use glam::Vec3;
+use rayon::prelude::*;
 
 const LEAF_SIZE: usize = 4;
 
@@ -15,7 +16,8 @@ const LEAF_SIZE: usize = 4;
 struct Node {
     min: Vec3,
     max: Vec3,
-    /// Leaf: first triangle; inner: index of the left child (the right one follows it).
+    /// Leaf: first triangle; inner: node count of the left subtree (preorder layout: the left
+    /// child is at `self + 1`, the right one at `self + 1 + first`).
     first: u32,
     /// Leaf: triangle count (> 0); inner: 0.
     count: u32,
@@ -34,11 +36,12 @@ impl RayMesh {
     /// Build the BVH.
     ///
     /// Inputs: `vertices` `(n, 3)` (any unit; queries use the same unit), `triangles` `(m, 3)`.
-    /// O(m log m).
+    /// O(m log m), parallel over subtrees.
     pub fn new(vertices: &[[f32; 3]], triangles: &[[u32; 3]]) -> RayMesh {
         let n = vertices.len();
-        let mut tris: Vec<[Vec3; 3]> = triangles
-            .iter()
+        let tris: Vec<[Vec3; 3]> = triangles
+            .par_iter()
+            .with_min_len(4096)
             .filter_map(|t| {
                 if t.iter().any(|&i| i as usize >= n) {
                     return None;
@@ -57,14 +60,25 @@ impl RayMesh {
                     .then_some([a, e1, e2])
             })
             .collect();
-        let mut nodes = Vec::new();
-        if !tris.is_empty() {
-            nodes.reserve(2 * tris.len() / LEAF_SIZE + 1);
-            let mut cent: Vec<Vec3> =
-                tris.iter().map(|t| t[0] + (t[1] + t[2]) * (1.0 / 3.0)).collect();
-            nodes.push(Node { min: Vec3::ZERO, max: Vec3::ZERO, first: 0, count: 0 });
-            build(&mut nodes, 0, &mut tris, &mut cent, 0);
+        let m = tris.len();
+        if m == 0 || m > u32::MAX as usize / 2 {
+            return RayMesh { nodes: Vec::new(), tris: Vec::new() };
         }
+        // Per-triangle boxes and centroids.
+        let boxes: Vec<(Vec3, Vec3, Vec3)> = tris
+            .par_iter()
+            .with_min_len(4096)
+            .map(|t| {
+                let (a, b, c) = (t[0], t[0] + t[1], t[0] + t[2]);
+                (a.min(b).min(c), a.max(b).max(c), (a + b + c) * (1.0 / 3.0))
+            })
+            .collect();
+        let mut sizes = std::collections::HashMap::new();
+        subtree_nodes(m, &mut sizes);
+        let mut nodes = vec![Node { min: Vec3::ZERO, max: Vec3::ZERO, first: 0, count: 0 }; sizes[&m]];
+        let mut order: Vec<u32> = (0..m as u32).collect();
+        build(&mut nodes, &mut order, 0, &boxes, &sizes);
+        let tris = order.par_iter().with_min_len(4096).map(|&i| tris[i as usize]).collect();
         RayMesh { nodes, tris }
     }
 
@@ -119,7 +133,8 @@ impl RayMesh {
         stack[0] = 0;
         while sp > 0 {
             sp -= 1;
-            let node = &self.nodes[stack[sp] as usize];
+            let at = stack[sp];
+            let node = &self.nodes[at as usize];
             if !slab(node.min, node.max, origin, inv, tmax) {
                 continue;
             }
@@ -133,55 +148,72 @@ impl RayMesh {
                     }
                 }
             } else if sp + 2 <= stack.len() {
-                stack[sp] = node.first;
-                stack[sp + 1] = node.first + 1;
+                stack[sp] = at + 1 + node.first;
+                stack[sp + 1] = at + 1;
                 sp += 2;
             }
         }
     }
 }
 
-/// Recursive median-split build of `nodes[at]` over `tris[..]` (global offset `offset`).
-fn build(nodes: &mut Vec<Node>, at: usize, tris: &mut [[Vec3; 3]], cent: &mut [Vec3], offset: usize) {
+/// Number of nodes of the subtree over `m` triangles (median splits, leaves <= LEAF_SIZE),
+/// memoized: only O(log m) distinct sizes occur.
+fn subtree_nodes(m: usize, memo: &mut std::collections::HashMap<usize, usize>) -> usize {
+    if let Some(&c) = memo.get(&m) {
+        return c;
+    }
+    let c = if m <= LEAF_SIZE { 1 } else { 1 + subtree_nodes(m / 2, memo) + subtree_nodes(m - m / 2, memo) };
+    memo.insert(m, c);
+    c
+}
+
+/// Build the subtree over `order` (global offset `offset`) into `nodes` in preorder:
+/// `nodes[0]` is the root, then the left subtree, then the right one.
+fn build(
+    nodes: &mut [Node],
+        order: &mut [u32],
+    offset: usize,
+    boxes: &[(Vec3, Vec3, Vec3)],
+    sizes: &std::collections::HashMap<usize, usize>,
+) {
+    let m = order.len();
     let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
     let (mut clo, mut chi) = (lo, hi);
-    for (t, c) in tris.iter().zip(cent.iter()) {
-        for p in [t[0], t[0] + t[1], t[0] + t[2]] {
-            lo = lo.min(p);
-            hi = hi.max(p);
-        }
-        clo = clo.min(*c);
-        chi = chi.max(*c);
+    for &i in order.iter() {
+        let (a, b, c) = boxes[i as usize];
+        lo = lo.min(a);
+        hi = hi.max(b);
+        clo = clo.min(c);
+        chi = chi.max(c);
     }
-    // Pad the box by a relative epsilon so rounding in the reconstructed corners never misses.
+    // Pad by a relative epsilon so that rounding never lets a ray slip past a box.
     let pad = (hi - lo).max_element() * 1e-6 + 1e-30;
-    nodes[at].min = lo - Vec3::splat(pad);
-    nodes[at].max = hi + Vec3::splat(pad);
-    let ext = chi - clo;
-    if tris.len() <= LEAF_SIZE || ext.max_element() <= 0.0 || nodes.len() + 2 > u32::MAX as usize {
-        nodes[at].first = offset as u32;
-        nodes[at].count = tris.len() as u32;
+    nodes[0].min = lo - Vec3::splat(pad);
+    nodes[0].max = hi + Vec3::splat(pad);
+    if m <= LEAF_SIZE {
+        nodes[0].first = offset as u32;
+        nodes[0].count = m as u32;
         return;
     }
+    let ext = chi - clo;
     let axis = if ext.x >= ext.y && ext.x >= ext.z { 0 } else if ext.y >= ext.z { 1 } else { 2 };
-    let mid = tris.len() / 2;
-    // Sort a permutation, then apply it to both arrays.
-    let mut order: Vec<u32> = (0..tris.len() as u32).collect();
-    order.select_nth_unstable_by(mid, |&a, &b| cent[a as usize][axis].total_cmp(&cent[b as usize][axis]));
-    let t2: Vec<[Vec3; 3]> = order.iter().map(|&i| tris[i as usize]).collect();
-    let c2: Vec<Vec3> = order.iter().map(|&i| cent[i as usize]).collect();
-    tris.copy_from_slice(&t2);
-    cent.copy_from_slice(&c2);
-    drop((t2, c2, order));
-    let left = nodes.len();
-    nodes.push(Node { min: Vec3::ZERO, max: Vec3::ZERO, first: 0, count: 0 });
-    nodes.push(Node { min: Vec3::ZERO, max: Vec3::ZERO, first: 0, count: 0 });
-    nodes[at].first = left as u32;
-    nodes[at].count = 0;
-    let (tl, tr) = tris.split_at_mut(mid);
-    let (cl, cr) = cent.split_at_mut(mid);
-    build(nodes, left, tl, cl, offset);
-    build(nodes, left + 1, tr, cr, offset + mid);
+    let mid = m / 2;
+    order.select_nth_unstable_by(mid, |&a, &b| boxes[a as usize].2[axis].total_cmp(&boxes[b as usize].2[axis]));
+    let nl = sizes[&mid];
+    nodes[0].first = nl as u32;
+    nodes[0].count = 0;
+    let (_, rest) = nodes.split_at_mut(1);
+    let (nleft, nright) = rest.split_at_mut(nl);
+    let (ol, or) = order.split_at_mut(mid);
+    if m > 8192 {
+        rayon::join(
+            || build(nleft, ol, offset, boxes, sizes),
+            || build(nright, or, offset + mid, boxes, sizes),
+        );
+    } else {
+        build(nleft, ol, offset, boxes, sizes);
+        build(nright, or, offset + mid, boxes, sizes);
+    }
 }
 
 /// Ray/box slab test for `t in [0, tmax]`.
