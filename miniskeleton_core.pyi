@@ -60,3 +60,27 @@ def bone_chain(height: float = 4.0, bones: int = 4
 def split_flat(vertices: ArrayLike, triangles: ArrayLike
                ) -> Tuple[npt.NDArray[np.float32], npt.NDArray[np.uint32]]:
     """Flat-shaded copy: three vertices per triangle."""
+
+def lbs(vertices: ArrayLike, indices: ArrayLike, weights: ArrayLike, bone_matrices: ArrayLike
+        ) -> npt.NDArray[np.float32]:
+    """Linear blend skinning v' = sum_j w_j M_j v. bone_matrices (b,4,4) row-major, rest->posed; rows
+    whose weights do not sum to 1 are renormalized, all-zero rows stay at rest."""
+
+def ik2d_solve(lengths: ArrayLike, target: Tuple[float, float], angles: Optional[ArrayLike] = None, *,
+               base: Tuple[float, float] = (0.0, 0.0), base_angle: float = 0.0,
+               limits: Optional[ArrayLike] = None, max_iterations: int = 200,
+               tolerance: Optional[float] = None, method: str = "ccd",
+               ) -> Tuple[npt.NDArray[np.float64], dict]:
+    """Planar IK on one chain (relative joint angles, radians). method: 'ccd' (improved CCD with
+    collinear/unreachable handling), 'ccd_pure', 'ccd_classic3d', 'fabrik'. Tolerance defaults to
+    1e-3 of the chain length. Returns (angles, {'iterations', 'error', 'reached'})."""
+
+def ik2d_solve_multi(lengths: ArrayLike, effectors: list, angles: Optional[ArrayLike] = None, *,
+                     base: Tuple[float, float] = (0.0, 0.0), base_angle: float = 0.0,
+                     limits: Optional[ArrayLike] = None, max_iterations: int = 200,
+                     tolerance: Optional[float] = None) -> Tuple[npt.NDArray[np.float64], dict]:
+    """Several effectors [(joint 1..b, (x, y), weight)] on one chain (strip puppets)."""
+
+def ik2d_forward(lengths: ArrayLike, angles: ArrayLike, *, base: Tuple[float, float] = (0.0, 0.0),
+                 base_angle: float = 0.0) -> npt.NDArray[np.float64]:
+    """Joint positions (b+1, 2): the base, then each bone's tip."""

@@ -1,0 +1,59 @@
+"""LBS and planar IK from plain Python."""
+
+import math
+
+import numpy as np
+import pytest
+
+import miniskeleton_core as msc
+
+
+def test_lbs_rotation_blend_and_translation():
+    v = np.array([[1, 0, 0], [0, 0, 2]], np.float32)
+    rot = np.eye(4, dtype=np.float32)
+    rot[:3, :3] = [[0, -1, 0], [1, 0, 0], [0, 0, 1]]  # 90 deg about Z
+    move = np.eye(4, dtype=np.float32)
+    move[:3, 3] = [0, 0, 1]
+    idx = np.array([[0, 1], [1, -1]], np.int32)
+    w = np.array([[0.5, 0.5], [1, 0]], np.float32)
+    out = msc.lbs(v, idx, w, np.stack([rot, move]))
+    np.testing.assert_allclose(out[0], [0.5, 0.5, 0.5], atol=1e-6)  # half rotated, half lifted
+    np.testing.assert_allclose(out[1], [0, 0, 3], atol=1e-6)
+
+
+def test_lbs_rejects_bad_index():
+    v = np.zeros((1, 3), np.float32)
+    with pytest.raises(ValueError):
+        msc.lbs(v, [[3]], [[1.0]], np.eye(4)[None])
+
+
+def test_ik2d_reaches_and_forward_agrees():
+    lengths = [1.0, 0.8, 0.5]
+    angles, rep = msc.ik2d_solve(lengths, (1.2, 1.0))
+    assert rep["reached"] and rep["error"] <= 1e-3 * sum(lengths)
+    tip = msc.ik2d_forward(lengths, angles)[-1]
+    assert math.dist(tip, (1.2, 1.0)) <= 1e-3 * sum(lengths)
+
+
+def test_ik2d_unreachable_straight_toward_target():
+    angles, rep = msc.ik2d_solve([1.0, 1.0], (0.0, 5.0))
+    assert not rep["reached"]
+    pts = msc.ik2d_forward([1.0, 1.0], angles)
+    np.testing.assert_allclose(pts[-1], [0, 2], atol=1e-6)
+
+
+def test_ik2d_limits_hold_and_methods_exist():
+    limits = [[-math.pi, math.pi], [0.0, math.radians(150)]]
+    for method in ("ccd", "ccd_pure", "ccd_classic3d", "fabrik"):
+        angles, _ = msc.ik2d_solve([1.0, 1.0], (0.5, -1.0), limits=limits, method=method)
+        assert 0.0 - 1e-9 <= angles[1] <= math.radians(150) + 1e-9, method
+    with pytest.raises(ValueError):
+        msc.ik2d_solve([1.0], (1, 0), method="nope")
+
+
+def test_ik2d_multi_head_and_tail():
+    lengths = [0.5] * 8
+    eff = [(8, (2.5, 1.0), 1.0), (4, (1.5, 0.6), 1.0)]
+    angles, rep = msc.ik2d_solve_multi(lengths, eff)
+    pts = msc.ik2d_forward(lengths, angles)
+    assert math.dist(pts[8], (2.5, 1.0)) < 4e-3 and math.dist(pts[4], (1.5, 0.6)) < 4e-3
