@@ -1,0 +1,111 @@
+"""Auto Weights (Heat) in Blender: symmetry, locked groups, scale, split seams, pieces."""
+
+import bpy
+import numpy as np
+import pytest
+
+import builders as B
+
+NAMES = [f"Bone{i}" for i in range(4)]
+
+
+def bind(meshes, arm, **props):
+    B.select_for_parenting(meshes, arm)
+    return bpy.ops.object.miniskeleton_auto_weights(method="HEAT", **props)
+
+
+def legs():
+    """Two mirrored leg cylinders joined to nothing, and .L/.R bones inside them."""
+    v, f = B.cylinder_arrays(radius=0.35, height=3.0, rings=24, segments=16)
+    left = v + np.array([0.8, 0, 0], np.float32)
+    right = v * np.array([-1, 1, 1], np.float32) - np.array([0.8, 0, 0], np.float32)
+    faces = f + [tuple(len(v) + i for i in reversed(face)) for face in f]
+    ob = B.mesh_object("Legs", np.vstack([left, right]), faces)
+    arm = B.armature(bones=[
+        ("thigh.L", (0.8, 0, 2.8), (0.8, 0, 1.5), None, False),
+        ("shin.L", (0.8, 0, 1.5), (0.8, 0, 0.2), "thigh.L", True),
+        ("thigh.R", (-0.8, 0, 2.8), (-0.8, 0, 1.5), None, False),
+        ("shin.R", (-0.8, 0, 1.5), (-0.8, 0, 0.2), "thigh.R", True),
+    ])
+    return ob, arm, len(v)
+
+
+def test_symmetry_x_gives_exactly_mirrored_weights():
+    ob, arm, half = legs()
+    # Break the symmetry of the input a little: the left shin sits 3 cm off-centre.
+    bpy.context.view_layer.objects.active = arm
+    bpy.ops.object.mode_set(mode="EDIT")
+    arm.data.edit_bones["shin.L"].head.x += 0.03
+    bpy.ops.object.mode_set(mode="OBJECT")
+    names = ["thigh.L", "shin.L", "thigh.R", "shin.R"]
+    assert bind([ob], arm, symmetry="X") == {"FINISHED"}
+    w = B.weights_matrix(ob, names)
+    left, right = w[:half], w[half:]
+    np.testing.assert_allclose(left[:, 0], right[:, 2], atol=1e-4)
+    np.testing.assert_allclose(left[:, 1], right[:, 3], atol=1e-4)
+
+
+def test_locked_group_is_not_changed():
+    ob = B.cylinder()
+    arm = B.chain()
+    locked = ob.vertex_groups.new(name="Bone0")
+    locked.add([0, 1, 2], 0.123, "REPLACE")
+    locked.lock_weight = True
+    assert bind([ob], arm) == {"FINISHED"}
+    g = ob.vertex_groups["Bone0"]
+    got = {v.index: x.weight for v in ob.data.vertices for x in v.groups if x.group == g.index}
+    assert got == pytest.approx({0: 0.123, 1: 0.123, 2: 0.123})
+    assert {"Bone1", "Bone2", "Bone3"} <= {g.name for g in ob.vertex_groups}
+
+
+@pytest.mark.parametrize("scale", [1e-3, 1e3])
+def test_scene_scale_does_not_change_weights(scale):
+    ob = B.cylinder()
+    arm = B.chain()
+    bind([ob], arm)
+    reference = B.weights_matrix(ob, NAMES)
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    bpy.ops.preferences.addon_enable(module="bl_ext.user_default.miniskeleton")
+    s = (scale,) * 3
+    ob = B.cylinder(scale=s)
+    arm = B.chain(scale=s)
+    assert bind([ob], arm) == {"FINISHED"}
+    np.testing.assert_allclose(B.weights_matrix(ob, NAMES), reference, atol=1e-4)
+
+
+def test_split_seams_weighted_like_welded_twin():
+    welded = B.cylinder("Welded")
+    arm = B.chain()
+    bind([welded], arm)
+    w_welded = B.weights_matrix(welded, NAMES)
+    # Flat-shaded twin: every face has its own vertices (like a glTF/FBX import).
+    verts, faces = B.cylinder_arrays()
+    split_v, split_f, origin = [], [], []
+    for face in faces:
+        split_f.append(tuple(range(len(split_v), len(split_v) + len(face))))
+        split_v += [verts[i] for i in face]
+        origin += list(face)
+    split = B.mesh_object("Split", np.array(split_v), split_f)
+    bind([split], arm)
+    np.testing.assert_allclose(B.weights_matrix(split, NAMES), w_welded[origin], atol=1e-4)
+
+
+def test_sealed_piece_is_weighted_rigidly_where_blender_writes_nothing():
+    # A body with bones, a closed shell beside it, and a button sealed inside the shell:
+    # no ray from the button reaches a bone, so Blender's heat is singular there.
+    body_v, body_f = B.cylinder_arrays()
+    shell_v, shell_f = B.cylinder_arrays(radius=1.2, height=3.0, rings=12, segments=16)
+    button_v, button_f = B.cylinder_arrays(radius=0.15, height=0.3, rings=2, segments=8)
+    parts = [(body_v, body_f), (shell_v + [4, 0, 0.5], shell_f), (button_v + [4, 0, 2.3], button_f)]
+    verts, faces, off = [], [], 0
+    for v, f in parts:
+        verts.append(v)
+        faces += [tuple(i + off for i in face) for face in f]
+        off += len(v)
+    ob = B.mesh_object("Pieces", np.vstack(verts), faces)
+    arm = B.chain()
+    assert bind([ob], arm) == {"FINISHED"}
+    w = B.weights_matrix(ob, NAMES)
+    assert (w.sum(1) > 0.999).all()
+    button = w[len(body_v) + len(shell_v):]
+    assert (button.max(1) == 1.0).all() and len(set(button.argmax(1))) == 1
