@@ -155,13 +155,15 @@ def write_vertex_groups(ob: bpy.types.Object, names: list[str], dense: np.ndarra
 
 
 def ensure_armature_modifier(ob: bpy.types.Object, arm_ob: bpy.types.Object) -> bool:
-    """Add an Armature modifier deforming ``ob`` by ``arm_ob`` unless one exists; True if added."""
+    """Add an Armature modifier (first in the stack) deforming ``ob`` by ``arm_ob`` unless one exists."""
     for mod in ob.modifiers:
         if mod.type == "ARMATURE" and mod.object == arm_ob:
             return False
     mod = ob.modifiers.new(name=arm_ob.name, type="ARMATURE")
     mod.object = arm_ob
     mod.use_vertex_groups = True
+    # First in the stack, as Blender's own Ctrl+P does: deform before Subdivision & co.
+    ob.modifiers.move(len(ob.modifiers) - 1, 0)
     return True
 
 

@@ -108,7 +108,7 @@ def test_foreign_groups_untouched_bone_groups_replaced():
     w = B.weights_matrix(ob, NAMES)
     assert w[:, 3].max() < 1.0 and (w[:, 3] > 0).sum() < len(w)  # stale Bone3 group replaced
     assert ob.modifiers.get("Keep") == other_mod and other_mod.type == "SUBSURF"
-    assert [m.type for m in ob.modifiers] == ["SUBSURF", "ARMATURE"]
+    assert [m.type for m in ob.modifiers] == ["ARMATURE", "SUBSURF"]  # deform first
 
 
 def test_selected_bones_only_writes_only_those():
