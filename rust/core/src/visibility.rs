@@ -11,6 +11,8 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 const LEAF_SIZE: usize = 4;
+/// Barycentric tolerance of the ray/triangle test.
+const BARY_EPS: f32 = 1e-5;
 
 #[derive(Clone, Copy, Debug)]
 struct Node {
@@ -187,7 +189,7 @@ fn build(
         chi = chi.max(c);
     }
     // Pad by a relative epsilon so that rounding never lets a ray slip past a box.
-    let pad = (hi - lo).max_element() * 1e-6 + 1e-30;
+    let pad = (hi - lo).max_element() * 1e-4 + 1e-30;
     nodes[0].min = lo - Vec3::splat(pad);
     nodes[0].max = hi + Vec3::splat(pad);
     if m <= LEAF_SIZE {
@@ -228,7 +230,9 @@ fn slab(min: Vec3, max: Vec3, origin: Vec3, inv: Vec3, tmax: f32) -> bool {
     tnear <= tfar
 }
 
-/// Moller & Trumbore 1997, two-sided, closed triangle, `t in [0, tmax]`.
+/// Moller & Trumbore 1997, two-sided, `t in [0, tmax]`. The triangle is grown by `BARY_EPS` in
+/// barycentric terms so that a ray through a shared edge or vertex can never slip between
+/// the two triangles (a watertight answer matters more than an exact silhouette here).
 #[inline]
 fn ray_triangle(origin: Vec3, dir: Vec3, tri: &[Vec3; 3], tmax: f32) -> Option<f32> {
     let [a, e1, e2] = *tri;
@@ -240,12 +244,12 @@ fn ray_triangle(origin: Vec3, dir: Vec3, tri: &[Vec3; 3], tmax: f32) -> Option<f
     let inv = 1.0 / det;
     let s = origin - a;
     let u = s.dot(p) * inv;
-    if !(0.0..=1.0).contains(&u) {
+    if !(-BARY_EPS..=1.0 + BARY_EPS).contains(&u) {
         return None;
     }
     let q = s.cross(e1);
     let v = dir.dot(q) * inv;
-    if v < 0.0 || u + v > 1.0 {
+    if v < -BARY_EPS || u + v > 1.0 + BARY_EPS {
         return None;
     }
     let t = e2.dot(q) * inv;

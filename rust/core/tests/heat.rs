@@ -1,0 +1,302 @@
+//! Integration tests of bone-heat weights (Baran & Popovic 2007) on generated meshes.
+
+use miniskeleton_core::heat::{heat_weights, HeatOptions, HeatReport, Symmetry};
+use miniskeleton_core::influence::Influences;
+use miniskeleton_core::primitives::{bone_chain, capped_cylinder, split_flat};
+use miniskeleton_core::Error;
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+type Mesh = (Vec<[f32; 3]>, Vec<[u32; 3]>);
+type Bones = (Vec<[f32; 3]>, Vec<[f32; 3]>);
+
+fn heat(m: &Mesh, b: &Bones, opts: &HeatOptions) -> (Influences, HeatReport) {
+    heat_weights(&m.0, &m.1, &b.0, &b.1, opts, None).expect("heat_weights")
+}
+
+fn assert_rows_sum_to_one(inf: &Influences) {
+    for v in 0..inf.n() {
+        let (idx, w) = inf.row(v);
+        assert!(idx[0] >= 0, "vertex {v} has no bone");
+        let s: f32 = w.iter().sum();
+        assert!((s - 1.0).abs() < 1e-5, "vertex {v} sums to {s}");
+        assert!(w.iter().all(|x| x.is_finite() && (0.0..=1.0).contains(x)));
+    }
+}
+
+fn max_abs_diff(a: &[f32], b: &[f32]) -> f32 {
+    assert_eq!(a.len(), b.len());
+    a.iter().zip(b).map(|(x, y)| (x - y).abs()).fold(0.0, f32::max)
+}
+
+fn cylinder() -> (Mesh, Bones) {
+    let m = capped_cylinder(0.15, 2.0, 41, 16);
+    let (h, t, _) = bone_chain(2.0, 4);
+    (m, (h, t))
+}
+
+/// Horizontal cylinder along X from -1 to 1 (mirror-symmetric in X) and a 4-bone chain.
+fn horizontal() -> (Mesh, Bones) {
+    let (v, t) = capped_cylinder(0.15, 2.0, 41, 16);
+    let v = v.iter().map(|p| [p[2] - 1.0, p[1], p[0]]).collect();
+    let (h, tl, _) = bone_chain(2.0, 4);
+    let sw = |p: &[f32; 3]| [p[2] - 1.0, p[1], p[0]];
+    ((v, t), (h.iter().map(sw).collect(), tl.iter().map(sw).collect()))
+}
+
+#[test]
+fn rows_sum_to_one_and_middle_of_bone_is_dominant() {
+    // Heat decays over about one radius from a joint (1D analysis: w = 1 - exp(-s / r) / 2 per
+    // joint), so use bones ~6 radii long: the middle then keeps ~1 - exp(-3) ~ 0.95.
+    let m = capped_cylinder(0.08, 2.0, 41, 16);
+    let (h, t, _) = bone_chain(2.0, 4);
+    let b = (h, t);
+    let (inf, rep) = heat(&m, &b, &HeatOptions::default());
+    assert_eq!(inf.n(), m.0.len());
+    assert_rows_sum_to_one(&inf);
+    assert_eq!((rep.pieces, rep.fallback_pieces, rep.rigid_pieces), (1, 0, 0));
+    assert!(!rep.factorization_failed && !rep.regularized);
+    // Surface vertices around the middle of every bone.
+    for j in 0..4 {
+        let zmid = 0.5 * (b.0[j][2] + b.1[j][2]);
+        let mut n = 0;
+        for (v, p) in m.0.iter().enumerate() {
+            let r = (p[0] * p[0] + p[1] * p[1]).sqrt();
+            if (p[2] - zmid).abs() < 0.03 && r > 0.07 {
+                let d = inf.to_dense(4);
+                assert!(d[v * 4 + j] > 0.9, "bone {j} vertex {v}: {}", d[v * 4 + j]);
+                n += 1;
+            }
+        }
+        assert!(n >= 16, "found {n} vertices near the middle of bone {j}");
+    }
+    // And the weight of bone 0 decreases monotonically up the side.
+    let d = inf.to_dense(4);
+    let side: Vec<f32> = (0..41).map(|ring| d[(ring * 16) * 4]).collect();
+    assert!(side.windows(2).skip(3).all(|w| w[1] <= w[0] + 1e-4), "{side:?}");
+}
+
+#[test]
+fn symmetric_mesh_and_skeleton_give_symmetric_weights() {
+    let (m, b) = horizontal();
+    // Bones: 0 <-> 3, 1 <-> 2 (mirrored, reversed direction).
+    let mirror_bone = [3usize, 2, 1, 0];
+    // Vertex mirror by position.
+    let find = |p: [f32; 3]| {
+        m.0.iter()
+            .position(|q| (q[0] + p[0]).abs() < 1e-5 && (q[1] - p[1]).abs() < 1e-5 && (q[2] - p[2]).abs() < 1e-5)
+    };
+    let vm: Vec<usize> = m.0.iter().map(|p| find(*p).expect("mirror vertex")).collect();
+    let check = |inf: &Influences, tol: f32| {
+        let d = inf.to_dense(4);
+        let mut worst = 0.0f32;
+        for v in 0..m.0.len() {
+            for j in 0..4 {
+                worst = worst.max((d[v * 4 + j] - d[vm[v] * 4 + mirror_bone[j]]).abs());
+            }
+        }
+        assert!(worst < tol, "asymmetry {worst}");
+        worst
+    };
+    let (plain, _) = heat(&m, &b, &HeatOptions::default());
+    assert_rows_sum_to_one(&plain);
+    check(&plain, 1e-3);
+    let sym = HeatOptions {
+        symmetry: Some(Symmetry { axis: 0, bone_mirror: vec![3, 2, 1, 0], tolerance: 1e-4 }),
+        ..Default::default()
+    };
+    let (avg, _) = heat(&m, &b, &sym);
+    assert_rows_sum_to_one(&avg);
+    check(&avg, 1e-5);
+    // A bad mirror map is an error.
+    let bad = HeatOptions {
+        symmetry: Some(Symmetry { axis: 0, bone_mirror: vec![3, 2, 2, 0], tolerance: 1e-4 }),
+        ..Default::default()
+    };
+    assert!(heat_weights(&m.0, &m.1, &b.0, &b.1, &bad, None).is_err());
+}
+
+#[test]
+fn two_pieces_one_without_bones_are_all_weighted() {
+    let (mut m, b) = cylinder();
+    // Second, equally large cylinder next to the first, no bone inside.
+    let (v2, t2) = capped_cylinder(0.15, 2.0, 41, 16);
+    let base = m.0.len() as u32;
+    m.0.extend(v2.iter().map(|p| [p[0] + 1.0, p[1], p[2]]));
+    m.1.extend(t2.iter().map(|t| t.map(|i| i + base)));
+    // A small third piece (a 'button') far from any bone, and an isolated vertex.
+    let (v3, t3) = capped_cylinder(0.02, 0.02, 2, 6);
+    let base = m.0.len() as u32;
+    m.0.extend(v3.iter().map(|p| [p[0] - 0.6, p[1], p[2] + 1.2]));
+    m.1.extend(t3.iter().map(|t| t.map(|i| i + base)));
+    let button = base as usize..m.0.len();
+    m.0.push([0.0, 3.0, 0.1]);
+    let (inf, rep) = heat(&m, &b, &HeatOptions::default());
+    assert_eq!(inf.n(), m.0.len());
+    assert_rows_sum_to_one(&inf);
+    assert_eq!(rep.pieces, 3);
+    assert_eq!(rep.fallback_pieces, 2);
+    assert_eq!(rep.rigid_pieces, 1);
+    assert_eq!(rep.isolated_vertices, 1);
+    // The button is rigid: every vertex 100% on one bone (the one at its height, bone 2).
+    for v in button {
+        assert_eq!(inf.row(v), (&[2, -1, -1, -1][..], &[1.0, 0.0, 0.0, 0.0][..]));
+    }
+    // The isolated vertex at z = 0.1 takes bone 0.
+    assert_eq!(inf.row(m.0.len() - 1).0[0], 0);
+    // The bone-less cylinder still varies smoothly with height (not one bone everywhere).
+    let far: std::collections::HashSet<i32> =
+        (base as usize - 41 * 16 - 2..base as usize).map(|v| inf.row(v).0[0]).collect();
+    assert!(far.len() >= 3, "{far:?}");
+}
+
+#[test]
+fn flat_shaded_split_mesh_matches_welded_twin() {
+    let (m, b) = cylinder();
+    let (inf, _) = heat(&m, &b, &HeatOptions::default());
+    let split = split_flat(&m.0, &m.1);
+    let (sinf, rep) = heat(&split, &b, &HeatOptions::default());
+    assert_eq!(rep.welded_vertices, split.0.len() - m.0.len());
+    assert_eq!(rep.pieces, 1);
+    let d = inf.to_dense(4);
+    let sd = sinf.to_dense(4);
+    let mut worst = 0.0f32;
+    for (ti, tri) in m.1.iter().enumerate() {
+        for k in 0..3 {
+            let (v, sv) = (tri[k] as usize, 3 * ti + k);
+            worst = worst.max(max_abs_diff(&d[v * 4..v * 4 + 4], &sd[sv * 4..sv * 4 + 4]));
+        }
+    }
+    assert!(worst < 1e-5, "split vs welded differ by {worst}");
+}
+
+#[test]
+fn scale_invariance() {
+    let (m, b) = cylinder();
+    let (base, _) = heat(&m, &b, &HeatOptions::default());
+    let d0 = base.to_dense(4);
+    for s in [1e-3f32, 1e3] {
+        let sc = |v: &Vec<[f32; 3]>| v.iter().map(|p| p.map(|c| c * s)).collect::<Vec<_>>();
+        let ms = (sc(&m.0), m.1.clone());
+        let bs = (sc(&b.0), sc(&b.1));
+        let (inf, _) = heat(&ms, &bs, &HeatOptions::default());
+        let diff = max_abs_diff(&d0, &inf.to_dense(4));
+        assert!(diff < 1e-4, "scale {s}: {diff}");
+    }
+}
+
+#[test]
+fn degenerate_and_duplicate_faces_do_not_change_weights() {
+    let (m, b) = cylinder();
+    let (base, _) = heat(&m, &b, &HeatOptions::default());
+    // Duplicate every face: L and M double, the solution is unchanged.
+    let mut dup = m.clone();
+    dup.1.extend(m.1.iter().copied());
+    // Zero-area faces: repeated index, and a collinear (sliver-free, flat) triangle.
+    dup.1.push([0, 0, 1]);
+    dup.1.push([5, 5, 5]);
+    let n = dup.0.len() as u32;
+    dup.0.extend([[0.0, 0.0, 1.0], [0.01, 0.0, 1.0], [0.02, 0.0, 1.0]]);
+    dup.1.push([n, n + 1, n + 2]);
+    let (inf, rep) = heat(&dup, &b, &HeatOptions::default());
+    assert_rows_sum_to_one(&inf);
+    assert_eq!(rep.isolated_vertices, 3);
+    let nb = m.0.len() * 4;
+    let diff = max_abs_diff(&base.to_dense(4), &inf.to_dense(4)[..nb]);
+    assert!(diff < 1e-5, "{diff}");
+}
+
+#[test]
+fn bone_outside_the_mesh_and_zero_length_bone() {
+    let (m, mut b) = cylinder();
+    // Bone 4: entirely outside, 0.1 beside the cylinder (nearer to the +X side than the axis
+    // chain); bone 5: zero length, inside.
+    b.0.push([0.25, 0.0, 0.5]);
+    b.1.push([0.25, 0.0, 1.5]);
+    b.0.push([0.0, 0.0, 1.0]);
+    b.1.push([0.0, 0.0, 1.0]);
+    let (inf, rep) = heat(&m, &b, &HeatOptions::default());
+    assert!(!rep.factorization_failed);
+    assert_rows_sum_to_one(&inf);
+    let d = inf.to_dense(6);
+    assert!(d.iter().all(|w| w.is_finite()));
+    // The outside bone is visible from the near side of the surface only.
+    let near_side = (0..m.0.len()).filter(|&v| m.0[v][0] > 0.14 && (0.7..1.3).contains(&m.0[v][2]));
+    assert!(near_side.clone().count() > 0);
+    for v in near_side {
+        assert!(d[v * 6 + 4] > 0.05, "vertex {v}: {}", d[v * 6 + 4]);
+    }
+    let far_side = (0..m.0.len()).filter(|&v| m.0[v][0] < -0.14 && (0.7..1.3).contains(&m.0[v][2]));
+    for v in far_side {
+        assert!(d[v * 6 + 4] < d[v * 6 + 2].max(d[v * 6 + 1]), "vertex {v}");
+    }
+}
+
+#[test]
+fn bad_inputs_are_errors() {
+    let (m, b) = cylinder();
+    let o = HeatOptions::default();
+    let mut nan = m.0.clone();
+    nan[0][0] = f32::NAN;
+    nan[7][2] = f32::INFINITY;
+    nan[9][1] = f32::NAN;
+    assert_eq!(
+        heat_weights(&nan, &m.1, &b.0, &b.1, &o, None).unwrap_err(),
+        Error::NonFinite { what: "vertex", count: 3 }
+    );
+    assert!(matches!(heat_weights(&[], &[], &b.0, &b.1, &o, None), Err(Error::EmptyMesh(_))));
+    let mut bad = m.1.clone();
+    bad[4][1] = 1_000_000;
+    assert!(matches!(
+        heat_weights(&m.0, &bad, &b.0, &b.1, &o, None),
+        Err(Error::BadIndex { triangle: 4, index: 1_000_000, .. })
+    ));
+    assert!(matches!(heat_weights(&m.0, &m.1, &[], &[], &o, None), Err(Error::NoBones(_))));
+    assert!(matches!(heat_weights(&m.0, &m.1, &b.0, &b.1[..2], &o, None), Err(Error::Shape(_))));
+    let mut nb = b.0.clone();
+    nb[1][1] = f32::NAN;
+    assert!(matches!(heat_weights(&m.0, &m.1, &nb, &b.1, &o, None), Err(Error::NonFinite { what: "bone", count: 1 })));
+    let zero_k = HeatOptions { max_influences: 0, ..Default::default() };
+    assert!(matches!(heat_weights(&m.0, &m.1, &b.0, &b.1, &zero_k, None), Err(Error::InvalidArgument(_))));
+}
+
+#[test]
+fn progress_is_reported_and_cancel_works() {
+    let (m, b) = cylinder();
+    let calls = AtomicUsize::new(0);
+    let last = std::sync::Mutex::new(-1.0f32);
+    let ok = |f: f32| {
+        calls.fetch_add(1, Ordering::Relaxed);
+        let mut l = last.lock().unwrap();
+        assert!(f >= *l && (0.0..=1.0).contains(&f));
+        *l = f;
+        true
+    };
+    heat_weights(&m.0, &m.1, &b.0, &b.1, &HeatOptions::default(), Some(&ok)).unwrap();
+    assert!(calls.load(Ordering::Relaxed) >= 5);
+    assert_eq!(*last.lock().unwrap(), 1.0);
+    let cancel_midway = |f: f32| f < 0.5;
+    assert_eq!(
+        heat_weights(&m.0, &m.1, &b.0, &b.1, &HeatOptions::default(), Some(&cancel_midway)).unwrap_err(),
+        Error::Cancelled
+    );
+}
+
+#[test]
+fn points_without_faces_take_the_nearest_bone() {
+    let (_, b) = cylinder();
+    let pts = vec![[0.1, 0.0, 0.1], [0.0, 0.1, 1.9]];
+    let (inf, rep) = heat_weights(&pts, &[], &b.0, &b.1, &HeatOptions::default(), None).unwrap();
+    assert_eq!(rep.pieces, 0);
+    assert_eq!(inf.row(0).0[0], 0);
+    assert_eq!(inf.row(1).0[0], 3);
+    assert_rows_sum_to_one(&inf);
+}
+
+#[test]
+fn visibility_off_still_works() {
+    let (m, b) = cylinder();
+    let (a, _) = heat(&m, &b, &HeatOptions::default());
+    let (c, _) = heat(&m, &b, &HeatOptions { visibility: false, ..Default::default() });
+    // A convex tube around its own axis chain: every nearest bone is visible anyway.
+    assert!(max_abs_diff(&a.to_dense(4), &c.to_dense(4)) < 1e-5);
+}
