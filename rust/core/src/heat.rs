@@ -109,6 +109,9 @@ pub const MIN_DISTANCE: f64 = 1e-5;
 const REGULARIZATION: [f64; 3] = [1e-10, 1e-6, 1e-3];
 /// Up to this many tied bones share a vertex's heat source.
 const MAX_TIES: usize = 4;
+/// A vertex whose this many nearest bones are all hidden is treated as seeing none (bounds
+/// the ray casts for bone-less pieces; Pinocchio tests every bone).
+pub const MAX_VISIBILITY_TESTS: usize = 12;
 
 /// Per welded vertex: its heat source.
 #[derive(Clone, Copy, Debug)]
@@ -134,7 +137,7 @@ struct Source {
 ///
 /// Steps: validate; normalize to the unit bbox frame; weld within `weld_tolerance`; drop
 /// degenerate faces; pieces; cotangent `L` and lumped `M` (f64); per vertex the nearest
-/// visible bone (segment from the bone's closest point to the vertex, stopped just short of
+/// visible bone among its [`MAX_VISIBILITY_TESTS`] nearest (segment from the bone's closest point to the vertex, stopped just short of
 /// the vertex, not crossing the surface; ties within [`TIE_RATIO`] share); fallback pieces and
 /// isolated vertices use the nearest bone; factor `L + M H` once and solve all bones; clip to
 /// `[0, 1]`; rigid pieces; symmetry; top-k per vertex; copy back to every input vertex.
@@ -187,8 +190,8 @@ pub fn heat_weights(
             return Err(Error::InvalidArgument("symmetry axis must be 0..=2 and tolerance >= 0".into()));
         }
     }
-    if u32::try_from(b).is_err() {
-        return Err(Error::InvalidArgument("too many bones".into()));
+    if u32::try_from(b).is_err() || u32::try_from(vertices.len()).is_err() {
+        return Err(Error::InvalidArgument("too many bones or vertices (limit 2^32 - 1)".into()));
     }
     tick(0.0)?;
 
@@ -357,7 +360,9 @@ pub fn heat_weights(
     match &llt {
         Some(llt) => {
             let threads = rayon::current_num_threads().max(1);
-            let chunk = threads * b.div_ceil(4 * threads).max(1);
+            // Two rounds (one progress report in between); each round gives every worker one
+            // block of columns, so L is streamed as few times as possible.
+            let chunk = threads * b.div_ceil(2 * threads).max(1);
             let mut done = 0usize;
             for cols in x.chunks_mut(chunk * nw) {
                 llt.solve_columns(cols, nw);
@@ -460,7 +465,12 @@ impl Factor {
             let kc = chunk.len() / n;
             let llt = LltRef::<usize, f64>::new(&self.symbolic, &self.values);
             let req = self.symbolic.solve_in_place_scratch::<f64>(kc, Par::Seq);
-            let mut buf = MemBuffer::new(req);
+            let Ok(mut buf) = MemBuffer::try_new(req) else {
+                // Out of memory for scratch: NaN is clipped to 0 and those vertices fall back
+                // to their nearest bone (never a crash).
+                chunk.fill(f64::NAN);
+                return;
+            };
             llt.solve_in_place_with_conj(
                 Conj::No,
                 MatMut::from_column_major_slice_mut(chunk, n, kc),
@@ -533,6 +543,9 @@ fn nearest_visible_bone(x: DVec3, bones: &[(DVec3, DVec3)], rays: Option<&RayMes
             if cur.0 > d0 * TIE_RATIO + 1e-12 || src.count as usize == MAX_TIES {
                 break;
             }
+        }
+        if first.is_none() && step >= MAX_VISIBILITY_TESTS {
+            break;
         }
         if is_visible(x, bones[cur.1], cur.0, rays) {
             if first.is_none() {
