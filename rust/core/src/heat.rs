@@ -140,7 +140,8 @@ struct Source {
 /// visible bone among its [`MAX_VISIBILITY_TESTS`] nearest (the segment from the bone's
 /// closest point to the vertex, stopped just short of the vertex, crosses no triangle;
 /// ties within [`TIE_RATIO`] share); fallback pieces and isolated vertices use the nearest
-/// bone; factor `L + M H` once and solve all bones; clip to `[0, 1]`; rigid pieces; symmetry; top-k per vertex; copy back to every input vertex.
+/// bone; factor `L + M H` once and solve all bones; clip to `[0, 1]`; rigid pieces;
+/// symmetry; top-k per vertex; copy back to every input vertex.
 ///
 /// Errors: empty mesh, non-finite coordinates ([`Error::NonFinite`] with the count), bad
 /// triangle index, no bones, invalid options, [`Error::Cancelled`]. Never fails on bad
