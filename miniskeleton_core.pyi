@@ -84,3 +84,17 @@ def ik2d_solve_multi(lengths: ArrayLike, effectors: list, angles: Optional[Array
 def ik2d_forward(lengths: ArrayLike, angles: ArrayLike, *, base: Tuple[float, float] = (0.0, 0.0),
                  base_angle: float = 0.0) -> npt.NDArray[np.float64]:
     """Joint positions (b+1, 2): the base, then each bone's tip."""
+
+def fit_joints(vertices: ArrayLike, triangles: ArrayLike, joints: ArrayLike, bones: ArrayLike,
+               movable: Optional[ArrayLike] = None, *, symmetry_axis: Optional[int] = None,
+               symmetry_plane: float = 0.0, joint_mirror: Optional[ArrayLike] = None, rays: int = 12,
+               samples: int = 5, rounds: int = 12, tolerance: float = 1e-4, stiffness: float = 0.1,
+               ) -> Tuple[npt.NDArray[np.float32], dict]:
+    """Fit joints (j,3) into the mesh (same space): each goes to the nearest point of its bones'
+    centre lines (cross-section centres); joints left outside are pulled in. bones (b,2) joint
+    indices; movable (j,) bool; with symmetry_axis, joint_mirror (j,) pairs end exactly mirrored
+    and centre joints on the plane. Report: outside_before/after (+ _mask), rounds, max_move,
+    open_edges, nonmanifold_edges, pieces."""
+
+def points_inside(vertices: ArrayLike, triangles: ArrayLike, points: ArrayLike) -> npt.NDArray[np.bool_]:
+    """(p,) bool: points inside the closed mesh by ray parity (majority of 7 directions)."""

@@ -26,3 +26,6 @@ pub mod symmetry;
 // Posing.
 pub mod lbs;
 pub mod ik2d;
+
+// Skeleton.
+pub mod fit;

@@ -6,6 +6,7 @@ mod convert;
 mod error;
 mod posing;
 mod primitives;
+mod skeleton;
 mod weights;
 
 use pyo3::prelude::*;
@@ -22,5 +23,6 @@ fn miniskeleton_core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(primitives::bone_chain, m)?)?;
     m.add_function(wrap_pyfunction!(primitives::split_flat, m)?)?;
     posing::register(m)?;
+    skeleton::register(m)?;
     Ok(())
 }

@@ -1,0 +1,582 @@
+//! Skeleton fitting: move rough joints to the middle of the mesh around them.
+//!
+//! A rigger places joints by eye; they end up off-centre or outside the surface. Here every
+//! bone gets a *centre line*: at a few points along the bone the mesh is cut by the plane
+//! perpendicular to the bone, the point is moved to the centre of that cross-section (the
+//! least-squares point of the chord midpoints of rays cast in the plane, iterated to its fixed
+//! point: the exact centre of a circle or ellipse), and a line is fitted through the centres
+//! (perpendicular offset linear in the bone parameter). A joint then goes to the point nearest
+//! to the centre lines of its bones (their intersection at a bend; along a straight chain, where
+//! the mesh says nothing about the position along the limb, it keeps its own position), and
+//! the process repeats until nothing moves. Sampling inside the bones rather than at the joint
+//! keeps junctions (a shoulder sitting inside the torso) from pulling a joint into the body.
+//!
+//! Inside/outside is decided by ray parity (hit counts along several fixed directions,
+//! majority vote), so it is reliable on closed meshes and approximate on open ones. Joints
+//! still outside at the end are pulled to the middle of the nearest chord of the mesh.
+//!
+//! Everything runs in the unit frame of the mesh (bounding-box diagonal 1, see
+//! [`crate::mesh::Frame`]), so tolerances are scale-free. Rays: [`RayMesh::ray_hits`].
+//!
+//! See also: `symmetry.rs` (mirror maps), Baran & Popovic 2007 (Pinocchio's embedding also
+//! centres joints in the medial surface; this is a much simpler local version).
+//! Known limits: a joint of a straight limb keeps its position along the limb; parity is
+//! unreliable on meshes with large holes.
+
+use crate::mesh::{to_dvec, validate_mesh, Frame};
+use crate::symmetry::mirror_point;
+use crate::visibility::RayMesh;
+use crate::{Error, Result};
+use glam::{DMat3, DVec3, Vec3};
+use rayon::prelude::*;
+
+/// Left/right symmetry of the joints.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Symmetry {
+    /// Mirror axis 0/1/2 (X/Y/Z).
+    pub axis: usize,
+    /// Coordinate of the mirror plane along `axis`, in input units.
+    pub plane: f64,
+    /// `(j,)`: the mirror joint of each joint, itself (or -1) for centre-line joints.
+    pub mirror: Vec<i32>,
+}
+
+/// Options of [`fit_joints`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct FitOptions {
+    /// Mirrored pairs end exactly mirrored, centre-line joints on the plane.
+    pub symmetry: Option<Symmetry>,
+    /// Lines (chord directions) per cross-section, >= 3.
+    pub rays: usize,
+    /// Cross-sections per bone, >= 1, evenly spread over the inner 60 % of the bone.
+    pub samples: usize,
+    /// Maximum rounds (centre lines, then joints).
+    pub rounds: usize,
+    /// Stop when no joint moves more than this (fraction of the bounding-box diagonal).
+    pub tolerance: f64,
+    /// Pull of a joint towards its own position, relative to one centre line (> 0). Larger
+    /// keeps joints at gentle bends where they are; smaller trusts line intersections more.
+    pub stiffness: f64,
+}
+
+impl Default for FitOptions {
+    fn default() -> Self {
+        FitOptions { symmetry: None, rays: 12, samples: 5, rounds: 12, tolerance: 1e-4, stiffness: 0.1 }
+    }
+}
+
+/// What [`fit_joints`] did.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct FitReport {
+    /// `(j,)` joint was outside the mesh before / after fitting (ray parity).
+    pub outside_before: Vec<bool>,
+    pub outside_after: Vec<bool>,
+    /// Rounds run.
+    pub rounds: usize,
+    /// Largest joint displacement, input units.
+    pub max_move: f64,
+    /// Mesh checks (after welding coincident vertices): boundary edges (one triangle),
+    /// non-manifold edges (more than two), connected pieces.
+    pub open_edges: usize,
+    pub nonmanifold_edges: usize,
+    pub pieces: usize,
+}
+
+impl FitReport {
+    pub fn count_outside_before(&self) -> usize {
+        self.outside_before.iter().filter(|&&o| o).count()
+    }
+    pub fn count_outside_after(&self) -> usize {
+        self.outside_after.iter().filter(|&&o| o).count()
+    }
+}
+
+/// Fixed, irrational directions for the parity test.
+const PARITY_DIRS: [[f32; 3]; 7] = [
+    [0.5773, 0.6123, 0.5402],
+    [-0.7071, 0.3162, 0.6325],
+    [0.1313, -0.9121, 0.3884],
+    [0.8017, -0.2672, -0.5345],
+    [-0.3015, -0.4264, -0.8528],
+    [-0.6547, 0.7276, -0.2041],
+    [0.2182, 0.1091, -0.9698],
+];
+/// Hits closer than this (unit frame) along one ray count once (shared edges report twice).
+const DEDUP: f32 = 1e-6;
+/// Rays never need to be longer than this in the unit frame (the mesh fits in diagonal 1).
+const FAR: f32 = 4.0;
+
+fn dedup(hits: Vec<f32>) -> Vec<f32> {
+    let mut out: Vec<f32> = Vec::with_capacity(hits.len());
+    for t in hits {
+        if out.last().map_or(true, |&l| t - l > DEDUP) {
+            out.push(t);
+        }
+    }
+    out
+}
+
+fn hits(rm: &RayMesh, p: DVec3, dir: DVec3) -> Vec<f32> {
+    dedup(rm.ray_hits(p.as_vec3(), dir.as_vec3(), FAR))
+}
+
+/// Ray-parity inside test in the unit frame: odd hit counts along a majority of 7 directions.
+pub fn inside(rm: &RayMesh, p: DVec3) -> bool {
+    let odd = PARITY_DIRS
+        .iter()
+        .filter(|d| dedup(rm.ray_hits(p.as_vec3(), Vec3::from_array(**d), FAR)).len() % 2 == 1)
+        .count();
+    2 * odd > PARITY_DIRS.len()
+}
+
+/// Two unit vectors completing `d` (unit) to an orthonormal basis.
+fn basis(d: DVec3) -> (DVec3, DVec3) {
+    let a = if d.x.abs() < 0.6 { DVec3::X } else if d.y.abs() < 0.6 { DVec3::Y } else { DVec3::Z };
+    let u = d.cross(a).normalize();
+    (u, d.cross(u))
+}
+
+/// Move `q` (unit frame) to the centre of the mesh cross-section by the plane through `q` with
+/// normal `d` (unit). `None` when the point is outside and no chord in the plane reaches in.
+fn centre_in_plane(rm: &RayMesh, q0: DVec3, d: DVec3, lines: usize) -> Option<DVec3> {
+    let (u, v) = basis(d);
+    let dirs: Vec<DVec3> = (0..lines)
+        .map(|k| {
+            let a = std::f64::consts::PI * (k as f64 + 0.5) / lines as f64;
+            u * a.cos() + v * a.sin()
+        })
+        .collect();
+    let mut q = q0;
+    let mut moved_in = false;
+    for _ in 0..24 {
+        let mut chords = Vec::with_capacity(lines); // (w, forward first hit, backward first hit)
+        let mut odd = 0;
+        let mut entries: Vec<(f64, DVec3)> = Vec::new(); // (entry distance, chord midpoint) if outside
+        for &w in &dirs {
+            let f = hits(rm, q, w);
+            let b = hits(rm, q, -w);
+            odd += (f.len() % 2) + (b.len() % 2);
+            if let (Some(&hf), Some(&hb)) = (f.first(), b.first()) {
+                chords.push((w, hf as f64, hb as f64));
+            }
+            for (h, s) in [(&f, 1.0), (&b, -1.0)] {
+                if h.len() >= 2 {
+                    entries.push((h[0] as f64, q + w * s * (h[0] as f64 + h[1] as f64) * 0.5));
+                }
+            }
+        }
+        if 2 * odd <= 2 * lines {
+            // Outside: jump to the middle of the nearest chord in the plane, once.
+            if moved_in {
+                return None;
+            }
+            let best = entries.iter().min_by(|a, b| a.0.total_cmp(&b.0))?;
+            q = best.1;
+            moved_in = true;
+            continue;
+        }
+        if chords.is_empty() {
+            return Some(q);
+        }
+        let mut half: Vec<f64> = chords.iter().map(|c| 0.5 * (c.1 + c.2)).collect();
+        half.sort_by(|a, b| a.total_cmp(b));
+        let r_med = half[half.len() / 2];
+        // Least squares: sum_k (w_k . delta - s_k)^2 over the chords not escaping into
+        // another part of the body (longer than 3x the median half-chord).
+        let (mut a11, mut a12, mut a22, mut b1, mut b2) = (0.0, 0.0, 0.0, 0.0, 0.0);
+        for &(w, hf, hb) in &chords {
+            if 0.5 * (hf + hb) > 3.0 * r_med {
+                continue;
+            }
+            let s = 0.5 * (hf - hb);
+            let (wu, wv) = (w.dot(u), w.dot(v));
+            a11 += wu * wu;
+            a12 += wu * wv;
+            a22 += wv * wv;
+            b1 += s * wu;
+            b2 += s * wv;
+        }
+        let det = a11 * a22 - a12 * a12;
+        if !(det > 1e-12) {
+            return Some(q);
+        }
+        let (x, y) = ((a22 * b1 - a12 * b2) / det, (a11 * b2 - a12 * b1) / det);
+        let mut delta = u * x + v * y;
+        let len = delta.length();
+        if len > 0.5 * r_med {
+            delta *= 0.5 * r_med / len;
+        }
+        q += delta;
+        if delta.length() < 1e-7 {
+            break;
+        }
+    }
+    Some(q)
+}
+
+/// Nearest point inside the mesh: middle of the nearest chord along rays over the sphere (or,
+/// with `plane = Some(axis)`, over the circle of directions with no `axis` component).
+fn pull_inside(rm: &RayMesh, p: DVec3, plane: Option<usize>) -> Option<DVec3> {
+    let n = 96;
+    let mut best: Option<(f64, DVec3)> = None;
+    for i in 0..n {
+        let w = match plane {
+            None => {
+                // Fibonacci sphere.
+                let z = 1.0 - (2.0 * i as f64 + 1.0) / n as f64;
+                let r = (1.0 - z * z).max(0.0).sqrt();
+                let a = i as f64 * 2.399_963_229_728_653;
+                DVec3::new(r * a.cos(), r * a.sin(), z)
+            }
+            Some(axis) => {
+                let a = std::f64::consts::TAU * i as f64 / n as f64;
+                let (u, v) = basis(DVec3::AXES[axis]);
+                u * a.cos() + v * a.sin()
+            }
+        };
+        let h = hits(rm, p, w);
+        let mut k = 0;
+        // Pairs (entry, exit) along the ray; the first whose middle tests inside.
+        while k + 1 < h.len() {
+            let (t0, t1) = (h[k] as f64, h[k + 1] as f64);
+            if best.as_ref().map_or(true, |b| t0 < b.0) {
+                let c = p + w * 0.5 * (t0 + t1);
+                if inside(rm, c) {
+                    best = Some((t0, c));
+                    break;
+                }
+            }
+            k += 2;
+        }
+    }
+    best.map(|b| b.1)
+}
+
+/// Mesh checks in the unit frame: (open edges, non-manifold edges, pieces) after welding.
+fn topology(unit: &[DVec3], triangles: &[[u32; 3]]) -> (usize, usize, usize) {
+    let (map, welded) = crate::weld::weld(unit, 1e-6);
+    let tris: Vec<[u32; 3]> = triangles
+        .iter()
+        .map(|t| t.map(|i| map[i as usize]))
+        .filter(|t| t[0] != t[1] && t[1] != t[2] && t[0] != t[2])
+        .collect();
+    let mut edges: Vec<(u32, u32)> = tris
+        .iter()
+        .flat_map(|t| [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])])
+        .map(|(a, b)| (a.min(b), a.max(b)))
+        .collect();
+    edges.par_sort_unstable();
+    let (mut open, mut nonmanifold) = (0, 0);
+    let mut i = 0;
+    while i < edges.len() {
+        let mut j = i;
+        while j < edges.len() && edges[j] == edges[i] {
+            j += 1;
+        }
+        match j - i {
+            1 => open += 1,
+            2 => {}
+            _ => nonmanifold += 1,
+        }
+        i = j;
+    }
+    // Pieces among the vertices that triangles use.
+    let (labels, _) = crate::islands::connected_components(welded.len(), &tris);
+    let mut used = vec![false; welded.len()];
+    for t in &tris {
+        for &i in t {
+            used[i as usize] = true;
+        }
+    }
+    let mut seen = std::collections::HashSet::new();
+    for (v, &l) in labels.iter().enumerate() {
+        if used[v] {
+            seen.insert(l);
+        }
+    }
+    (open, nonmanifold, seen.len())
+}
+
+/// Which of `points` `(p, 3)` lie inside the closed mesh (`vertices` `(n, 3)`, `triangles`
+/// `(m, 3)`, same unit), by ray parity with a majority vote over 7 directions. `(p,)` bools.
+/// Errors as [`validate_mesh`] with faces required.
+pub fn points_inside(vertices: &[[f32; 3]], triangles: &[[u32; 3]], points: &[[f32; 3]]) -> Result<Vec<bool>> {
+    validate_mesh(vertices, triangles, true)?;
+    let frame = Frame::of_points(vertices);
+    let unit: Vec<[f32; 3]> = frame.normalize(vertices).iter().map(|p| p.as_vec3().to_array()).collect();
+    let rm = RayMesh::new(&unit, triangles);
+    Ok(points.par_iter().map(|p| p.iter().all(|c| c.is_finite()) && inside(&rm, frame.to_unit(*p))).collect())
+}
+
+/// Fit joints into a mesh.
+///
+/// Inputs (one common space, any unit):
+/// * `vertices` `(n, 3)`, `triangles` `(m, 3)`: the mesh (several pieces allowed; closed
+///   pieces give reliable inside tests).
+/// * `joints` `(j, 3)`: joint positions; a joint shared by several bones appears once.
+/// * `bones` `(b, 2)`: `[head joint, tail joint]` per bone (indices into `joints`, distinct).
+///   A joint's direction comes from its bones; a joint with no bone is only pulled inside.
+/// * `movable` `(j,)`: joints that may move (the others stay, but their bones still count).
+/// * `opts`: see [`FitOptions`].
+///
+/// Output: `(joints (j, 3), report)`. Joints end at the point nearest the centre lines of their
+/// bones; joints outside the mesh at the end are pulled to the middle of the nearest chord;
+/// with symmetry, mirrored pairs are exact mirror images and centre-line joints lie on the
+/// plane. Fitting an already fitted skeleton changes it by at most about `opts.tolerance`.
+///
+/// Errors: `EmptyMesh` (no vertices, no triangles, only degenerate triangles), `NonFinite`
+/// (mesh or joints), `BadIndex`, `NoBones` (no joints), `Shape` (`movable` or mirror length),
+/// `InvalidArgument` (bone index out of range or head == tail, symmetry axis > 2, bad option).
+pub fn fit_joints(
+    vertices: &[[f32; 3]],
+    triangles: &[[u32; 3]],
+    joints: &[[f32; 3]],
+    bones: &[[u32; 2]],
+    movable: &[bool],
+    opts: &FitOptions,
+) -> Result<(Vec<[f32; 3]>, FitReport)> {
+    validate_mesh(vertices, triangles, true)?;
+    let nj = joints.len();
+    if nj == 0 {
+        return Err(Error::NoBones("no joints to fit".into()));
+    }
+    let bad = crate::mesh::count_non_finite(joints);
+    if bad > 0 {
+        return Err(Error::NonFinite { what: "joint", count: bad });
+    }
+    if movable.len() != nj {
+        return Err(Error::Shape(format!("{} movable flags for {nj} joints", movable.len())));
+    }
+    for (i, b) in bones.iter().enumerate() {
+        if b[0] as usize >= nj || b[1] as usize >= nj || b[0] == b[1] {
+            return Err(Error::InvalidArgument(format!(
+                "bone {i} joins joints {} and {}, but there are {nj} joints (and they must differ)",
+                b[0], b[1]
+            )));
+        }
+    }
+    if opts.rays < 3 || opts.samples < 1 || !(opts.stiffness > 0.0) || !(opts.tolerance > 0.0) {
+        return Err(Error::InvalidArgument(
+            "fit options: rays >= 3, samples >= 1, stiffness > 0 and tolerance > 0".into(),
+        ));
+    }
+    let frame = Frame::of_points(vertices);
+    let sym = match &opts.symmetry {
+        None => None,
+        Some(s) => {
+            if s.axis > 2 {
+                return Err(Error::InvalidArgument(format!("symmetry axis must be 0, 1 or 2, got {}", s.axis)));
+            }
+            if s.mirror.len() != nj {
+                return Err(Error::Shape(format!("{} mirror indices for {nj} joints", s.mirror.len())));
+            }
+            if !s.plane.is_finite() {
+                return Err(Error::NonFinite { what: "symmetry plane", count: 1 });
+            }
+            let mirror: Vec<usize> = s
+                .mirror
+                .iter()
+                .enumerate()
+                .map(|(i, &m)| if m < 0 || m as usize >= nj { i } else { m as usize })
+                .collect();
+            // Only keep pairs that agree both ways.
+            let mirror: Vec<usize> = (0..nj).map(|i| if mirror[mirror[i]] == i { mirror[i] } else { i }).collect();
+            let plane = (s.plane - frame.centre[s.axis]) / frame.diagonal;
+            Some((s.axis, plane, mirror))
+        }
+    };
+
+    let unit_v = frame.normalize(vertices);
+    let (open_edges, nonmanifold_edges, pieces) = topology(&unit_v, triangles);
+    let unit: Vec<[f32; 3]> = unit_v.iter().map(|p| p.as_vec3().to_array()).collect();
+    let rm = RayMesh::new(&unit, triangles);
+    if rm.triangle_count() == 0 {
+        return Err(Error::EmptyMesh("every triangle of the mesh is degenerate".into()));
+    }
+
+    let mut p: Vec<DVec3> = joints.iter().map(|j| frame.to_unit(*j)).collect();
+    let outside_before: Vec<bool> = p.par_iter().map(|q| !inside(&rm, *q)).collect();
+    let mut incident: Vec<Vec<usize>> = vec![Vec::new(); nj];
+    for (e, b) in bones.iter().enumerate() {
+        incident[b[0] as usize].push(e);
+        incident[b[1] as usize].push(e);
+    }
+
+    let symmetrize = |p: &mut Vec<DVec3>| {
+        if let Some((axis, plane, mirror)) = &sym {
+            let old = p.clone();
+            for i in 0..nj {
+                let m = mirror[i];
+                if !movable[i] {
+                    continue;
+                }
+                p[i] = if m == i {
+                    let mut q = old[i];
+                    q[*axis] = *plane;
+                    q
+                } else if movable[m] {
+                    (old[i] + mirror_point(old[m], *axis, *plane)) * 0.5
+                } else {
+                    mirror_point(old[m], *axis, *plane)
+                };
+            }
+        }
+    };
+
+    let fractions: Vec<f64> = (0..opts.samples)
+        .map(|s| if opts.samples == 1 { 0.5 } else { 0.2 + 0.6 * s as f64 / (opts.samples - 1) as f64 })
+        .collect();
+    let mut rounds = 0;
+    symmetrize(&mut p);
+    for _ in 0..opts.rounds {
+        rounds += 1;
+        // 1. Centre line per bone: (point at the head, unit direction), None if not inside.
+        let lines: Vec<Option<(DVec3, DVec3)>> = bones
+            .par_iter()
+            .map(|b| {
+                let (a, t) = (p[b[0] as usize], p[b[1] as usize]);
+                let axis = t - a;
+                let len = axis.length();
+                if !(len > 1e-9) {
+                    return None;
+                }
+                let d = axis / len;
+                let mut pts = Vec::new();
+                for &s in &fractions {
+                    let q = a + axis * s;
+                    if let Some(c) = centre_in_plane(&rm, q, d, opts.rays) {
+                        let off = c - q;
+                        pts.push((s, off - d * off.dot(d)));
+                    }
+                }
+                if pts.is_empty() {
+                    return None;
+                }
+                let k = pts.len() as f64;
+                let sm = pts.iter().map(|x| x.0).sum::<f64>() / k;
+                let om = pts.iter().map(|x| x.1).sum::<DVec3>() / k;
+                let sxx: f64 = pts.iter().map(|x| (x.0 - sm) * (x.0 - sm)).sum();
+                let beta = if sxx > 1e-12 {
+                    pts.iter().map(|x| x.1 * (x.0 - sm)).sum::<DVec3>() / sxx
+                } else {
+                    DVec3::ZERO
+                };
+                let alpha = om - beta * sm;
+                let head = a + alpha;
+                let tail = t + alpha + beta;
+                let dir = (tail - head).normalize_or_zero();
+                (dir != DVec3::ZERO).then_some((head, dir))
+            })
+            .collect();
+        // 2. Each joint: nearest point to its bones' centre lines, pulled to itself.
+        let mut next = p.clone();
+        for j in 0..nj {
+            if !movable[j] {
+                continue;
+            }
+            let mut m = DMat3::IDENTITY * opts.stiffness;
+            let mut rhs = p[j] * opts.stiffness;
+            let mut used = 0;
+            for &e in &incident[j] {
+                if let Some((o, u)) = lines[e] {
+                    let proj = DMat3::IDENTITY - DMat3::from_cols(u * u.x, u * u.y, u * u.z);
+                    m += proj;
+                    rhs += proj * o;
+                    used += 1;
+                }
+            }
+            if used > 0 {
+                let c = m.inverse() * rhs;
+                if c.is_finite() {
+                    next[j] = c;
+                }
+            }
+        }
+        symmetrize(&mut next);
+        let step = p.iter().zip(&next).map(|(a, b)| (*a - *b).length()).fold(0.0, f64::max);
+        p = next;
+        if step < opts.tolerance {
+            break;
+        }
+    }
+
+    // 3. Joints still outside: middle of the nearest chord (centre-line joints stay on the plane).
+    let outside: Vec<bool> = p.par_iter().map(|q| !inside(&rm, *q)).collect();
+    let pulled: Vec<Option<DVec3>> = (0..nj)
+        .into_par_iter()
+        .map(|j| {
+            if !outside[j] || !movable[j] {
+                return None;
+            }
+            let plane = sym.as_ref().and_then(|(axis, _, m)| (m[j] == j).then_some(*axis));
+            pull_inside(&rm, p[j], plane)
+        })
+        .collect();
+    for j in 0..nj {
+        if let Some(c) = pulled[j] {
+            p[j] = c;
+        }
+    }
+    if let Some((axis, plane, mirror)) = &sym {
+        for j in 0..nj {
+            let m = mirror[j];
+            if m != j && movable[j] && pulled[j].is_some() && pulled[m].is_none() {
+                // The pulled side wins; its partner follows exactly.
+                if movable[m] {
+                    p[m] = mirror_point(p[j], *axis, *plane);
+                }
+            }
+        }
+        symmetrize(&mut p);
+    }
+    let outside_after: Vec<bool> = p.par_iter().map(|q| !inside(&rm, *q)).collect();
+
+    let out: Vec<[f32; 3]> = p
+        .iter()
+        .zip(joints)
+        .zip(movable)
+        .map(|((q, j), &mv)| if mv { frame.from_unit(*q).as_vec3().to_array() } else { *j })
+        .collect();
+    // Exact mirror images in input units (the unit frame round trip is not exact).
+    if let (Some(s), Some((_, _, mirror))) = (&opts.symmetry, &sym) {
+        let mut out = out;
+        for j in 0..nj {
+            let m = mirror[j];
+            if !movable[j] {
+                continue;
+            }
+            if m == j {
+                out[j][s.axis] = s.plane as f32;
+            } else if j < m || !movable[m] {
+                let mut q = out[if movable[m] { j } else { m }];
+                q[s.axis] = (2.0 * s.plane - q[s.axis] as f64) as f32;
+                if movable[m] {
+                    out[m] = q;
+                } else {
+                    out[j] = q;
+                }
+            }
+        }
+        return finish(out, joints, outside_before, outside_after, rounds, (open_edges, nonmanifold_edges, pieces));
+    }
+    finish(out, joints, outside_before, outside_after, rounds, (open_edges, nonmanifold_edges, pieces))
+}
+
+fn finish(
+    out: Vec<[f32; 3]>,
+    joints: &[[f32; 3]],
+    outside_before: Vec<bool>,
+    outside_after: Vec<bool>,
+    rounds: usize,
+    (open_edges, nonmanifold_edges, pieces): (usize, usize, usize),
+) -> Result<(Vec<[f32; 3]>, FitReport)> {
+    let max_move = out
+        .iter()
+        .zip(joints)
+        .map(|(a, b)| (to_dvec(*a) - to_dvec(*b)).length())
+        .fold(0.0, f64::max);
+    Ok((
+        out,
+        FitReport { outside_before, outside_after, rounds, max_move, open_edges, nonmanifold_edges, pieces },
+    ))
+}

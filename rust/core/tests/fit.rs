@@ -1,0 +1,260 @@
+//! Skeleton fitting on generated tubes: centring, bends, idempotence, outside joints,
+//! symmetry, fixed joints, scale, mesh checks and bad input.
+
+use miniskeleton_core::fit::{fit_joints, points_inside, FitOptions, Symmetry};
+use miniskeleton_core::primitives::capped_cylinder;
+use miniskeleton_core::Error;
+
+type Mesh = (Vec<[f32; 3]>, Vec<[u32; 3]>);
+
+fn sub(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+fn norm(a: [f32; 3]) -> f32 {
+    (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt()
+}
+fn dist(a: [f32; 3], b: [f32; 3]) -> f32 {
+    norm(sub(a, b))
+}
+fn unit(a: [f32; 3]) -> [f32; 3] {
+    let n = norm(a);
+    [a[0] / n, a[1] / n, a[2] / n]
+}
+fn cross(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
+    [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+}
+fn dot(a: [f32; 3], b: [f32; 3]) -> f32 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+/// Closed tube of radius `r` along a polyline in the XZ plane, mitred at the corners, capped
+/// at both ends: one manifold piece. `per_segment` rings per segment, `s` vertices per ring.
+fn tube(path: &[[f32; 3]], r: f32, per_segment: usize, s: usize) -> Mesh {
+    let y = [0.0, 1.0, 0.0];
+    let mut centres = Vec::new(); // (centre, tangent, scale along the miter)
+    for i in 0..path.len() - 1 {
+        let d = unit(sub(path[i + 1], path[i]));
+        for k in 0..per_segment {
+            if i > 0 && k == 0 {
+                continue; // the corner ring is added below
+            }
+            let f = k as f32 / per_segment as f32;
+            let c = [0, 1, 2].map(|a| path[i][a] + f * (path[i + 1][a] - path[i][a]));
+            centres.push((c, d, d, 1.0));
+        }
+        let end = path[i + 1];
+        if i + 2 < path.len() {
+            let d2 = unit(sub(path[i + 2], path[i + 1]));
+            let bis = unit([d[0] + d2[0], d[1] + d2[1], d[2] + d2[2]]);
+            centres.push((end, bis, d, 1.0 / dot(bis, d)));
+        } else {
+            centres.push((end, d, d, 1.0));
+        }
+    }
+    let mut v = Vec::new();
+    for &(c, t, d, stretch) in &centres {
+        // Ring in the plane normal to `t`; the in-plane axis of the bend (perpendicular to y)
+        // is stretched by `stretch` so the tube keeps radius `r` through a mitred corner.
+        let side = unit(cross(t, y));
+        let side_d = unit(cross(d, y));
+        let _ = side_d;
+        for j in 0..s {
+            let a = std::f32::consts::TAU * j as f32 / s as f32;
+            let (ca, sa) = (a.cos() * r * stretch, a.sin() * r);
+            v.push([c[0] + side[0] * ca + y[0] * sa, c[1] + side[1] * ca + y[1] * sa, c[2] + side[2] * ca + y[2] * sa]);
+        }
+    }
+    let rings = centres.len();
+    let mut t = Vec::new();
+    let idx = |i: usize, j: usize| (i * s + j % s) as u32;
+    for i in 0..rings - 1 {
+        for j in 0..s {
+            t.push([idx(i, j), idx(i, j + 1), idx(i + 1, j + 1)]);
+            t.push([idx(i, j), idx(i + 1, j + 1), idx(i + 1, j)]);
+        }
+    }
+    let b = v.len() as u32;
+    v.push(centres[0].0);
+    let e = v.len() as u32;
+    v.push(centres[rings - 1].0);
+    for j in 0..s {
+        t.push([b, idx(0, j + 1), idx(0, j)]);
+        t.push([e, idx(rings - 1, j), idx(rings - 1, j + 1)]);
+    }
+    (v, t)
+}
+
+/// Deterministic pseudo-random numbers in [-1, 1].
+struct Rng(u32);
+impl Rng {
+    fn next(&mut self) -> f32 {
+        self.0 ^= self.0 << 13;
+        self.0 ^= self.0 >> 17;
+        self.0 ^= self.0 << 5;
+        self.0 as f32 / u32::MAX as f32 * 2.0 - 1.0
+    }
+    fn ball(&mut self, radius: f32) -> [f32; 3] {
+        loop {
+            let p = [self.next(), self.next(), self.next()];
+            if norm(p) <= 1.0 {
+                return p.map(|c| c * radius);
+            }
+        }
+    }
+}
+
+fn chain_bones(n: usize) -> Vec<[u32; 2]> {
+    (0..n as u32 - 1).map(|i| [i, i + 1]).collect()
+}
+
+/// A straight limb: joints pushed sideways go back to the axis; along the axis they stay.
+#[test]
+fn straight_tube_centres_perpendicular() {
+    let (v, t) = capped_cylinder(0.5, 4.0, 40, 32);
+    let truth: Vec<[f32; 3]> = (0..5).map(|i| [0.0, 0.0, 0.4 + 0.8 * i as f32]).collect();
+    let mut rng = Rng(7);
+    let start: Vec<[f32; 3]> = truth
+        .iter()
+        .map(|p| [p[0] + 0.3 * rng.next(), p[1] + 0.3 * rng.next(), p[2]])
+        .collect();
+    let (out, rep) = fit_joints(&v, &t, &start, &chain_bones(5), &[true; 5], &FitOptions::default()).unwrap();
+    for (o, s) in out.iter().zip(&start) {
+        assert!(o[0].abs() < 0.02 && o[1].abs() < 0.02, "not centred: {o:?}");
+        assert!((o[2] - s[2]).abs() < 0.05, "moved along the limb: {o:?} from {s:?}");
+    }
+    assert_eq!(rep.count_outside_after(), 0);
+    assert_eq!((rep.open_edges, rep.nonmanifold_edges, rep.pieces), (0, 0, 1));
+}
+
+/// A bent limb (L): the corner joint goes to the corner, from any side.
+#[test]
+fn bent_tube_corner() {
+    let path = [[0.0, 0.0, 0.0], [0.0, 0.0, 2.0], [2.0, 0.0, 2.0]];
+    let (v, t) = tube(&path, 0.25, 24, 24);
+    let truth = vec![[0.0, 0.0, 0.3], [0.0, 0.0, 2.0], [1.7, 0.0, 2.0]];
+    let bones = chain_bones(3);
+    let diag = (4.5f32 * 4.5 + 2.5 * 2.5 + 0.25).sqrt().min(3.5);
+    let mut before = 0.0;
+    let mut after = 0.0;
+    for seed in 1..20u32 {
+        let mut rng = Rng(seed * 7919);
+        let start: Vec<[f32; 3]> = truth
+            .iter()
+            .map(|p| {
+                let d = rng.ball(0.05 * diag);
+                [p[0] + d[0], p[1] + d[1], p[2] + d[2]]
+            })
+            .collect();
+        let (out, rep) = fit_joints(&v, &t, &start, &bones, &[true; 3], &FitOptions::default()).unwrap();
+        assert_eq!(rep.count_outside_after(), 0, "seed {seed}: {out:?}");
+        before += dist(start[1], truth[1]);
+        after += dist(out[1], truth[1]);
+    }
+    assert!(after < 0.35 * before, "corner error {after} vs {before} before");
+}
+
+/// Fitting a fitted skeleton changes nothing beyond the tolerance.
+#[test]
+fn idempotent() {
+    let path = [[0.0, 0.0, 0.0], [0.0, 0.0, 2.0], [1.5, 0.0, 3.0], [3.0, 0.0, 3.0]];
+    let (v, t) = tube(&path, 0.3, 16, 20);
+    let start = vec![[0.1, 0.05, 0.3], [0.15, -0.1, 2.0], [1.4, 0.1, 2.9], [2.7, 0.0, 3.1]];
+    let bones = chain_bones(4);
+    let opts = FitOptions::default();
+    let (once, _) = fit_joints(&v, &t, &start, &bones, &[true; 4], &opts).unwrap();
+    let (twice, _) = fit_joints(&v, &t, &once, &bones, &[true; 4], &opts).unwrap();
+    let diag = 4.6;
+    for (a, b) in once.iter().zip(&twice) {
+        assert!(dist(*a, *b) < 2e-3 * diag, "moved again: {a:?} -> {b:?}");
+    }
+}
+
+/// Joints far outside come back inside; fixed joints never move.
+#[test]
+fn outside_pulled_in_and_fixed_stay() {
+    let (v, t) = capped_cylinder(0.5, 4.0, 40, 32);
+    let start = vec![[0.9, 0.0, 0.5], [0.0, -1.2, 2.0], [0.7, 0.7, 3.5]];
+    let (out, rep) = fit_joints(&v, &t, &start, &chain_bones(3), &[true; 3], &FitOptions::default()).unwrap();
+    assert_eq!(rep.count_outside_before(), 3);
+    assert_eq!(rep.count_outside_after(), 0, "{out:?}");
+    assert!(points_inside(&v, &t, &out).unwrap().iter().all(|&b| b));
+    let movable = [true, false, true];
+    let (out, _) = fit_joints(&v, &t, &start, &chain_bones(3), &movable, &FitOptions::default()).unwrap();
+    assert_eq!(out[1], start[1]);
+}
+
+/// Two mirrored limbs: pairs end exactly mirrored, a centre joint on the plane.
+#[test]
+fn symmetry_exact() {
+    let (l, lt) = tube(&[[1.0, 0.0, 0.0], [1.0, 0.0, 2.0], [2.0, 0.0, 3.0]], 0.3, 12, 20);
+    let mut v = l.clone();
+    let mut t = lt.clone();
+    let base = v.len() as u32;
+    v.extend(l.iter().map(|p| [-p[0], p[1], p[2]]));
+    t.extend(lt.iter().map(|tr| [tr[0] + base, tr[2] + base, tr[1] + base]));
+    // joints 0..3 left, 3..6 right (deliberately not mirrored), 6 a centre joint (outside).
+    let start = vec![
+        [1.1, 0.05, 0.3], [0.9, -0.1, 2.0], [1.8, 0.1, 2.9],
+        [-0.95, 0.1, 0.25], [-1.12, 0.0, 2.1], [-1.9, -0.05, 2.8],
+        [0.1, 0.0, 1.0],
+    ];
+    let bones = vec![[0, 1], [1, 2], [3, 4], [4, 5]];
+    let opts = FitOptions {
+        symmetry: Some(Symmetry { axis: 0, plane: 0.0, mirror: vec![3, 4, 5, 0, 1, 2, 6] }),
+        ..FitOptions::default()
+    };
+    let (out, rep) = fit_joints(&v, &t, &start, &bones, &[true; 7], &opts).unwrap();
+    for i in 0..3 {
+        assert_eq!(out[i + 3], [-out[i][0], out[i][1], out[i][2]], "pair {i}");
+    }
+    assert_eq!(out[6][0], 0.0);
+    assert_eq!(rep.pieces, 2);
+    // joints of the limbs are centred
+    assert!(dist(out[1], [1.0, 0.0, 2.0]) < 0.15, "{:?}", out[1]);
+}
+
+/// The result scales with the input (scale-free), at 1e-3 and 1e3.
+#[test]
+fn scale_free() {
+    let (v, t) = capped_cylinder(0.5, 4.0, 40, 32);
+    let start = vec![[0.2, 0.1, 0.5], [-0.2, 0.1, 2.0], [0.1, -0.3, 3.5]];
+    let bones = chain_bones(3);
+    let (ref_out, _) = fit_joints(&v, &t, &start, &bones, &[true; 3], &FitOptions::default()).unwrap();
+    for s in [1e-3f32, 1e3] {
+        let vs: Vec<[f32; 3]> = v.iter().map(|p| p.map(|c| c * s)).collect();
+        let js: Vec<[f32; 3]> = start.iter().map(|p| p.map(|c| c * s)).collect();
+        let (out, _) = fit_joints(&vs, &t, &js, &bones, &[true; 3], &FitOptions::default()).unwrap();
+        for (a, b) in out.iter().zip(&ref_out) {
+            assert!(dist(a.map(|c| c / s), *b) < 1e-3, "scale {s}: {a:?} vs {b:?}");
+        }
+    }
+}
+
+/// Open meshes and pieces are counted; bad input is a clear error, never a panic.
+#[test]
+fn mesh_checks_and_errors() {
+    let (v, t) = capped_cylinder(0.5, 4.0, 10, 16);
+    let open: Vec<[u32; 3]> = t[..t.len() - 16].to_vec(); // drop the top fan... partly
+    let j = vec![[0.0, 0.0, 1.0], [0.0, 0.0, 2.0]];
+    let (_, rep) = fit_joints(&v, &open, &j, &[[0, 1]], &[true; 2], &FitOptions::default()).unwrap();
+    assert!(rep.open_edges > 0);
+
+    let opts = FitOptions::default();
+    assert!(matches!(fit_joints(&v, &[], &j, &[[0, 1]], &[true; 2], &opts), Err(Error::EmptyMesh(_))));
+    let mut vn = v.clone();
+    vn[3][1] = f32::NAN;
+    assert!(matches!(fit_joints(&vn, &t, &j, &[[0, 1]], &[true; 2], &opts), Err(Error::NonFinite { .. })));
+    let jn = vec![[0.0, f32::INFINITY, 1.0], [0.0, 0.0, 2.0]];
+    assert!(matches!(fit_joints(&v, &t, &jn, &[[0, 1]], &[true; 2], &opts), Err(Error::NonFinite { .. })));
+    assert!(matches!(fit_joints(&v, &t, &j, &[[0, 2]], &[true; 2], &opts), Err(Error::InvalidArgument(_))));
+    assert!(matches!(fit_joints(&v, &t, &j, &[[1, 1]], &[true; 2], &opts), Err(Error::InvalidArgument(_))));
+    assert!(matches!(fit_joints(&v, &t, &j, &[[0, 1]], &[true; 3], &opts), Err(Error::Shape(_))));
+    assert!(matches!(fit_joints(&v, &t, &[], &[], &[], &opts), Err(Error::NoBones(_))));
+    let deg = vec![[0u32, 0, 1]];
+    assert!(matches!(fit_joints(&v, &deg, &j, &[[0, 1]], &[true; 2], &opts), Err(Error::EmptyMesh(_))));
+    let bad_sym = FitOptions { symmetry: Some(Symmetry { axis: 3, plane: 0.0, mirror: vec![0, 1] }), ..opts.clone() };
+    assert!(matches!(fit_joints(&v, &t, &j, &[[0, 1]], &[true; 2], &bad_sym), Err(Error::InvalidArgument(_))));
+    // A joint with no bone and coincident joints are fine.
+    let (out, _) = fit_joints(&v, &t, &[[0.0, 0.0, 1.0], [0.0, 0.0, 1.0], [0.2, 0.1, 2.0]], &[[0, 1]], &[true; 3], &opts).unwrap();
+    assert!(out.iter().all(|p| p.iter().all(|c| c.is_finite())));
+}

@@ -1,0 +1,80 @@
+//! Bindings for skeleton tools: joint fitting and the inside test (`fit.rs`).
+
+use crate::convert::{from_rows, rows, vector};
+use crate::error::guarded;
+use miniskeleton_core::fit::{self, FitOptions, Symmetry};
+use numpy::{AllowTypeChange, PyArray1, PyArray2, PyArrayLike1, PyArrayLike2};
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+
+/// Fit joints (j,3) into the mesh: each joint goes to the nearest point of its bones' centre
+/// lines. bones (b,2) joint indices; movable (j,) bool (default all); symmetry_axis 0/1/2 with
+/// joint_mirror (j,) mirror joint indices. Returns (joints (j,3) float32, report dict).
+#[pyfunction]
+#[pyo3(signature = (vertices, triangles, joints, bones, movable=None, *, symmetry_axis=None,
+                    symmetry_plane=0.0, joint_mirror=None, rays=12, samples=5, rounds=12,
+                    tolerance=1e-4, stiffness=0.1))]
+#[allow(clippy::too_many_arguments)]
+pub fn fit_joints<'py>(
+    py: Python<'py>,
+    vertices: PyArrayLike2<'py, f32, AllowTypeChange>,
+    triangles: PyArrayLike2<'py, u32, AllowTypeChange>,
+    joints: PyArrayLike2<'py, f32, AllowTypeChange>,
+    bones: PyArrayLike2<'py, u32, AllowTypeChange>,
+    movable: Option<PyArrayLike1<'py, bool, AllowTypeChange>>,
+    symmetry_axis: Option<usize>,
+    symmetry_plane: f64,
+    joint_mirror: Option<PyArrayLike1<'py, i32, AllowTypeChange>>,
+    rays: usize,
+    samples: usize,
+    rounds: usize,
+    tolerance: f64,
+    stiffness: f64,
+) -> PyResult<(Bound<'py, PyArray2<f32>>, Bound<'py, PyDict>)> {
+    let v = rows::<f32, 3>(&vertices, "vertices")?;
+    let t = rows::<u32, 3>(&triangles, "triangles")?;
+    let j = rows::<f32, 3>(&joints, "joints")?;
+    let b = rows::<u32, 2>(&bones, "bones")?;
+    let mv = movable.map(|m| vector(&m)).unwrap_or_else(|| vec![true; j.len()]);
+    let symmetry = match (symmetry_axis, joint_mirror) {
+        (None, None) => None,
+        (Some(axis), Some(m)) => Some(Symmetry { axis, plane: symmetry_plane, mirror: vector(&m) }),
+        _ => return Err(PyValueError::new_err("symmetry_axis and joint_mirror go together")),
+    };
+    let opts = FitOptions { symmetry, rays, samples, rounds, tolerance, stiffness };
+    let (out, rep) = guarded(py, move || fit::fit_joints(&v, &t, &j, &b, &mv, &opts))?;
+    let d = PyDict::new(py);
+    d.set_item("outside_before", rep.count_outside_before())?;
+    d.set_item("outside_after", rep.count_outside_after())?;
+    d.set_item("outside_before_mask", PyArray1::from_vec(py, rep.outside_before.clone()))?;
+    d.set_item("outside_after_mask", PyArray1::from_vec(py, rep.outside_after.clone()))?;
+    d.set_item("rounds", rep.rounds)?;
+    d.set_item("max_move", rep.max_move)?;
+    d.set_item("open_edges", rep.open_edges)?;
+    d.set_item("nonmanifold_edges", rep.nonmanifold_edges)?;
+    d.set_item("pieces", rep.pieces)?;
+    Ok((from_rows(py, &out)?, d))
+}
+
+/// Which points (p,3) are inside the closed mesh (ray parity, majority of 7 directions): (p,) bool.
+#[pyfunction]
+pub fn points_inside<'py>(
+    py: Python<'py>,
+    vertices: PyArrayLike2<'py, f32, AllowTypeChange>,
+    triangles: PyArrayLike2<'py, u32, AllowTypeChange>,
+    points: PyArrayLike2<'py, f32, AllowTypeChange>,
+) -> PyResult<Bound<'py, PyArray1<bool>>> {
+    let v = rows::<f32, 3>(&vertices, "vertices")?;
+    let t = rows::<u32, 3>(&triangles, "triangles")?;
+    let p = rows::<f32, 3>(&points, "points")?;
+    let out = guarded(py, move || fit::points_inside(&v, &t, &p))?;
+    Ok(PyArray1::from_vec(py, out))
+}
+
+/// Add this area's functions to the module.
+pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_function(wrap_pyfunction!(fit_joints, m)?)?;
+    m.add_function(wrap_pyfunction!(points_inside, m)?)?;
+    Ok(())
+}
