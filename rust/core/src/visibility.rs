@@ -1,44 +1,46 @@
 //! Ray casting against a triangle mesh, for the bone-heat visibility test and for skeleton
 //! fitting (all hits along a ray).
 //!
-//! A small self-contained bounding volume hierarchy (median split on the longest centroid
-//! axis, up to 4 triangles per leaf) with any-hit segment queries and Moller & Trumbore 1997
-//! ray/triangle tests. (parry3d's `TriMesh` needs its `alloc` feature, which the crate does
-//! not enable; this BVH is also tailored for the any-hit query that the heat solver needs.)
+//! Built on parry3d: its bounding volume hierarchy ([`Bvh`], binned SAH build, one triangle per
+//! leaf) is traversed with [`Bvh::traverse`] (early exit for the any-hit segment test, full
+//! traversal to collect every hit along a ray) and the triangles are tested with parry's
+//! ray/triangle intersection ([`local_ray_intersection_with_triangle`]).
+//!
+//! Robustness (the one addition to parry): its ray/triangle test is exact in real arithmetic
+//! but not watertight in floating point, so a ray passing *exactly* through an edge shared by
+//! two triangles (or through a vertex) can, after rounding, miss both, and a bone would "see"
+//! a vertex through a closed surface. Every triangle is therefore stored grown about its
+//! centroid by the relative amount [`GROW`] (a band of about `GROW` times its size along its
+//! edges; the BVH boxes are those of the grown triangles, padded by [`GROW`] of the mesh size).
+//! A rounding gap is a few ulps wide, far narrower than that band, so nothing leaks through a
+//! shared edge or vertex; the price is that a ray grazing within that band of a silhouette edge
+//! counts as a hit.
 
 use crate::cotan::DEGENERATE_RATIO;
 use glam::Vec3;
+use parry3d::bounding_volume::Aabb;
+use parry3d::partitioning::{Bvh, BvhBuildStrategy, BvhNode, TraversalAction};
+use parry3d::query::details::local_ray_intersection_with_triangle;
+use parry3d::query::Ray;
 use rayon::prelude::*;
 
-const LEAF_SIZE: usize = 4;
-/// Barycentric tolerance of the ray/triangle test.
-const BARY_EPS: f32 = 1e-5;
-
-#[derive(Clone, Copy, Debug)]
-struct Node {
-    min: Vec3,
-    max: Vec3,
-    /// Leaf: first triangle; inner: node count of the left subtree (preorder layout: the left
-    /// child is at `self + 1`, the right one at `self + 1 + first`).
-    first: u32,
-    /// Leaf: triangle count (> 0); inner: 0.
-    count: u32,
-}
+/// Relative growth of every triangle about its centroid (and padding of the BVH boxes,
+/// relative to the mesh's bounding-box diagonal), see the module notes.
+pub const GROW: f32 = 1e-5;
 
 /// A triangle mesh prepared for ray queries. Never fails to build: zero-area, degenerate,
 /// non-finite and out-of-range triangles are dropped first, and if nothing is left every
 /// query reports "nothing in the way".
 pub struct RayMesh {
-    nodes: Vec<Node>,
-    /// Per kept triangle (in BVH order): vertex 0, edge 0->1, edge 0->2.
+    bvh: Bvh,
+    /// Kept triangles, grown by [`GROW`]; the BVH leaf data indexes this.
     tris: Vec<[Vec3; 3]>,
 }
 
 impl RayMesh {
-    /// Build the BVH.
+    /// Build the (grown) triangle list and parry's BVH over it.
     ///
     /// Inputs: `vertices` `(n, 3)` (any unit; queries use the same unit), `triangles` `(m, 3)`.
-    /// O(m log m), parallel over subtrees.
     pub fn new(vertices: &[[f32; 3]], triangles: &[[u32; 3]]) -> RayMesh {
         let n = vertices.len();
         let tris: Vec<[Vec3; 3]> = triangles
@@ -54,34 +56,31 @@ impl RayMesh {
                 }
                 let (e1, e2) = (b - a, c - a);
                 let twice_area = e1.cross(e2).length();
-                let longest = e1
-                    .length_squared()
-                    .max(e2.length_squared())
-                    .max((c - b).length_squared());
-                (twice_area > (DEGENERATE_RATIO as f32) * longest && twice_area > f32::MIN_POSITIVE)
-                    .then_some([a, e1, e2])
+                let longest = e1.length_squared().max(e2.length_squared()).max((c - b).length_squared());
+                if !(twice_area > (DEGENERATE_RATIO as f32) * longest && twice_area > f32::MIN_POSITIVE) {
+                    return None;
+                }
+                let g = (a + b + c) * (1.0 / 3.0);
+                Some([a, b, c].map(|p| g + (p - g) * (1.0 + GROW)))
             })
             .collect();
-        let m = tris.len();
-        if m == 0 || m > u32::MAX as usize / 2 {
-            return RayMesh { nodes: Vec::new(), tris: Vec::new() };
+        if tris.is_empty() || tris.len() > u32::MAX as usize {
+            return RayMesh { bvh: Bvh::new(), tris: Vec::new() };
         }
-        // Per-triangle boxes and centroids.
-        let boxes: Vec<(Vec3, Vec3, Vec3)> = tris
+        let boxes: Vec<(Vec3, Vec3)> = tris
             .par_iter()
             .with_min_len(4096)
-            .map(|t| {
-                let (a, b, c) = (t[0], t[0] + t[1], t[0] + t[2]);
-                (a.min(b).min(c), a.max(b).max(c), (a + b + c) * (1.0 / 3.0))
-            })
+            .map(|[a, b, c]| (a.min(*b).min(*c), a.max(*b).max(*c)))
             .collect();
-        let mut sizes = std::collections::HashMap::new();
-        subtree_nodes(m, &mut sizes);
-        let mut nodes = vec![Node { min: Vec3::ZERO, max: Vec3::ZERO, first: 0, count: 0 }; sizes[&m]];
-        let mut order: Vec<u32> = (0..m as u32).collect();
-        build(&mut nodes, &mut order, 0, &boxes, &sizes);
-        let tris = order.par_iter().with_min_len(4096).map(|&i| tris[i as usize]).collect();
-        RayMesh { nodes, tris }
+        let (lo, hi) = boxes
+            .iter()
+            .fold((Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)), |(l, h), (a, b)| (l.min(*a), h.max(*b)));
+        let pad = Vec3::splat((hi - lo).length() * GROW + f32::MIN_POSITIVE);
+        let bvh = Bvh::from_iter(
+            BvhBuildStrategy::Binned,
+            boxes.iter().enumerate().map(|(i, (a, b))| (i, Aabb::new(*a - pad, *b + pad))),
+        );
+        RayMesh { bvh, tris }
     }
 
     /// Number of triangles kept for ray casting.
@@ -91,16 +90,25 @@ impl RayMesh {
 
     /// `true` if some triangle crosses the closed segment `from`-`to` (both ends included;
     /// shorten the segment yourself to ignore surfaces touching an end point).
-    /// A zero-length or non-finite segment is never blocked.
+    /// A zero-length or non-finite segment is never blocked. Triangles count grown by
+    /// [`GROW`] (see the module notes).
     pub fn segment_blocked(&self, from: Vec3, to: Vec3) -> bool {
         let dir = to - from;
-        if self.nodes.is_empty() || !(dir.length_squared() > 0.0) || !from.is_finite() || !to.is_finite() {
+        if self.tris.is_empty() || !(dir.length_squared() > 0.0) || !from.is_finite() || !to.is_finite() {
             return false;
         }
+        let ray = Ray::new(from, dir);
+        let inv = dir.recip();
         let mut hit = false;
-        self.traverse(from, dir, 1.0, |t| {
-            hit = t.is_some();
-            hit
+        self.bvh.traverse(|node| {
+            if !node_hit(node, from, inv, 1.0) {
+                return TraversalAction::Prune;
+            }
+            if node.leaf_data().and_then(|i| self.triangle_hit(i, &ray, 1.0)).is_some() {
+                hit = true;
+                return TraversalAction::EarlyExit;
+            }
+            TraversalAction::Continue
         });
         hit
     }
@@ -113,152 +121,51 @@ impl RayMesh {
     pub fn ray_hits(&self, origin: Vec3, dir: Vec3, max_dist: f32) -> Vec<f32> {
         let len = dir.length();
         let mut hits = Vec::new();
-        if self.nodes.is_empty() || !(len > 0.0) || !len.is_finite() || !origin.is_finite() || !(max_dist >= 0.0) {
+        if self.tris.is_empty() || !(len > 0.0) || !len.is_finite() || !origin.is_finite() || !(max_dist >= 0.0) {
             return hits;
         }
-        self.traverse(origin, dir / len, max_dist.min(f32::MAX), |t| {
-            if let Some(t) = t {
+        let dir = dir / len;
+        let (ray, inv, tmax) = (Ray::new(origin, dir), dir.recip(), max_dist.min(f32::MAX));
+        self.bvh.traverse(|node| {
+            if !node_hit(node, origin, inv, tmax) {
+                return TraversalAction::Prune;
+            }
+            if let Some(t) = node.leaf_data().and_then(|i| self.triangle_hit(i, &ray, tmax)) {
                 hits.push(t);
             }
-            false
+            TraversalAction::Continue
         });
         hits.sort_by(|a, b| a.total_cmp(b));
         hits
     }
 
-    /// Visit every triangle hit by `origin + t dir`, `t in [0, tmax]`; `visit(Some(t))` per hit
-    /// (`visit(None)` never happens); stop as soon as `visit` returns true.
-    fn traverse(&self, origin: Vec3, dir: Vec3, tmax: f32, mut visit: impl FnMut(Option<f32>) -> bool) {
-        let inv = dir.recip();
-        let mut stack = [0u32; 64];
-        let mut sp = 1usize;
-        stack[0] = 0;
-        while sp > 0 {
-            sp -= 1;
-            let at = stack[sp];
-            let node = &self.nodes[at as usize];
-            if !slab(node.min, node.max, origin, inv, tmax) {
-                continue;
-            }
-            if node.count > 0 {
-                let s = node.first as usize;
-                for tri in &self.tris[s..s + node.count as usize] {
-                    if let Some(t) = ray_triangle(origin, dir, tri, tmax) {
-                        if visit(Some(t)) {
-                            return;
-                        }
-                    }
-                }
-            } else if sp + 2 <= stack.len() {
-                stack[sp] = at + 1 + node.first;
-                stack[sp + 1] = at + 1;
-                sp += 2;
-            }
-        }
+    /// parry's two-sided ray/triangle test on kept triangle `i`, `t in [0, tmax]` (units of
+    /// `ray.dir`).
+    #[inline]
+    fn triangle_hit(&self, i: u32, ray: &Ray, tmax: f32) -> Option<f32> {
+        let [a, b, c] = self.tris[i as usize];
+        let (hit, _) = local_ray_intersection_with_triangle(a, b, c, ray)?;
+        (hit.time_of_impact >= 0.0 && hit.time_of_impact <= tmax).then_some(hit.time_of_impact)
     }
 }
 
-/// Number of nodes of the subtree over `m` triangles (median splits, leaves <= LEAF_SIZE),
-/// memoized: only O(log m) distinct sizes occur.
-fn subtree_nodes(m: usize, memo: &mut std::collections::HashMap<usize, usize>) -> usize {
-    if let Some(&c) = memo.get(&m) {
-        return c;
-    }
-    let c = if m <= LEAF_SIZE { 1 } else { 1 + subtree_nodes(m / 2, memo) + subtree_nodes(m - m / 2, memo) };
-    memo.insert(m, c);
-    c
-}
-
-/// Build the subtree over `order` (global offset `offset`) into `nodes` in preorder:
-/// `nodes[0]` is the root, then the left subtree, then the right one.
-fn build(
-    nodes: &mut [Node],
-        order: &mut [u32],
-    offset: usize,
-    boxes: &[(Vec3, Vec3, Vec3)],
-    sizes: &std::collections::HashMap<usize, usize>,
-) {
-    let m = order.len();
-    let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
-    let (mut clo, mut chi) = (lo, hi);
-    for &i in order.iter() {
-        let (a, b, c) = boxes[i as usize];
-        lo = lo.min(a);
-        hi = hi.max(b);
-        clo = clo.min(c);
-        chi = chi.max(c);
-    }
-    // Pad by a relative epsilon so that rounding never lets a ray slip past a box.
-    let pad = (hi - lo).max_element() * 1e-4 + 1e-30;
-    nodes[0].min = lo - Vec3::splat(pad);
-    nodes[0].max = hi + Vec3::splat(pad);
-    if m <= LEAF_SIZE {
-        nodes[0].first = offset as u32;
-        nodes[0].count = m as u32;
-        return;
-    }
-    let ext = chi - clo;
-    let axis = if ext.x >= ext.y && ext.x >= ext.z { 0 } else if ext.y >= ext.z { 1 } else { 2 };
-    let mid = m / 2;
-    order.select_nth_unstable_by(mid, |&a, &b| boxes[a as usize].2[axis].total_cmp(&boxes[b as usize].2[axis]));
-    let nl = sizes[&mid];
-    nodes[0].first = nl as u32;
-    nodes[0].count = 0;
-    let (_, rest) = nodes.split_at_mut(1);
-    let (nleft, nright) = rest.split_at_mut(nl);
-    let (ol, or) = order.split_at_mut(mid);
-    if m > 8192 {
-        rayon::join(
-            || build(nleft, ol, offset, boxes, sizes),
-            || build(nright, or, offset + mid, boxes, sizes),
-        );
-    } else {
-        build(nleft, ol, offset, boxes, sizes);
-        build(nright, or, offset + mid, boxes, sizes);
-    }
-}
-
-/// Ray/box slab test for `t in [0, tmax]`.
+/// Does `origin + t dir`, `t in [0, tmax]`, meet the node's box? (`inv = 1 / dir`; the slab
+/// test of `Aabb::cast_local_ray` without its per-axis divisions.)
 #[inline]
-fn slab(min: Vec3, max: Vec3, origin: Vec3, inv: Vec3, tmax: f32) -> bool {
-    let t1 = (min - origin) * inv;
-    let t2 = (max - origin) * inv;
+fn node_hit(node: &BvhNode, origin: Vec3, inv: Vec3, tmax: f32) -> bool {
+    let t1 = (node.mins() - origin) * inv;
+    let t2 = (node.maxs() - origin) * inv;
     // NaN (0 * inf) appears only when the origin lies on a slab plane of a parallel axis;
-    // min/max of glam propagate the other operand, which keeps the test conservative.
-    let tnear = t1.min(t2).max_element().max(0.0);
-    let tfar = t1.max(t2).min_element().min(tmax);
-    tnear <= tfar
-}
-
-/// Moller & Trumbore 1997, two-sided, `t in [0, tmax]`. The triangle is grown by `BARY_EPS` in
-/// barycentric terms so that a ray through a shared edge or vertex can never slip between
-/// the two triangles (a watertight answer matters more than an exact silhouette here).
-#[inline]
-fn ray_triangle(origin: Vec3, dir: Vec3, tri: &[Vec3; 3], tmax: f32) -> Option<f32> {
-    let [a, e1, e2] = *tri;
-    let p = dir.cross(e2);
-    let det = e1.dot(p);
-    if det.abs() <= f32::MIN_POSITIVE {
-        return None;
-    }
-    let inv = 1.0 / det;
-    let s = origin - a;
-    let u = s.dot(p) * inv;
-    if !(-BARY_EPS..=1.0 + BARY_EPS).contains(&u) {
-        return None;
-    }
-    let q = s.cross(e1);
-    let v = dir.dot(q) * inv;
-    if v < -BARY_EPS || u + v > 1.0 + BARY_EPS {
-        return None;
-    }
-    let t = e2.dot(q) * inv;
-    (t >= 0.0 && t <= tmax).then_some(t)
+    // glam's min/max then return the other operand, which keeps the test conservative.
+    let near = t1.min(t2).max_element().max(0.0);
+    let far = t1.max(t2).min_element().min(tmax);
+    near <= far
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::primitives::capped_cylinder;
 
     fn unit_cube() -> (Vec<[f32; 3]>, Vec<[u32; 3]>) {
         let v: Vec<[f32; 3]> = (0..8)
@@ -286,11 +193,12 @@ mod tests {
         assert!((hits[0] - 1.0).abs() < 1e-5 && (hits[1] - 2.0).abs() < 1e-5);
         assert_eq!(rm.ray_hits(Vec3::new(0.5, 0.4, -1.0), Vec3::Z, 1.5).len(), 1);
         let empty = RayMesh::new(&v, &[[0, 0, 0]]);
+        assert_eq!(empty.triangle_count(), 0);
         assert!(!empty.segment_blocked(inside, Vec3::splat(5.0)));
         assert!(empty.ray_hits(inside, Vec3::X, 1.0).is_empty());
     }
 
-    /// Many random segments against a brute-force answer.
+    /// Many random segments against a brute-force answer with the same triangle test.
     #[test]
     fn bvh_matches_brute_force() {
         let (v0, t0) = unit_cube();
@@ -311,14 +219,60 @@ mod tests {
             seed ^= seed << 5;
             seed as f32 / u32::MAX as f32 * 7.0 - 1.0
         };
+        let mut blocked = 0;
         for _ in 0..500 {
             let a = Vec3::new(rnd(), rnd(), rnd());
             let b = Vec3::new(rnd(), rnd(), rnd());
-            let brute = t.iter().any(|tr| {
-                let [p, q, r] = tr.map(|i| Vec3::from_array(v[i as usize]));
-                ray_triangle(a, b - a, &[p, q - p, r - p], 1.0).is_some()
-            });
-            assert_eq!(rm.segment_blocked(a, b), brute);
+            let ray = Ray::new(a, b - a);
+            let brute: Vec<f32> = (0..rm.triangle_count() as u32).filter_map(|i| rm.triangle_hit(i, &ray, 1.0)).collect();
+            assert_eq!(rm.segment_blocked(a, b), !brute.is_empty());
+            blocked += !brute.is_empty() as usize;
+            // All hits along the (normalized) ray.
+            let len = (b - a).length();
+            let mut all = rm.ray_hits(a, b - a, len);
+            let mut want: Vec<f32> = brute.iter().map(|t| t * len).collect();
+            want.sort_by(|x, y| x.total_cmp(y));
+            all.dedup_by(|x, y| (*x - *y).abs() < 1e-4);
+            want.dedup_by(|x, y| (*x - *y).abs() < 1e-4);
+            assert_eq!(all.len(), want.len());
+            assert!(all.iter().zip(&want).all(|(x, y)| (x - y).abs() < 1e-4 * len.max(1.0)));
+        }
+        assert!(blocked > 100 && blocked < 500, "{blocked}");
+    }
+
+    /// Segments aimed exactly through shared edges and vertices of closed meshes (cube face
+    /// diagonals, cube corners, every vertex and edge midpoint of a capped cylinder) must be
+    /// blocked: nothing leaks through a closed surface.
+    #[test]
+    fn no_leak_through_shared_edges_and_vertices() {
+        let (v, t) = unit_cube();
+        let rm = RayMesh::new(&v, &t);
+        let c = Vec3::splat(0.5);
+        for target in [
+            Vec3::new(0.5, 0.5, -1.0), // through the diagonal of the z = 0 face
+            Vec3::new(0.5, 0.5, 2.0),
+            Vec3::new(-1.0, 0.5, 0.5),
+            Vec3::new(0.5, 2.0, 0.5),
+            Vec3::new(-1.0, -1.0, -1.0), // through a corner
+            Vec3::new(2.0, 2.0, 2.0),
+            Vec3::new(0.5, -1.0, -1.0), // through an edge of the cube
+        ] {
+            assert!(rm.segment_blocked(c, target), "leak towards {target}");
+            assert!(!rm.ray_hits(c, target - c, 10.0).is_empty(), "no hit towards {target}");
+        }
+        let (cv, ct) = capped_cylinder(0.3, 2.0, 17, 12);
+        let rm = RayMesh::new(&cv, &ct);
+        let mut targets: Vec<Vec3> = cv.iter().map(|p| Vec3::from_array(*p)).collect();
+        for tr in &ct {
+            for k in 0..3 {
+                targets.push(0.5 * (Vec3::from_array(cv[tr[k] as usize]) + Vec3::from_array(cv[tr[(k + 1) % 3] as usize])));
+            }
+        }
+        for p in targets {
+            // From the axis point at the same height (or the cap centre) outward, past the surface.
+            let from = Vec3::new(0.0, 0.0, p.z.clamp(0.01, 1.99));
+            let to = from + (p - from) * 3.0;
+            assert!(rm.segment_blocked(from, to), "leak through {p}");
         }
     }
 }
