@@ -1,0 +1,670 @@
+//! Procedural motion on a skeleton whose roles are known (`roles.rs`): a head shake, and walk
+//! and run cycles for bipeds, quadrupeds and many-legged bodies. Produces per-frame local bone
+//! rotations and a root offset that a caller turns into keyframes.
+//!
+//! Inputs
+//!   heads, tails  #B by 3 rest bone end points, +Z up (world space in the add-on)
+//!   parents       #B parent index, -1 for roots
+//!   rest          #B rest orientations, row-major 3×3 whose columns are the bone's local
+//!                 X, Y (along the bone), Z axes in the same space (Blender:
+//!                 `armature.matrix_world.to_3x3() @ bone.matrix_local.to_3x3()`); scale is
+//!                 normalised away
+//!   roles         from [`crate::roles::detect_roles`]
+//!   params        [`GaitParams`]
+//! Output
+//!   [`Clip`]: `frames` × #B local rotations (w, x, y, z) in each bone's rest frame, i.e.
+//!   Blender's `pose_bone.rotation_quaternion` (identity = rest), and `frames` root offsets in
+//!   the input space (add to the root bone's head).
+//!
+//! Method. Every rotation is "angle about a body axis" (up, forward or right = forward × up),
+//! expressed in the bone's rest frame, so a chain rotated about one axis bends in one plane.
+//! - Legs (per leg phase φ, duty factor d): the hip swings from +A to -A linearly during
+//!   stance (foot moving back at constant speed) and back with a cosine during swing; the knee
+//!   flexes by K sin(π s) in swing (s = swing progress), a little in stance; the ankle keeps the
+//!   foot level and lifts its toe in swing. The flexing direction of each joint is the one that
+//!   brings the limb's end closer to the joint above (read from the rest pose), so knees and
+//!   hocks bend their own way. A = asin(stride · d / 2L) for leg length L.
+//! - Phases: biped L 0 / R ½; quadruped walk in diagonal pairs (front L 0, front R ½, back R
+//!   0.15, back L 0.65: back legs offset); quadruped run as a rotary gallop (back L 0, back R
+//!   0.1, front R 0.45, front L 0.55); more legs alternate by group (tripod-like).
+//! - Cycle period from the leg length (pendulum scaling): walk 1.05 s · √(L / 0.9 m), run
+//!   0.6 s · √(L / 0.9 m), divided by `speed`; stride per cycle 1.3 L (walk) or 2.6 L (run)
+//!   times `stride`.
+//! - Body: spine yaw/roll sway (walk), pitch flexion (quadruped run) or twist and lean (biped
+//!   run); neck/head bob at the step rate with the head steadied; tail sway with a lag; biped
+//!   arms swing against the legs.
+//! - Root: forward travel (optional) and a vertical offset that keeps the lowest foot on its
+//!   rest height (forward kinematics each frame), which gives the body its natural bob.
+//! - Head shake: neck and head yaw A · env(u) · sin(2π c u) over the duration, with a smooth
+//!   fade in and out (starts and ends at rest), the head taking half; ears and other head
+//!   children swing after it with 35 % of the amplitude and a lag.
+//!
+//! Known limitations: no foot IK, so feet slide a little on uneven rigs; rotations are about
+//! world-up-based axes, so a character lying down is animated as if standing.
+
+use crate::error::{Error, Result};
+use crate::roles::{BodyPlan, Limb, Roles, Side};
+use glam::{Mat3, Quat, Vec3};
+use std::f32::consts::{PI, TAU};
+
+/// Which motion to make.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Motion {
+    HeadShake,
+    Walk,
+    Run,
+}
+
+/// Motion parameters. Angles in radians, times in seconds.
+#[derive(Debug, Clone, Copy)]
+pub struct GaitParams {
+    pub motion: Motion,
+    /// Frames per second of the scene.
+    pub fps: f32,
+    /// Gait cycles (WALK/RUN, rounded to whole frames) or shakes (HEAD_SHAKE).
+    pub cycles: f32,
+    /// HEAD_SHAKE length in seconds.
+    pub duration: f32,
+    /// HEAD_SHAKE yaw amplitude (radians, neck and head together).
+    pub amplitude: f32,
+    /// Stride multiplier (1 = the natural stride for the leg length).
+    pub stride: f32,
+    /// Cadence multiplier (1 = the natural cadence for the leg length).
+    pub speed: f32,
+    /// Move the root forward (else the character walks on the spot).
+    pub root_motion: bool,
+}
+
+impl Default for GaitParams {
+    fn default() -> Self {
+        GaitParams {
+            motion: Motion::Walk,
+            fps: 24.0,
+            cycles: 2.0,
+            duration: 2.0,
+            amplitude: 30f32.to_radians(),
+            stride: 1.0,
+            speed: 1.0,
+            root_motion: true,
+        }
+    }
+}
+
+/// Generated motion: `frames` frames, frame 0 first.
+#[derive(Debug, Clone)]
+pub struct Clip {
+    pub frames: usize,
+    pub bone_count: usize,
+    /// frames × bone_count local rotations (w, x, y, z); identity for bones not animated.
+    pub rotations: Vec<[f32; 4]>,
+    /// Root offset per frame in the input space (forward travel and vertical bob).
+    pub root_offset: Vec<[f32; 3]>,
+    /// Bones whose rotation this motion sets (sorted).
+    pub animated: Vec<usize>,
+    /// Whether `root_offset` is used (false for the head shake).
+    pub moves_root: bool,
+    /// Frames per gait cycle (HEAD_SHAKE: frames per shake).
+    pub frames_per_cycle: f32,
+}
+
+impl Clip {
+    pub fn rotation(&self, frame: usize, bone: usize) -> [f32; 4] {
+        self.rotations[frame * self.bone_count + bone]
+    }
+}
+
+/// Rest orientations as unit quaternions (columns orthonormalised, Y = bone axis kept).
+fn rest_quats(rest: &[[f32; 9]]) -> Vec<Quat> {
+    rest.iter()
+        .map(|m| {
+            let m = Mat3::from_cols_array(m).transpose(); // row-major in
+            let y = m.y_axis.normalize_or(Vec3::Y);
+            let mut x = m.x_axis - y * m.x_axis.dot(y);
+            if x.length_squared() < 1e-12 {
+                x = y.any_orthonormal_vector();
+            }
+            let x = x.normalize();
+            let z = x.cross(y);
+            Quat::from_mat3(&Mat3::from_cols(x, y, z)).normalize()
+        })
+        .collect()
+}
+
+fn to_wxyz(q: Quat) -> [f32; 4] {
+    [q.w, q.x, q.y, q.z]
+}
+
+/// Posed bone heads and tails by forward kinematics: `local` are the local rotations
+/// (w, x, y, z) per bone, `root_offset` is added to every root's head. Shapes as the inputs.
+pub fn posed_points(
+    heads: &[[f32; 3]],
+    tails: &[[f32; 3]],
+    parents: &[i32],
+    rest: &[[f32; 9]],
+    local: &[[f32; 4]],
+    root_offset: [f32; 3],
+) -> (Vec<[f32; 3]>, Vec<[f32; 3]>) {
+    let rq = rest_quats(rest);
+    let n = heads.len();
+    let order = preorder(parents);
+    let mut delta = vec![Quat::IDENTITY; n];
+    let mut ph = vec![Vec3::ZERO; n];
+    let mut pt = vec![[0.0; 3]; n];
+    for b in order {
+        let q = Quat::from_xyzw(local[b][1], local[b][2], local[b][3], local[b][0]).normalize();
+        let (pd, head) = match parents[b] {
+            p if p >= 0 => {
+                let p = p as usize;
+                (delta[p], ph[p] + delta[p] * (Vec3::from(heads[b]) - Vec3::from(heads[p])))
+            }
+            _ => (Quat::IDENTITY, Vec3::from(heads[b]) + Vec3::from(root_offset)),
+        };
+        delta[b] = pd * rq[b] * q * rq[b].inverse();
+        ph[b] = head;
+        pt[b] = (head + delta[b] * (Vec3::from(tails[b]) - Vec3::from(heads[b]))).to_array();
+    }
+    (ph.iter().map(|p| p.to_array()).collect(), pt)
+}
+
+fn preorder(parents: &[i32]) -> Vec<usize> {
+    let n = parents.len();
+    let mut kids = vec![Vec::new(); n];
+    for (b, &p) in parents.iter().enumerate() {
+        if p >= 0 {
+            kids[p as usize].push(b);
+        }
+    }
+    let mut out = Vec::with_capacity(n);
+    let mut stack: Vec<usize> = (0..n).filter(|&b| parents[b] < 0).collect();
+    while let Some(b) = stack.pop() {
+        out.push(b);
+        stack.extend(&kids[b]);
+    }
+    out
+}
+
+struct Poser {
+    rest: Vec<Quat>,
+    q: Vec<Quat>,
+    touched: Vec<bool>,
+}
+
+impl Poser {
+    /// Rotate bone `b` by `angle` about the world `axis` (expressed in its rest frame).
+    fn rotate(&mut self, b: usize, axis: Vec3, angle: f32) {
+        let local = self.rest[b].inverse() * axis;
+        self.q[b] = self.q[b] * Quat::from_axis_angle(local.normalize(), angle);
+        self.touched[b] = true;
+    }
+    fn touch(&mut self, b: usize) {
+        self.touched[b] = true;
+    }
+}
+
+/// +1 or -1: the rotation about `axis` of bone `b` that brings its tail closer to `pivot`.
+fn flex_sign(heads: &[[f32; 3]], tails: &[[f32; 3]], b: usize, pivot: Vec3, axis: Vec3, default: f32) -> f32 {
+    let (h, t) = (Vec3::from(heads[b]), Vec3::from(tails[b]));
+    let d = (t - pivot).dot(axis.cross(t - h));
+    let scale = (t - h).length() * (t - pivot).length();
+    if d > 1e-3 * scale {
+        -1.0
+    } else if d < -1e-3 * scale {
+        1.0
+    } else {
+        default
+    }
+}
+
+/// The first bone of a limb that points mostly down (skips clavicles / pelvis bones).
+fn swing_index(heads: &[[f32; 3]], tails: &[[f32; 3]], limb: &Limb) -> usize {
+    limb.bones
+        .iter()
+        .position(|&b| {
+            let d = Vec3::from(tails[b]) - Vec3::from(heads[b]);
+            -d.z >= 0.5 * d.length()
+        })
+        .unwrap_or(0)
+}
+
+fn smoothstep(e0: f32, e1: f32, x: f32) -> f32 {
+    let t = ((x - e0) / (e1 - e0)).clamp(0.0, 1.0);
+    t * t * (3.0 - 2.0 * t)
+}
+
+/// Phase offset of each leg (fraction of a cycle) for this body plan and gait.
+fn leg_phases(roles: &Roles, motion: Motion) -> Vec<f32> {
+    let front_groups = roles.legs.iter().map(|l| l.group).max().unwrap_or(0);
+    roles
+        .legs
+        .iter()
+        .map(|l| {
+            let left = l.side == Side::Left;
+            match (roles.plan, motion) {
+                (BodyPlan::Biped, _) => if left { 0.0 } else { 0.5 },
+                (BodyPlan::Quadruped, Motion::Run) => match (l.group == 0, left) {
+                    (false, true) => 0.0,
+                    (false, false) => 0.1,
+                    (true, false) => 0.45,
+                    (true, true) => 0.55,
+                },
+                (BodyPlan::Quadruped, _) => match (l.group == 0, left) {
+                    (true, true) => 0.0,
+                    (true, false) => 0.5,
+                    (false, false) => 0.15,
+                    (false, true) => 0.65,
+                },
+                _ => {
+                    let base = if l.group % 2 == 0 { 0.0 } else { 0.5 };
+                    let drift = 0.05 * l.group as f32 / (front_groups.max(1)) as f32;
+                    (base + if left { 0.0 } else { 0.5 } + drift).fract()
+                }
+            }
+        })
+        .collect()
+}
+
+fn check(heads: &[[f32; 3]], tails: &[[f32; 3]], parents: &[i32], rest: &[[f32; 9]], roles: &Roles, p: &GaitParams) -> Result<()> {
+    let n = heads.len();
+    if tails.len() != n || parents.len() != n || rest.len() != n {
+        return Err(Error::Shape(format!(
+            "{n} heads, {} tails, {} parents, {} rest matrices: one of each per bone",
+            tails.len(),
+            parents.len(),
+            rest.len()
+        )));
+    }
+    let all = roles.spine.iter().chain(&roles.neck).chain(&roles.head_extras).chain(&roles.tail)
+        .chain(roles.legs.iter().flat_map(|l| &l.bones)).chain(roles.arms.iter().flat_map(|l| &l.bones))
+        .chain([&roles.head, &roles.root]);
+    if all.into_iter().any(|&b| b >= n) {
+        return Err(Error::Shape("roles refer to bones that are not in the arrays".into()));
+    }
+    if !(p.fps > 0.0 && p.fps.is_finite()) {
+        return Err(Error::InvalidArgument(format!("fps must be positive, got {}", p.fps)));
+    }
+    if !(p.cycles > 0.0 && p.cycles.is_finite()) {
+        return Err(Error::InvalidArgument(format!("cycles must be positive, got {}", p.cycles)));
+    }
+    if !(p.speed > 0.0 && p.speed.is_finite()) || !(p.stride >= 0.0 && p.stride.is_finite()) {
+        return Err(Error::InvalidArgument("speed must be positive and stride not negative".into()));
+    }
+    if p.motion == Motion::HeadShake && !(p.duration > 0.0 && p.duration.is_finite()) {
+        return Err(Error::InvalidArgument(format!("duration must be positive, got {}", p.duration)));
+    }
+    if !p.amplitude.is_finite() {
+        return Err(Error::InvalidArgument("amplitude must be finite".into()));
+    }
+    Ok(())
+}
+
+/// Make the motion (see the module doc).
+pub fn motion_clip(
+    heads: &[[f32; 3]],
+    tails: &[[f32; 3]],
+    parents: &[i32],
+    rest: &[[f32; 9]],
+    roles: &Roles,
+    params: &GaitParams,
+) -> Result<Clip> {
+    check(heads, tails, parents, rest, roles, params)?;
+    match params.motion {
+        Motion::HeadShake => Ok(head_shake(heads, tails, rest, roles, params)),
+        Motion::Walk | Motion::Run => Ok(gait(heads, tails, parents, rest, roles, params)),
+    }
+}
+
+fn new_poser(rest: &[[f32; 9]]) -> Poser {
+    let rest = rest_quats(rest);
+    let n = rest.len();
+    Poser { rest, q: vec![Quat::IDENTITY; n], touched: vec![false; n] }
+}
+
+fn head_shake(heads: &[[f32; 3]], tails: &[[f32; 3]], rest: &[[f32; 9]], roles: &Roles, p: &GaitParams) -> Clip {
+    let n = heads.len();
+    let frames = ((p.duration * p.fps).round() as usize).max(2) + 1;
+    let up = Vec3::from(roles.up);
+    let fwd = Vec3::from(roles.forward);
+    let mut poser = new_poser(rest);
+    let mut rotations = Vec::with_capacity(frames * n);
+    let neck_share = if roles.neck.is_empty() { 0.0 } else { 0.5 / roles.neck.len() as f32 };
+    let head_share = if roles.neck.is_empty() { 1.0 } else { 0.5 };
+    for k in 0..frames {
+        poser.q.fill(Quat::IDENTITY);
+        let u = k as f32 / (frames - 1) as f32;
+        let env = smoothstep(0.0, 0.15, u) * smoothstep(0.0, 0.15, 1.0 - u);
+        let yaw = p.amplitude * env * (TAU * p.cycles * u).sin();
+        for &b in &roles.neck {
+            poser.rotate(b, up, yaw * neck_share);
+        }
+        poser.rotate(roles.head, up, yaw * head_share);
+        let lag = 0.35 * p.amplitude * env * (TAU * p.cycles * u - 1.0).sin();
+        for &b in &roles.head_extras {
+            let d = (Vec3::from(tails[b]) - Vec3::from(heads[b])).normalize_or_zero();
+            let axis = if d.dot(up).abs() > 0.7 { fwd } else { up };
+            poser.rotate(b, axis, -lag);
+        }
+        rotations.extend(poser.q.iter().map(|&q| to_wxyz(q)));
+    }
+    let animated = (0..n).filter(|&b| poser.touched[b]).collect();
+    Clip {
+        frames,
+        bone_count: n,
+        rotations,
+        root_offset: vec![[0.0; 3]; frames],
+        animated,
+        moves_root: false,
+        frames_per_cycle: (frames - 1) as f32 / p.cycles,
+    }
+}
+
+fn gait(
+    heads: &[[f32; 3]],
+    tails: &[[f32; 3]],
+    parents: &[i32],
+    rest: &[[f32; 9]],
+    roles: &Roles,
+    p: &GaitParams,
+) -> Clip {
+    let n = heads.len();
+    let run = p.motion == Motion::Run;
+    let biped = roles.plan == BodyPlan::Biped;
+    let quad = roles.plan == BodyPlan::Quadruped;
+    let l = roles.leg_length.max(1e-6);
+    let up = Vec3::from(roles.up);
+    let fwd = Vec3::from(roles.forward);
+    let right = fwd.cross(up).normalize();
+    let hv = |b: usize| Vec3::from(heads[b]);
+
+    // timing and amplitudes
+    let pendulum = (l / 0.9).sqrt();
+    let period = if run { 0.6 } else { 1.05 } * pendulum / p.speed;
+    let fpc = (period * p.fps).round().max(8.0);
+    let frames = (p.cycles * fpc).round().max(1.0) as usize + 1;
+    let duty = match (run, quad) {
+        (false, true) => 0.65,
+        (false, false) => 0.6,
+        (true, true) => 0.4,
+        (true, false) => 0.35,
+    };
+    let stride = if run { 2.6 } else { 1.3 } * l * p.stride;
+    let hip_amp = (stride * duty / (2.0 * l)).min(0.9).asin();
+    let knee_amp = if run { 80f32 } else { 45.0 }.to_radians();
+    let knee_stance = if run { 15f32 } else { 6.0 }.to_radians();
+    let ankle_amp = if run { 30f32 } else { 20.0 }.to_radians();
+    let phases = leg_phases(roles, p.motion);
+
+    // per-leg joints and flex directions
+    struct LegJoints { hip: usize, knee: Option<(usize, f32)>, ankle: Option<(usize, f32)> }
+    let legs: Vec<LegJoints> = roles
+        .legs
+        .iter()
+        .map(|limb| {
+            let i0 = swing_index(heads, tails, limb);
+            let bones = &limb.bones[i0..];
+            let knee = bones.get(1).map(|&b| (b, flex_sign(heads, tails, b, hv(bones[0]), right, -1.0)));
+            let ankle = bones.get(2).map(|&b| (b, flex_sign(heads, tails, b, hv(bones[1]), right, 1.0)));
+            LegJoints { hip: bones[0], knee, ankle }
+        })
+        .collect();
+    let arms: Vec<(usize, Option<(usize, f32)>, Side)> = roles
+        .arms
+        .iter()
+        .map(|a| {
+            let len = |b: usize| (Vec3::from(tails[b]) - hv(b)).length();
+            let i0 = if a.bones.len() >= 3 && len(a.bones[0]) < len(a.bones[1]) { 1 } else { 0 };
+            let elbow = a.bones.get(i0 + 1).map(|&b| (b, flex_sign(heads, tails, b, hv(a.bones[i0]), right, 1.0)));
+            (a.bones[i0], elbow, a.side)
+        })
+        .collect();
+    // spine bones that sway: all but the root when there are others
+    let sway: Vec<usize> = if roles.spine.len() > 1 {
+        roles.spine.iter().copied().filter(|&b| b != roles.root).collect()
+    } else {
+        roles.spine.clone()
+    };
+    let per = |total: f32, count: usize| if count == 0 { 0.0 } else { total / count as f32 };
+
+    let mut poser = new_poser(rest);
+    let mut rotations = Vec::with_capacity(frames * n);
+    let mut root_offset = Vec::with_capacity(frames);
+    let feet: Vec<usize> = roles.legs.iter().map(|l| *l.bones.last().unwrap()).collect();
+    let foot_low = |h: &[[f32; 3]], t: &[[f32; 3]]| {
+        feet.iter().map(|&b| h[b][2].min(t[b][2])).fold(f32::INFINITY, f32::min)
+    };
+    let rest_low = foot_low(heads, tails);
+    let mut left_hip = 0.0;
+    let mut right_hip = 0.0;
+    for k in 0..frames {
+        poser.q.fill(Quat::IDENTITY);
+        let phi = k as f32 / fpc;
+        let w = TAU * phi;
+        for (leg, (joints, &offset)) in roles.legs.iter().zip(legs.iter().zip(&phases)) {
+            let ph = (phi + offset).fract();
+            let (theta, knee, ankle) = if ph < duty {
+                let s = ph / duty;
+                (hip_amp * (1.0 - 2.0 * s), knee_stance * (PI * s).sin(), 0.0)
+            } else {
+                let s = (ph - duty) / (1.0 - duty);
+                (-hip_amp * (PI * s).cos(), knee_amp * (PI * s).sin(), ankle_amp * (PI * s).sin())
+            };
+            if leg.side == Side::Left { left_hip = theta } else { right_hip = theta }
+            poser.rotate(joints.hip, right, theta);
+            let mut bend = theta;
+            if let Some((b, sign)) = joints.knee {
+                poser.rotate(b, right, sign * knee);
+                bend += sign * knee;
+            }
+            if let Some((b, sign)) = joints.ankle {
+                poser.rotate(b, right, -bend + sign * ankle);
+            }
+        }
+        for &(arm, elbow, side) in &arms {
+            let leg = if side == Side::Left { left_hip } else { right_hip };
+            poser.rotate(arm, right, -if run { 0.8 } else { 0.6 } * leg);
+            if let Some((b, sign)) = elbow {
+                let flex = if run { 70f32 } else { 12.0 }.to_radians();
+                poser.rotate(b, right, sign * (flex + 0.3 * leg.abs()));
+            }
+        }
+        // body
+        let (yaw, roll, pitch) = match (run, quad, biped) {
+            (false, _, true) => (5f32.to_radians() * w.sin(), 3f32.to_radians() * w.sin(), 0.0),
+            (false, _, _) => (4f32.to_radians() * w.sin(), 2f32.to_radians() * w.sin(), 0.0),
+            (true, true, _) => (0.0, 0.0, 8f32.to_radians() * w.sin()),
+            (true, _, true) => (8f32.to_radians() * w.sin(), 0.0, -8f32.to_radians()),
+            (true, _, _) => (3f32.to_radians() * w.sin(), 0.0, 4f32.to_radians() * w.sin()),
+        };
+        for &b in &sway {
+            poser.rotate(b, up, per(yaw, sway.len()));
+            poser.rotate(b, fwd, per(roll, sway.len()));
+            poser.rotate(b, right, per(pitch, sway.len()));
+        }
+        let bob = if run && quad {
+            -10f32.to_radians() * (w + 0.5 * PI).sin()
+        } else {
+            (if run { 5f32 } else { 3.0 }).to_radians() * (2.0 * w).sin()
+        };
+        for &b in &roles.neck {
+            poser.rotate(b, right, per(bob, roles.neck.len()));
+            poser.rotate(b, up, per(-0.6 * yaw, roles.neck.len()));
+        }
+        poser.rotate(roles.head, right, -0.5 * bob - if run && biped { -0.5 * pitch } else { 0.0 });
+        let nt = roles.tail.len().max(1) as f32;
+        for (j, &b) in roles.tail.iter().enumerate() {
+            let a = (if run { 12f32 } else { 10.0 }).to_radians() * (0.5 + 0.5 * j as f32 / nt) / nt * 3.0;
+            let s = (w - 0.6 * (j + 1) as f32).sin();
+            if run { poser.rotate(b, right, a * s) } else { poser.rotate(b, up, a * s) }
+        }
+        if sway.is_empty() && roles.neck.is_empty() {
+            poser.touch(roles.head);
+        }
+        let local: Vec<[f32; 4]> = poser.q.iter().map(|&q| to_wxyz(q)).collect();
+        let (ph, pt) = posed_points(heads, tails, parents, rest, &local, [0.0; 3]);
+        let lift = rest_low - foot_low(&ph, &pt);
+        let travel = if p.root_motion { stride * phi } else { 0.0 };
+        root_offset.push((fwd * travel + up * lift).to_array());
+        rotations.extend(local);
+    }
+    let animated = (0..n).filter(|&b| poser.touched[b]).collect();
+    Clip { frames, bone_count: n, rotations, root_offset, animated, moves_root: true, frames_per_cycle: fpc }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::roles::detect_roles;
+    use crate::roles::tests::{biped, creature};
+
+    /// Rest matrices with Y along the bone (roll arbitrary but fixed), row-major.
+    fn q(r: [f32; 4]) -> Quat {
+        Quat::from_xyzw(r[1], r[2], r[3], r[0])
+    }
+
+    fn rest_of(h: &[[f32; 3]], t: &[[f32; 3]]) -> Vec<[f32; 9]> {
+        h.iter()
+            .zip(t)
+            .map(|(a, b)| {
+                let y = (Vec3::from(*b) - Vec3::from(*a)).normalize();
+                let x = y.cross(Vec3::new(0.3, 0.2, 0.9).normalize()).normalize();
+                let z = x.cross(y);
+                Mat3::from_cols(x, y, z).transpose().to_cols_array()
+            })
+            .collect()
+    }
+
+    fn run(skel: (Vec<String>, Vec<[f32; 3]>, Vec<[f32; 3]>, Vec<i32>), motion: Motion)
+           -> (Vec<String>, Vec<[f32; 3]>, Vec<[f32; 3]>, Vec<i32>, Vec<[f32; 9]>, Roles, Clip) {
+        let (names, h, t, p) = skel;
+        let rest = rest_of(&h, &t);
+        let roles = detect_roles(&h, &t, &p, &names).unwrap();
+        let params = GaitParams { motion, cycles: 2.0, ..Default::default() };
+        let clip = motion_clip(&h, &t, &p, &rest, &roles, &params).unwrap();
+        (names, h, t, p, rest, roles, clip)
+    }
+
+    /// Foot tail heights per frame for each leg.
+    fn foot_heights(h: &[[f32; 3]], t: &[[f32; 3]], p: &[i32], rest: &[[f32; 9]], roles: &Roles, clip: &Clip)
+                    -> Vec<Vec<f32>> {
+        let mut out = vec![Vec::new(); roles.legs.len()];
+        for f in 0..clip.frames {
+            let local = &clip.rotations[f * clip.bone_count..(f + 1) * clip.bone_count];
+            let (_, pt) = posed_points(h, t, p, rest, local, clip.root_offset[f]);
+            for (i, l) in roles.legs.iter().enumerate() {
+                out[i].push(pt[*l.bones.last().unwrap()][2]);
+            }
+        }
+        out
+    }
+
+    /// Phase (fraction of a cycle) of the highest point of each foot in the first cycle.
+    fn peak_phase(z: &[f32], fpc: usize) -> f32 {
+        let i = (0..fpc).max_by(|&a, &b| z[a].partial_cmp(&z[b]).unwrap()).unwrap();
+        i as f32 / fpc as f32
+    }
+
+    fn circ(a: f32, b: f32) -> f32 {
+        let d = (a - b).rem_euclid(1.0);
+        d.min(1.0 - d)
+    }
+
+    fn check_walk(skel: (Vec<String>, Vec<[f32; 3]>, Vec<[f32; 3]>, Vec<i32>), motion: Motion) {
+        let (_, h, t, p, rest, roles, clip) = run(skel, motion);
+        let fpc = clip.frames_per_cycle as usize;
+        assert_eq!(clip.frames, 2 * fpc + 1);
+        // loops: first and last frame equal
+        for b in 0..clip.bone_count {
+            let (a, z) = (q(clip.rotation(0, b)), q(clip.rotation(clip.frames - 1, b)));
+            assert!(a.dot(z).abs() > 0.9999, "bone {b} does not loop");
+        }
+        let z = foot_heights(&h, &t, &p, &rest, &roles, &clip);
+        let l = roles.leg_length;
+        for (i, zs) in z.iter().enumerate() {
+            let lift = zs.iter().cloned().fold(f32::MIN, f32::max) - zs.iter().cloned().fold(f32::MAX, f32::min);
+            assert!(lift > 0.05 * l, "leg {i} lifts only {lift}");
+        }
+        // the lowest foot stays on the ground
+        let rest_low = roles.legs.iter().map(|l| t[*l.bones.last().unwrap()][2]).fold(f32::MAX, f32::min);
+        for f in 0..clip.frames {
+            let low = z.iter().map(|zs| zs[f]).fold(f32::MAX, f32::min);
+            assert!(low >= rest_low - 0.02 * l, "frame {f}: a foot is below the ground: {low}");
+        }
+        // left and right of each group are half a cycle apart (biped, quadruped walk)
+        let groups = roles.legs.iter().map(|l| l.group).max().unwrap() + 1;
+        for g in 0..groups {
+            let li = roles.legs.iter().position(|l| l.group == g && l.side == Side::Left).unwrap();
+            let ri = roles.legs.iter().position(|l| l.group == g && l.side == Side::Right).unwrap();
+            let d = circ(peak_phase(&z[li], fpc), peak_phase(&z[ri], fpc));
+            if motion == Motion::Walk || roles.plan == BodyPlan::Biped {
+                assert!((d - 0.5).abs() < 0.1, "group {g}: left/right peaks {d} of a cycle apart");
+            } else {
+                assert!(d < 0.2, "gallop group {g}: left/right peaks {d} apart");
+            }
+        }
+        // root travels forward
+        let last = Vec3::from(clip.root_offset[clip.frames - 1]);
+        assert!(last.dot(Vec3::from(roles.forward)) > 0.5 * l);
+    }
+
+    #[test]
+    fn quadruped_walk_and_run() {
+        check_walk(creature(), Motion::Walk);
+        check_walk(creature(), Motion::Run);
+    }
+
+    #[test]
+    fn biped_walk_and_run() {
+        check_walk(biped(), Motion::Walk);
+        check_walk(biped(), Motion::Run);
+    }
+
+    #[test]
+    fn run_is_faster_than_walk() {
+        let (.., walk) = run(creature(), Motion::Walk);
+        let (.., trot) = run(creature(), Motion::Run);
+        assert!(trot.frames_per_cycle < 0.7 * walk.frames_per_cycle);
+    }
+
+    #[test]
+    fn head_shake_moves_head_not_feet() {
+        let (names, h, t, p, rest, roles, clip) = run(creature(), Motion::HeadShake);
+        assert!(!clip.moves_root);
+        let named: Vec<&str> = clip.animated.iter().map(|&b| names[b].as_str()).collect();
+        assert!(named.contains(&"head") && named.contains(&"neck") && named.contains(&"ear.L"));
+        assert!(!named.iter().any(|n| n.contains("foot") || n.contains("hand") || n.contains("thigh")));
+        // starts and ends at rest; turns the head in between
+        let id = |f: usize| (0..clip.bone_count).all(|b| q(clip.rotation(f, b)).w.abs() > 0.99999);
+        assert!(id(0) && id(clip.frames - 1));
+        let z = foot_heights(&h, &t, &p, &rest, &roles, &clip);
+        assert!(z.iter().all(|zs| zs.iter().all(|&v| (v - zs[0]).abs() < 1e-6)));
+        let mut max_turn = 0.0f32;
+        for f in 0..clip.frames {
+            let local = &clip.rotations[f * clip.bone_count..(f + 1) * clip.bone_count];
+            let (_, pt) = posed_points(&h, &t, &p, &rest, local, [0.0; 3]);
+            let jaw = names.iter().position(|n| n == "jaw").unwrap();
+            max_turn = max_turn.max((pt[jaw][0] - t[jaw][0]).abs());
+        }
+        assert!(max_turn > 0.1, "snout moves sideways only {max_turn}");
+    }
+
+    #[test]
+    fn bad_params() {
+        let (names, h, t, p) = creature();
+        let rest = rest_of(&h, &t);
+        let roles = detect_roles(&h, &t, &p, &names).unwrap();
+        let bad = GaitParams { fps: 0.0, ..Default::default() };
+        assert!(motion_clip(&h, &t, &p, &rest, &roles, &bad).is_err());
+        assert!(motion_clip(&h, &t, &p, &rest[1..], &roles, &GaitParams::default()).is_err());
+    }
+
+    #[test]
+    fn fk_identity_is_rest() {
+        let (_, h, t, p) = creature();
+        let rest = rest_of(&h, &t);
+        let id = vec![[1.0, 0.0, 0.0, 0.0]; h.len()];
+        let (ph, pt) = posed_points(&h, &t, &p, &rest, &id, [0.0; 3]);
+        for b in 0..h.len() {
+            assert!((Vec3::from(ph[b]) - Vec3::from(h[b])).length() < 1e-5);
+            assert!((Vec3::from(pt[b]) - Vec3::from(t[b])).length() < 1e-5);
+        }
+    }
+}

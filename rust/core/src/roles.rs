@@ -1,0 +1,791 @@
+//! Skeleton roles: which bones are the spine, neck, head, tail, legs and arms of a character,
+//! found from the bone geometry and hierarchy (bone names only confirm).
+//!
+//! Inputs
+//!   heads, tails  #B by 3 bone end points, one common space with +Z up (world space in the
+//!                 add-on), any unit
+//!   parents       #B parent index per bone, -1 for a root
+//!   names         #B bone names, or empty: used as hints only (`head`, `tail`, `.L`/`.R` …)
+//! Output
+//!   [`Roles`]: bone indices per role, the body's up/forward/left axes and the leg length.
+//!
+//! Method (all thresholds relative to the skeleton height h = top z - lowest z):
+//! 1. Main tree: the root whose subtree has the most bones; other trees are ignored.
+//! 2. Sagittal plane: the vertical plane through the end points' centroid whose mirror image
+//!    of the end points best matches them (1° scan then refinement). Bones within 0.05 h of
+//!    it are *midline* bones.
+//! 3. Legs: "ground leaves" are leaf bones ending within 0.12 h of the lowest point. Bottom up,
+//!    a bone with two or more "long" children (reaching down 0.2 h or more from their head)
+//!    that contain ground leaves is a split: each such child holding one foot is a leg top, and
+//!    the leg is the chain from it down to its foot. Short branches (toe and heel) merge.
+//! 4. Head: the highest midline leaf outside the legs (a bone named head/neck/jaw/skull on its
+//!    way scores higher, one named tail lower). The path root → that leaf is the body axis;
+//!    the head bone is on it (by name, else the leaf's parent when the leaf has non-limb
+//!    siblings like ears, else the leaf). The spine is the axis from the root down to the
+//!    deepest bone carrying a limb (leg or arm); the neck is what lies between spine and head.
+//! 5. Forward is the horizontal axis in the sagittal plane pointing from the legs to the head
+//!    (bipeds: along the feet; if still undecided Blender's -Y); left = up × forward; legs get
+//!    their side from the plane and their front/back group from their position along forward.
+//! 6. Arms: paired, non-midline chains of two or more bones and length ≥ 0.2 h hanging off the
+//!    spine. Tail: the midline chain hanging off the spine that points backwards.
+//!
+//! Known limitations: assumes +Z up and a roughly symmetric rest pose; legs must reach the
+//! ground in the rest pose; control rigs (IK targets, mechanism bones) should be filtered out
+//! by the caller (the add-on passes deform bones only).
+//!
+//! See also: `gait.rs`, which turns these roles into head-shake, walk and run cycles.
+
+use crate::error::{Error, Result};
+use glam::Vec3;
+
+/// Which side of the body a limb is on (the character's own left/right).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Side {
+    Left,
+    Right,
+}
+
+/// A leg or arm: its bones from the top (hip / shoulder / clavicle) down to the foot or hand.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Limb {
+    /// Bone indices, parent first.
+    pub bones: Vec<usize>,
+    pub side: Side,
+    /// 0 = the front-most group of legs along the spine; bipeds have one group.
+    pub group: usize,
+}
+
+/// What kind of body the legs make.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum BodyPlan {
+    /// Two legs in one group.
+    Biped,
+    /// Four legs: a front pair and a back pair.
+    Quadruped,
+    /// Anything else with legs (three, six …).
+    Multiped,
+}
+
+/// Bone indices per role. Every index refers to the input arrays.
+#[derive(Debug, Clone)]
+pub struct Roles {
+    /// The main tree's root bone.
+    pub root: usize,
+    /// Root first, ending at the deepest bone that carries a limb (hips … chest).
+    pub spine: Vec<usize>,
+    /// Between the spine and the head, spine side first (may be empty).
+    pub neck: Vec<usize>,
+    pub head: usize,
+    /// Every bone below the head (jaw, ears, horns …).
+    pub head_extras: Vec<usize>,
+    /// Tail chain, base first (may be empty).
+    pub tail: Vec<usize>,
+    pub legs: Vec<Limb>,
+    pub arms: Vec<Limb>,
+    pub plan: BodyPlan,
+    /// Unit axes of the body in the input space: up (+Z), forward (towards the head), left.
+    pub up: [f32; 3],
+    pub forward: [f32; 3],
+    pub left: [f32; 3],
+    /// Lowest z of the skeleton and its height.
+    pub ground: f32,
+    pub height: f32,
+    /// Mean vertical reach of the legs (hip head to the ground), same unit as the input.
+    pub leg_length: f32,
+    /// Remarks for the user (names disagreeing with the geometry, guessed forward …).
+    pub notes: Vec<String>,
+}
+
+const GROUND_FRACTION: f32 = 0.12;
+const LONG_FRACTION: f32 = 0.2;
+const MIDLINE_FRACTION: f32 = 0.05;
+const ARM_FRACTION: f32 = 0.2;
+
+fn v(p: [f32; 3]) -> Vec3 {
+    Vec3::from_array(p)
+}
+
+fn lower(names: &[String], b: usize) -> String {
+    names.get(b).map(|s| s.to_ascii_lowercase()).unwrap_or_default()
+}
+
+/// The side a bone name states (`.L`, `_R`, `Left…`, `l_…`), if any.
+pub fn name_side(name: &str) -> Option<Side> {
+    let n = name.to_ascii_lowercase();
+    for (suffix, side) in [("l", Side::Left), ("r", Side::Right)] {
+        for sep in ['.', '_', '-', ' '] {
+            if n.ends_with(&format!("{sep}{suffix}")) || n.starts_with(&format!("{suffix}{sep}")) {
+                return Some(side);
+            }
+        }
+    }
+    if n.contains("left") {
+        return Some(Side::Left);
+    }
+    if n.contains("right") {
+        return Some(Side::Right);
+    }
+    None
+}
+
+struct Tree {
+    children: Vec<Vec<usize>>,
+    /// Main-tree bones in depth-first pre-order (parents before children).
+    order: Vec<usize>,
+    root: usize,
+}
+
+fn validate(heads: &[[f32; 3]], tails: &[[f32; 3]], parents: &[i32], names: &[String]) -> Result<()> {
+    let n = heads.len();
+    if n == 0 {
+        return Err(Error::NoBones("the armature has no bones".into()));
+    }
+    if tails.len() != n || parents.len() != n {
+        return Err(Error::Shape(format!(
+            "{n} heads, {} tails and {} parents: one of each per bone",
+            tails.len(),
+            parents.len()
+        )));
+    }
+    if !names.is_empty() && names.len() != n {
+        return Err(Error::Shape(format!("{} names for {n} bones", names.len())));
+    }
+    let bad = heads.iter().chain(tails).filter(|p| p.iter().any(|c| !c.is_finite())).count();
+    if bad > 0 {
+        return Err(Error::NonFinite { what: "bone", count: bad });
+    }
+    for (b, &p) in parents.iter().enumerate() {
+        if p < -1 || p >= n as i32 || p == b as i32 {
+            return Err(Error::InvalidArgument(format!("bone {b} has parent {p}")));
+        }
+    }
+    // Cycles: walking up from any bone must reach a root within n steps.
+    for b in 0..n {
+        let (mut cur, mut steps) = (b as i32, 0);
+        while cur >= 0 {
+            cur = parents[cur as usize];
+            steps += 1;
+            if steps > n {
+                return Err(Error::InvalidArgument(format!("bone {b} is in a parent cycle")));
+            }
+        }
+    }
+    Ok(())
+}
+
+fn build_tree(parents: &[i32]) -> Tree {
+    let n = parents.len();
+    let mut children = vec![Vec::new(); n];
+    for (b, &p) in parents.iter().enumerate() {
+        if p >= 0 {
+            children[p as usize].push(b);
+        }
+    }
+    let preorder = |r: usize| {
+        let mut out = Vec::new();
+        let mut stack = vec![r];
+        while let Some(b) = stack.pop() {
+            out.push(b);
+            stack.extend(children[b].iter().rev());
+        }
+        out
+    };
+    let mut best: Vec<usize> = Vec::new();
+    for r in (0..n).filter(|&b| parents[b] < 0) {
+        let o = preorder(r);
+        if o.len() > best.len() {
+            best = o;
+        }
+    }
+    Tree { root: best[0], children, order: best }
+}
+
+/// Unit normal (horizontal) of the best mirror plane through `centre` for `points`.
+fn mirror_normal(points: &[Vec3], centre: Vec3) -> Vec3 {
+    let score = |deg: f32| -> f32 {
+        let a = deg.to_radians();
+        let n = Vec3::new(a.cos(), a.sin(), 0.0);
+        points
+            .iter()
+            .map(|&p| {
+                let q = p - 2.0 * (p - centre).dot(n) * n;
+                points.iter().map(|&r| (r - q).length_squared()).fold(f32::INFINITY, f32::min).sqrt()
+            })
+            .sum()
+    };
+    let (mut best, mut best_s) = (0.0f32, f32::INFINITY);
+    for d in 0..180 {
+        let s = score(d as f32);
+        if s < best_s - 1e-7 {
+            best = d as f32;
+            best_s = s;
+        }
+    }
+    let mut step = 0.5;
+    while step > 0.01 {
+        for cand in [best - step, best + step] {
+            let s = score(cand);
+            if s < best_s - 1e-7 {
+                best = cand;
+                best_s = s;
+            }
+        }
+        step *= 0.5;
+    }
+    let a = best.to_radians();
+    Vec3::new(a.cos(), a.sin(), 0.0)
+}
+
+/// Find the roles of a skeleton's bones (see the module doc). Fails with
+/// [`Error::NoBones`] naming what is missing when no legs or no head can be found.
+pub fn detect_roles(
+    heads: &[[f32; 3]],
+    tails: &[[f32; 3]],
+    parents: &[i32],
+    names: &[String],
+) -> Result<Roles> {
+    validate(heads, tails, parents, names)?;
+    let n = heads.len();
+    let tree = build_tree(parents);
+    let kids = &tree.children;
+    let h = |b: usize| v(heads[b]);
+    let t = |b: usize| v(tails[b]);
+
+    let pts: Vec<Vec3> = tree.order.iter().flat_map(|&b| [h(b), t(b)]).collect();
+    let ground = pts.iter().map(|p| p.z).fold(f32::INFINITY, f32::min);
+    let top = pts.iter().map(|p| p.z).fold(f32::NEG_INFINITY, f32::max);
+    let height = top - ground;
+    let lo = pts.iter().fold(Vec3::splat(f32::INFINITY), |a, &p| a.min(p));
+    let hi = pts.iter().fold(Vec3::splat(f32::NEG_INFINITY), |a, &p| a.max(p));
+    let size = (hi - lo).length();
+    if !(height > 1e-6 * size.max(1e-30)) || height <= 0.0 {
+        return Err(Error::NoBones(
+            "no legs: the skeleton is flat (no height along +Z), so no chain reaches down to the ground"
+                .into(),
+        ));
+    }
+
+    // ---- legs: bottom-up foot counts over the main tree
+    let mut low = vec![f32::INFINITY; n]; // lowest z in the subtree
+    let mut feet = vec![0usize; n];
+    let mut long_kids: Vec<Vec<usize>> = vec![Vec::new(); n];
+    for &b in tree.order.iter().rev() {
+        low[b] = h(b).z.min(t(b).z);
+        for &c in &kids[b] {
+            low[b] = low[b].min(low[c]);
+        }
+        if kids[b].is_empty() {
+            let near = low[b] - ground <= GROUND_FRACTION * height;
+            feet[b] = usize::from(near && !lower(names, b).contains("tail"));
+            continue;
+        }
+        let longs: Vec<usize> = kids[b]
+            .iter()
+            .copied()
+            .filter(|&c| feet[c] > 0 && h(c).z - low[c] >= LONG_FRACTION * height)
+            .collect();
+        feet[b] = match longs.len() {
+            0 => usize::from(kids[b].iter().any(|&c| feet[c] > 0)),
+            1 => feet[longs[0]],
+            _ => longs.iter().map(|&c| feet[c]).sum(),
+        };
+        long_kids[b] = longs;
+    }
+    let mut leg_tops = Vec::new();
+    for &b in &tree.order {
+        if long_kids[b].len() >= 2 {
+            leg_tops.extend(long_kids[b].iter().copied().filter(|&c| feet[c] == 1));
+        }
+    }
+    if leg_tops.is_empty() {
+        return Err(Error::NoBones(format!(
+            "no legs: no two bone chains branch off the body and reach down to the lowest point \
+             (within {:.0}% of the skeleton's height)",
+            GROUND_FRACTION * 100.0
+        )));
+    }
+    let leg_chain = |top: usize| {
+        let mut chain = vec![top];
+        let mut cur = top;
+        loop {
+            let next = kids[cur]
+                .iter()
+                .copied()
+                .filter(|&c| feet[c] > 0)
+                .max_by(|&a, &b| {
+                    let ka = (h(cur).z - low[a], (t(a) - h(a)).length());
+                    let kb = (h(cur).z - low[b], (t(b) - h(b)).length());
+                    ka.partial_cmp(&kb).unwrap_or(std::cmp::Ordering::Equal)
+                });
+            match next {
+                Some(c) => {
+                    chain.push(c);
+                    cur = c;
+                }
+                None => break,
+            }
+        }
+        chain
+    };
+    let leg_chains: Vec<Vec<usize>> = leg_tops.iter().map(|&b| leg_chain(b)).collect();
+    let mut in_leg = vec![false; n];
+    for &top in &leg_tops {
+        let mut stack = vec![top];
+        while let Some(b) = stack.pop() {
+            in_leg[b] = true;
+            stack.extend(&kids[b]);
+        }
+    }
+
+    // ---- sagittal plane and midline
+    let centre = pts.iter().copied().sum::<Vec3>() / pts.len() as f32;
+    let normal = mirror_normal(&pts, centre);
+    let lateral = |p: Vec3| (p - centre).dot(normal);
+    let tol = MIDLINE_FRACTION * height;
+    let midline = |b: usize| lateral(h(b)).abs() <= tol && lateral(t(b)).abs() <= tol;
+
+    // ---- head leaf and body axis
+    let ancestors = |b: usize| {
+        let mut path = vec![b];
+        let mut cur = parents[b];
+        while cur >= 0 {
+            path.push(cur as usize);
+            cur = parents[cur as usize];
+        }
+        path.reverse();
+        path
+    };
+    const HEAD_WORDS: [&str; 5] = ["head", "neck", "jaw", "skull", "face"];
+    let head_leaf = tree
+        .order
+        .iter()
+        .copied()
+        .filter(|&b| kids[b].is_empty() && !in_leg[b] && midline(b) && b != tree.root)
+        .map(|b| {
+            let mut score = (h(b).z.max(t(b).z) - ground) / height;
+            let path = ancestors(b);
+            if path.iter().rev().take(4).any(|&a| HEAD_WORDS.iter().any(|w| lower(names, a).contains(w))) {
+                score += 1.0;
+            }
+            if lower(names, b).contains("tail") {
+                score -= 1.0;
+            }
+            (b, score)
+        })
+        .max_by(|a, b| a.1.partial_cmp(&b.1).unwrap_or(std::cmp::Ordering::Equal))
+        .map(|(b, _)| b);
+    let Some(head_leaf) = head_leaf else {
+        return Err(Error::NoBones(
+            "no head: no bone chain runs along the body's middle away from the legs".into(),
+        ));
+    };
+    let axis = ancestors(head_leaf);
+    let on_axis = {
+        let mut f = vec![false; n];
+        for &b in &axis {
+            f[b] = true;
+        }
+        f
+    };
+
+    // ---- arms: paired non-midline chains hanging off the axis
+    let chain_down = |top: usize| {
+        // follow the child with the longest chain below it
+        let mut reach = vec![0.0f32; n];
+        for &b in tree.order.iter().rev() {
+            let below = kids[b].iter().map(|&c| reach[c]).fold(0.0, f32::max);
+            reach[b] = (t(b) - h(b)).length() + below;
+        }
+        let mut chain = vec![top];
+        let mut cur = top;
+        while let Some(&c) = kids[cur]
+            .iter()
+            .max_by(|&&a, &&b| reach[a].partial_cmp(&reach[b]).unwrap_or(std::cmp::Ordering::Equal))
+        {
+            chain.push(c);
+            cur = c;
+        }
+        (chain, reach[top])
+    };
+    let mut arm_cands: Vec<(usize, Vec<usize>)> = Vec::new(); // (axis index, chain)
+    for (i, &a) in axis.iter().enumerate() {
+        for &c in &kids[a] {
+            if on_axis[c] || in_leg[c] || midline(c) {
+                continue;
+            }
+            let (chain, reach) = chain_down(c);
+            if chain.len() >= 2 && reach >= ARM_FRACTION * height {
+                arm_cands.push((i, chain));
+            }
+        }
+    }
+    // keep those with a partner on the other side of the plane
+    let arm_side = |chain: &Vec<usize>| lateral(t(*chain.last().unwrap())).signum();
+    let arm_chains: Vec<(usize, Vec<usize>)> = arm_cands
+        .iter()
+        .filter(|(_, c)| arm_cands.iter().any(|(_, d)| arm_side(d) == -arm_side(c) && arm_side(c) != 0.0))
+        .cloned()
+        .collect();
+    let is_arm_top = |b: usize| arm_chains.iter().any(|(_, c)| c[0] == b);
+
+    // ---- head bone on the axis
+    let named_head = axis.iter().position(|&b| {
+        let s = lower(names, b);
+        s.contains("head") && !s.ends_with("end") && !s.contains("top")
+    });
+    let leaf_parent = parents[head_leaf];
+    let mut hi_idx = match named_head {
+        Some(i) => i,
+        None => {
+            let siblings_non_limb = leaf_parent >= 0
+                && kids[leaf_parent as usize]
+                    .iter()
+                    .any(|&c| c != head_leaf && !in_leg[c] && !is_arm_top(c));
+            if siblings_non_limb { axis.len() - 2 } else { axis.len() - 1 }
+        }
+    };
+    // deepest axis bone carrying a limb, before the head
+    let carries_limb = |b: usize| {
+        kids[b].iter().any(|&c| leg_tops.contains(&c) || is_arm_top(c))
+            || leg_tops.iter().any(|&top| {
+                // a leg hanging off a side branch (e.g. hips beside the spine) counts at the
+                // axis bone the branch leaves from
+                let p = ancestors(top);
+                let last_on_axis = p.iter().rev().find(|&&x| on_axis[x]).copied();
+                last_on_axis == Some(b)
+            })
+    };
+    let mut s_idx = (0..axis.len()).filter(|&i| i < hi_idx && carries_limb(axis[i])).max().unwrap_or(0);
+    if hi_idx == 0 {
+        if axis.len() < 2 {
+            return Err(Error::NoBones("no head: the body axis has a single bone".into()));
+        }
+        hi_idx = axis.len() - 1;
+    }
+    if s_idx >= hi_idx {
+        s_idx = hi_idx - 1;
+    }
+    let spine: Vec<usize> = axis[..=s_idx].to_vec();
+    let neck: Vec<usize> = axis[s_idx + 1..hi_idx].to_vec();
+    let head = axis[hi_idx];
+    let mut head_extras = Vec::new();
+    let mut stack: Vec<usize> = kids[head].clone();
+    while let Some(b) = stack.pop() {
+        head_extras.push(b);
+        stack.extend(&kids[b]);
+    }
+    head_extras.sort_unstable();
+
+    // ---- forward, left
+    let up = Vec3::Z;
+    let mut notes = Vec::new();
+    let along = up.cross(normal).normalize();
+    let leg_top_mean = leg_tops.iter().map(|&b| h(b)).sum::<Vec3>() / leg_tops.len() as f32;
+    let mut to_head = h(head) - leg_top_mean;
+    to_head.z = 0.0;
+    let mut forward = if to_head.dot(along).abs() >= 0.1 * height {
+        along * to_head.dot(along).signum()
+    } else {
+        let feet_dir: Vec3 = leg_chains.iter().map(|c| t(*c.last().unwrap()) - h(*c.last().unwrap())).sum();
+        let d = feet_dir.dot(along);
+        if d.abs() >= 0.02 * height {
+            along * d.signum()
+        } else {
+            notes.push("forward direction guessed as Blender's -Y (no head offset, flat feet)".into());
+            let s = along.dot(Vec3::NEG_Y);
+            along * if s < 0.0 { -1.0 } else { 1.0 }
+        }
+    };
+    let mut left = up.cross(forward).normalize();
+
+    // ---- sides from geometry, checked against names
+    let limb_side = |chain: &[usize], left: Vec3| {
+        let m = chain.iter().map(|&b| (h(b) + t(b)) * 0.5).sum::<Vec3>() / chain.len() as f32;
+        if (m - centre).dot(left) >= 0.0 { Side::Left } else { Side::Right }
+    };
+    let (mut agree, mut disagree) = (0, 0);
+    for c in &leg_chains {
+        let geo = limb_side(c, left);
+        if let Some(named) = c.iter().find_map(|&b| names.get(b).and_then(|s| name_side(s))) {
+            if named == geo { agree += 1 } else { disagree += 1 }
+        }
+    }
+    if disagree > 0 && agree == 0 && to_head.dot(along).abs() < 0.1 * height {
+        // a biped whose forward was a guess: trust the names
+        forward = -forward;
+        left = -left;
+        notes.push("forward direction taken from the .L/.R bone names".into());
+    } else if disagree > 0 {
+        notes.push(format!(
+            "{disagree} leg(s) named for the other side than where they are; roles follow the geometry"
+        ));
+    }
+
+    // ---- leg groups along the spine (front first)
+    let proj: Vec<f32> = leg_tops.iter().map(|&b| h(b).dot(forward)).collect();
+    let mut order: Vec<usize> = (0..leg_tops.len()).collect();
+    order.sort_by(|&a, &b| proj[b].partial_cmp(&proj[a]).unwrap_or(std::cmp::Ordering::Equal));
+    let mut group_of = vec![0usize; leg_tops.len()];
+    let mut g = 0;
+    for w in 1..order.len() {
+        if proj[order[w - 1]] - proj[order[w]] > 0.15 * height {
+            g += 1;
+        }
+        group_of[order[w]] = g;
+    }
+    let groups = g + 1;
+    let mut legs: Vec<Limb> = order
+        .iter()
+        .map(|&i| Limb { bones: leg_chains[i].clone(), side: limb_side(&leg_chains[i], left), group: group_of[i] })
+        .collect();
+    legs.sort_by_key(|l| (l.group, l.side == Side::Right));
+    let arms: Vec<Limb> = arm_chains
+        .iter()
+        .filter(|(i, _)| *i <= s_idx)
+        .map(|(_, c)| Limb { bones: c.clone(), side: limb_side(c, left), group: 0 })
+        .collect();
+    let plan = match (legs.len(), groups) {
+        (2, _) => BodyPlan::Biped,
+        (4, 2) if legs.iter().filter(|l| l.group == 0).count() == 2 => BodyPlan::Quadruped,
+        _ => BodyPlan::Multiped,
+    };
+
+    // ---- tail: a midline chain off the spine pointing backwards
+    let mut tail = Vec::new();
+    let mut best = 0.0f32;
+    for &sb in &spine {
+        for &c in &kids[sb] {
+            if on_axis[c] || in_leg[c] || is_arm_top(c) || !midline(c) {
+                continue;
+            }
+            let (chain, _) = chain_down(c);
+            let back = (h(c) - t(*chain.last().unwrap())).dot(forward);
+            if back > best && back > 0.05 * height {
+                best = back;
+                tail = chain.into_iter().filter(|&b| midline(b)).collect();
+            }
+        }
+    }
+
+    let leg_length = legs.iter().map(|l| h(l.bones[0]).z - low[l.bones[0]]).sum::<f32>() / legs.len() as f32;
+    Ok(Roles {
+        root: tree.root,
+        spine,
+        neck,
+        head,
+        head_extras,
+        tail,
+        legs,
+        arms,
+        plan,
+        up: up.to_array(),
+        forward: forward.to_array(),
+        left: left.to_array(),
+        ground,
+        height,
+        leg_length,
+        notes,
+    })
+}
+
+#[cfg(test)]
+pub(crate) mod tests {
+    use super::*;
+
+    /// The add-on's generated quadruped (scripts/creature.py), faces -Y.
+    pub fn creature() -> (Vec<String>, Vec<[f32; 3]>, Vec<[f32; 3]>, Vec<i32>) {
+        let mut joints: Vec<(&str, [f32; 3])> = vec![
+            ("hips", [0.0, 0.55, 1.00]),
+            ("spine", [0.0, 0.05, 1.05]),
+            ("chest", [0.0, -0.45, 1.08]),
+            ("neck", [0.0, -0.75, 1.38]),
+            ("head", [0.0, -0.95, 1.58]),
+            ("snout", [0.0, -1.30, 1.50]),
+            ("tail1", [0.0, 0.85, 1.08]),
+            ("tail2", [0.0, 1.15, 1.20]),
+            ("tail3", [0.0, 1.40, 1.22]),
+            ("ear.L", [0.12, -0.92, 1.85]),
+            ("ear.R", [-0.12, -0.92, 1.85]),
+        ];
+        let sides: [(&str, f32); 2] = [("L", 0.24), ("R", -0.24)];
+        let mut owned: Vec<(String, [f32; 3])> = joints.drain(..).map(|(a, p)| (a.to_string(), p)).collect();
+        for (s, x) in sides {
+            for (j, p) in [
+                ("shoulder", [x, -0.45, 0.95]),
+                ("elbow", [x, -0.48, 0.55]),
+                ("wrist", [x, -0.45, 0.12]),
+                ("fronttoe", [x, -0.60, 0.05]),
+                ("hip", [x, 0.55, 0.92]),
+                ("knee", [x, 0.62, 0.55]),
+                ("ankle", [x, 0.52, 0.12]),
+                ("hindtoe", [x, 0.38, 0.05]),
+            ] {
+                owned.push((format!("{j}.{s}"), p));
+            }
+        }
+        let jp = |name: &str| owned.iter().find(|(n, _)| n == name).unwrap().1;
+        let mut bones: Vec<(String, String, String, Option<String>)> = vec![
+            ("spine", "hips", "spine", None),
+            ("chest", "spine", "chest", Some("spine")),
+            ("neck", "chest", "neck", Some("chest")),
+            ("head", "neck", "head", Some("neck")),
+            ("jaw", "head", "snout", Some("head")),
+            ("tail.001", "hips", "tail1", Some("spine")),
+            ("tail.002", "tail1", "tail2", Some("tail.001")),
+            ("tail.003", "tail2", "tail3", Some("tail.002")),
+            ("ear.L", "head", "ear.L", Some("head")),
+            ("ear.R", "head", "ear.R", Some("head")),
+        ]
+        .into_iter()
+        .map(|(a, b, c, d)| (a.into(), b.into(), c.into(), d.map(String::from)))
+        .collect();
+        for s in ["L", "R"] {
+            let f = |x: &str| format!("{x}.{s}");
+            bones.extend([
+                (f("upper_arm"), f("shoulder"), f("elbow"), Some("chest".to_string())),
+                (f("forearm"), f("elbow"), f("wrist"), Some(f("upper_arm"))),
+                (f("hand"), f("wrist"), f("fronttoe"), Some(f("forearm"))),
+                (f("thigh"), f("hip"), f("knee"), Some("spine".to_string())),
+                (f("shin"), f("knee"), f("ankle"), Some(f("thigh"))),
+                (f("foot"), f("ankle"), f("hindtoe"), Some(f("shin"))),
+            ]);
+        }
+        let names: Vec<String> = bones.iter().map(|b| b.0.clone()).collect();
+        let idx = |n: &str| names.iter().position(|x| x == n).unwrap() as i32;
+        let heads = bones.iter().map(|b| jp(&b.1)).collect();
+        let tails = bones.iter().map(|b| jp(&b.2)).collect();
+        let parents = bones.iter().map(|b| b.3.as_deref().map_or(-1, idx)).collect();
+        (names, heads, tails, parents)
+    }
+
+    /// A simple human, facing -Y, arms down: hips root, 3 spine bones, neck, head,
+    /// clavicle/upper arm/forearm/hand, thigh/shin/foot/toe.
+    pub fn biped() -> (Vec<String>, Vec<[f32; 3]>, Vec<[f32; 3]>, Vec<i32>) {
+        let mut b: Vec<(String, [f32; 3], [f32; 3], Option<String>)> = vec![
+            ("hips".into(), [0.0, 0.0, 1.0], [0.0, 0.0, 1.1], None),
+            ("spine".into(), [0.0, 0.0, 1.1], [0.0, 0.0, 1.3], Some("hips".into())),
+            ("chest".into(), [0.0, 0.0, 1.3], [0.0, 0.0, 1.5], Some("spine".into())),
+            ("neck".into(), [0.0, 0.0, 1.5], [0.0, 0.0, 1.6], Some("chest".into())),
+            ("head".into(), [0.0, 0.0, 1.6], [0.0, 0.0, 1.8], Some("neck".into())),
+        ];
+        for (s, x) in [("L", 1.0f32), ("R", -1.0)] {
+            let f = |n: &str| format!("{n}.{s}");
+            b.extend([
+                (f("shoulder"), [0.02 * x, 0.0, 1.45], [0.18 * x, 0.0, 1.45], Some("chest".into())),
+                (f("upper_arm"), [0.18 * x, 0.0, 1.45], [0.2 * x, 0.0, 1.17], Some(f("shoulder"))),
+                (f("forearm"), [0.2 * x, 0.0, 1.17], [0.21 * x, -0.02, 0.92], Some(f("upper_arm"))),
+                (f("hand"), [0.21 * x, -0.02, 0.92], [0.21 * x, -0.02, 0.75], Some(f("forearm"))),
+                (f("thigh"), [0.1 * x, 0.0, 1.0], [0.1 * x, -0.02, 0.52], Some("hips".into())),
+                (f("shin"), [0.1 * x, -0.02, 0.52], [0.1 * x, 0.0, 0.08], Some(f("thigh"))),
+                (f("foot"), [0.1 * x, 0.0, 0.08], [0.1 * x, -0.14, 0.02], Some(f("shin"))),
+                (f("toe"), [0.1 * x, -0.14, 0.02], [0.1 * x, -0.2, 0.02], Some(f("foot"))),
+            ]);
+        }
+        let names: Vec<String> = b.iter().map(|x| x.0.clone()).collect();
+        let idx = |n: &str| names.iter().position(|x| x == n).unwrap() as i32;
+        let parents = b.iter().map(|x| x.3.as_deref().map_or(-1, idx)).collect();
+        (names.clone(), b.iter().map(|x| x.1).collect(), b.iter().map(|x| x.2).collect(), parents)
+    }
+
+    fn named(names: &[String], ids: &[usize]) -> Vec<String> {
+        ids.iter().map(|&i| names[i].clone()).collect()
+    }
+
+    fn leg(names: &[String], r: &Roles, side: Side, group: usize) -> Vec<String> {
+        let l = r.legs.iter().find(|l| l.side == side && l.group == group).expect("leg");
+        named(names, &l.bones)
+    }
+
+    #[test]
+    fn quadruped_roles() {
+        let (names, h, t, p) = creature();
+        let r = detect_roles(&h, &t, &p, &names).unwrap();
+        assert_eq!(r.plan, BodyPlan::Quadruped);
+        assert_eq!(named(&names, &r.spine), ["spine", "chest"]);
+        assert_eq!(named(&names, &r.neck), ["neck"]);
+        assert_eq!(names[r.head], "head");
+        assert_eq!(named(&names, &r.head_extras).len(), 3);
+        assert_eq!(named(&names, &r.tail), ["tail.001", "tail.002", "tail.003"]);
+        assert_eq!(leg(&names, &r, Side::Left, 0), ["upper_arm.L", "forearm.L", "hand.L"]);
+        assert_eq!(leg(&names, &r, Side::Right, 0), ["upper_arm.R", "forearm.R", "hand.R"]);
+        assert_eq!(leg(&names, &r, Side::Left, 1), ["thigh.L", "shin.L", "foot.L"]);
+        assert_eq!(leg(&names, &r, Side::Right, 1), ["thigh.R", "shin.R", "foot.R"]);
+        assert!(r.arms.is_empty());
+        assert!((Vec3::from(r.forward) - Vec3::NEG_Y).length() < 1e-3, "{:?}", r.forward);
+        assert!((Vec3::from(r.left) - Vec3::X).length() < 1e-3);
+        assert!(r.notes.is_empty(), "{:?}", r.notes);
+    }
+
+    #[test]
+    fn quadruped_roles_without_names_and_turned() {
+        // same creature rotated 90° about Z (faces +X), names hidden
+        let (names, h, t, p) = creature();
+        let rot = |q: [f32; 3]| [-q[1], q[0], q[2]];
+        let h: Vec<_> = h.into_iter().map(rot).collect();
+        let t: Vec<_> = t.into_iter().map(rot).collect();
+        let r = detect_roles(&h, &t, &p, &[]).unwrap();
+        assert_eq!(r.plan, BodyPlan::Quadruped);
+        assert!((Vec3::from(r.forward) - Vec3::X).length() < 1e-3, "{:?}", r.forward);
+        assert_eq!(named(&names, &r.spine), ["spine", "chest"]);
+        assert_eq!(names[r.head], "head");
+        assert_eq!(leg(&names, &r, Side::Left, 0)[0], "upper_arm.L");
+        assert_eq!(leg(&names, &r, Side::Right, 1)[0], "thigh.R");
+    }
+
+    #[test]
+    fn biped_roles() {
+        let (names, h, t, p) = biped();
+        let r = detect_roles(&h, &t, &p, &names).unwrap();
+        assert_eq!(r.plan, BodyPlan::Biped);
+        assert_eq!(named(&names, &r.spine), ["hips", "spine", "chest"]);
+        assert_eq!(named(&names, &r.neck), ["neck"]);
+        assert_eq!(names[r.head], "head");
+        assert_eq!(leg(&names, &r, Side::Left, 0), ["thigh.L", "shin.L", "foot.L", "toe.L"]);
+        assert_eq!(leg(&names, &r, Side::Right, 0)[0], "thigh.R");
+        assert_eq!(r.arms.len(), 2);
+        let la = r.arms.iter().find(|a| a.side == Side::Left).unwrap();
+        assert_eq!(named(&names, &la.bones)[..3], ["shoulder.L", "upper_arm.L", "forearm.L"]);
+        assert!((Vec3::from(r.forward) - Vec3::NEG_Y).length() < 1e-3, "{:?}", r.forward);
+        assert!((r.leg_length - 0.98).abs() < 1e-3, "{}", r.leg_length);
+        // without names too
+        let r2 = detect_roles(&h, &t, &p, &[]).unwrap();
+        assert_eq!(names[r2.head], "head");
+        assert_eq!(r2.legs.len(), 2);
+    }
+
+    #[test]
+    fn no_legs_is_a_clear_error() {
+        let h = vec![[0.0, 0.0, 1.0], [0.0, 0.0, 2.0]];
+        let t = vec![[0.0, 0.0, 2.0], [0.0, 0.0, 3.0]];
+        let err = detect_roles(&h, &t, &[-1, 0], &[]).unwrap_err();
+        assert!(err.to_string().contains("no legs"), "{err}");
+    }
+
+    #[test]
+    fn no_head_is_a_clear_error() {
+        // a hip bone with two legs and nothing else
+        let h = vec![[-0.2, 0.0, 1.0], [-0.2, 0.0, 1.0], [0.2, 0.0, 1.0]];
+        let t = vec![[0.2, 0.0, 1.0], [-0.2, 0.0, 0.0], [0.2, 0.0, 0.0]];
+        let err = detect_roles(&h, &t, &[-1, 0, 0], &[]).unwrap_err();
+        assert!(err.to_string().contains("no head"), "{err}");
+    }
+
+    #[test]
+    fn bad_input_is_rejected() {
+        assert!(detect_roles(&[], &[], &[], &[]).is_err());
+        let h = vec![[0.0; 3], [0.0, 0.0, 1.0]];
+        let t = vec![[0.0, 0.0, 1.0], [0.0, 0.0, 2.0]];
+        assert!(matches!(detect_roles(&h, &t, &[1, 0], &[]), Err(Error::InvalidArgument(_))));
+        assert!(matches!(detect_roles(&h, &t, &[-1], &[]), Err(Error::Shape(_))));
+        let nan = vec![[f32::NAN; 3], [0.0; 3]];
+        assert!(matches!(detect_roles(&nan, &t, &[-1, 0], &[]), Err(Error::NonFinite { .. })));
+    }
+
+    #[test]
+    fn name_sides() {
+        assert_eq!(name_side("thigh.L"), Some(Side::Left));
+        assert_eq!(name_side("R_foot"), Some(Side::Right));
+        assert_eq!(name_side("LeftUpLeg"), Some(Side::Left));
+        assert_eq!(name_side("spine"), None);
+    }
+}
