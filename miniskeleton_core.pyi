@@ -98,3 +98,23 @@ def fit_joints(vertices: ArrayLike, triangles: ArrayLike, joints: ArrayLike, bon
 
 def points_inside(vertices: ArrayLike, triangles: ArrayLike, points: ArrayLike) -> npt.NDArray[np.bool_]:
     """(p,) bool: points inside the closed mesh by ray parity (majority of 7 directions)."""
+
+# ---------------------------------------------------------------------------- motion
+
+def detect_roles(bone_heads: ArrayLike, bone_tails: ArrayLike, parents: ArrayLike,
+                 names: Optional[list[str]] = None) -> dict:
+    """Bone roles found from the geometry (+Z up), names as hints: {root, spine, neck, head,
+    head_extras, tail, legs, arms ([{bones, side 'L'|'R', group (0 = front)}]), plan
+    ('biped'|'quadruped'|'multiped'), up, forward, left, ground, height, leg_length, notes}.
+    ValueError saying 'no legs' / 'no head' when those cannot be found."""
+
+def make_motion(
+    bone_heads: ArrayLike, bone_tails: ArrayLike, parents: ArrayLike, rest_matrices: ArrayLike,
+    motion: str = "WALK", *, names: Optional[list[str]] = None, fps: float = 24.0,
+    cycles: float = 2.0, duration: float = 2.0, amplitude: float = 0.5236, stride: float = 1.0,
+    speed: float = 1.0, root_motion: bool = True,
+) -> dict:
+    """'HEAD_SHAKE', 'WALK' or 'RUN' for a skeleton. rest_matrices (b,3,3): rest orientation per
+    bone (columns = bone X, Y, Z) in the heads' space. Returns {rotations (frames,b,4) float32
+    local quaternions w,x,y,z; root_offset (frames,3) float32; animated (k,) int32; moves_root;
+    frames; frames_per_cycle; roles}."""

@@ -29,3 +29,7 @@ pub mod ik2d;
 
 // Skeleton.
 pub mod fit;
+
+// Motion.
+pub mod roles;
+pub mod gait;

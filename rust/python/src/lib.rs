@@ -4,6 +4,7 @@
 
 mod convert;
 mod error;
+mod motion;
 mod posing;
 mod primitives;
 mod skeleton;
@@ -24,5 +25,6 @@ fn miniskeleton_core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(primitives::split_flat, m)?)?;
     posing::register(m)?;
     skeleton::register(m)?;
+    motion::register(m)?;
     Ok(())
 }
