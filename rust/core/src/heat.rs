@@ -11,9 +11,10 @@
 //!
 //! Robustness on top of the paper: coordinates are normalized (scale-free), coincident
 //! vertices are welded (split seams), degenerate faces dropped, pieces that see no bone use
-//! the nearest bone by distance, small such pieces become rigid accessories, isolated
-//! vertices take their nearest bone, and the factorization retries with more regularization
-//! and finally falls back to nearest-bone weights instead of failing.
+//! the nearest bone by distance, pieces with no bone inside them (eyes, buttons, a held
+//! prop) become rigid accessories, isolated vertices take their nearest bone, and the
+//! factorization retries with more regularization and finally falls back to nearest-bone
+//! weights instead of failing. Small weights are dropped with Blender's continuous ramp.
 
 use crate::cotan::{cotan_laplacian, stiffness_lower_csc, triangle_cotangents};
 use crate::idw::bones_in_frame;
@@ -61,6 +62,18 @@ pub struct HeatOptions {
     pub heat_constant: f32,
     /// Optional symmetric averaging. Default `None`.
     pub symmetry: Option<Symmetry>,
+    /// Small-weight ramp (Blender's bone heat): a solved weight `w < weight_limit_end` becomes
+    /// 0, one in `[weight_limit_end, weight_limit_start)` becomes
+    /// `weight_limit_start (w - end) / (start - end)` (continuous, from 0 up to `start`), larger
+    /// ones are kept; rows are then normalized. `0 <= end <= start < 1`; `start = end = 0`
+    /// disables it. Defaults 0.05 and 0.025 (Blender's `WEIGHT_LIMIT_START` / `_END`).
+    pub weight_limit_start: f32,
+    /// See [`weight_limit_start`](Self::weight_limit_start). Default 0.025.
+    pub weight_limit_end: f32,
+    /// Bind accessory pieces rigidly: a piece of the welded mesh with no bone inside it (an
+    /// eye, a button, a held prop), no larger than half the skeleton, goes 100% to the bone
+    /// nearest to its centre; see [`heat_weights`]. Default true.
+    pub rigid_accessories: bool,
 }
 
 impl Default for HeatOptions {
@@ -72,6 +85,9 @@ impl Default for HeatOptions {
             weld_tolerance: 1e-5,
             heat_constant: 1.0,
             symmetry: None,
+            weight_limit_start: WEIGHT_LIMIT_START,
+            weight_limit_end: WEIGHT_LIMIT_END,
+            rigid_accessories: true,
         }
     }
 }
@@ -83,9 +99,12 @@ pub struct HeatReport {
     pub pieces: usize,
     /// Pieces where no vertex could see a bone (nearest bone by distance used instead).
     pub fallback_pieces: usize,
-    /// Fallback pieces small enough to be bound rigidly to their nearest bone
-    /// (bbox diagonal <= that bone's length).
+    /// Pieces bound rigidly (100%) to one bone (shared only on an exact tie): accessories
+    /// (no bone inside, see [`heat_weights`]) and fallback pieces no larger than their
+    /// nearest bone.
     pub rigid_pieces: usize,
+    /// Pieces with no bone inside them (0 when the test is off).
+    pub boneless_pieces: usize,
     /// Input vertices merged into another one by welding (`n - welded count`).
     pub welded_vertices: usize,
     /// Vertices in no usable triangle (bound 100% to their nearest bone).
@@ -103,6 +122,28 @@ pub struct HeatReport {
 
 /// Relative distance within which two visible bones tie (Pinocchio uses 1.0001).
 pub const TIE_RATIO: f64 = 1.0001;
+/// Default [`HeatOptions::weight_limit_start`] (Blender's `WEIGHT_LIMIT_START`).
+pub const WEIGHT_LIMIT_START: f32 = 0.05;
+/// Default [`HeatOptions::weight_limit_end`] (Blender's `WEIGHT_LIMIT_END`).
+pub const WEIGHT_LIMIT_END: f32 = 0.025;
+/// Fixed generic directions of the ray-parity inside test: the first 3 for closed pieces
+/// (majority 2 of 3), all 7 for open ones (majority 4 of 7, see [`heat_weights`]).
+const PARITY_DIRS: [[f32; 3]; 7] = [
+    [0.48, 0.62, 0.62],
+    [-0.70, 0.31, 0.64],
+    [0.21, -0.89, 0.40],
+    [-0.37, -0.52, -0.77],
+    [0.83, 0.12, -0.54],
+    [-0.15, 0.95, -0.27],
+    [-0.91, -0.33, 0.25],
+];
+/// Positions along a bone (fractions head -> tail) tested by the inside test; a bone is
+/// inside a piece when at least [`BONE_INSIDE_SAMPLES`] of them are.
+const BONE_SAMPLES: [f64; 5] = [0.0, 0.25, 0.5, 0.75, 1.0];
+/// See [`BONE_SAMPLES`]: a majority, so a fingertip poking into a held prop does not count.
+const BONE_INSIDE_SAMPLES: usize = 3;
+/// An accessory is at most this fraction of the skeleton's bbox diagonal.
+const ACCESSORY_SIZE: f64 = 0.5;
 /// Minimum vertex-to-bone distance used in `H = c / d^2`, in bbox diagonals.
 pub const MIN_DISTANCE: f64 = 1e-5;
 /// Diagonal regularizations tried in turn: `A_ii += r (L_ii + M_ii)`.
@@ -141,7 +182,25 @@ struct Source {
 /// closest point to the vertex, stopped just short of the vertex, crosses no triangle;
 /// ties within [`TIE_RATIO`] share); fallback pieces and isolated vertices use the nearest
 /// bone; factor `L + M H` once and solve all bones; clip to `[0, 1]`; rigid pieces;
-/// symmetry; top-k per vertex; copy back to every input vertex.
+/// symmetry; small-weight ramp ([`weight_limit`]), top-k and normalization per vertex; copy
+/// back to every input vertex.
+///
+/// Rigid accessories (`opts.rigid_accessories`): a bone is *inside* a piece when at least 3 of
+/// 5 points along it (head, quarters, tail) are, so a fingertip poking into a held prop does
+/// not count; a point is inside when rays along a majority of fixed generic directions cross
+/// the piece's own triangles an odd number of times: 2 of 3 directions for a closed piece
+/// (every edge used an even number of times), 4 of 7 for an open one, for which parity is
+/// unreliable: a hole spoils only the rays that leave through it, so a sleeve or a hand open
+/// at the wrist still holds its bones, while a shell or a sheet (armour plate, eyelid) holds
+/// none. Then, with pieces no larger than half the skeleton's bbox diagonal:
+/// - if no piece holds a bone (the mesh is a prop, e.g. a held carrot), all pieces move as
+///   one rigid body on the bone nearest to their common centre of mass;
+/// - otherwise every piece that holds no bone, except the largest one (by area), is rigid on
+///   the bone nearest to its own centre of mass.
+///
+/// The centre of mass is that of the enclosed volume for closed pieces, else of the area.
+/// Exact ties (a piece on the mirror plane between a left and a right bone) share equally.
+/// A piece that sees no bone and is no larger than its nearest bone is rigid as well.
 ///
 /// Errors: empty mesh, non-finite coordinates ([`Error::NonFinite`] with the count), bad
 /// triangle index, no bones, invalid options, [`Error::Cancelled`]. Never fails on bad
@@ -183,6 +242,12 @@ pub fn heat_weights(
     }
     if !(opts.heat_constant.is_finite() && opts.heat_constant > 0.0) {
         return Err(Error::InvalidArgument(format!("heat_constant must be > 0, got {}", opts.heat_constant)));
+    }
+    let (ls, le) = (opts.weight_limit_start, opts.weight_limit_end);
+    if !(ls.is_finite() && le.is_finite() && 0.0 <= le && le <= ls && ls < 1.0) {
+        return Err(Error::InvalidArgument(format!(
+            "weight limits must satisfy 0 <= end <= start < 1, got start {ls}, end {le}"
+        )));
     }
     let b = heads.len();
     if let Some(s) = &opts.symmetry {
@@ -229,14 +294,15 @@ pub fn heat_weights(
     let csc = stiffness_lower_csc(nw, &cot.edges);
     let symbolic_mat = SymbolicSparseColMatRef::new_checked(nw, nw, &csc.col_ptr, None, &csc.row_idx);
     lap(&mut report, "stiffness");
-    let ((mut symbolic, t_sym), (sources, t_bvh, t_vis)) = rayon::join(
+    let need_rays = opts.visibility || opts.rigid_accessories;
+    let ((mut symbolic, t_sym), (sources, ray_mesh, t_bvh, t_vis)) = rayon::join(
         || {
             let s = Instant::now();
             (symbolic_factor(symbolic_mat), s.elapsed().as_secs_f64())
         },
         || {
             let s = Instant::now();
-            let ray_mesh = opts.visibility.then(|| {
+            let ray_mesh = need_rays.then(|| {
                 let wpos32: Vec<[f32; 3]> = wpos.par_iter().map(|p| p.as_vec3().to_array()).collect();
                 RayMesh::new(&wpos32, &tris)
             });
@@ -247,10 +313,10 @@ pub fn heat_weights(
                 .with_min_len(256)
                 .map_init(
                     || vec![0.0f64; b],
-                    |dist, x| nearest_visible_bone(*x, &bones, ray_mesh.as_ref(), dist),
+                    |dist, x| nearest_visible_bone(*x, &bones, ray_mesh.as_ref().filter(|_| opts.visibility), dist),
                 )
                 .collect_into_vec(&mut sources);
-            (sources, t_bvh, s.elapsed().as_secs_f64())
+            (sources, ray_mesh, t_bvh, s.elapsed().as_secs_f64())
         },
     );
     let mut sources = sources;
@@ -261,34 +327,39 @@ pub fn heat_weights(
     // 6. Pieces: fallback and rigid accessories; isolated vertices.
     let c = opts.heat_constant as f64;
     let mass = &cot.mass;
-    struct Piece {
-        active: bool,
-        sees: bool,
-        lo: DVec3,
-        hi: DVec3,
-        best: (f64, u32),
-    }
-    let mut pieces: Vec<Piece> = (0..npieces)
-        .map(|_| Piece {
-            active: false,
-            sees: false,
-            lo: DVec3::splat(f64::INFINITY),
-            hi: DVec3::splat(f64::NEG_INFINITY),
-            best: (f64::INFINITY, 0),
-        })
-        .collect();
-    for v in 0..nw {
-        let p = &mut pieces[labels[v] as usize];
-        p.active |= mass[v] > 0.0;
-        p.sees |= sources[v].count > 0;
-        p.lo = p.lo.min(wpos[v]);
-        p.hi = p.hi.max(wpos[v]);
-        if sources[v].nearest_dist < p.best.0 {
-            p.best = (sources[v].nearest_dist, sources[v].nearest);
+    let mut pieces = piece_stats(&labels, npieces, &wpos, &tris, mass, &sources);
+    let mut rigid: Vec<Option<Ties>> = vec![None; npieces];
+    // Accessories (see the doc of `heat_weights`).
+    if let (true, Some(rm)) = (opts.rigid_accessories, ray_mesh.as_ref()) {
+        let inside: Vec<bool> = (0..npieces)
+            .into_par_iter()
+            .map(|i| pieces[i].active && piece_contains_bone(rm, i as u32, &pieces[i], &bones, &labels, &tris))
+            .collect();
+        let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
+        for (h, t) in &bones {
+            lo = lo.min(h.min(*t));
+            hi = hi.max(h.max(*t));
+        }
+        let max_size = ACCESSORY_SIZE * (hi - lo).length();
+        let active: Vec<usize> = (0..npieces).filter(|&i| pieces[i].active).collect();
+        report.boneless_pieces = active.iter().filter(|&&i| !inside[i]).count();
+        let largest = active.iter().copied().max_by(|&a, &b| pieces[a].area.total_cmp(&pieces[b].area));
+        let union = active.iter().fold(PieceStats::default(), |u, &i| u.merged(&pieces[i]));
+        if !active.is_empty() && active.iter().all(|&i| !inside[i]) && union.size() <= max_size {
+            // A prop (the whole mesh holds no bone): one rigid body on one bone.
+            let ties = nearest_bones(union.centre(), &bones);
+            for &i in &active {
+                rigid[i] = Some(ties);
+            }
+        } else {
+            for &i in &active {
+                if !inside[i] && Some(i) != largest && pieces[i].size() <= max_size {
+                    rigid[i] = Some(nearest_bones(pieces[i].centre(), &bones));
+                }
+            }
         }
     }
-    let mut rigid_bone = vec![u32::MAX; npieces];
-    for (i, p) in pieces.iter().enumerate() {
+    for (i, p) in pieces.iter_mut().enumerate() {
         if !p.active {
             continue;
         }
@@ -296,11 +367,11 @@ pub fn heat_weights(
         if !p.sees {
             report.fallback_pieces += 1;
             let (h, t) = bones[p.best.1 as usize];
-            if (p.hi - p.lo).length() <= (t - h).length() {
-                report.rigid_pieces += 1;
-                rigid_bone[i] = p.best.1;
+            if rigid[i].is_none() && p.size() <= (t - h).length() {
+                rigid[i] = Some(Ties::one(p.best.1));
             }
         }
+        report.rigid_pieces += rigid[i].is_some() as usize;
     }
     // Fallback sources: nearest bone by distance for vertices of pieces that see nothing.
     sources.par_iter_mut().zip(labels.par_iter()).with_min_len(1024).for_each(|(s, &l)| {
@@ -389,18 +460,16 @@ pub fn heat_weights(
     drop(llt);
     lap(&mut report, "solve");
 
-    // 9. Rigid pieces and isolated vertices: 100% to one bone.
+    // 9. Rigid pieces and isolated vertices: 100% to one bone (or shared by exact ties).
     for v in 0..nw {
-        let bone = if mass[v] <= 0.0 {
-            sources[v].nearest
-        } else {
-            rigid_bone[labels[v] as usize]
-        };
-        if bone != u32::MAX {
+        let ties = if mass[v] <= 0.0 { Some(Ties::one(sources[v].nearest)) } else { rigid[labels[v] as usize] };
+        if let Some(t) = ties {
             for j in 0..b {
                 x[j * nw + v] = 0.0;
             }
-            x[bone as usize * nw + v] = 1.0;
+            for &j in &t.bones[..t.count as usize] {
+                x[j as usize * nw + v] = 1.0 / t.count as f64;
+            }
         }
     }
 
@@ -421,7 +490,11 @@ pub fn heat_weights(
         .enumerate()
         .with_min_len(1024)
         .for_each(|(v, (idx, w))| {
-            let used = top_k_row(|j| x[j * nw + v] as f32, b, opts.min_weight, idx, w);
+            let mut used = top_k_row(|j| weight_limit(x[j * nw + v] as f32, ls, le), b, opts.min_weight, idx, w);
+            if used == 0 {
+                // Every weight fell below the ramp (many equal bones): keep them unramped.
+                used = top_k_row(|j| x[j * nw + v] as f32, b, opts.min_weight, idx, w);
+            }
             if used == 0 {
                 idx[0] = sources[v].nearest as i32;
                 w[0] = 1.0;
@@ -443,6 +516,208 @@ pub fn heat_weights(
     report.timings.push(("total", t0.elapsed().as_secs_f64()));
     tick(1.0)?;
     Ok((out, report))
+}
+
+/// Blender's small-weight ramp (`heat_limit_weight`): 0 below `end`, linear from 0 to
+/// `start` on `[end, start)`, identity above; non-positive and NaN give 0.
+#[inline]
+pub fn weight_limit(w: f32, start: f32, end: f32) -> f32 {
+    if !(w > 0.0) || w < end {
+        0.0
+    } else if w < start {
+        start * (w - end) / (start - end)
+    } else {
+        w
+    }
+}
+
+/// Up to [`MAX_TIES`] bones sharing one role equally.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Ties {
+    bones: [u32; MAX_TIES],
+    count: u8,
+}
+
+impl Ties {
+    fn one(j: u32) -> Ties {
+        Ties { bones: [j, u32::MAX, u32::MAX, u32::MAX], count: 1 }
+    }
+}
+
+/// The bone(s) nearest to the point `p` (ties within [`TIE_RATIO`], lowest indices first).
+fn nearest_bones(p: DVec3, bones: &[(DVec3, DVec3)]) -> Ties {
+    let d: Vec<f64> = bones.iter().map(|(h, t)| closest_point_on_segment(p, *h, *t).1).collect();
+    let best = d.iter().copied().fold(f64::INFINITY, f64::min);
+    let mut out = Ties { bones: [u32::MAX; MAX_TIES], count: 0 };
+    for (j, &dj) in d.iter().enumerate() {
+        if dj <= best * TIE_RATIO + 1e-12 && (out.count as usize) < MAX_TIES {
+            out.bones[out.count as usize] = j as u32;
+            out.count += 1;
+        }
+    }
+    if out.count == 0 {
+        out = Ties::one(0);
+    }
+    out
+}
+
+/// Geometry of one connected piece (welded, unit frame).
+#[derive(Clone, Debug)]
+struct PieceStats {
+    /// Has a vertex with positive mass (a usable triangle).
+    active: bool,
+    /// Some vertex sees a bone.
+    sees: bool,
+    lo: DVec3,
+    hi: DVec3,
+    /// Nearest (distance, bone) over the piece's vertices, ignoring visibility.
+    best: (f64, u32),
+    area: f64,
+    /// Sum of triangle area times centroid.
+    area_moment: DVec3,
+    /// Signed enclosed volume and its first moment (meaningful when closed).
+    volume: f64,
+    volume_moment: DVec3,
+    /// Every edge is used by an even number of the piece's triangles.
+    closed: bool,
+}
+
+impl Default for PieceStats {
+    fn default() -> Self {
+        PieceStats {
+            active: false,
+            sees: false,
+            lo: DVec3::splat(f64::INFINITY),
+            hi: DVec3::splat(f64::NEG_INFINITY),
+            best: (f64::INFINITY, 0),
+            area: 0.0,
+            area_moment: DVec3::ZERO,
+            volume: 0.0,
+            volume_moment: DVec3::ZERO,
+            closed: true,
+        }
+    }
+}
+
+impl PieceStats {
+    /// Bounding-box diagonal.
+    fn size(&self) -> f64 {
+        if self.hi.x >= self.lo.x { (self.hi - self.lo).length() } else { 0.0 }
+    }
+
+    /// Centre of mass: of the enclosed volume for a closed piece with a volume, else of the
+    /// surface area, else of the bounding box.
+    fn centre(&self) -> DVec3 {
+        if self.closed && self.volume.abs() > 1e-9 * self.area.powf(1.5) {
+            self.volume_moment / self.volume
+        } else if self.area > 0.0 {
+            self.area_moment / self.area
+        } else {
+            0.5 * (self.lo + self.hi)
+        }
+    }
+
+    /// Two pieces as one body (volume terms of closed pieces do not depend on the reference
+    /// point, so they add).
+    fn merged(&self, o: &PieceStats) -> PieceStats {
+        PieceStats {
+            active: self.active || o.active,
+            sees: self.sees || o.sees,
+            lo: self.lo.min(o.lo),
+            hi: self.hi.max(o.hi),
+            best: if o.best.0 < self.best.0 { o.best } else { self.best },
+            area: self.area + o.area,
+            area_moment: self.area_moment + o.area_moment,
+            volume: self.volume + o.volume,
+            volume_moment: self.volume_moment + o.volume_moment,
+            closed: self.closed && o.closed,
+        }
+    }
+}
+
+/// Per-piece statistics: bbox, visibility, nearest bone, area, volume, closedness (an XOR of
+/// hashed edges per piece is 0 exactly when, up to hash collisions, every edge occurs an
+/// even number of times).
+fn piece_stats(
+    labels: &[u32],
+    npieces: usize,
+    wpos: &[DVec3],
+    tris: &[[u32; 3]],
+    mass: &[f64],
+    sources: &[Source],
+) -> Vec<PieceStats> {
+    let mut pieces = vec![PieceStats::default(); npieces];
+    for (v, &l) in labels.iter().enumerate() {
+        let p = &mut pieces[l as usize];
+        p.active |= mass[v] > 0.0;
+        p.sees |= sources[v].count > 0;
+        p.lo = p.lo.min(wpos[v]);
+        p.hi = p.hi.max(wpos[v]);
+        if sources[v].nearest_dist < p.best.0 {
+            p.best = (sources[v].nearest_dist, sources[v].nearest);
+        }
+    }
+    let mut xor = vec![0u64; npieces];
+    for t in tris {
+        let l = labels[t[0] as usize] as usize;
+        let p = &mut pieces[l];
+        let r = 0.5 * (p.lo + p.hi);
+        let [a, b, c] = t.map(|i| wpos[i as usize]);
+        let area = 0.5 * (b - a).cross(c - a).length();
+        p.area += area;
+        p.area_moment += area * (a + b + c) / 3.0;
+        let vol = (a - r).dot((b - r).cross(c - r)) / 6.0;
+        p.volume += vol;
+        p.volume_moment += vol * (r + a + b + c) / 4.0;
+        for k in 0..3 {
+            let (i, j) = (t[k].min(t[(k + 1) % 3]), t[k].max(t[(k + 1) % 3]));
+            xor[l] ^= splitmix64(((i as u64) << 32) | j as u64);
+        }
+    }
+    for (p, x) in pieces.iter_mut().zip(xor) {
+        p.closed = x == 0;
+    }
+    pieces
+}
+
+#[inline]
+fn splitmix64(x: u64) -> u64 {
+    let mut z = x.wrapping_add(0x9E37_79B9_7F4A_7C15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^ (z >> 31)
+}
+
+/// Does some bone lie inside piece `piece`? A bone is inside when at least
+/// [`BONE_INSIDE_SAMPLES`] of its [`BONE_SAMPLES`] are, and a point is inside when the rays
+/// from it along a majority of [`PARITY_DIRS`] (3 for a closed piece, 7 for an open one)
+/// cross the piece's own triangles an odd number of times.
+fn piece_contains_bone(
+    rm: &RayMesh,
+    piece: u32,
+    stats: &PieceStats,
+    bones: &[(DVec3, DVec3)],
+    labels: &[u32],
+    tris: &[[u32; 3]],
+) -> bool {
+    let ndirs = if stats.closed { 3 } else { 7 };
+    let dirs: Vec<Vec3> = PARITY_DIRS[..ndirs].iter().map(|d| Vec3::from_array(*d).normalize()).collect();
+    let pad = DVec3::splat(1e-6);
+    let (lo, hi) = (stats.lo - pad, stats.hi + pad);
+    let own = |k: u32| labels[tris[k as usize][0] as usize] == piece;
+    bones.iter().any(|(h, t)| {
+        let mut count = 0;
+        for (n, &s) in BONE_SAMPLES.iter().enumerate() {
+            if count + (BONE_SAMPLES.len() - n) < BONE_INSIDE_SAMPLES {
+                break;
+            }
+            let p = *h + (*t - *h) * s;
+            if p.cmpge(lo).all() && p.cmple(hi).all() && rm.odd_parity_count(p.as_vec3(), &dirs, 1e-4, own) > ndirs / 2 {
+                count += 1;
+            }
+        }
+        count >= BONE_INSIDE_SAMPLES
+    })
 }
 
 /// A numeric Cholesky factor `A = L L^T` (faer, supernodal or simplicial, AMD ordering).

@@ -35,6 +35,8 @@ pub struct RayMesh {
     bvh: Bvh,
     /// Kept triangles, grown by [`GROW`]; the BVH leaf data indexes this.
     tris: Vec<[Vec3; 3]>,
+    /// Input index of every kept triangle.
+    orig: Vec<u32>,
 }
 
 impl RayMesh {
@@ -43,10 +45,11 @@ impl RayMesh {
     /// Inputs: `vertices` `(n, 3)` (any unit; queries use the same unit), `triangles` `(m, 3)`.
     pub fn new(vertices: &[[f32; 3]], triangles: &[[u32; 3]]) -> RayMesh {
         let n = vertices.len();
-        let tris: Vec<[Vec3; 3]> = triangles
+        let (tris, orig): (Vec<[Vec3; 3]>, Vec<u32>) = triangles
             .par_iter()
+            .enumerate()
             .with_min_len(4096)
-            .filter_map(|t| {
+            .filter_map(|(k, t)| {
                 if t.iter().any(|&i| i as usize >= n) {
                     return None;
                 }
@@ -61,11 +64,11 @@ impl RayMesh {
                     return None;
                 }
                 let g = (a + b + c) * (1.0 / 3.0);
-                Some([a, b, c].map(|p| g + (p - g) * (1.0 + GROW)))
+                Some(([a, b, c].map(|p| g + (p - g) * (1.0 + GROW)), k as u32))
             })
-            .collect();
-        if tris.is_empty() || tris.len() > u32::MAX as usize {
-            return RayMesh { bvh: Bvh::new(), tris: Vec::new() };
+            .unzip();
+        if tris.is_empty() || triangles.len() > u32::MAX as usize {
+            return RayMesh { bvh: Bvh::new(), tris: Vec::new(), orig: Vec::new() };
         }
         let boxes: Vec<(Vec3, Vec3)> = tris
             .par_iter()
@@ -80,7 +83,7 @@ impl RayMesh {
             BvhBuildStrategy::Binned,
             boxes.iter().enumerate().map(|(i, (a, b))| (i, Aabb::new(*a - pad, *b + pad))),
         );
-        RayMesh { bvh, tris }
+        RayMesh { bvh, tris, orig }
     }
 
     /// Number of triangles kept for ray casting.
@@ -137,6 +140,57 @@ impl RayMesh {
         });
         hits.sort_by(|a, b| a.total_cmp(b));
         hits
+    }
+
+    /// [`ray_hits`](Self::ray_hits) restricted to the input triangles `t` with `keep(t)`
+    /// (`t` indexes the `triangles` given to [`RayMesh::new`]).
+    pub fn ray_hits_where(&self, origin: Vec3, dir: Vec3, max_dist: f32, keep: impl Fn(u32) -> bool) -> Vec<f32> {
+        let len = dir.length();
+        let mut hits = Vec::new();
+        if self.tris.is_empty() || !(len > 0.0) || !len.is_finite() || !origin.is_finite() || !(max_dist >= 0.0) {
+            return hits;
+        }
+        let dir = dir / len;
+        let (ray, inv, tmax) = (Ray::new(origin, dir), dir.recip(), max_dist.min(f32::MAX));
+        self.bvh.traverse(|node| {
+            if !node_hit(node, origin, inv, tmax) {
+                return TraversalAction::Prune;
+            }
+            if let Some(i) = node.leaf_data() {
+                if keep(self.orig[i as usize]) {
+                    if let Some(t) = self.triangle_hit(i, &ray, tmax) {
+                        hits.push(t);
+                    }
+                }
+            }
+            TraversalAction::Continue
+        });
+        hits.sort_by(|a, b| a.total_cmp(b));
+        hits
+    }
+
+    /// Ray-parity inside test: along how many of `dirs` does the ray from `p` cross the
+    /// triangles `t` with `keep(t)` an odd number of times?
+    ///
+    /// Hits closer than `merge` (mesh unit) to the previous one along the same ray are counted
+    /// once (a ray through a shared edge meets both grown neighbours at the same distance).
+    /// For a closed surface every direction agrees (odd = inside) up to rays grazing an edge;
+    /// callers take a majority over a few generic directions.
+    pub fn odd_parity_count(&self, p: Vec3, dirs: &[Vec3], merge: f32, keep: impl Fn(u32) -> bool) -> usize {
+        dirs.iter()
+            .filter(|&&d| {
+                let hits = self.ray_hits_where(p, d, f32::MAX, &keep);
+                let mut count = 0usize;
+                let mut last = f32::NEG_INFINITY;
+                for t in hits {
+                    if t - last > merge {
+                        count += 1;
+                    }
+                    last = t;
+                }
+                count % 2 == 1
+            })
+            .count()
     }
 
     /// parry's two-sided ray/triangle test on kept triangle `i`, `t in [0, tmax]` (units of
@@ -274,5 +328,32 @@ mod tests {
             let to = from + (p - from) * 3.0;
             assert!(rm.segment_blocked(from, to), "leak through {p}");
         }
+    }
+
+    /// Parity inside test and hits restricted to some triangles.
+    #[test]
+    fn parity_and_filtered_hits() {
+        let (v0, t0) = unit_cube();
+        // Two cubes: the second shifted by 3 along x.
+        let mut v = v0.clone();
+        v.extend(v0.iter().map(|p| [p[0] + 3.0, p[1], p[2]]));
+        let mut t = t0.clone();
+        t.extend(t0.iter().map(|tr| tr.map(|i| i + 8)));
+        let rm = RayMesh::new(&v, &t);
+        let dirs: Vec<Vec3> = [[0.48f32, 0.62, 0.62], [-0.7, 0.31, 0.64], [0.21, -0.89, 0.4]]
+            .iter()
+            .map(|d| Vec3::from_array(*d).normalize())
+            .collect();
+        let first = |k: u32| k < 12;
+        assert_eq!(rm.odd_parity_count(Vec3::splat(0.5), &dirs, 1e-4, first), 3);
+        assert_eq!(rm.odd_parity_count(Vec3::new(3.5, 0.5, 0.5), &dirs, 1e-4, first), 0);
+        assert_eq!(rm.odd_parity_count(Vec3::new(3.5, 0.5, 0.5), &dirs, 1e-4, |k| k >= 12), 3);
+        // Through the shared diagonal of a face: one crossing, not two.
+        assert_eq!(rm.odd_parity_count(Vec3::splat(0.5), &[Vec3::new(0.0, 0.0, -1.0)], 1e-4, first), 1);
+        // Along +x from inside the first cube: 1 wall of the first, 2 of the second.
+        let o = Vec3::new(0.5, 0.3, 0.6);
+        let along = rm.ray_hits(o, Vec3::X, 10.0);
+        assert_eq!(along.len(), 3);
+        assert_eq!(rm.ray_hits_where(o, Vec3::X, 10.0, |k| k >= 12).len(), 2);
     }
 }

@@ -300,3 +300,101 @@ fn visibility_off_still_works() {
     // A convex tube around its own axis chain: every nearest bone is visible anyway.
     assert!(max_abs_diff(&a.to_dense(4), &c.to_dense(4)) < 1e-5);
 }
+
+/// Axis-aligned box `centre +- half` appended to `m`: 12 outward triangles, or 10 without
+/// the top (+Z) face when `open`. Returns the new vertex range.
+fn add_box(m: &mut Mesh, centre: [f32; 3], half: [f32; 3], open: bool) -> std::ops::Range<usize> {
+    let base = m.0.len() as u32;
+    for i in 0..8 {
+        let s = |bit: usize, k: usize| if (i >> bit) & 1 == 1 { centre[k] + half[k] } else { centre[k] - half[k] };
+        m.0.push([s(0, 0), s(1, 1), s(2, 2)]);
+    }
+    let mut quads = vec![[0, 2, 3, 1], [0, 1, 5, 4], [2, 6, 7, 3], [0, 4, 6, 2], [1, 3, 7, 5]];
+    if !open {
+        quads.push([4, 5, 7, 6]);
+    }
+    for q in quads {
+        m.1.push([base + q[0], base + q[1], base + q[2]]);
+        m.1.push([base + q[0], base + q[2], base + q[3]]);
+    }
+    base as usize..m.0.len()
+}
+
+fn is_rigid_on(inf: &Influences, verts: std::ops::Range<usize>, bone: i32) -> bool {
+    verts.into_iter().all(|v| inf.row(v).0[0] == bone && inf.row(v).1[0] == 1.0)
+}
+
+#[test]
+fn weight_ramp_is_continuous_and_drops_small_weights() {
+    use miniskeleton_core::heat::weight_limit;
+    let (s, e) = (0.05, 0.025);
+    assert_eq!(weight_limit(0.02, s, e), 0.0);
+    assert_eq!(weight_limit(f32::NAN, s, e), 0.0);
+    assert!(weight_limit(0.025, s, e).abs() < 1e-7);
+    assert!((weight_limit(0.0375, s, e) - 0.025).abs() < 1e-7);
+    assert!((weight_limit(0.05 - 1e-7, s, e) - 0.05).abs() < 1e-5);
+    assert_eq!(weight_limit(0.3, s, e), 0.3);
+    // Monotone and continuous on a fine grid.
+    let g: Vec<f32> = (0..=1000).map(|i| weight_limit(i as f32 * 1e-4, s, e)).collect();
+    assert!(g.windows(2).all(|w| w[1] >= w[0] && w[1] - w[0] < 3e-4));
+    assert_eq!(weight_limit(0.01, 0.0, 0.0), 0.01);
+
+    // On a mesh: fewer influences per vertex than without the ramp, rows still sum to 1.
+    let (m, b) = cylinder();
+    let count = |inf: &Influences| inf.weights.iter().filter(|w| **w > 0.0).count();
+    let (ramped, _) = heat(&m, &b, &HeatOptions::default());
+    let off = HeatOptions { weight_limit_start: 0.0, weight_limit_end: 0.0, ..Default::default() };
+    let (plain, _) = heat(&m, &b, &off);
+    assert_rows_sum_to_one(&ramped);
+    assert!(count(&ramped) < count(&plain), "{} vs {}", count(&ramped), count(&plain));
+    // Bad limits are errors.
+    for (s, e) in [(0.02, 0.05), (1.0, 0.5), (0.05, -0.1), (f32::NAN, 0.0)] {
+        let o = HeatOptions { weight_limit_start: s, weight_limit_end: e, ..Default::default() };
+        assert!(matches!(heat_weights(&m.0, &m.1, &b.0, &b.1, &o, None), Err(Error::InvalidArgument(_))));
+    }
+}
+
+/// A closed prop that sees bones and is pierced by a bone's tip, an open tray with a bone
+/// lying inside it, and a body: the prop is rigid on its nearest bone, the others are not.
+#[test]
+fn accessory_without_a_bone_inside_is_rigid() {
+    let (mut m, (mut h, mut t)) = cylinder();
+    // Bone 4: an 'arm' outside the body, visible from everywhere around it.
+    h.push([0.3, 0.0, 1.0]);
+    t.push([0.62, 0.0, 1.0]);
+    // Prop around the arm's tip (only the tail sample is inside it).
+    let prop = add_box(&mut m, [0.68, 0.0, 1.0], [0.07, 0.05, 0.05], false);
+    // Open tray (no lid) with bone 5 inside along its length.
+    let tray = add_box(&mut m, [-0.6, 0.0, 1.0], [0.2, 0.05, 0.05], true);
+    h.push([-0.75, 0.0, 1.0]);
+    t.push([-0.45, 0.0, 1.0]);
+    let b = (h, t);
+    let (inf, rep) = heat(&m, &b, &HeatOptions::default());
+    assert_rows_sum_to_one(&inf);
+    assert_eq!((rep.pieces, rep.boneless_pieces, rep.rigid_pieces), (3, 1, 1), "{rep:?}");
+    assert!(is_rigid_on(&inf, prop.clone(), 4));
+    // The tray holds bone 5: heat weights (its vertices are dominated by bone 5, not rigid
+    // by rule; the body keeps its smooth weights).
+    assert!(tray.clone().all(|v| inf.row(v).0[0] == 5));
+    let body_bones: std::collections::HashSet<i32> = (0..41 * 16).map(|v| inf.row(v).0[0]).collect();
+    assert!(body_bones.len() >= 4, "{body_bones:?}");
+    // Switched off: no piece is bound rigidly by rule.
+    let (inf2, rep2) = heat(&m, &b, &HeatOptions { rigid_accessories: false, ..Default::default() });
+    assert_rows_sum_to_one(&inf2);
+    assert_eq!((rep2.rigid_pieces, rep2.boneless_pieces), (0, 0));
+}
+
+/// A mesh that is only a prop (no bone inside any of its pieces) moves as one body on the
+/// bone nearest to its centre of mass, whatever the bones its vertices see.
+#[test]
+fn prop_mesh_is_one_rigid_body() {
+    let (_, (h, t)) = cylinder();
+    let mut m: Mesh = (Vec::new(), Vec::new());
+    // Two pieces (a 'carrot' and its 'leaf') beside bone 1 (z 0.5..1.0), both outside the chain.
+    let body = add_box(&mut m, [0.2, 0.0, 0.8], [0.05, 0.05, 0.15], false);
+    let leaf = add_box(&mut m, [0.2, 0.0, 1.02], [0.01, 0.03, 0.05], false);
+    let (inf, rep) = heat(&m, &(h, t), &HeatOptions::default());
+    assert_eq!((rep.pieces, rep.boneless_pieces, rep.rigid_pieces), (2, 2, 2), "{rep:?}");
+    assert!(is_rigid_on(&inf, body, 1));
+    assert!(is_rigid_on(&inf, leaf, 1));
+}

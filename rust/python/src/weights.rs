@@ -137,6 +137,7 @@ fn heat_impl<'py>(
         weld_tolerance,
         heat_constant,
         symmetry,
+        ..HeatOptions::default()
     };
     // A Python progress callable is called with the GIL re-acquired; returning False cancels.
     let callback = progress.map(|cb| {
