@@ -4,9 +4,9 @@ This file only registers; see operators_*.py (operators), ui.py (menus and panel
 mesh_io.py (Blender data to arrays and back).
 """
 
-from . import operators_weights, ui
+from . import operators_puppet, operators_weights, ui
 
-_modules = (operators_weights, ui)
+_modules = (operators_weights, operators_puppet, ui)
 
 
 def register() -> None:
@@ -16,11 +16,13 @@ def register() -> None:
         for cls in mod.classes:
             bpy.utils.register_class(cls)
     ui.register_menus()
+    operators_puppet.register_handlers()
 
 
 def unregister() -> None:
     import bpy
 
+    operators_puppet.unregister_handlers()
     ui.unregister_menus()
     for mod in reversed(_modules):
         for cls in reversed(mod.classes):

@@ -1,0 +1,367 @@
+"""Shadow puppets in real Blender: templates, locks and limits, live rod-driven IK (Rust
+ik2d), prop grip, strip multi-effector, bake, part images and the Shadow Theatre preset."""
+
+from __future__ import annotations
+
+import importlib
+import math
+
+import bpy
+import numpy as np
+import pytest
+from mathutils import Vector
+
+import blender_session
+
+P = importlib.import_module("bl_ext.user_default.miniskeleton.operators_puppet")
+T = importlib.import_module("bl_ext.user_default.miniskeleton.puppet")
+
+HUMAN_BONES = {"abdomen", "chest", "neck", "head", "skirt"} | {
+    f"{b}.{s}" for b in ("upper_arm", "forearm", "hand", "thigh", "shin", "foot") for s in "LR"}
+RODS = {"THREE_ROD": {"neck", "hand.L", "hand.R"},
+        "FIVE_ROD": {"neck", "hand.L", "hand.R", "foot.L", "foot.R"},
+        "PROP": {"neck", "grip.L", "grip.R"},
+        "STRIP": {"head", "middle", "tail"},
+        "QUADRUPED": {"body", "head"}}
+ARM = ("upper_arm.R", "forearm.R", "hand.R")
+LEG = ("thigh.L", "shin.L")
+
+
+def settle():
+    """Two depsgraph updates: the handler solves on the first, the pose evaluates on the second."""
+    bpy.context.view_layer.update()
+    bpy.context.view_layer.update()
+
+
+def add(kind):
+    assert bpy.ops.object.miniskeleton_add_puppet(type=kind) == {"FINISHED"}
+    rig = P.puppet_rig(bpy.context.active_object)
+    assert rig is not None
+    settle()
+    return rig, P.puppet_rods(rig)
+
+
+def tip_world(rig, bone):
+    return rig.matrix_world @ rig.pose.bones[bone].tail
+
+
+def head_world(rig, bone):
+    return rig.matrix_world @ rig.pose.bones[bone].head
+
+
+def move_rod(rod, x, z):
+    rod.matrix_world.translation = Vector((x, 0.0, z))
+    settle()
+
+
+def reach(rig, names):
+    return sum(rig.data.bones[n].length for n in names)
+
+
+def random_reachable(rig, names, rng, n):
+    """World tips of ``names`` for n random in-limit poses (so every target is reachable),
+    computed by Blender itself with live solving off."""
+    rig[P.LIVE_KEY] = False
+    out = []
+    for _ in range(n):
+        for name in names:
+            pb = rig.pose.bones[name]
+            pb.rotation_euler.z = rng.uniform(pb.ik_min_z, pb.ik_max_z)
+        bpy.context.view_layer.update()
+        out.append(tip_world(rig, names[-1]).copy())
+    rig[P.LIVE_KEY] = True
+    return out
+
+
+def assert_in_plane(rig):
+    """Every bone's rotation axis stays the picture-plane normal: its Z axis is still -Y."""
+    for pb in rig.pose.bones:
+        z = pb.matrix.col[2].xyz
+        assert abs(z.dot(Vector((0, -1, 0))) - 1) < 1e-6, (pb.name, tuple(z))
+        assert abs(pb.rotation_euler.x) < 1e-9, pb.name
+
+
+def assert_within_limits(rig, eps=1e-6):
+    for pb in rig.pose.bones:
+        assert pb.ik_min_z - eps <= pb.rotation_euler.z <= pb.ik_max_z + eps, (
+            pb.name, math.degrees(pb.rotation_euler.z), math.degrees(pb.ik_min_z), math.degrees(pb.ik_max_z))
+
+
+# ---------------------------------------------------------------------------- templates
+
+
+@pytest.mark.parametrize("kind", T.KINDS)
+def test_template_builds_with_bones_rods_locks_and_parts(kind):
+    rig, rods = add(kind)
+    tpl = T.template(kind)
+    names = {b.name for b in rig.data.bones}
+    if kind in ("THREE_ROD", "FIVE_ROD", "PROP"):
+        assert names == HUMAN_BONES and len(names) == 17
+        assert rig.data.bones["abdomen"].parent is None
+        for child, parent in (("chest", "abdomen"), ("neck", "chest"), ("head", "neck"),
+                              ("upper_arm.L", "chest"), ("forearm.L", "upper_arm.L"), ("hand.L", "forearm.L"),
+                              ("thigh.R", "abdomen"), ("shin.R", "thigh.R"), ("foot.R", "shin.R")):
+            assert rig.data.bones[child].parent.name == parent
+    assert set(rods) == RODS[kind]
+    for role, rod in rods.items():
+        assert rod[P.ROLE_KEY] == role and P.puppet_rig(rod) == rig
+    main = rods[tpl.main_rod().role]
+    assert rig.parent == main                    # the main rod carries the figure
+    if kind == "PROP":
+        staff = rig["miniskeleton_prop"]
+        assert rods["grip.L"].parent == staff and rods["grip.R"].parent == staff
+
+    for b in tpl.bones:
+        bone, pb = rig.data.bones[b.name], rig.pose.bones[b.name]
+        # Everything lies in the XZ picture plane; local Z is the plane's normal (toward -Y).
+        assert abs(bone.head_local.y) < 1e-6 and abs(bone.tail_local.y) < 1e-6
+        assert (bone.matrix_local.col[2].xyz - Vector((0, -1, 0))).length < 1e-6
+        assert pb.rotation_mode == "XYZ"
+        expected = {"plane": (True, True, False), "plane+twist": (True, False, False),
+                    "fixed": (True, True, True)}[b.dof]
+        assert tuple(pb.lock_rotation) == expected, b.name
+        assert pb.use_ik_limit_z and pb.lock_ik_x
+        if b.dof != "fixed":
+            assert math.isclose(math.degrees(pb.ik_min_z), b.limits[0], abs_tol=1e-4)
+            assert math.isclose(math.degrees(pb.ik_max_z), b.limits[1], abs_tol=1e-4)
+    if kind != "STRIP" and kind != "QUADRUPED":
+        assert tuple(rig.pose.bones["forearm.R"].lock_rotation) == (True, True, False)   # 1 DOF
+        assert tuple(rig.pose.bones["head"].lock_rotation) == (True, False, False)       # 2 DOF
+        assert tuple(rig.pose.bones["abdomen"].lock_rotation) == (True, False, False)    # 2 DOF
+        assert rig.pose.bones["forearm.R"].ik_min_z == 0.0       # an elbow does not bend backwards
+
+    parts = [ob for ob in bpy.data.objects if ob.get(P.PART_KEY)]
+    assert sorted(ob.parent_bone for ob in parts) == sorted(names)
+    assert all(ob.parent == rig and ob.parent_type == "BONE" and len(ob.data.polygons) == 1 for ob in parts)
+    # The part sits on its bone: its centre is near the bone's segment.
+    for ob in parts:
+        c = sum((ob.matrix_world @ v.co for v in ob.data.vertices), Vector()) / len(ob.data.vertices)
+        h, t = head_world(rig, ob.parent_bone), tip_world(rig, ob.parent_bone)
+        seg = t - h
+        s = max(0.0, min(1.0, (c - h).dot(seg) / max(seg.length_squared, 1e-12)))
+        assert (c - (h + s * seg)).length < 0.2, ob.name
+    assert_in_plane(rig)
+
+
+def test_add_menu_and_panel():
+    funcs = bpy.types.VIEW3D_MT_armature_add._dyn_ui_initialize()
+    assert any(getattr(f, "__module__", "").endswith("miniskeleton.ui") for f in funcs)
+    assert bpy.types.MINISKELETON_PT_puppet.bl_category == "MiniSkeleton"
+    assert P._on_depsgraph_update in bpy.app.handlers.depsgraph_update_post
+    assert P._on_frame_change in bpy.app.handlers.frame_change_post
+    assert P.update_scene_puppets(bpy.context.scene) == 0      # no puppet: nothing to do
+
+
+# ---------------------------------------------------------------------------- live IK
+
+
+def test_reachable_rods_are_reached_and_pose_stays_in_plane():
+    rig, rods = add("FIVE_ROD")
+    rng = np.random.default_rng(7)
+    for chain, role in ((ARM, "hand.R"), (("upper_arm.L", "forearm.L", "hand.L"), "hand.L"), (LEG, "foot.L")):
+        tol = 2e-3 * reach(rig, chain)
+        for target in random_reachable(rig, chain, rng, 6):
+            move_rod(rods[role], target.x, target.z)
+            got = tip_world(rig, chain[-1])
+            assert (got - rods[role].matrix_world.translation).length < tol, (role, tuple(target), tuple(got))
+            assert_in_plane(rig)
+            assert_within_limits(rig)
+
+
+def test_unreachable_rod_gives_straight_arm_toward_it():
+    rig, rods = add("THREE_ROD")
+    shoulder = head_world(rig, ARM[0])
+    for direction in ((1.0, 0.3), (-0.4, 1.0), (0.2, -1.0)):
+        d = Vector((direction[0], 0, direction[1])).normalized()
+        target = shoulder + 3.0 * d
+        move_rod(rods["hand.R"], target.x, target.z)
+        for name in ARM[1:]:
+            assert abs(rig.pose.bones[name].rotation_euler.z) < 1e-6, name    # straight
+        arm_dir = (tip_world(rig, ARM[-1]) - shoulder).normalized()
+        assert arm_dir.dot(d) > 1 - 1e-6
+        assert math.isclose((tip_world(rig, ARM[-1]) - shoulder).length, reach(rig, ARM), rel_tol=1e-5)
+
+
+def test_joint_limits_hold_and_are_editable():
+    rig, rods = add("FIVE_ROD")
+    rng = np.random.default_rng(3)
+    for _ in range(12):
+        for role in ("hand.R", "hand.L", "foot.R", "foot.L"):
+            p = rods["neck"].matrix_world.translation
+            rods[role].matrix_world.translation = p + Vector((rng.uniform(-1.2, 1.2), 0, rng.uniform(-1.8, 0.6)))
+        settle()
+        assert_within_limits(rig)
+        assert_in_plane(rig)
+    # A tighter elbow, edited on the pose bone's IK limit, is honoured by the solver.
+    fore = rig.pose.bones["forearm.R"]
+    fore.ik_max_z = math.radians(40)
+    move_rod(rods["hand.R"], *(lambda s: (s.x + 0.15, s.z - 0.15))(head_world(rig, "upper_arm.R")))
+    assert 0.0 <= fore.rotation_euler.z <= math.radians(40) + 1e-6
+
+
+def test_three_rod_legs_hang_down_when_the_figure_tilts():
+    rig, rods = add("THREE_ROD")
+    rods["neck"].rotation_euler.y = math.radians(20)
+    settle()
+    for side in "LR":
+        d = tip_world(rig, f"shin.{side}") - head_world(rig, f"thigh.{side}")
+        assert d.normalized().dot(Vector((0, 0, -1))) > 1 - 1e-6
+
+
+def test_live_update_on_frame_change_with_animated_rods():
+    rig, rods = add("FIVE_ROD")
+    hand = rods["hand.R"]
+    scene = bpy.context.scene
+    start = hand.location.copy()
+    hand.keyframe_insert("location", frame=1)
+    hand.location = start + Vector((0.35, 0, 0.35))
+    hand.keyframe_insert("location", frame=11)
+    for f in (1, 6, 11):
+        scene.frame_set(f)
+        bpy.context.view_layer.update()
+        got = tip_world(rig, "hand.R")
+        assert (got - hand.matrix_world.translation).length < 2e-3 * reach(rig, ARM), f
+
+
+def test_strip_head_and_tail_reach_their_rods():
+    rig, rods = add("STRIP")
+    names = [f"trunk.{i:03d}" for i in range(T.STRIP_SEGMENTS)]
+    rng = np.random.default_rng(11)
+    mid = T.STRIP_SEGMENTS // 2
+    for _ in range(4):
+        rig[P.LIVE_KEY] = False
+        for n in names[1:]:
+            pb = rig.pose.bones[n]
+            pb.rotation_euler.z = rng.uniform(0.5 * pb.ik_min_z, 0.5 * pb.ik_max_z)
+        bpy.context.view_layer.update()
+        middle, tail = tip_world(rig, names[mid - 1]).copy(), tip_world(rig, names[-1]).copy()
+        for n in names:
+            rig.pose.bones[n].rotation_euler.z = 0.0
+        rig[P.LIVE_KEY] = True
+        rods["middle"].matrix_world.translation = middle
+        move_rod(rods["tail"], tail.x, tail.z)
+        tol = 2e-3 * reach(rig, names)
+        assert (head_world(rig, names[0]) - rods["head"].matrix_world.translation).length < 1e-6
+        assert (tip_world(rig, names[-1]) - tail).length < tol
+        assert (tip_world(rig, names[mid - 1]) - middle).length < tol
+        assert_in_plane(rig)
+        assert_within_limits(rig)
+
+
+def test_prop_hands_stay_on_the_prop_while_it_turns():
+    rig, rods = add("PROP")
+    staff = rig["miniskeleton_prop"]
+    tol = 2e-3 * reach(rig, ARM)
+    for angle in (-50, -25, 0, 20, 45):
+        staff.rotation_euler.y = math.radians(angle)
+        staff.location.x += 0.01
+        settle()
+        for side in "LR":
+            grip = rods[f"grip.{side}"].matrix_world.translation
+            assert (tip_world(rig, f"hand.{side}") - grip).length < tol, (angle, side)
+        assert_in_plane(rig)
+        assert_within_limits(rig)
+
+
+def test_quadruped_translates_and_turns_its_head():
+    rig, rods = add("QUADRUPED")
+    body = rods["body"]
+    before = head_world(rig, "tail").copy()
+    body.location.x += 0.5
+    settle()
+    assert math.isclose(head_world(rig, "tail").x - before.x, 0.5, abs_tol=1e-6)
+    rods["head"].rotation_euler.y = math.radians(-20)     # about -Y is counter-clockwise: nod up
+    settle()
+    assert math.isclose(rig.pose.bones["head"].rotation_euler.z, math.radians(20), abs_tol=1e-6)
+    rods["head"].rotation_euler.y = math.radians(-90)     # beyond the 35 degree limit
+    settle()
+    assert math.isclose(rig.pose.bones["head"].rotation_euler.z, rig.pose.bones["head"].ik_max_z, abs_tol=1e-6)
+    assert all(rig.pose.bones[n].rotation_euler.z == 0 for n in ("body", "tail", "leg.FL"))
+
+
+# ---------------------------------------------------------------------------- bake
+
+
+def test_bake_keys_reproduce_the_live_pose_without_the_addon():
+    rig, rods = add("FIVE_ROD")
+    scene = bpy.context.scene
+    scene.frame_start, scene.frame_end = 1, 9
+    x0 = {role: rod.location.x for role, rod in rods.items()}
+    for f, dx in ((1, 0.0), (5, 0.3), (9, -0.2)):
+        for role, sign in (("hand.R", 1), ("hand.L", -1), ("foot.R", 1), ("foot.L", -1)):
+            rods[role].location.x = x0[role] + sign * dx
+            rods[role].keyframe_insert("location", index=0, frame=f)
+        rods["neck"].location.x = 0.1 * f
+        rods["neck"].keyframe_insert("location", index=0, frame=f)
+    live = {}
+    for f in range(1, 10):
+        scene.frame_set(f)
+        bpy.context.view_layer.update()
+        live[f] = ({pb.name: tuple(pb.rotation_euler) for pb in rig.pose.bones},
+                   tip_world(rig, "hand.R").copy())
+
+    bpy.context.view_layer.objects.active = rig
+    assert bpy.ops.object.miniskeleton_bake_puppet() == {"FINISHED"}
+    assert rig.get(P.LIVE_KEY) is False or rig.get(P.LIVE_KEY) == 0
+    assert rig.animation_data is not None and rig.animation_data.action is not None
+
+    # Without the add-on (no handler at all), the keys alone give the same pose.
+    bpy.ops.preferences.addon_disable(module=blender_session.ADDON_MODULE)
+    try:
+        assert P._on_frame_change not in bpy.app.handlers.frame_change_post
+        for pb in rig.pose.bones:
+            pb.rotation_euler = (0, 0, 0)
+        for f in (9, 2, 5, 1, 7):
+            scene.frame_set(f)
+            bpy.context.view_layer.update()
+            rot, tip = live[f]
+            for name, r in rot.items():
+                assert np.allclose(tuple(rig.pose.bones[name].rotation_euler), r, atol=1e-5), (f, name)
+            assert (tip_world(rig, "hand.R") - tip).length < 1e-5
+    finally:
+        bpy.ops.preferences.addon_enable(module=blender_session.ADDON_MODULE)
+
+
+# ---------------------------------------------------------------------------- parts, theatre
+
+
+def test_set_part_image(tmp_path):
+    rig, rods = add("THREE_ROD")
+    img = bpy.data.images.new("face", 8, 16, alpha=True)
+    px = np.zeros((16, 8, 4), dtype=np.float32)
+    px[4:12, 2:6] = (0.8, 0.2, 0.1, 1.0)
+    img.pixels.foreach_set(px.ravel())
+    path = str(tmp_path / "face.png")
+    img.filepath_raw = path
+    img.file_format = "PNG"
+    img.save()
+    bpy.context.view_layer.objects.active = rig
+    assert bpy.ops.object.miniskeleton_set_part_image(filepath=path, bone="head") == {"FINISHED"}
+    part = next(ob for ob in rig.children if ob.get(P.PART_KEY) == "head")
+    assert len(part.data.vertices) == 4 and part.parent_bone == "head"
+    xs = [v.co.x for v in part.data.vertices]
+    ys = [v.co.y for v in part.data.vertices]
+    assert math.isclose((max(xs) - min(xs)) / (max(ys) - min(ys)), 0.5, rel_tol=1e-6)   # image aspect
+    nodes = part.data.materials[0].node_tree.nodes
+    tex = [n for n in nodes if n.type == "TEX_IMAGE"]
+    assert tex and tex[0].image.filepath.endswith("face.png")
+
+
+def test_shadow_theatre_preset():
+    rig, rods = add("FIVE_ROD")
+    assert bpy.ops.scene.miniskeleton_shadow_theatre() == {"FINISHED"}
+    scene = bpy.context.scene
+    screen, light, cam = (bpy.data.objects[n] for n in ("ShadowScreen", "ShadowBacklight", "ShadowCamera"))
+    assert screen.location.y > 0.05 and light.location.y > screen.location.y   # behind the puppet
+    assert cam.location.y < 0 and scene.camera == cam                          # audience side
+    assert cam.matrix_world.col[2].xyz.dot(Vector((0, -1, 0))) > 0.999          # looks along +Y
+    assert light.matrix_world.col[2].xyz.dot(Vector((0, 1, 0))) > 0.999         # shines along -Y
+    assert scene.render.engine == "BLENDER_WORKBENCH"
+    # The whole figure is inside the camera's view.
+    half = cam.data.ortho_scale / 2
+    for name in ("head", "foot.R", "hand.L"):
+        p = tip_world(rig, name)
+        assert abs(p.x - cam.location.x) < half and abs(p.z - cam.location.z) < half
+    assert bpy.ops.scene.miniskeleton_shadow_theatre(engine="EEVEE") == {"FINISHED"}   # refits, no duplicates
+    assert len([ob for ob in bpy.data.objects if ob.name.startswith("ShadowScreen")]) == 1
+    assert scene.render.engine.startswith("BLENDER_EEVEE")
