@@ -58,7 +58,8 @@ pub struct HeatOptions {
     pub visibility: bool,
     /// Weld distance, relative to the bbox diagonal (>= 0). Default 1e-5.
     pub weld_tolerance: f32,
-    /// Heat constant `c` in `H = c / d^2` (> 0). Default 1 (Pinocchio).
+    /// Heat constant `c` in `H = HEAT_SCALE c / d^2` (> 0). Default 1 (Pinocchio's and
+    /// Blender's `C_WEIGHT`; see [`HEAT_SCALE`]).
     pub heat_constant: f32,
     /// Optional symmetric averaging. Default `None`.
     pub symmetry: Option<Symmetry>,
@@ -74,6 +75,9 @@ pub struct HeatOptions {
     /// eye, a button, a held prop), no larger than half the skeleton, goes 100% to the bone
     /// nearest to its centre; see [`heat_weights`]. Default true.
     pub rigid_accessories: bool,
+    /// Rank bones by Blender's normal-weighted distance (see [`heat_weights`]) instead of the
+    /// plain distance. Default true.
+    pub normal_distance: bool,
 }
 
 impl Default for HeatOptions {
@@ -88,6 +92,7 @@ impl Default for HeatOptions {
             weight_limit_start: WEIGHT_LIMIT_START,
             weight_limit_end: WEIGHT_LIMIT_END,
             rigid_accessories: true,
+            normal_distance: true,
         }
     }
 }
@@ -120,6 +125,12 @@ pub struct HeatReport {
     pub timings: Vec<(&'static str, f64)>,
 }
 
+/// Factor of the heat term that reproduces Blender's discretization with its `C_WEIGHT = 1`:
+/// Blender scales the cotangent Laplacian rows by `0.5 / (2 A_i)` (its vertex area sums twice
+/// the mixed Voronoi area `A_i`), i.e. it solves `(L + 4 A H) w = 4 A H p` where we write
+/// `(L + M H) w = M H p`. Less diffusion than Pinocchio's `c = 1`; measured closer to the
+/// artists' weights on the real models of `bench/eval_weights.py`.
+pub const HEAT_SCALE: f64 = 4.0;
 /// Relative distance within which two visible bones tie (Pinocchio uses 1.0001).
 pub const TIE_RATIO: f64 = 1.0001;
 /// Default [`HeatOptions::weight_limit_start`] (Blender's `WEIGHT_LIMIT_START`).
@@ -291,6 +302,7 @@ pub fn heat_weights(
 
     // 5. Nearest visible bone per vertex, overlapped with the symbolic Cholesky analysis
     //    (AMD ordering + supernodes), which only needs the sparsity pattern of L.
+    let normals = if opts.normal_distance { vertex_normals(&wpos, &tris, &labels, npieces) } else { vec![DVec3::ZERO; nw] };
     let csc = stiffness_lower_csc(nw, &cot.edges);
     let symbolic_mat = SymbolicSparseColMatRef::new_checked(nw, nw, &csc.col_ptr, None, &csc.row_idx);
     lap(&mut report, "stiffness");
@@ -311,9 +323,10 @@ pub fn heat_weights(
             let mut sources: Vec<Source> = Vec::with_capacity(nw);
             wpos.par_iter()
                 .with_min_len(256)
+                .zip(normals.par_iter())
                 .map_init(
-                    || vec![0.0f64; b],
-                    |dist, x| nearest_visible_bone(*x, &bones, ray_mesh.as_ref().filter(|_| opts.visibility), dist),
+                    || vec![0.0f64; 2 * b],
+                    |dist, (x, n)| nearest_visible_bone(*x, *n, &bones, ray_mesh.as_ref().filter(|_| opts.visibility), dist),
                 )
                 .collect_into_vec(&mut sources);
             (sources, ray_mesh, t_bvh, s.elapsed().as_secs_f64())
@@ -325,7 +338,7 @@ pub fn heat_weights(
     tick(0.2)?;
 
     // 6. Pieces: fallback and rigid accessories; isolated vertices.
-    let c = opts.heat_constant as f64;
+    let c = HEAT_SCALE * opts.heat_constant as f64;
     let mass = &cot.mass;
     let mut pieces = piece_stats(&labels, npieces, &wpos, &tris, mass, &sources);
     let mut rigid: Vec<Option<Ties>> = vec![None; npieces];
@@ -516,6 +529,31 @@ pub fn heat_weights(
     report.timings.push(("total", t0.elapsed().as_secs_f64()));
     tick(1.0)?;
     Ok((out, report))
+}
+
+/// Unit area-weighted vertex normals (zero for vertices in no triangle), oriented outward
+/// per piece: a piece whose signed volume is negative has its normals flipped.
+fn vertex_normals(wpos: &[DVec3], tris: &[[u32; 3]], labels: &[u32], npieces: usize) -> Vec<DVec3> {
+    let mut n = vec![DVec3::ZERO; wpos.len()];
+    let mut vol = vec![0.0f64; npieces];
+    let mut lo = vec![DVec3::splat(f64::INFINITY); npieces];
+    for (v, &l) in labels.iter().enumerate() {
+        lo[l as usize] = lo[l as usize].min(wpos[v]);
+    }
+    for t in tris {
+        let [a, b, c] = t.map(|i| wpos[i as usize]);
+        let f = (b - a).cross(c - a);
+        for &i in t {
+            n[i as usize] += f;
+        }
+        let r = lo[labels[t[0] as usize] as usize];
+        vol[labels[t[0] as usize] as usize] += (a - r).dot((b - r).cross(c - r));
+    }
+    n.par_iter_mut().zip(labels.par_iter()).with_min_len(4096).for_each(|(n, &l)| {
+        let s = if vol[l as usize] < 0.0 { -1.0 } else { 1.0 };
+        *n = (*n * s).normalize_or_zero();
+    });
+    n
 }
 
 /// Blender's small-weight ramp (`heat_limit_weight`): 0 below `end`, linear from 0 to
@@ -790,13 +828,31 @@ fn numeric_factor(symbolic: SymbolicCholesky<usize>, a: SparseColMatRef<'_, usiz
     }
 }
 
-/// Nearest visible bone(s) of the point `x` (unit frame). `dist` is `(b,)` scratch.
-fn nearest_visible_bone(x: DVec3, bones: &[(DVec3, DVec3)], rays: Option<&RayMesh>, dist: &mut [f64]) -> Source {
+/// Nearest visible bone(s) of the point `x` (unit frame) with unit normal `normal` (zero:
+/// none). `scratch` is `(2 b,)`.
+///
+/// Bones are ranked by the normal-weighted distance `d / ((cos + 1.001) / 2)` (Blender's bone
+/// heat), `cos` the cosine between the normal and the direction from the bone's closest point
+/// to `x`: a bone behind the surface keeps its distance, one beside it counts double, one in
+/// front of it (outside the body) is all but excluded. The heat source uses that distance too.
+/// `nearest` is the nearest bone by plain distance.
+fn nearest_visible_bone(x: DVec3, normal: DVec3, bones: &[(DVec3, DVec3)], rays: Option<&RayMesh>, scratch: &mut [f64]) -> Source {
     let b = bones.len();
-    for (j, (h, t)) in bones.iter().enumerate() {
-        dist[j] = closest_point_on_segment(x, *h, *t).1;
-    }
+    let (dist, euclid) = scratch.split_at_mut(b);
     let mut src = Source { bones: [u32::MAX; MAX_TIES], count: 0, dist: 0.0, nearest: 0, nearest_dist: f64::INFINITY };
+    for (j, (h, t)) in bones.iter().enumerate() {
+        let (s, d) = closest_point_on_segment(x, *h, *t);
+        euclid[j] = d;
+        dist[j] = d;
+        if d > 0.0 && normal != DVec3::ZERO {
+            let cos = (x - (*h + (*t - *h) * s)).dot(normal) / d;
+            dist[j] = d / (0.5 * (cos + 1.001));
+        }
+        if d < src.nearest_dist {
+            src.nearest = j as u32;
+            src.nearest_dist = d;
+        }
+    }
     // Walk the bones in increasing (distance, index) order without sorting.
     let mut prev = (f64::NEG_INFINITY, usize::MAX);
     let mut first: Option<f64> = None;
@@ -811,10 +867,6 @@ fn nearest_visible_bone(x: DVec3, bones: &[(DVec3, DVec3)], rays: Option<&RayMes
         if cur.1 == usize::MAX {
             break;
         }
-        if step == 0 {
-            src.nearest = cur.1 as u32;
-            src.nearest_dist = cur.0;
-        }
         if let Some(d0) = first {
             if cur.0 > d0 * TIE_RATIO + 1e-12 || src.count as usize == MAX_TIES {
                 break;
@@ -823,7 +875,7 @@ fn nearest_visible_bone(x: DVec3, bones: &[(DVec3, DVec3)], rays: Option<&RayMes
         if first.is_none() && step >= MAX_VISIBILITY_TESTS {
             break;
         }
-        if is_visible(x, bones[cur.1], cur.0, rays) {
+        if is_visible(x, bones[cur.1], euclid[cur.1], rays) {
             if first.is_none() {
                 first = Some(cur.0);
                 src.dist = cur.0;
@@ -891,16 +943,16 @@ mod visibility_tests {
             (DVec3::new(1.2, 0.5, 0.2), DVec3::new(1.2, 0.5, 0.8)), // outside, nearer
             (DVec3::new(0.5, 0.5, 0.2), DVec3::new(0.5, 0.5, 0.8)), // inside
         ];
-        let mut scratch = vec![0.0; 2];
+        let mut scratch = vec![0.0; 4];
         let p = DVec3::new(0.9, 0.5, 0.5);
-        let s = nearest_visible_bone(p, &bones, Some(&rm), &mut scratch);
+        let s = nearest_visible_bone(p, DVec3::ZERO, &bones, Some(&rm), &mut scratch);
         assert_eq!((s.count, s.bones[0], s.nearest), (1, 1, 0));
         assert!((s.dist - 0.4).abs() < 1e-9);
-        let s = nearest_visible_bone(p, &bones, None, &mut scratch);
+        let s = nearest_visible_bone(p, DVec3::ZERO, &bones, None, &mut scratch);
         assert_eq!((s.count, s.bones[0]), (1, 0));
         // Equidistant bones tie.
         let tie = [bones[1], (DVec3::new(0.5, 0.5, 0.8), DVec3::new(0.5, 0.5, 0.2))];
-        let s = nearest_visible_bone(p, &tie, Some(&rm), &mut scratch);
+        let s = nearest_visible_bone(p, DVec3::ZERO, &tie, Some(&rm), &mut scratch);
         assert_eq!((s.count, s.bones[0], s.bones[1]), (2, 0, 1));
     }
 }

@@ -214,20 +214,27 @@ fn bone_outside_the_mesh_and_zero_length_bone() {
     b.1.push([0.25, 0.0, 1.5]);
     b.0.push([0.0, 0.0, 1.0]);
     b.1.push([0.0, 0.0, 1.0]);
-    let (inf, rep) = heat(&m, &b, &HeatOptions::default());
-    assert!(!rep.factorization_failed);
-    assert_rows_sum_to_one(&inf);
-    let d = inf.to_dense(6);
-    assert!(d.iter().all(|w| w.is_finite()));
-    // The outside bone is visible from the near side of the surface only.
-    let near_side = (0..m.0.len()).filter(|&v| m.0[v][0] > 0.14 && (0.7..1.3).contains(&m.0[v][2]));
-    assert!(near_side.clone().count() > 0);
-    for v in near_side {
-        assert!(d[v * 6 + 4] > 0.05, "vertex {v}: {}", d[v * 6 + 4]);
-    }
-    let far_side = (0..m.0.len()).filter(|&v| m.0[v][0] < -0.14 && (0.7..1.3).contains(&m.0[v][2]));
-    for v in far_side {
-        assert!(d[v * 6 + 4] < d[v * 6 + 2].max(d[v * 6 + 1]), "vertex {v}");
+    for normal_distance in [true, false] {
+        let (inf, rep) = heat(&m, &b, &HeatOptions { normal_distance, ..Default::default() });
+        assert!(!rep.factorization_failed);
+        assert_rows_sum_to_one(&inf);
+        let d = inf.to_dense(6);
+        assert!(d.iter().all(|w| w.is_finite()));
+        let near_side = (0..m.0.len()).filter(|&v| m.0[v][0] > 0.14 && (0.7..1.3).contains(&m.0[v][2]));
+        assert!(near_side.clone().count() > 0);
+        for v in near_side {
+            if normal_distance {
+                // A bone in front of the surface (outside the body) is no heat source for it.
+                assert!(d[v * 6 + 4] < 0.01, "vertex {v}: {}", d[v * 6 + 4]);
+            } else {
+                // Plain distance: the outside bone is visible from the near side only.
+                assert!(d[v * 6 + 4] > 0.05, "vertex {v}: {}", d[v * 6 + 4]);
+            }
+        }
+        let far_side = (0..m.0.len()).filter(|&v| m.0[v][0] < -0.14 && (0.7..1.3).contains(&m.0[v][2]));
+        for v in far_side {
+            assert!(d[v * 6 + 4] < d[v * 6 + 2].max(d[v * 6 + 1]), "vertex {v}");
+        }
     }
 }
 
