@@ -639,7 +639,7 @@ def _theatre_object(scene, name, data):
     return ob
 
 
-def build_shadow_theatre(context, engine="WORKBENCH", margin=0.35):
+def build_shadow_theatre(context, engine="WORKBENCH", margin=0.1):
     """Screen behind the puppets (XZ plane, +Y), a warm area light behind the screen facing
     the audience, an orthographic camera on the audience side (-Y); render settings for the
     shadow-play look. Running it again refits the same objects."""
@@ -648,7 +648,7 @@ def build_shadow_theatre(context, engine="WORKBENCH", margin=0.35):
     centre = (lo + hi) / 2
     aspect = scene.render.resolution_x / max(scene.render.resolution_y, 1)
     span = (hi - lo) * (1 + 2 * margin)
-    height = max(span[1], span[0] / aspect, 1e-3) * 1.25    # room to walk and wave
+    height = max(span[1], span[0] / aspect, 1e-3) * 1.1     # a little room to walk and wave
     width = height * aspect
 
     me = bpy.data.meshes.new("ShadowScreen")

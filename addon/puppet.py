@@ -144,13 +144,13 @@ def human_bones() -> tuple[BoneDef, ...]:
         BoneDef("neck", (0.0, 1.50), (0.0, 1.60), "chest", True, limits=(-30, 30),
                 shape="limb", width=(0.04, 0.035)),
         BoneDef("head", (0.0, 1.60), (0.0, 1.90), "neck", True, dof="plane+twist",
-                limits=(-40, 40), twist=(-180, 180), shape="head", width=(0.10, 0.10), depth=0.004),
+                limits=(-40, 40), twist=(-180, 180), shape="head", width=(0.12, 0.12), depth=0.004),
         BoneDef("skirt", (0.0, 1.02), (0.0, 0.64), "abdomen", dof="plane", limits=(-25, 25),
                 shape="skirt", width=(0.12, 0.17), depth=0.006),
     ]
     arm = dict(prefix=("upper_arm", "forearm", "hand"), lengths=(0.30, 0.26, 0.12),
                limits=((-180, 180), (0, 150), (-60, 60)), seeds=(0, 30, 0),
-               shapes=("limb", "limb", "hand"), widths=((0.045, 0.04), (0.04, 0.032), (0.04, 0.05)))
+               shapes=("limb", "limb", "hand"), widths=((0.05, 0.045), (0.045, 0.036), (0.04, 0.05)))
     leg = dict(prefix=("thigh", "shin"), lengths=(0.43, 0.40),
                limits=((-45, 120), (-150, 0)), seeds=(10, -25),
                shapes=("limb", "limb"), widths=((0.065, 0.05), (0.05, 0.04)))
@@ -325,10 +325,10 @@ def part_outline(shape: str, length: float, width=(0.05, 0.04), segments: int = 
                          (w0 * 1.3, L * 0.3), (w0 * 1.3, L), (w1 * 0.4, L * 1.12), (-w1, L)])
     if shape == "head":
         c = L * 0.5
-        r = min(L * 0.42, max(w0, w1))
+        r = min(L * 0.45, max(w0, w1))
         # Round face, a nose toward +X (the side the figure faces), a hat peak behind the crown.
         return np.vstack([_arc(0, c, r, -math.pi / 2, -0.35, n),
-                          [(r * 1.3, c - 0.12 * r)],
+                          [(r * 1.4, c - 0.15 * r)],
                           _arc(0, c, r, 0.1, math.pi / 2, n),
                           [(-0.2 * r, c + 1.25 * r), (-1.25 * r, c + 0.55 * r)],
                           _arc(0, c, r, math.pi * 0.85, 1.5 * math.pi, n)[:-1]])

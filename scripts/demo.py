@@ -154,10 +154,12 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--out", default="out", type=Path)
     ap.add_argument("--model", type=Path, help="GLB/glTF/FBX/OBJ with an armature (default: generated)")
-    ap.add_argument("--puppet", help="(shadow-puppet demo: not available yet)")
+    ap.add_argument("--puppet", help="shadow-play clip instead: five-rod, three-rod, prop, strip, quadruped")
     args = ap.parse_args(argv)
     if args.puppet:
-        raise SystemExit("the shadow-puppet demo is not available yet (issue: digital shadow puppets)")
+        import puppet_demo
+
+        return puppet_demo.main(["--out", str(args.out), "--puppet", args.puppet])
     args.out.mkdir(parents=True, exist_ok=True)
 
     st = Stages()
