@@ -88,7 +88,7 @@ def ik2d_forward(lengths: ArrayLike, angles: ArrayLike, *, base: Tuple[float, fl
 def fit_joints(vertices: ArrayLike, triangles: ArrayLike, joints: ArrayLike, bones: ArrayLike,
                movable: Optional[ArrayLike] = None, *, symmetry_axis: Optional[int] = None,
                symmetry_plane: float = 0.0, joint_mirror: Optional[ArrayLike] = None, rays: int = 12,
-               samples: int = 5, rounds: int = 12, tolerance: float = 1e-4, stiffness: float = 0.1,
+               samples: int = 5, rounds: int = 12, tolerance: float = 1e-4, stiffness: float = 0.05, tip: bool = True,
                ) -> Tuple[npt.NDArray[np.float32], dict]:
     """Fit joints (j,3) into the mesh (same space): each goes to the nearest point of its bones'
     centre lines (cross-section centres); joints left outside are pulled in. bones (b,2) joint

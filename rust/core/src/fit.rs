@@ -54,14 +54,18 @@ pub struct FitOptions {
     pub rounds: usize,
     /// Stop when no joint moves more than this (fraction of the bounding-box diagonal).
     pub tolerance: f64,
-    /// Pull of a joint towards its own position, relative to one centre line (> 0). Larger
-    /// keeps joints at gentle bends where they are; smaller trusts line intersections more.
+    /// A joint moves along a direction only if its bones' centre lines pin it down there
+    /// more than this (eigenvalue of the summed line projectors, per line; 1 - cos of the bend
+    /// angle for two lines, so 0.05 trusts bends sharper than ~18 degrees).
     pub stiffness: f64,
+    /// Put free limb ends (a bone's tail with no other bone) one local radius short of the tip
+    /// of the mesh beyond them, where the medial axis of a rounded end stops.
+    pub tip: bool,
 }
 
 impl Default for FitOptions {
     fn default() -> Self {
-        FitOptions { symmetry: None, rays: 12, samples: 5, rounds: 12, tolerance: 1e-4, stiffness: 0.1 }
+        FitOptions { symmetry: None, rays: 12, samples: 5, rounds: 12, tolerance: 1e-4, stiffness: 0.05, tip: true }
     }
 }
 
@@ -101,6 +105,12 @@ const PARITY_DIRS: [[f32; 3]; 7] = [
     [-0.6547, 0.7276, -0.2041],
     [0.2182, 0.1091, -0.9698],
 ];
+/// A free limb end goes this many local radii short of the tip of the mesh beyond it.
+const TIP_MARGIN: f64 = 0.3;
+/// Joints pulled inside go this far (unit frame) past the surface, at most half the chord.
+const PULL_DEPTH: f64 = 0.005;
+/// A joint moves at most this far (unit frame) while fitting (pulling inside may add more).
+const MAX_MOVE: f64 = 0.12;
 /// Hits closer than this (unit frame) along one ray count once (shared edges report twice).
 const DEDUP: f32 = 1e-6;
 /// Rays never need to be longer than this in the unit frame (the mesh fits in diagonal 1).
@@ -129,6 +139,49 @@ pub fn inside(rm: &RayMesh, p: DVec3) -> bool {
     2 * odd > PARITY_DIRS.len()
 }
 
+/// Eigenvalues and unit eigenvectors of a symmetric 3x3 matrix (cyclic Jacobi rotations).
+fn sym_eigen(m: DMat3) -> ([f64; 3], [DVec3; 3]) {
+    let mut a = [[0.0f64; 3]; 3];
+    for (r, row) in a.iter_mut().enumerate() {
+        for (c, x) in row.iter_mut().enumerate() {
+            *x = m.col(c)[r];
+        }
+    }
+    let mut v = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0f64]];
+    for _ in 0..32 {
+        let off = a[0][1].abs() + a[0][2].abs() + a[1][2].abs();
+        if off < 1e-15 {
+            break;
+        }
+        for (p, q) in [(0, 1), (0, 2), (1, 2)] {
+            if a[p][q].abs() < 1e-300 {
+                continue;
+            }
+            let theta = (a[q][q] - a[p][p]) / (2.0 * a[p][q]);
+            let t = theta.signum() / (theta.abs() + (theta * theta + 1.0).sqrt());
+            let t = if theta == 0.0 { 1.0 } else { t };
+            let (c, s) = (1.0 / (t * t + 1.0).sqrt(), t / (t * t + 1.0).sqrt());
+            for k in 0..3 {
+                let (akp, akq) = (a[k][p], a[k][q]);
+                a[k][p] = c * akp - s * akq;
+                a[k][q] = s * akp + c * akq;
+            }
+            for k in 0..3 {
+                let (apk, aqk) = (a[p][k], a[q][k]);
+                a[p][k] = c * apk - s * aqk;
+                a[q][k] = s * apk + c * aqk;
+            }
+            for row in v.iter_mut() {
+                let (vp, vq) = (row[p], row[q]);
+                row[p] = c * vp - s * vq;
+                row[q] = s * vp + c * vq;
+            }
+        }
+    }
+    let col = |k: usize| DVec3::new(v[0][k], v[1][k], v[2][k]);
+    ([a[0][0], a[1][1], a[2][2]], [col(0), col(1), col(2)])
+}
+
 /// Two unit vectors completing `d` (unit) to an orthonormal basis.
 fn basis(d: DVec3) -> (DVec3, DVec3) {
     let a = if d.x.abs() < 0.6 { DVec3::X } else if d.y.abs() < 0.6 { DVec3::Y } else { DVec3::Z };
@@ -138,7 +191,7 @@ fn basis(d: DVec3) -> (DVec3, DVec3) {
 
 /// Move `q` (unit frame) to the centre of the mesh cross-section by the plane through `q` with
 /// normal `d` (unit). `None` when the point is outside and no chord in the plane reaches in.
-fn centre_in_plane(rm: &RayMesh, q0: DVec3, d: DVec3, lines: usize) -> Option<DVec3> {
+fn centre_in_plane(rm: &RayMesh, q0: DVec3, d: DVec3, lines: usize, reach: f64) -> Option<(DVec3, f64)> {
     let (u, v) = basis(d);
     let dirs: Vec<DVec3> = (0..lines)
         .map(|k| {
@@ -148,6 +201,7 @@ fn centre_in_plane(rm: &RayMesh, q0: DVec3, d: DVec3, lines: usize) -> Option<DV
         .collect();
     let mut q = q0;
     let mut moved_in = false;
+    let mut radius = 0.0;
     for _ in 0..24 {
         let mut chords = Vec::with_capacity(lines); // (w, forward first hit, backward first hit)
         let mut odd = 0;
@@ -170,17 +224,18 @@ fn centre_in_plane(rm: &RayMesh, q0: DVec3, d: DVec3, lines: usize) -> Option<DV
             if moved_in {
                 return None;
             }
-            let best = entries.iter().min_by(|a, b| a.0.total_cmp(&b.0))?;
+            let best = entries.iter().filter(|e| e.0 <= reach).min_by(|a, b| a.0.total_cmp(&b.0))?;
             q = best.1;
             moved_in = true;
             continue;
         }
         if chords.is_empty() {
-            return Some(q);
+            return Some((q, radius));
         }
         let mut half: Vec<f64> = chords.iter().map(|c| 0.5 * (c.1 + c.2)).collect();
         half.sort_by(|a, b| a.total_cmp(b));
         let r_med = half[half.len() / 2];
+        radius = r_med;
         // Least squares: sum_k (w_k . delta - s_k)^2 over the chords not escaping into
         // another part of the body (longer than 3x the median half-chord).
         let (mut a11, mut a12, mut a22, mut b1, mut b2) = (0.0, 0.0, 0.0, 0.0, 0.0);
@@ -198,7 +253,7 @@ fn centre_in_plane(rm: &RayMesh, q0: DVec3, d: DVec3, lines: usize) -> Option<DV
         }
         let det = a11 * a22 - a12 * a12;
         if !(det > 1e-12) {
-            return Some(q);
+            return Some((q, radius));
         }
         let (x, y) = ((a22 * b1 - a12 * b2) / det, (a11 * b2 - a12 * b1) / det);
         let mut delta = u * x + v * y;
@@ -211,16 +266,32 @@ fn centre_in_plane(rm: &RayMesh, q0: DVec3, d: DVec3, lines: usize) -> Option<DV
             break;
         }
     }
-    Some(q)
+    Some((q, radius))
 }
 
 /// Nearest point inside the mesh: middle of the nearest chord along rays over the sphere (or,
 /// with `plane = Some(axis)`, over the circle of directions with no `axis` component).
-fn pull_inside(rm: &RayMesh, p: DVec3, plane: Option<usize>) -> Option<DVec3> {
+fn pull_inside(rm: &RayMesh, p: DVec3, plane: Option<usize>, toward: &[DVec3]) -> Option<DVec3> {
     let n = 96;
     let mut best: Option<(f64, DVec3)> = None;
-    for i in 0..n {
-        let w = match plane {
+    // Rays toward the nearest surface points first (thin parts slip between sphere directions),
+    // then over the sphere.
+    let extra: Vec<DVec3> = toward
+        .iter()
+        .map(|&t| {
+            // Aim a little off the vertex itself: a ray through a vertex or edge can report
+            // one crossing twice and break the chord pairing.
+            let jitter = DVec3::new((t.x * 1e4).sin(), (t.y * 1e4 + 1.0).sin(), (t.z * 1e4 + 2.0).sin());
+            let mut w = t + jitter * 1e-4 - p;
+            if let Some(axis) = plane {
+                w[axis] = 0.0;
+            }
+            w.normalize_or_zero()
+        })
+        .filter(|w| *w != DVec3::ZERO)
+        .collect();
+    for i in 0..n + extra.len() {
+        let w = if i >= n { extra[i - n] } else { match plane {
             None => {
                 // Fibonacci sphere.
                 let z = 1.0 - (2.0 * i as f64 + 1.0) / n as f64;
@@ -233,14 +304,15 @@ fn pull_inside(rm: &RayMesh, p: DVec3, plane: Option<usize>) -> Option<DVec3> {
                 let (u, v) = basis(DVec3::AXES[axis]);
                 u * a.cos() + v * a.sin()
             }
-        };
+        } };
         let h = hits(rm, p, w);
         let mut k = 0;
         // Pairs (entry, exit) along the ray; the first whose middle tests inside.
         while k + 1 < h.len() {
             let (t0, t1) = (h[k] as f64, h[k + 1] as f64);
             if best.as_ref().map_or(true, |b| t0 < b.0) {
-                let c = p + w * 0.5 * (t0 + t1);
+                // Just past the entry (a long chord may run through a whole body part).
+                let c = p + w * (t0 + (0.5 * (t1 - t0)).min(PULL_DEPTH));
                 if inside(rm, c) {
                     best = Some((t0, c));
                     break;
@@ -396,6 +468,7 @@ pub fn fit_joints(
 
     let mut p: Vec<DVec3> = joints.iter().map(|j| frame.to_unit(*j)).collect();
     let outside_before: Vec<bool> = p.par_iter().map(|q| !inside(&rm, *q)).collect();
+    let start = p.clone();
     let mut incident: Vec<Vec<usize>> = vec![Vec::new(); nj];
     for (e, b) in bones.iter().enumerate() {
         incident[b[0] as usize].push(e);
@@ -431,7 +504,7 @@ pub fn fit_joints(
     for _ in 0..opts.rounds {
         rounds += 1;
         // 1. Centre line per bone: (point at the head, unit direction), None if not inside.
-        let lines: Vec<Option<(DVec3, DVec3)>> = bones
+        let lines: Vec<Option<(DVec3, DVec3, Option<DVec3>)>> = bones
             .par_iter()
             .map(|b| {
                 let (a, t) = (p[b[0] as usize], p[b[1] as usize]);
@@ -441,23 +514,31 @@ pub fn fit_joints(
                     return None;
                 }
                 let d = axis / len;
+                let reach = (0.5 * len).clamp(0.03, 0.1);
                 let mut pts = Vec::new();
                 for &s in &fractions {
                     let q = a + axis * s;
-                    if let Some(c) = centre_in_plane(&rm, q, d, opts.rays) {
+                    if let Some((c, r)) = centre_in_plane(&rm, q, d, opts.rays, reach) {
                         let off = c - q;
-                        pts.push((s, off - d * off.dot(d)));
+                        let off = off - d * off.dot(d);
+                        if off.length() > reach {
+                            continue; // a section of some other part of the body
+                        }
+                        pts.push((s, off, r));
                     }
                 }
                 if pts.is_empty() {
                     return None;
                 }
-                let k = pts.len() as f64;
-                let sm = pts.iter().map(|x| x.0).sum::<f64>() / k;
-                let om = pts.iter().map(|x| x.1).sum::<DVec3>() / k;
-                let sxx: f64 = pts.iter().map(|x| (x.0 - sm) * (x.0 - sm)).sum();
-                let beta = if sxx > 1e-12 {
-                    pts.iter().map(|x| x.1 * (x.0 - sm)).sum::<DVec3>() / sxx
+                // Weighted least squares of the offset, linear in s, weights 1 / r^2: thin
+                // sections (the limb itself) outweigh sections through the body it joins.
+                let ws: Vec<f64> = pts.iter().map(|x| 1.0 / (x.2 * x.2).max(1e-8)).collect();
+                let wsum: f64 = ws.iter().sum();
+                let sm = pts.iter().zip(&ws).map(|(x, w)| x.0 * w).sum::<f64>() / wsum;
+                let om = pts.iter().zip(&ws).map(|(x, w)| x.1 * *w).sum::<DVec3>() / wsum;
+                let sxx: f64 = pts.iter().zip(&ws).map(|(x, w)| w * (x.0 - sm) * (x.0 - sm)).sum();
+                let beta = if sxx > 1e-12 * wsum {
+                    pts.iter().zip(&ws).map(|(x, w)| x.1 * (w * (x.0 - sm))).sum::<DVec3>() / sxx
                 } else {
                     DVec3::ZERO
                 };
@@ -465,7 +546,28 @@ pub fn fit_joints(
                 let head = a + alpha;
                 let tail = t + alpha + beta;
                 let dir = (tail - head).normalize_or_zero();
-                (dir != DVec3::ZERO).then_some((head, dir))
+                if dir == DVec3::ZERO {
+                    return None;
+                }
+                // Free end: from the outermost sample centre, the medial axis of a rounded end
+                // stops one local radius short of the tip.
+                let mut tip = None;
+                if opts.tip {
+                    let s_last = pts.last().map(|x| x.0).unwrap_or(0.0);
+                    if s_last >= 0.5 {
+                        let x0 = head + (tail - head) * s_last;
+                        if let Some((x0, r)) = centre_in_plane(&rm, x0, dir, opts.rays, 0.0) {
+                            if let Some(&f) = hits(&rm, x0, dir).first() {
+                                let f = f as f64;
+                                let remaining = (1.0 - s_last) * (tail - head).length();
+                                if r > 0.0 && f > r && f < remaining + 3.0 * r {
+                                    tip = Some(x0 + dir * (f - TIP_MARGIN * r));
+                                }
+                            }
+                        }
+                    }
+                }
+                Some((head, dir, tip))
             })
             .collect();
         // 2. Each joint: nearest point to its bones' centre lines, pulled to itself.
@@ -474,11 +576,11 @@ pub fn fit_joints(
             if !movable[j] {
                 continue;
             }
-            let mut m = DMat3::IDENTITY * opts.stiffness;
-            let mut rhs = p[j] * opts.stiffness;
+            let mut m = DMat3::ZERO;
+            let mut rhs = DVec3::ZERO;
             let mut used = 0;
             for &e in &incident[j] {
-                if let Some((o, u)) = lines[e] {
+                if let Some((o, u, _)) = lines[e] {
                     let proj = DMat3::IDENTITY - DMat3::from_cols(u * u.x, u * u.y, u * u.z);
                     m += proj;
                     rhs += proj * o;
@@ -486,10 +588,33 @@ pub fn fit_joints(
                 }
             }
             if used > 0 {
-                let c = m.inverse() * rhs;
+                // Least squares to the lines, only along directions they pin down (eigenvalue
+                // above `stiffness`); along the others (a straight limb) the joint
+                // keeps its place, which makes the fit a fixed point (idempotent).
+                let g = rhs - m * p[j];
+                let (vals, vecs) = sym_eigen(m);
+                let mut c = p[j];
+                for k in 0..3 {
+                    if vals[k] > opts.stiffness {
+                        c += vecs[k] * (vecs[k].dot(g) / vals[k]);
+                    }
+                }
+                // A limb's free end (a bone's tail and nothing else): at the end of the medial axis.
+                if incident[j].len() == 1 && bones[incident[j][0]][1] as usize == j {
+                    if let Some((_, _, Some(tip))) = lines[incident[j][0]] {
+                        c = tip;
+                    }
+                }
                 if c.is_finite() {
                     next[j] = c;
                 }
+            }
+        }
+        // Never wander off: a rough joint is near its place (MAX_MOVE of the diagonal).
+        for (q, q0) in next.iter_mut().zip(&start) {
+            let d = *q - *q0;
+            if d.length() > MAX_MOVE {
+                *q = *q0 + d * (MAX_MOVE / d.length());
             }
         }
         symmetrize(&mut next);
@@ -509,7 +634,16 @@ pub fn fit_joints(
                 return None;
             }
             let plane = sym.as_ref().and_then(|(axis, _, m)| (m[j] == j).then_some(*axis));
-            pull_inside(&rm, p[j], plane)
+            // The 24 nearest vertices (brute force: few joints are outside).
+            let mut near: Vec<(f64, DVec3)> = unit_v.iter().map(|v| ((*v - p[j]).length_squared(), *v)).collect();
+            let k = near.len().min(24);
+            if k > 0 && k < near.len() {
+                near.select_nth_unstable_by(k - 1, |a, b| a.0.total_cmp(&b.0));
+            }
+            let toward: Vec<DVec3> = near[..k].iter().map(|x| x.1).chain(
+                incident[j].iter().map(|&e| p[(bones[e][0] + bones[e][1]) as usize - j])
+            ).collect();
+            pull_inside(&rm, p[j], plane, &toward)
         })
         .collect();
     for j in 0..nj {
@@ -579,4 +713,19 @@ fn finish(
         out,
         FitReport { outside_before, outside_after, rounds, max_move, open_edges, nonmanifold_edges, pieces },
     ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn eigen_decomposes() {
+        let m = DMat3::from_cols(DVec3::new(2.0, 1.0, 0.0), DVec3::new(1.0, 2.0, 0.5), DVec3::new(0.0, 0.5, 1.0));
+        let (vals, vecs) = sym_eigen(m);
+        for k in 0..3 {
+            assert!((m * vecs[k] - vecs[k] * vals[k]).length() < 1e-9, "{k}: {vals:?}");
+            assert!((vecs[k].length() - 1.0).abs() < 1e-9);
+        }
+    }
 }

@@ -107,7 +107,8 @@ fn chain_bones(n: usize) -> Vec<[u32; 2]> {
     (0..n as u32 - 1).map(|i| [i, i + 1]).collect()
 }
 
-/// A straight limb: joints pushed sideways go back to the axis; along the axis they stay.
+/// A straight limb: joints pushed sideways go back to the axis; along the axis they stay,
+/// except the free end, which goes next to the cap.
 #[test]
 fn straight_tube_centres_perpendicular() {
     let (v, t) = capped_cylinder(0.5, 4.0, 40, 32);
@@ -120,8 +121,12 @@ fn straight_tube_centres_perpendicular() {
     let (out, rep) = fit_joints(&v, &t, &start, &chain_bones(5), &[true; 5], &FitOptions::default()).unwrap();
     for (o, s) in out.iter().zip(&start) {
         assert!(o[0].abs() < 0.02 && o[1].abs() < 0.02, "not centred: {o:?}");
+    }
+    for (o, s) in out[..4].iter().zip(&start) {
         assert!((o[2] - s[2]).abs() < 0.05, "moved along the limb: {o:?} from {s:?}");
     }
+    // The free end goes 0.3 radius short of the cap.
+    assert!((out[4][2] - (4.0 - 0.3 * 0.5)).abs() < 0.03, "free end {:?}", out[4]);
     assert_eq!(rep.count_outside_after(), 0);
     assert_eq!((rep.open_edges, rep.nonmanifold_edges, rep.pieces), (0, 0, 1));
 }

@@ -1,0 +1,320 @@
+"""Skeleton operators: Fit Skeleton to Mesh, Restore Original Skeleton / Keep Current as Original,
+and rig exchange (NPZ bundle export/import, debug JSON export).
+
+Fitting is computed by ``miniskeleton_core.fit_joints`` in armature space (so X symmetry is the
+armature's x = 0); rest-pose snapshots and file formats live in rig_io.py.
+"""
+
+from __future__ import annotations
+
+import json
+
+import bpy
+import numpy as np
+from bpy.props import EnumProperty, IntProperty, StringProperty
+from bpy_extras.io_utils import ExportHelper, ImportHelper
+
+from . import mesh_io, rig_io
+from .operators_weights import find_armature
+
+
+def _selected_meshes(context, arm):
+    return [ob for ob in context.selected_objects if ob.type == "MESH" and ob is not arm]
+
+
+def _skinned_meshes(context, arm):
+    """Selected meshes; if none, every mesh deformed by (or parented to) ``arm``."""
+    meshes = _selected_meshes(context, arm)
+    if meshes:
+        return meshes
+    out = []
+    for ob in context.scene.objects:
+        if ob.type != "MESH":
+            continue
+        if any(m.type == "ARMATURE" and m.object is arm for m in ob.modifiers) or ob.parent is arm:
+            out.append(ob)
+    return sorted(out, key=lambda ob: ob.name)
+
+
+def _pose_selected(arm, name):
+    pb = arm.pose.bones.get(name) if arm.pose else None
+    if pb is not None and hasattr(pb, "select"):
+        return bool(pb.select)
+    return bool(getattr(arm.data.bones[name], "select", False))
+
+
+def _armature_check(op, arm):
+    if arm is None:
+        op.report({"ERROR"}, "No armature: make the armature the active object")
+        return False
+    if len(arm.data.bones) == 0 and not (arm.mode == "EDIT" and len(arm.data.edit_bones)):
+        op.report({"ERROR"}, f"Armature '{arm.name}' has no bones")
+        return False
+    return True
+
+
+class MINISKELETON_OT_fit_skeleton(bpy.types.Operator):
+    """Move the selected joints (all when none are selected) to the middle of the selected meshes"""
+
+    bl_idname = "armature.miniskeleton_fit_skeleton"
+    bl_label = "Fit Skeleton to Mesh"
+    bl_options = {"REGISTER", "UNDO"}
+
+    symmetry: EnumProperty(
+        name="Symmetry", default="NONE",
+        items=[("NONE", "None", "Each joint on its own"),
+               ("X", "X", "Left/right joints (.L/.R, _L/_R, Left/Right names) end exactly mirrored "
+                "and centre joints on the armature's x = 0")])
+    rounds: IntProperty(name="Rounds", default=12, min=1, max=100,
+                        description="Maximum rounds of centre lines and joint updates")
+
+    def _inputs(self, context, arm):
+        """(vertices (n,3) in armature space, triangles) of the selected meshes, or None (reported)."""
+        meshes = _selected_meshes(context, arm)
+        if not meshes:
+            self.report({"ERROR"}, "No mesh selected: select the mesh(es), then the armature (active)")
+            return None
+        inv = np.linalg.inv(np.array(arm.matrix_world, dtype=np.float64))
+        verts, tris, base = [], [], 0
+        for ob in meshes:
+            if ob.mode == "EDIT":
+                self.report({"ERROR"}, f"Mesh '{ob.name}' is in Edit Mode; leave Edit Mode first")
+                return None
+            v = mesh_io.mesh_world_vertices(ob).astype(np.float64)
+            t = mesh_io.mesh_triangles(ob)
+            if len(v) == 0 or len(t) == 0:
+                self.report({"ERROR"}, f"Mesh '{ob.name}' has no faces: fitting needs a closed surface")
+                return None
+            bad = int((~np.isfinite(v)).any(axis=1).sum())
+            if bad:
+                self.report({"ERROR"}, f"Mesh '{ob.name}' has {bad} vertices with NaN or infinite coordinates")
+                return None
+            verts.append((v @ inv[:3, :3].T + inv[:3, 3]).astype(np.float32))
+            tris.append(t.astype(np.int64) + base)
+            base += len(v)
+        return np.concatenate(verts), np.concatenate(tris).astype(np.uint32)
+
+    def execute(self, context):
+        import miniskeleton_core as core
+
+        arm = find_armature(context)
+        if not _armature_check(self, arm):
+            return {"CANCELLED"}
+        inputs = self._inputs(context, arm)
+        if inputs is None:
+            return {"CANCELLED"}
+        verts, tris = inputs
+        mode = arm.mode
+        pose_sel = {b.name: _pose_selected(arm, b.name) for b in arm.data.bones} if mode == "POSE" else {}
+
+        with rig_io.armature_edit(context, arm) as ebs:
+            bones = list(ebs)
+            if not bones:
+                self.report({"ERROR"}, f"Armature '{arm.name}' has no bones")
+                return {"CANCELLED"}
+            names = [eb.name for eb in bones]
+            index = {n: i for i, n in enumerate(names)}
+            heads = np.array([eb.head for eb in bones], dtype=np.float64)
+            tails = np.array([eb.tail for eb in bones], dtype=np.float64)
+            parents = [index[eb.parent.name] if eb.parent else -1 for eb in bones]
+            connected = [bool(eb.use_connect) for eb in bones]
+            zaxes = [eb.z_axis.copy() for eb in bones]
+            size = float(np.linalg.norm(np.ptp(np.concatenate([heads, tails, verts]), axis=0)))
+            joints, ends = rig_io.joint_graph(heads, tails, parents, connected, 1e-6 * max(size, 1e-30))
+            nj = len(joints)
+
+            sel = np.zeros(nj, dtype=bool)
+            if mode == "EDIT":
+                for i, eb in enumerate(bones):
+                    sel[ends[i, 0]] |= eb.select_head
+                    sel[ends[i, 1]] |= eb.select_tail
+            elif mode == "POSE":
+                for i, n in enumerate(names):
+                    if pose_sel.get(n):
+                        sel[ends[i]] = True
+            movable = sel if sel.any() else np.ones(nj, dtype=bool)
+
+            inside = core.points_inside(verts, tris, joints.astype(np.float32))
+            if not inside.any():
+                self.report({"ERROR"}, f"All {nj} joints of '{arm.name}' are outside the selected mesh(es): "
+                            "is this the right mesh, and are both objects placed over each other?")
+                return {"CANCELLED"}
+
+            real = ends[:, 0] != ends[:, 1]
+            kw = {}
+            if self.symmetry == "X":
+                kw = dict(symmetry_axis=0, symmetry_plane=0.0, joint_mirror=rig_io.joint_mirror(names, ends))
+            try:
+                new, rep = core.fit_joints(verts, tris, joints.astype(np.float32), ends[real].astype(np.uint32),
+                                           movable, rounds=self.rounds, **kw)
+            except (ValueError, RuntimeError) as err:
+                self.report({"ERROR"}, f"Fit failed: {err}; nothing was changed")
+                return {"CANCELLED"}
+
+            rig_io.ensure_snapshot(arm, ebs)
+            new = new.astype(np.float64)
+            for eb in bones:  # detach first so moving a child never drags its parent's tail around
+                eb.use_connect = False
+            for i, eb in enumerate(bones):
+                h = new[ends[i, 0]]
+                t = new[ends[i, 1]] if real[i] else h + (tails[i] - heads[i])
+                if np.linalg.norm(t - h) <= 1e-6 * size:
+                    t = h + (tails[i] - heads[i])  # never collapse a bone (Blender would delete it)
+                eb.head = h
+                eb.tail = t
+                eb.align_roll(zaxes[i])
+            for i, eb in enumerate(bones):
+                eb.use_connect = connected[i]
+
+        if rep["open_edges"] or rep["nonmanifold_edges"]:
+            self.report({"WARNING"}, f"The mesh is not closed ({rep['open_edges']} open edges, "
+                        f"{rep['nonmanifold_edges']} non-manifold edges): inside tests may be wrong")
+        if rep["pieces"] > 1:
+            self.report({"WARNING"}, f"The mesh has {rep['pieces']} separate pieces: each joint was "
+                        "fitted into the piece around it")
+        level = {"WARNING"} if rep["outside_after"] else {"INFO"}
+        self.report(level, f"Fitted {int(movable.sum())} of {nj} joints: outside the mesh before "
+                    f"{rep['outside_before']}, after {rep['outside_after']}")
+        return {"FINISHED"}
+
+
+class MINISKELETON_OT_restore_skeleton(bpy.types.Operator):
+    """Put back the rest pose the armature had before MiniSkeleton first changed it"""
+
+    bl_idname = "armature.miniskeleton_restore_skeleton"
+    bl_label = "Restore Original Skeleton"
+    bl_options = {"REGISTER", "UNDO"}
+
+    def execute(self, context):
+        arm = find_armature(context)
+        if arm is None:
+            self.report({"ERROR"}, "No armature: make the armature the active object")
+            return {"CANCELLED"}
+        snap = rig_io.load_snapshot(arm.data)
+        if snap is None:
+            self.report({"ERROR"}, f"Armature '{arm.name}' has no stored original skeleton "
+                        "(MiniSkeleton has not changed it)")
+            return {"CANCELLED"}
+        with rig_io.armature_edit(context, arm) as ebs:
+            rig_io.apply_rest_pose(ebs, snap)
+        self.report({"INFO"}, f"Restored the original skeleton of '{arm.name}' ({len(snap['names'])} bones)")
+        return {"FINISHED"}
+
+
+class MINISKELETON_OT_snapshot_skeleton(bpy.types.Operator):
+    """Keep the current rest pose as the original that Restore Original Skeleton goes back to"""
+
+    bl_idname = "armature.miniskeleton_snapshot_skeleton"
+    bl_label = "Keep Current as Original"
+    bl_options = {"REGISTER", "UNDO"}
+
+    def execute(self, context):
+        arm = find_armature(context)
+        if not _armature_check(self, arm):
+            return {"CANCELLED"}
+        with rig_io.armature_edit(context, arm) as ebs:
+            rig_io.store_snapshot(arm.data, rig_io.read_edit_rest_pose(ebs))
+        self.report({"INFO"}, f"Current skeleton of '{arm.name}' kept as the original")
+        return {"FINISHED"}
+
+
+def _rig_context(op, context):
+    """(armature, meshes) for export, or None (reported)."""
+    arm = find_armature(context)
+    if not _armature_check(op, arm):
+        return None
+    if arm.mode == "EDIT":
+        arm.update_from_editmode()
+    meshes = _skinned_meshes(context, arm)
+    if not meshes:
+        op.report({"ERROR"}, "No mesh: select the skinned mesh(es) or bind a mesh to the armature")
+        return None
+    return arm, meshes
+
+
+class MINISKELETON_OT_export_npz(bpy.types.Operator, ExportHelper):
+    """Export mesh, skeleton and weights as a NumPy .npz bundle (RigNet-style pipelines)"""
+
+    bl_idname = "export_scene.miniskeleton_npz"
+    bl_label = "Export Rig Bundle (.npz)"
+    bl_options = {"REGISTER"}
+
+    filename_ext = ".npz"
+    filter_glob: StringProperty(default="*.npz", options={"HIDDEN"})
+    max_influences: IntProperty(name="Max Influences", default=0, min=0, max=64,
+                                description="Bones kept per vertex (0 = all, unchanged weights)")
+
+    def execute(self, context):
+        found = _rig_context(self, context)
+        if found is None:
+            return {"CANCELLED"}
+        arm, meshes = found
+        try:
+            rig = rig_io.collect_rig(arm, meshes, self.max_influences)
+            rig_io.save_npz(self.filepath, rig)
+        except (rig_io.RigError, OSError) as err:
+            self.report({"ERROR"}, str(err))
+            return {"CANCELLED"}
+        self.report({"INFO"}, f"Exported {len(rig['vertices'])} vertices, {len(rig['bone_names'])} bones "
+                    f"(k = {rig['indices'].shape[1]}) to {self.filepath}")
+        return {"FINISHED"}
+
+
+class MINISKELETON_OT_import_npz(bpy.types.Operator, ImportHelper):
+    """Restore the weights of a .npz rig bundle onto the selected mesh (same vertex count)"""
+
+    bl_idname = "import_scene.miniskeleton_npz"
+    bl_label = "Import Rig Bundle Weights (.npz)"
+    bl_options = {"REGISTER", "UNDO"}
+
+    filename_ext = ".npz"
+    filter_glob: StringProperty(default="*.npz", options={"HIDDEN"})
+
+    def execute(self, context):
+        meshes = [ob for ob in context.selected_objects if ob.type == "MESH"]
+        if not meshes and context.active_object is not None and context.active_object.type == "MESH":
+            meshes = [context.active_object]
+        try:
+            rig = rig_io.load_npz(self.filepath)
+            n = rig_io.apply_weights(rig, meshes)
+        except rig_io.RigError as err:
+            self.report({"ERROR"}, str(err))
+            return {"CANCELLED"}
+        self.report({"INFO"}, f"Weights of {len(rig['bone_names'])} bones restored on {n} vertices")
+        return {"FINISHED"}
+
+
+class MINISKELETON_OT_export_json(bpy.types.Operator, ExportHelper):
+    """Export joints, bone edges and per-bone weight statistics as JSON, for debugging a rig"""
+
+    bl_idname = "export_scene.miniskeleton_json"
+    bl_label = "Export Rig Debug JSON"
+    bl_options = {"REGISTER"}
+
+    filename_ext = ".json"
+    filter_glob: StringProperty(default="*.json", options={"HIDDEN"})
+
+    def execute(self, context):
+        found = _rig_context(self, context)
+        if found is None:
+            return {"CANCELLED"}
+        arm, meshes = found
+        data = rig_io.rig_json(arm, meshes)
+        try:
+            with open(self.filepath, "w", encoding="utf-8") as f:
+                json.dump(data, f, indent=1)
+        except OSError as err:
+            self.report({"ERROR"}, str(err))
+            return {"CANCELLED"}
+        self.report({"INFO"}, f"Exported {len(data['joints'])} joints, {len(data['bones'])} bones to {self.filepath}")
+        return {"FINISHED"}
+
+
+classes = (
+    MINISKELETON_OT_fit_skeleton,
+    MINISKELETON_OT_restore_skeleton,
+    MINISKELETON_OT_snapshot_skeleton,
+    MINISKELETON_OT_export_npz,
+    MINISKELETON_OT_import_npz,
+    MINISKELETON_OT_export_json,
+)

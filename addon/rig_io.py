@@ -1,0 +1,355 @@
+"""Rig data in and out of Blender, no UI: the original rest-pose snapshot, the joint graph of an
+armature, and the NPZ bundle / debug JSON exchange formats.
+
+NPZ bundle (``FORMAT_VERSION`` 1), what RigNet-style learning pipelines read:
+  format_version ()  int32
+  vertices       (n, 3) float32  world space, the meshes concatenated in ``mesh_names`` order
+  triangles      (m, 3) int32    into ``vertices``
+  mesh_names     (p,)   str;  mesh_vertex_counts (p,) int32
+  armature_name  ()     str
+  bone_names     (b,)   str   every bone of the armature, in Blender's order
+  heads, tails   (b, 3) float32 world space (rest pose)
+  parents        (b,)   int32  index into bone_names, -1 for roots
+  indices        (n, k) int32  top-k bones per vertex (-1 = unused slot)
+  weights        (n, k) float32 raw vertex-group weights (not renormalized unless k was capped)
+"""
+
+from __future__ import annotations
+
+import json
+from contextlib import contextmanager
+
+import bpy
+import numpy as np
+
+from . import mesh_io
+
+FORMAT_VERSION = 1
+SNAPSHOT_KEY = "miniskeleton_original_rest_pose"
+
+
+class RigError(ValueError):
+    """A rig file or scene that cannot be used, with a message for the status bar."""
+
+
+# ---------------------------------------------------------------------------- edit mode
+
+@contextmanager
+def armature_edit(context, arm_ob):
+    """Edit Mode on ``arm_ob`` for the block (edit bones in armature space), then the previous
+    mode and active object again. Yields ``arm_ob.data.edit_bones``."""
+    view_layer = context.view_layer
+    prev_active = view_layer.objects.active
+    prev_mode = arm_ob.mode
+    if prev_active is not arm_ob:
+        if prev_active is not None and prev_active.mode != "OBJECT":
+            bpy.ops.object.mode_set(mode="OBJECT")
+        view_layer.objects.active = arm_ob
+    if arm_ob.mode != "EDIT":
+        bpy.ops.object.mode_set(mode="EDIT")
+    try:
+        yield arm_ob.data.edit_bones
+    finally:
+        if prev_mode != "EDIT":
+            bpy.ops.object.mode_set(mode=prev_mode)
+        else:
+            arm_ob.update_from_editmode()
+        if prev_active is not arm_ob and prev_active is not None:
+            view_layer.objects.active = prev_active
+
+
+# ---------------------------------------------------------------------------- snapshot
+
+def read_edit_rest_pose(edit_bones) -> dict:
+    """Heads, tails, rolls, parents and connection of every edit bone (armature space)."""
+    bones = list(edit_bones)
+    return {
+        "version": 1,
+        "names": [eb.name for eb in bones],
+        "heads": [list(map(float, eb.head)) for eb in bones],
+        "tails": [list(map(float, eb.tail)) for eb in bones],
+        "rolls": [float(eb.roll) for eb in bones],
+        "parents": [eb.parent.name if eb.parent else "" for eb in bones],
+        "connect": [bool(eb.use_connect) for eb in bones],
+    }
+
+
+def has_snapshot(arm_data) -> bool:
+    return SNAPSHOT_KEY in arm_data.keys()
+
+
+def store_snapshot(arm_data, snap: dict) -> None:
+    """Keep ``snap`` on the armature data (an ID property: saved in the .blend, undoable).
+    JSON keeps every float exactly (repr round trip)."""
+    arm_data[SNAPSHOT_KEY] = json.dumps(snap)
+
+
+def load_snapshot(arm_data) -> dict | None:
+    raw = arm_data.get(SNAPSHOT_KEY)
+    if raw is None:
+        return None
+    try:
+        snap = json.loads(raw)
+    except (TypeError, ValueError):
+        return None
+    return snap if isinstance(snap, dict) and "names" in snap else None
+
+
+def ensure_snapshot(arm_ob, edit_bones) -> bool:
+    """Store the current rest pose as the original unless one is stored. Call it in Edit Mode
+    before any MiniSkeleton operator changes the rest pose. True if it stored one now."""
+    if has_snapshot(arm_ob.data):
+        return False
+    store_snapshot(arm_ob.data, read_edit_rest_pose(edit_bones))
+    return True
+
+
+def apply_rest_pose(edit_bones, snap: dict) -> None:
+    """Put the rest pose ``snap`` back exactly: bones not in it are removed, missing ones made."""
+    names = snap["names"]
+    wanted = set(names)
+    for eb in list(edit_bones):
+        if eb.name not in wanted:
+            edit_bones.remove(eb)
+    for n in names:
+        if edit_bones.get(n) is None:
+            eb = edit_bones.new(n)
+            eb.tail = (0.0, 0.0, 1.0)
+    ebs = [edit_bones[n] for n in names]
+    for eb in ebs:
+        eb.use_connect = False
+        eb.parent = None
+    for eb, h, t, r in zip(ebs, snap["heads"], snap["tails"], snap["rolls"]):
+        eb.head = h
+        eb.tail = t
+        eb.roll = r
+    for eb, p in zip(ebs, snap["parents"]):
+        if p:
+            eb.parent = edit_bones[p]
+    for eb, c in zip(ebs, snap["connect"]):
+        eb.use_connect = bool(c)
+
+
+# ---------------------------------------------------------------------------- joint graph
+
+def joint_graph(heads: np.ndarray, tails: np.ndarray, parents: list[int], connected: list[bool],
+                tolerance: float) -> tuple[np.ndarray, np.ndarray]:
+    """Unique joints of a skeleton: a connected child's head is its parent's tail, and bone ends
+    closer than ``tolerance`` are one joint. Returns ``joints`` (j, 3) float64 and ``bone_joints``
+    (b, 2) int32 (head joint, tail joint)."""
+    b = len(heads)
+    joints: list[np.ndarray] = []
+    ends = np.full((b, 2), -1, dtype=np.int32)
+
+    def find_or_add(p):
+        for i, q in enumerate(joints):
+            if np.linalg.norm(q - p) <= tolerance:
+                return i
+        joints.append(np.asarray(p, dtype=np.float64))
+        return len(joints) - 1
+
+    order = _parents_first(parents)
+    for i in order:
+        if connected[i] and parents[i] >= 0:
+            ends[i, 0] = ends[parents[i], 1]
+        else:
+            ends[i, 0] = find_or_add(heads[i])
+        ends[i, 1] = find_or_add(tails[i])
+    return np.asarray(joints, dtype=np.float64).reshape(-1, 3), ends
+
+
+def _parents_first(parents: list[int]) -> list[int]:
+    done, order = set(), []
+
+    def visit(i):
+        if i in done:
+            return
+        done.add(i)
+        if parents[i] >= 0:
+            visit(parents[i])
+        order.append(i)
+
+    for i in range(len(parents)):
+        visit(i)
+    return order
+
+
+def joint_mirror(bone_names: list[str], bone_joints: np.ndarray) -> np.ndarray:
+    """Mirror joint of each joint by Blender's left/right bone names (itself on the centre line)."""
+    j = int(bone_joints.max()) + 1 if len(bone_joints) else 0
+    mirror = np.arange(j, dtype=np.int32)
+    index = {n: i for i, n in enumerate(bone_names)}
+    for bi, name in enumerate(bone_names):
+        other = mesh_io.mirror_name(name)
+        if other == name or other not in index:
+            continue
+        oi = index[other]
+        for end in (0, 1):
+            mirror[bone_joints[bi, end]] = bone_joints[oi, end]
+    return mirror
+
+
+# ---------------------------------------------------------------------------- exchange
+
+def world_bones(arm_ob):
+    """Every bone of ``arm_ob`` (rest pose, world space): names, heads (b,3), tails (b,3), parents (b,)."""
+    m = np.array(arm_ob.matrix_world, dtype=np.float64)
+    bones = list(arm_ob.data.bones)
+    names = [b.name for b in bones]
+    index = {n: i for i, n in enumerate(names)}
+    h = np.array([b.head_local for b in bones], dtype=np.float64).reshape(-1, 3)
+    t = np.array([b.tail_local for b in bones], dtype=np.float64).reshape(-1, 3)
+    h = h @ m[:3, :3].T + m[:3, 3]
+    t = t @ m[:3, :3].T + m[:3, 3]
+    parents = np.array([index[b.parent.name] if b.parent else -1 for b in bones], dtype=np.int32)
+    connected = [bool(b.use_connect) for b in bones]
+    return names, h, t, parents, connected
+
+
+def read_weights(ob, bone_names: list[str]) -> list[list[tuple[int, float]]]:
+    """Per vertex: [(bone index, weight)] from ``ob``'s bone-named groups, weight > 0."""
+    index = {n: i for i, n in enumerate(bone_names)}
+    gmap = {g.index: index[g.name] for g in ob.vertex_groups if g.name in index}
+    rows = []
+    for v in ob.data.vertices:
+        rows.append([(gmap[g.group], float(g.weight)) for g in v.groups if g.group in gmap and g.weight > 0])
+    return rows
+
+
+def top_k(rows, max_influences: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """Rows of (bone, weight) to dense (n, k) indices int32 / weights float32, strongest first.
+    k = the largest row when ``max_influences`` is 0; else capped and renormalized."""
+    k = max((len(r) for r in rows), default=0)
+    capped = 0 < max_influences < k
+    if capped:
+        k = max_influences
+    k = max(k, 1)
+    idx = np.full((len(rows), k), -1, dtype=np.int32)
+    w = np.zeros((len(rows), k), dtype=np.float32)
+    for i, r in enumerate(rows):
+        r = sorted(r, key=lambda x: -x[1])[:k]
+        if capped and r:
+            s = sum(x[1] for x in r)
+            r = [(b, x / s) for b, x in r]
+        for s, (b, x) in enumerate(r):
+            idx[i, s] = b
+            w[i, s] = x
+    return idx, w
+
+
+def collect_rig(arm_ob, meshes, max_influences: int = 0) -> dict:
+    """Everything the NPZ bundle holds, as numpy arrays (see the module doc)."""
+    if not meshes:
+        raise RigError("no mesh: select the skinned meshes (or bind some to the armature)")
+    if len(arm_ob.data.bones) == 0:
+        raise RigError(f"armature '{arm_ob.name}' has no bones")
+    names, h, t, parents, _ = world_bones(arm_ob)
+    verts, tris, rows, counts = [], [], [], []
+    base = 0
+    for ob in meshes:
+        v = mesh_io.mesh_world_vertices(ob)
+        verts.append(v)
+        tris.append(mesh_io.mesh_triangles(ob).astype(np.int64) + base)
+        rows += read_weights(ob, names)
+        counts.append(len(v))
+        base += len(v)
+    idx, w = top_k(rows, max_influences)
+    return {
+        "format_version": np.int32(FORMAT_VERSION),
+        "vertices": np.concatenate(verts).astype(np.float32),
+        "triangles": np.concatenate(tris).astype(np.int32).reshape(-1, 3),
+        "mesh_names": np.array([ob.name for ob in meshes], dtype=str),
+        "mesh_vertex_counts": np.array(counts, dtype=np.int32),
+        "armature_name": np.array(arm_ob.name, dtype=str),
+        "bone_names": np.array(names, dtype=str),
+        "heads": h.astype(np.float32),
+        "tails": t.astype(np.float32),
+        "parents": parents,
+        "indices": idx,
+        "weights": w,
+    }
+
+
+def save_npz(path: str, rig: dict) -> None:
+    np.savez_compressed(path, **rig)
+
+
+def load_npz(path: str) -> dict:
+    """Read and check a bundle; raises RigError with the reason."""
+    try:
+        with np.load(path, allow_pickle=False) as f:
+            rig = {k: f[k] for k in f.files}
+    except (OSError, ValueError) as err:
+        raise RigError(f"cannot read '{path}': {err}") from err
+    missing = [k for k in ("format_version", "vertices", "bone_names", "indices", "weights") if k not in rig]
+    if missing:
+        raise RigError(f"'{path}' is not a MiniSkeleton rig bundle (missing {', '.join(missing)})")
+    if int(rig["format_version"]) > FORMAT_VERSION:
+        raise RigError(f"rig bundle format {int(rig['format_version'])} is newer than this add-on ({FORMAT_VERSION})")
+    n = len(rig["vertices"])
+    if rig["indices"].shape != rig["weights"].shape or rig["indices"].ndim != 2 or len(rig["indices"]) != n:
+        raise RigError(f"indices {rig['indices'].shape} / weights {rig['weights'].shape} do not match {n} vertices")
+    b = len(rig["bone_names"])
+    if rig["indices"].size and (rig["indices"].max() >= b or rig["indices"].min() < -1):
+        raise RigError("indices refer to bones that are not in bone_names")
+    return rig
+
+
+def apply_weights(rig: dict, meshes) -> int:
+    """Write the bundle's weights as bone-named vertex groups. One mesh takes all vertices; several
+    meshes are matched by the stored mesh names. Vertex counts must agree (RigError otherwise).
+    Returns the number of vertices written."""
+    if not meshes:
+        raise RigError("no mesh selected to receive the weights")
+    n = len(rig["vertices"])
+    names = [str(s) for s in rig["bone_names"]]
+    if len(meshes) == 1:
+        targets = [(meshes[0], 0, n)]
+    else:
+        stored = [str(s) for s in rig.get("mesh_names", [])]
+        counts = [int(c) for c in rig.get("mesh_vertex_counts", [])]
+        starts = np.concatenate([[0], np.cumsum(counts)]).astype(int)
+        by_name = {ob.name: ob for ob in meshes}
+        targets = [(by_name[s], starts[i], counts[i]) for i, s in enumerate(stored) if s in by_name]
+        if not targets:
+            raise RigError(f"none of the selected meshes is named like the bundle's ({', '.join(stored)})")
+    for ob, start, count in targets:
+        if len(ob.data.vertices) != count:
+            raise RigError(f"vertex count mismatch: the bundle has {count} vertices for this mesh, "
+                           f"'{ob.name}' has {len(ob.data.vertices)}; nothing was changed")
+    for ob, start, count in targets:
+        idx = rig["indices"][start:start + count]
+        w = rig["weights"][start:start + count]
+        dense = mesh_io.dense_weights(idx, w, len(names))
+        used = dense.any(axis=1)
+        mesh_io.write_vertex_groups(ob, names, dense, used)
+    return sum(t[2] for t in targets)
+
+
+def rig_json(arm_ob, meshes) -> dict:
+    """Debug view of a rig: world-space joints, bone edges and per-bone weight statistics."""
+    names, h, t, parents, connected = world_bones(arm_ob)
+    size = max(float(np.linalg.norm(np.ptp(np.concatenate([h, t]), axis=0))) if len(h) else 0.0, 1e-30)
+    joints, ends = joint_graph(h, t, list(parents), connected, 1e-6 * size)
+    count = np.zeros(len(names), dtype=np.int64)
+    wmax = np.zeros(len(names), dtype=np.float64)
+    for ob in meshes:
+        for r in read_weights(ob, names):
+            for b, w in r:
+                count[b] += 1
+                wmax[b] = max(wmax[b], w)
+    return {
+        "format": "miniskeleton-rig-debug",
+        "version": FORMAT_VERSION,
+        "armature": arm_ob.name,
+        "meshes": [ob.name for ob in meshes],
+        "vertex_count": int(sum(len(ob.data.vertices) for ob in meshes)),
+        "joints": joints.tolist(),
+        "bone_edges": ends.tolist(),
+        "bones": [
+            {"name": n, "parent": names[p] if p >= 0 else None, "head": h[i].tolist(), "tail": t[i].tolist(),
+             "joints": ends[i].tolist(), "deform": bool(arm_ob.data.bones[n].use_deform),
+             "vertices_influenced": int(count[i]), "max_weight": float(wmax[i])}
+            for i, (n, p) in enumerate(zip(names, parents))
+        ],
+    }

@@ -1,0 +1,175 @@
+"""Fit Skeleton to Mesh against the artists' own skeletons.
+
+    .venv/bin/python bench/bench_fit.py [--models Fox.glb,CesiumMan.gltf,spot_rig.glb] [--seeds 3]
+
+For each model in ``../shared/models/`` (relative to the project root; missing files are
+skipped, never copied here) and for the generated creature (scripts/creature.py): take the
+model's own skeleton, displace every joint randomly (seeded, uniform in a ball of radius 5 % of
+the mesh's bounding-box diagonal), run ``armature.miniskeleton_fit_skeleton`` and compare with
+the original joints. Joints are the unique bone ends (a connected child's head is its parent's
+tail). Prints a markdown table: mean joint error before / after (% of the diagonal), the ratio,
+joints outside the mesh (original, before, after) and the operator's time; also writes it to
+out/bench_fit.md. Nothing is asserted (the test on the creature asserts).
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path[:0] = [str(ROOT / "scripts")]
+import blender_session  # noqa: E402
+
+MODELS_DIR = ROOT.parent / "shared" / "models"
+MODELS = ["Fox.glb", "CesiumMan.gltf", "spot_rig.glb"]
+
+
+def load(bpy, name):
+    """Fresh scene with the model (or the creature): (armature, meshes)."""
+    blender_session.reset_scene()
+    if name == "creature":
+        import creature
+
+        body, arm = creature.build()
+        return arm, [body]
+    bpy.ops.import_scene.gltf(filepath=str(MODELS_DIR / name))
+    arms = [o for o in bpy.data.objects if o.type == "ARMATURE"]
+    if len(arms) != 1:
+        return None, []
+    arm = arms[0]
+    meshes = [o for o in bpy.data.objects if o.type == "MESH"
+              and (any(m.type == "ARMATURE" and m.object is arm for m in o.modifiers) or o.parent is arm)]
+    if not meshes:  # an unskinned model: every mesh with faces
+        meshes = [o for o in bpy.data.objects if o.type == "MESH" and len(o.data.polygons) > 50]
+    return arm, meshes
+
+
+def edit_bones(bpy, arm):
+    bpy.context.view_layer.objects.active = arm
+    bpy.ops.object.mode_set(mode="EDIT")
+    return arm.data.edit_bones
+
+
+def read_joints(bpy, arm, rig_io, diag):
+    ebs = edit_bones(bpy, arm)
+    bones = list(ebs)
+    index = {eb.name: i for i, eb in enumerate(bones)}
+    h = np.array([eb.head for eb in bones], dtype=np.float64)
+    t = np.array([eb.tail for eb in bones], dtype=np.float64)
+    parents = [index[eb.parent.name] if eb.parent else -1 for eb in bones]
+    conn = [eb.use_connect for eb in bones]
+    bpy.ops.object.mode_set(mode="OBJECT")
+    return rig_io.joint_graph(h, t, parents, conn, 1e-6 * diag)
+
+
+def joints_now(bpy, arm, ends):
+    ebs = list(edit_bones(bpy, arm))
+    j = np.zeros((int(ends.max()) + 1, 3))
+    for i, eb in enumerate(ebs):
+        j[ends[i, 0]] = eb.head
+        j[ends[i, 1]] = eb.tail
+    bpy.ops.object.mode_set(mode="OBJECT")
+    return j
+
+
+def set_joints(bpy, arm, joints, ends):
+    ebs = list(edit_bones(bpy, arm))
+    conn = [eb.use_connect for eb in ebs]
+    for eb in ebs:
+        eb.use_connect = False
+    for i, eb in enumerate(ebs):
+        eb.head = joints[ends[i, 0]]
+        eb.tail = joints[ends[i, 1]]
+    for eb, c in zip(ebs, conn):
+        eb.use_connect = c
+    bpy.ops.object.mode_set(mode="OBJECT")
+
+
+def run(bpy, name, seeds, rig_io, core, mesh_io):
+    arm, meshes = load(bpy, name)
+    if arm is None or not meshes:
+        return None
+    inv = np.linalg.inv(np.array(arm.matrix_world))
+    verts, tris, base = [], [], 0
+    for ob in meshes:
+        v = mesh_io.mesh_world_vertices(ob).astype(np.float64)
+        verts.append((v @ inv[:3, :3].T + inv[:3, 3]).astype(np.float32))
+        tris.append(mesh_io.mesh_triangles(ob).astype(np.int64) + base)
+        base += len(v)
+    verts = np.concatenate(verts)
+    tris = np.concatenate(tris).astype(np.uint32)
+    diag = float(np.linalg.norm(verts.max(0) - verts.min(0)))  # armature space
+    orig, ends = read_joints(bpy, arm, rig_io, diag)
+    out_orig = int((~core.points_inside(verts, tris, orig.astype(np.float32))).sum())
+    rows = []
+    for seed in range(seeds):
+        rng = np.random.default_rng(seed + 1)
+        d = rng.normal(size=orig.shape)
+        d *= (0.05 * diag * rng.random(len(orig)) ** (1 / 3) / np.linalg.norm(d, axis=1))[:, None]
+        moved = orig + d
+        set_joints(bpy, arm, moved, ends)
+        for o in bpy.context.view_layer.objects:
+            o.select_set(o in meshes or o is arm)
+        bpy.context.view_layer.objects.active = arm
+        start = time.perf_counter()
+        res = bpy.ops.armature.miniskeleton_fit_skeleton()
+        secs = time.perf_counter() - start
+        if res != {"FINISHED"}:
+            return None
+        fitted = joints_now(bpy, arm, ends)
+        rows.append((np.linalg.norm(moved - orig, axis=1).mean() / diag * 100,
+                     np.linalg.norm(fitted - orig, axis=1).mean() / diag * 100,
+                     int((~core.points_inside(verts, tris, moved.astype(np.float32))).sum()),
+                     int((~core.points_inside(verts, tris, fitted.astype(np.float32))).sum()), secs))
+        set_joints(bpy, arm, orig, ends)
+    r = np.array(rows, dtype=np.float64)
+    return dict(model=name, joints=len(orig), vertices=len(verts), out_orig=out_orig,
+                before=r[:, 0].mean(), after=r[:, 1].mean(), out_before=r[:, 2].mean(),
+                out_after=r[:, 3].max(), secs=r[:, 4].mean())
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--models", default=",".join(MODELS))
+    ap.add_argument("--seeds", type=int, default=3)
+    args = ap.parse_args()
+    bpy = blender_session.start()
+    rig_io = importlib.import_module(blender_session.ADDON_MODULE + ".rig_io")
+    mesh_io = importlib.import_module(blender_session.ADDON_MODULE + ".mesh_io")
+    import miniskeleton_core as core
+
+    names = ["creature"]
+    for m in [m for m in args.models.split(",") if m]:
+        if (MODELS_DIR / m).exists():
+            names.append(m)
+        else:
+            print(f"skipped {m}: not in {MODELS_DIR}")
+    lines = ["| model | joints | vertices | outside (original) | mean error before % | after % | after/before "
+             "| outside before (mean) | outside after (max) | fit s |",
+             "|---|---|---|---|---|---|---|---|---|---|"]
+    for name in names:
+        r = run(bpy, name, args.seeds, rig_io, core, mesh_io)
+        if r is None:
+            print(f"skipped {name}: no single armature with meshes, or the fit failed")
+            continue
+        lines.append(f"| {r['model']} | {r['joints']} | {r['vertices']} | {r['out_orig']} | {r['before']:.2f} | "
+                     f"{r['after']:.2f} | {r['after'] / r['before']:.2f} | {r['out_before']:.1f} | "
+                     f"{int(r['out_after'])} | {r['secs']:.2f} |")
+        print(lines[-1], flush=True)
+    table = "\n".join(lines)
+    print(f"\nJoints displaced uniformly in a ball of 5 % of the diagonal, {args.seeds} seeds; errors in % of "
+          "the mesh bounding-box diagonal, against the model's own joints.\n")
+    print(table)
+    out = ROOT / "out"
+    out.mkdir(exist_ok=True)
+    (out / "bench_fit.md").write_text(table + "\n")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,374 @@
+"""Skeleton tools in real Blender: Fit Skeleton to Mesh on the generated creature (accuracy,
+idempotence, symmetry, rolls), Restore / Keep Current as Original (exactness, save/reload, undo),
+rig exchange (NPZ round trip and mismatch, debug JSON, GLB round trip), Rust LBS against Blender's
+Armature modifier, and the reports for bad input."""
+
+from __future__ import annotations
+
+import importlib
+import json
+
+import bpy
+import numpy as np
+import pytest
+
+import builders
+import creature
+
+rig_io = importlib.import_module("bl_ext.user_default.miniskeleton.rig_io")
+core = importlib.import_module("miniskeleton_core")
+
+
+# ---------------------------------------------------------------------------- helpers
+
+def edit_state(arm):
+    """{bone: (head, tail, roll, parent, connect)} read in Edit Mode (floats as stored)."""
+    builders.set_active(arm)
+    bpy.ops.object.mode_set(mode="EDIT")
+    out = {eb.name: (tuple(eb.head), tuple(eb.tail), eb.roll, eb.parent.name if eb.parent else None,
+                     eb.use_connect) for eb in arm.data.edit_bones}
+    bpy.ops.object.mode_set(mode="OBJECT")
+    return out
+
+
+def bone_arrays(arm):
+    names = [b.name for b in arm.data.bones]
+    index = {n: i for i, n in enumerate(names)}
+    h = np.array([b.head_local for b in arm.data.bones])
+    t = np.array([b.tail_local for b in arm.data.bones])
+    parents = [index[b.parent.name] if b.parent else -1 for b in arm.data.bones]
+    conn = [b.use_connect for b in arm.data.bones]
+    return names, h, t, parents, conn
+
+
+def joints_of(arm, ends):
+    """Joint positions (armature space) read back through a fixed joint graph ``ends``."""
+    _, h, t, _, _ = bone_arrays(arm)
+    j = np.zeros((ends.max() + 1, 3))
+    j[ends[:, 0]] = h
+    j[ends[:, 1]] = t
+    return j
+
+
+def set_joints(arm, joints, ends):
+    """Move every bone end to its joint (Edit Mode), keeping connections."""
+    builders.set_active(arm)
+    bpy.ops.object.mode_set(mode="EDIT")
+    ebs = list(arm.data.edit_bones)
+    conn = [eb.use_connect for eb in ebs]
+    for eb in ebs:
+        eb.use_connect = False
+    for i, eb in enumerate(ebs):
+        eb.head = joints[ends[i, 0]]
+        eb.tail = joints[ends[i, 1]]
+    for eb, c in zip(ebs, conn):
+        eb.use_connect = c
+    bpy.ops.object.mode_set(mode="OBJECT")
+
+
+def creature_setup(seed=1, scale=0.05):
+    """Creature + rig, every joint displaced by up to ``scale`` of the bbox diagonal (seeded).
+    Returns (body, arm, ends, original joints, displaced joints, diagonal)."""
+    body, arm = creature.build()
+    names, h, t, parents, conn = bone_arrays(arm)
+    verts = builders.world_vertices(body)
+    diag = float(np.linalg.norm(verts.max(0) - verts.min(0)))
+    joints, ends = rig_io.joint_graph(h, t, parents, conn, 1e-6 * diag)
+    rng = np.random.default_rng(seed)
+    d = rng.normal(size=joints.shape)
+    d *= (scale * diag * rng.random(len(joints)) ** (1 / 3) / np.linalg.norm(d, axis=1))[:, None]
+    moved = joints + d
+    set_joints(arm, moved, ends)
+    builders.select_for_parenting([body], arm)
+    return body, arm, ends, joints, moved, diag
+
+
+def mesh_arrays(ob):
+    v = builders.world_vertices(ob).astype(np.float32)
+    ob.data.calc_loop_triangles()
+    t = np.array([tuple(lt.vertices) for lt in ob.data.loop_triangles], dtype=np.uint32)
+    return v, t
+
+
+def bound_cylinder(method="HEAT"):
+    ob = builders.cylinder("Body", radius=0.5, height=4.0, rings=24, segments=16)
+    arm = builders.chain("Rig", count=4)
+    builders.select_for_parenting([ob], arm)
+    assert bpy.ops.object.miniskeleton_auto_weights(method=method) == {"FINISHED"}
+    return ob, arm
+
+
+# ---------------------------------------------------------------------------- fit
+
+def test_fit_creature_halves_error_and_leaves_none_outside():
+    body, arm, ends, orig, moved, diag = creature_setup(seed=1)
+    assert bpy.ops.armature.miniskeleton_fit_skeleton() == {"FINISHED"}
+    fitted = joints_of(arm, ends)
+    before = np.linalg.norm(moved - orig, axis=1).mean()
+    after = np.linalg.norm(fitted - orig, axis=1).mean()
+    print(f"creature: mean joint error {100 * before / diag:.2f}% -> {100 * after / diag:.2f}% of diagonal")
+    assert after <= 0.5 * before
+    v, t = mesh_arrays(body)
+    assert core.points_inside(v, t, fitted.astype(np.float32)).all()
+    # hierarchy and connections kept
+    for b in arm.data.bones:
+        if b.use_connect:
+            assert np.allclose(b.head_local, b.parent.tail_local, atol=1e-6)
+
+
+def test_fit_is_idempotent_and_keeps_rolls():
+    body, arm, ends, orig, moved, diag = creature_setup(seed=2)
+    before = edit_state(arm)
+    builders.select_for_parenting([body], arm)
+    bpy.ops.armature.miniskeleton_fit_skeleton()
+    once = joints_of(arm, ends)
+    builders.select_for_parenting([body], arm)
+    bpy.ops.armature.miniskeleton_fit_skeleton()
+    twice = joints_of(arm, ends)
+    change = np.linalg.norm(twice - once, axis=1)
+    assert change.max() < 5e-3 * diag, change.max() / diag
+    assert change.mean() < 1e-3 * diag, change.mean() / diag
+    # z axis: as close to the old one as the new bone direction allows
+    builders.set_active(arm)
+    bpy.ops.object.mode_set(mode="EDIT")
+    for eb in arm.data.edit_bones:
+        h0, t0, roll0, _, _ = before[eb.name]
+        y = (eb.tail - eb.head).normalized()
+        old = eb.z_axis.copy()
+        # expected: the old z projected perpendicular to the new y (old z rebuilt on a scratch bone)
+        scratch = arm.data.edit_bones.new("__scratch")
+        scratch.head, scratch.tail, scratch.roll = h0, t0, roll0
+        z0 = scratch.z_axis.copy()
+        arm.data.edit_bones.remove(scratch)
+        want = (z0 - y * z0.dot(y))
+        if want.length > 1e-3:
+            assert old.dot(want.normalized()) > 0.999, eb.name
+    bpy.ops.object.mode_set(mode="OBJECT")
+
+
+def test_fit_symmetry_x():
+    body, arm, ends, orig, moved, diag = creature_setup(seed=3)
+    assert bpy.ops.armature.miniskeleton_fit_skeleton(symmetry="X") == {"FINISHED"}
+    bones = arm.data.bones
+    for b in bones:
+        other = b.name.replace(".L", ".R") if b.name.endswith(".L") else None
+        if other:
+            o = bones[other]
+            for a, c in ((b.head_local, o.head_local), (b.tail_local, o.tail_local)):
+                assert (a.x, a.y, a.z) == pytest.approx((-c.x, c.y, c.z), abs=1e-6)
+        elif not b.name.endswith(".R"):
+            assert abs(b.head_local.x) < 1e-6 and (abs(b.tail_local.x) < 1e-6 or b.name.startswith("ear")), b.name
+
+
+def test_fit_selected_joints_only():
+    body, arm, ends, orig, moved, diag = creature_setup(seed=4)
+    builders.set_active(arm, selected=[body])
+    bpy.ops.object.mode_set(mode="EDIT")
+    for eb in arm.data.edit_bones:
+        eb.select = eb.select_head = eb.select_tail = False
+    arm.data.edit_bones["forearm.L"].select_tail = True
+    bpy.ops.armature.miniskeleton_fit_skeleton()
+    bpy.ops.object.mode_set(mode="OBJECT")
+    fitted = joints_of(arm, ends)
+    names = [b.name for b in arm.data.bones]
+    j = ends[names.index("forearm.L"), 1]
+    others = np.arange(len(fitted)) != j
+    assert np.allclose(fitted[others], moved[others], atol=1e-6)
+    assert np.linalg.norm(fitted[j] - moved[j]) > 0
+
+
+# ---------------------------------------------------------------------------- restore
+
+def test_restore_exact_save_reload_and_snapshot(tmp_path):
+    body, arm, ends, orig, moved, diag = creature_setup(seed=5)
+    original = edit_state(arm)
+    builders.select_for_parenting([body], arm)
+    bpy.ops.armature.miniskeleton_fit_skeleton()
+    assert edit_state(arm) != original
+    path = str(tmp_path / "fitted.blend")
+    bpy.ops.wm.save_as_mainfile(filepath=path)
+    bpy.ops.wm.open_mainfile(filepath=path)
+    arm = bpy.data.objects["CreatureRig"]
+    builders.set_active(arm)
+    assert bpy.ops.armature.miniskeleton_restore_skeleton() == {"FINISHED"}
+    assert edit_state(arm) == original
+    # Keep Current as Original: a later restore comes back here
+    set_joints(arm, orig, ends)
+    kept = edit_state(arm)
+    builders.set_active(arm)
+    bpy.ops.armature.miniskeleton_snapshot_skeleton()
+    builders.select_for_parenting([bpy.data.objects["Creature"]], arm)
+    bpy.ops.armature.miniskeleton_fit_skeleton()
+    builders.set_active(arm)
+    bpy.ops.armature.miniskeleton_restore_skeleton()
+    assert edit_state(arm) == kept
+
+
+def test_restore_undo_both_ways():
+    body, arm, ends, orig, moved, diag = creature_setup(seed=6)
+    if not bpy.ops.ed.undo_push.poll():
+        pytest.skip("no undo stack in this headless session")
+    original = edit_state(arm)
+    bpy.ops.ed.undo_push(message="start")
+    builders.select_for_parenting([body], arm)
+    bpy.ops.armature.miniskeleton_fit_skeleton()
+    bpy.ops.ed.undo_push(message="fit")
+    fitted = edit_state(bpy.data.objects["CreatureRig"])
+    builders.set_active(bpy.data.objects["CreatureRig"])
+    bpy.ops.armature.miniskeleton_restore_skeleton()
+    bpy.ops.ed.undo_push(message="restore")
+    assert edit_state(bpy.data.objects["CreatureRig"]) == original
+    bpy.ops.ed.undo()
+    assert edit_state(bpy.data.objects["CreatureRig"]) == fitted
+    bpy.ops.ed.redo()
+    assert edit_state(bpy.data.objects["CreatureRig"]) == original
+
+
+def test_restore_without_snapshot_is_an_error():
+    arm = builders.chain("Rig", count=2)
+    builders.set_active(arm)
+    with pytest.raises(RuntimeError, match="no stored original"):
+        bpy.ops.armature.miniskeleton_restore_skeleton()
+
+
+# ---------------------------------------------------------------------------- exchange
+
+def test_npz_round_trip_and_mismatch(tmp_path):
+    ob, arm = bound_cylinder("IDW")
+    names = [b.name for b in arm.data.bones]
+    before = builders.weights_matrix(ob, names)
+    path = str(tmp_path / "rig.npz")
+    builders.set_active(arm, selected=[ob])
+    assert bpy.ops.export_scene.miniskeleton_npz(filepath=path) == {"FINISHED"}
+    with np.load(path) as f:
+        assert int(f["format_version"]) == 1
+        assert f["vertices"].dtype == np.float32 and f["vertices"].shape == (len(ob.data.vertices), 3)
+        assert f["triangles"].dtype == np.int32 and f["triangles"].shape[1] == 3
+        assert f["indices"].dtype == np.int32 and f["weights"].dtype == np.float32
+        assert list(f["bone_names"]) == names and list(f["parents"]) == [-1, 0, 1, 2]
+        assert np.allclose(f["heads"], [b.head_local for b in arm.data.bones], atol=1e-6)
+    for g in list(ob.vertex_groups):
+        ob.vertex_groups.remove(g)
+    builders.set_active(ob)
+    assert bpy.ops.import_scene.miniskeleton_npz(filepath=path) == {"FINISHED"}
+    assert np.array_equal(builders.weights_matrix(ob, names), before)
+    other = builders.cylinder("Other", rings=10)
+    builders.set_active(other)
+    with pytest.raises(RuntimeError, match="vertex count mismatch"):
+        bpy.ops.import_scene.miniskeleton_npz(filepath=path)
+    assert len(other.vertex_groups) == 0
+
+
+def test_json_debug_export(tmp_path):
+    ob, arm = bound_cylinder("IDW")
+    path = tmp_path / "rig.json"
+    builders.set_active(arm, selected=[ob])
+    assert bpy.ops.export_scene.miniskeleton_json(filepath=str(path)) == {"FINISHED"}
+    data = json.loads(path.read_text())
+    assert len(data["joints"]) == 5  # a connected chain of 4 bones
+    assert data["bone_edges"] == [[0, 1], [1, 2], [2, 3], [3, 4]]
+    w = builders.weights_matrix(ob, [b["name"] for b in data["bones"]])
+    for i, b in enumerate(data["bones"]):
+        assert b["vertices_influenced"] == int((w[:, i] > 0).sum()) > 0
+        assert b["max_weight"] == pytest.approx(w[:, i].max(), abs=1e-7)
+
+
+def test_glb_round_trip(tmp_path):
+    ob, arm = bound_cylinder("HEAT")
+    names = [b.name for b in arm.data.bones]
+    w0 = builders.weights_matrix(ob, names)
+    v0 = builders.world_vertices(ob)
+    heads0 = {b.name: np.array(arm.matrix_world @ b.head_local) for b in arm.data.bones}
+    parents0 = {b.name: b.parent.name if b.parent else None for b in arm.data.bones}
+    path = str(tmp_path / "rig.glb")
+    builders.set_active(arm, selected=[ob])
+    bpy.ops.export_scene.gltf(filepath=path, export_format="GLB", use_selection=True, export_skins=True,
+                              export_animations=False)
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    bpy.ops.import_scene.gltf(filepath=path)
+    arm2 = next(o for o in bpy.data.objects if o.type == "ARMATURE")
+    ob2 = next(o for o in bpy.data.objects if o.type == "MESH" and o.vertex_groups)
+    for b in arm2.data.bones:
+        assert np.allclose(np.array(arm2.matrix_world @ b.head_local), heads0[b.name], atol=1e-5), b.name
+        assert (b.parent.name if b.parent else None) == parents0[b.name]
+    w1 = builders.weights_matrix(ob2, names)
+    v1 = builders.world_vertices(ob2)
+    d = np.linalg.norm(v1[:, None, :] - v0[None, :, :], axis=2)
+    nearest = d.argmin(axis=1)
+    assert d.min(axis=1).max() < 1e-5
+    assert np.allclose(w1, w0[nearest], atol=2e-3)
+
+
+def test_rust_lbs_matches_armature_modifier():
+    ob, arm = bound_cylinder("HEAT")
+    builders.set_active(arm)
+    arm.location = (0.3, -0.2, 0.1)
+    arm.rotation_euler = (0.2, 0.1, 0.3)
+    bpy.context.view_layer.update()
+    bpy.ops.object.mode_set(mode="POSE")
+    for i, pb in enumerate(arm.pose.bones):
+        pb.rotation_mode = "XYZ"
+        pb.rotation_euler = (0.4 * (i + 1), 0.2, -0.3 * i)
+    bpy.ops.object.mode_set(mode="OBJECT")
+    bpy.context.view_layer.update()
+    names = [b.name for b in arm.data.bones]
+    w = builders.weights_matrix(ob, names)
+    k = 4
+    order = np.argsort(-w, axis=1)[:, :k]
+    ww = np.take_along_axis(w, order, axis=1)
+    ww = ww / np.maximum(ww.sum(1, keepdims=True), 1e-30)
+    idx = np.where(ww > 0, order, -1).astype(np.int32)
+    mw = arm.matrix_world
+    mats = np.array([np.array(mw @ arm.pose.bones[n].matrix @ arm.data.bones[n].matrix_local.inverted()
+                              @ mw.inverted()) for n in names], dtype=np.float32)
+    rest = builders.world_vertices(ob).astype(np.float32)
+    ours = core.lbs(rest, idx, ww.astype(np.float32), mats)
+    blender = builders.evaluated_world_vertices(ob)
+    diag = np.linalg.norm(rest.max(0) - rest.min(0))
+    assert np.abs(ours - blender).max() <= 1e-5 * diag
+
+
+# ---------------------------------------------------------------------------- bad input
+
+def test_bad_inputs_are_reported(capfd):
+    arm = builders.chain("Rig", count=3)
+    builders.set_active(arm)
+    with pytest.raises(RuntimeError, match="No mesh selected"):
+        bpy.ops.armature.miniskeleton_fit_skeleton()
+    ob = builders.cylinder("Body")
+    empty = builders.armature("Empty", bones=())
+    builders.select_for_parenting([ob], empty)
+    with pytest.raises(RuntimeError, match="has no bones"):
+        bpy.ops.armature.miniskeleton_fit_skeleton()
+    far = builders.chain("Far", count=3, location=(10, 0, 0))
+    builders.select_for_parenting([ob], far)
+    with pytest.raises(RuntimeError, match="outside"):
+        bpy.ops.armature.miniskeleton_fit_skeleton()
+    flat = builders.mesh_object("Points", [(0, 0, 0), (1, 0, 0), (0, 1, 0)], [])
+    builders.select_for_parenting([flat], arm)
+    with pytest.raises(RuntimeError, match="no faces"):
+        bpy.ops.armature.miniskeleton_fit_skeleton()
+    nan = builders.cylinder("Nan")
+    nan.data.vertices[0].co = (float("nan"), 0, 0)
+    builders.select_for_parenting([nan], arm)
+    with pytest.raises(RuntimeError, match="NaN"):
+        bpy.ops.armature.miniskeleton_fit_skeleton()
+
+
+def test_open_and_piecewise_meshes_warn(capfd):
+    verts, faces = builders.cylinder_arrays()
+    open_faces = [f for f in faces if len(f) == 4]  # no caps
+    ob = builders.mesh_object("Open", verts, open_faces)
+    arm = builders.chain("Rig", count=3)
+    builders.select_for_parenting([ob], arm)
+    capfd.readouterr()
+    assert bpy.ops.armature.miniskeleton_fit_skeleton() == {"FINISHED"}
+    out = "".join(capfd.readouterr())
+    assert "not closed" in out
+    a = builders.cylinder("A", location=(-0.3, 0, 0))
+    b = builders.cylinder("B", location=(3, 0, 0))
+    arm2 = builders.chain("Rig2", count=3, location=(-0.3, 0, 0))
+    builders.select_for_parenting([a, b], arm2)
+    capfd.readouterr()
+    assert bpy.ops.armature.miniskeleton_fit_skeleton() == {"FINISHED"}
+    assert "separate pieces" in "".join(capfd.readouterr())
