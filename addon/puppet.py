@@ -212,8 +212,8 @@ def _strip() -> Template:
         bones.append(BoneDef(name, (-seg * i, z), (-seg * (i + 1), z), f"trunk.{i-1:03d}" if i else None,
                              connected=i > 0, limits=(-180, 180) if i == 0 else (-45, 45),
                              seed=0 if i == 0 else (8 if i % 2 else -8),
-                             shape="head" if i == 0 else ("taper" if i == n - 1 else "segment"),
-                             width=(0.09, 0.08) if i == 0 else (0.075 - 0.005 * i, 0.07 - 0.005 * i),
+                             shape="taper" if i == n - 1 else "segment",
+                             width=(0.11, 0.13) if i == 0 else (0.1 - 0.007 * i, 0.095 - 0.007 * i),
                              depth=0.001 * (n - i)))
     mid = n // 2
     rods = (RodDef("head", (0.0, z), main=True),
@@ -227,7 +227,7 @@ def _quadruped() -> Template:
     bones = (
         BoneDef("body", (-0.55, 0.95), (0.50, 0.95), None, dof="fixed", shape="torso", width=(0.20, 0.22)),
         BoneDef("head", (0.50, 1.00), (0.95, 1.30), "body", dof="plane", limits=(-45, 35),
-                shape="head", width=(0.09, 0.08), depth=0.004),
+                shape="limb", width=(0.11, 0.07), depth=0.004),
         BoneDef("tail", (-0.55, 1.02), (-0.95, 0.80), "body", dof="fixed", shape="taper",
                 width=(0.05, 0.02), depth=-0.004),
         BoneDef("leg.FR", (0.38, 0.85), (0.42, 0.02), "body", dof="fixed", width=(0.06, 0.04), depth=0.01),
