@@ -445,9 +445,13 @@ pub fn heat_weights(
     match &llt {
         Some(llt) => {
             let threads = rayon::current_num_threads().max(1);
-            // Two rounds (one progress report in between); each round gives every worker one
-            // block of columns, so L is streamed as few times as possible.
-            let chunk = threads * b.div_ceil(2 * threads).max(1);
+            // One block of columns per worker, all solved at once: faer's supernodal solve
+            // is BLAS-3 in the right-hand sides (a triangular solve and a matmul per supernode
+            // on the whole block), so wider blocks stream the factor fewer times and run the
+            // dense kernels more efficiently (measured at 206k vertices / 40 bones on 2
+            // threads: 2 rounds of 10 columns per worker 0.32-0.34 s, 1 round of 20 0.27 s,
+            // 40 columns in one call with faer's own parallelism 0.59 s).
+            let chunk = b.div_ceil(threads).max(1) * threads;
             let mut done = 0usize;
             for cols in x.chunks_mut(chunk * nw) {
                 llt.solve_columns(cols, nw);
