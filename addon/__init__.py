@@ -4,9 +4,9 @@ This file only registers; see operators_*.py (operators), ui.py (menus and panel
 mesh_io.py (Blender data to arrays and back).
 """
 
-from . import operators_puppet, operators_skeleton, operators_weights, ui
+from . import operators_motion, operators_puppet, operators_skeleton, operators_weights, ui
 
-_modules = (operators_weights, operators_skeleton, operators_puppet, ui)
+_modules = (operators_weights, operators_skeleton, operators_motion, operators_puppet, ui)
 
 
 def register() -> None:

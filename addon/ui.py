@@ -43,11 +43,13 @@ _MENUS = ("VIEW3D_MT_object_parent", "VIEW3D_MT_paint_weight")
 def register_menus() -> None:
     for name in _MENUS:
         getattr(bpy.types, name).append(draw_parent_menu)
+    register_motion_menus()
     register_puppet_menus()
     register_skeleton_menus()
 
 
 def unregister_menus() -> None:
+    unregister_motion_menus()
     unregister_skeleton_menus()
     unregister_puppet_menus()
     for name in _MENUS:
@@ -174,4 +176,61 @@ def register_skeleton_menus() -> None:
 
 def unregister_skeleton_menus() -> None:
     for name, fn in _SKELETON_MENUS:
+        getattr(bpy.types, name).remove(fn)
+
+
+# ---------------------------------------------------------------------------- Motion
+
+MOTION_OP = "pose.miniskeleton_add_motion"
+VIDEO_OP = "render.miniskeleton_make_video"
+
+
+class MINISKELETON_PT_motion(bpy.types.Panel):
+    """Sidebar > MiniSkeleton > Motion: head shake / walk / run keys, then an MP4"""
+
+    bl_label = "Motion"
+    bl_idname = "MINISKELETON_PT_motion"
+    bl_space_type = "VIEW_3D"
+    bl_region_type = "UI"
+    bl_category = "MiniSkeleton"
+
+    def draw(self, context):
+        layout = self.layout
+        col = layout.column(align=True)
+        col.label(text="Active armature (bound mesh)")
+        for motion, text, icon in (("HEAD_SHAKE", "Auto Head Shake", "USER"),
+                                   ("WALK", "Auto Walking", "MOD_DYNAMICPAINT"),
+                                   ("RUN", "Auto Running", "FORCE_FORCE")):
+            col.operator(MOTION_OP, text=text, icon=icon).motion = motion
+        col = layout.column(align=True)
+        col.label(text=f"Frames {context.scene.frame_start}-{context.scene.frame_end}")
+        col.operator(VIDEO_OP, text="Make Video (MP4)", icon="RENDER_ANIMATION")
+
+
+def draw_pose_motion_menu(self, context):
+    """Pose menu: Add Motion (MiniSkeleton) > Head Shake / Walk / Run."""
+    layout = self.layout
+    layout.separator()
+    layout.operator_menu_enum(MOTION_OP, "motion", text="Add Motion (MiniSkeleton)")
+
+
+def draw_render_video_menu(self, context):
+    """Render menu: Make Video (MP4)."""
+    layout = self.layout
+    layout.separator()
+    layout.operator(VIDEO_OP, text="Make Video (MP4, MiniSkeleton)", icon="RENDER_ANIMATION")
+
+
+classes = classes + (MINISKELETON_PT_motion,)
+
+_MOTION_MENUS = (("VIEW3D_MT_pose", draw_pose_motion_menu), ("TOPBAR_MT_render", draw_render_video_menu))
+
+
+def register_motion_menus() -> None:
+    for name, fn in _MOTION_MENUS:
+        getattr(bpy.types, name).append(fn)
+
+
+def unregister_motion_menus() -> None:
+    for name, fn in _MOTION_MENUS:
         getattr(bpy.types, name).remove(fn)

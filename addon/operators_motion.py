@@ -1,0 +1,580 @@
+"""Motion operators: Add Motion (head shake, walk, run as real keyframes) and Make Video (MP4).
+
+The roles of the bones and the per-frame rotations come from the Rust core
+(``miniskeleton_core.make_motion``); this module only reads the armature, writes keyframes with
+``keyframe_insert`` (the same call on Blender 4.2 and on 5.0's slotted actions) and drives
+Blender's renderer.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from pathlib import Path
+
+import bpy
+import numpy as np
+from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty, StringProperty
+from mathutils import Matrix, Quaternion, Vector
+
+from . import mesh_io
+
+MOTIONS = [
+    ("HEAD_SHAKE", "Head Shake", "Neck and head yaw back and forth; ears and other head children follow"),
+    ("WALK", "Walk", "Walk cycle: quadrupeds in diagonal pairs, bipeds alternating; spine sway, head bob"),
+    ("RUN", "Run", "Run cycle: quadrupeds in a gallop-like phase, bipeds running"),
+]
+
+ROT_PATHS = ("rotation_quaternion", "rotation_euler", "rotation_axis_angle")
+
+
+def motion_armature(context: bpy.types.Context) -> bpy.types.Object | None:
+    """The active armature, or the armature deforming / parenting the active mesh."""
+    ob = context.active_object
+    if ob is None:
+        return None
+    if ob.type == "ARMATURE":
+        return ob
+    if ob.type == "MESH":
+        for mod in ob.modifiers:
+            if mod.type == "ARMATURE" and mod.object is not None:
+                return mod.object
+        if ob.parent is not None and ob.parent.type == "ARMATURE":
+            return ob.parent
+    return None
+
+
+def rest_matrices(arm: bpy.types.Object, names: list[str]) -> np.ndarray:
+    """(b, 3, 3) rest orientation of each bone in world space (columns = bone X, Y, Z)."""
+    world = arm.matrix_world.to_3x3()
+    return np.array([np.array(world @ arm.data.bones[n].matrix_local.to_3x3()) for n in names],
+                    dtype=np.float32).reshape(-1, 3, 3)
+
+
+def action_fcurves(ob: bpy.types.Object) -> list:
+    """F-curves of ``ob``'s action for its own slot (Blender 4.4+ channelbags, else legacy)."""
+    ad = ob.animation_data
+    if ad is None or ad.action is None:
+        return []
+    slot = getattr(ad, "action_slot", None)
+    if slot is not None:
+        try:
+            from bpy_extras import anim_utils
+            bag = anim_utils.action_get_channelbag_for_slot(ad.action, slot)
+            return list(bag.fcurves) if bag is not None else []
+        except (ImportError, AttributeError):
+            pass
+    return list(getattr(ad.action, "fcurves", []))
+
+
+def last_key_frame(ob: bpy.types.Object) -> float | None:
+    """Frame of the last keyframe on ``ob``'s action, None without keys."""
+    frames = [kp.co[0] for fc in action_fcurves(ob) for kp in fc.keyframe_points[-1:]]
+    return max(frames) if frames else None
+
+
+def keyed_rotation_bones(ob: bpy.types.Object) -> set[str]:
+    """Names of pose bones that have rotation keys."""
+    out = set()
+    for fc in action_fcurves(ob):
+        path = fc.data_path
+        if path.startswith('pose.bones["') and path.rsplit(".", 1)[-1] in ROT_PATHS:
+            out.add(bpy.utils.unescape_identifier(path[len('pose.bones["'):path.rindex('"]')]))
+    return out
+
+
+def rotation_path(pb: bpy.types.PoseBone) -> str:
+    return {"QUATERNION": "rotation_quaternion", "AXIS_ANGLE": "rotation_axis_angle"}.get(
+        pb.rotation_mode, "rotation_euler")
+
+
+def key_rotation(pb: bpy.types.PoseBone, q: Quaternion, frame: float, prev_euler=None):
+    """Set and key ``pb``'s rotation to ``q`` in its own rotation mode; returns the Euler used."""
+    mode = pb.rotation_mode
+    if mode == "QUATERNION":
+        pb.rotation_quaternion = q
+        pb.keyframe_insert("rotation_quaternion", frame=frame, group=pb.name)
+        return None
+    if mode == "AXIS_ANGLE":
+        axis, angle = q.to_axis_angle()
+        pb.rotation_axis_angle = (angle, *axis)
+        pb.keyframe_insert("rotation_axis_angle", frame=frame, group=pb.name)
+        return None
+    e = q.to_euler(mode, prev_euler) if prev_euler is not None else q.to_euler(mode)
+    pb.rotation_euler = e
+    pb.keyframe_insert("rotation_euler", frame=frame, group=pb.name)
+    return e
+
+
+def describe_roles(roles: dict, names: list[str]) -> list[str]:
+    """One line per role: 'head: head (+ jaw, ear.L, ear.R)'."""
+    n = lambda ids: ", ".join(names[i] for i in ids) or "-"  # noqa: E731
+    lines = [f"body: {roles['plan']}", f"root: {names[roles['root']]}", f"spine: {n(roles['spine'])}",
+             f"neck: {n(roles['neck'])}", f"head: {names[roles['head']]}"
+             + (f" (+ {n(roles['head_extras'])})" if roles["head_extras"] else "")]
+    if roles["tail"]:
+        lines.append(f"tail: {n(roles['tail'])}")
+    groups = max(leg["group"] for leg in roles["legs"]) + 1
+    for leg in roles["legs"]:
+        where = ("front " if leg["group"] == 0 else "back " if leg["group"] == groups - 1 else
+                 f"middle {leg['group']} ") if groups > 1 else ""
+        lines.append(f"leg {where}{leg['side']}: {n(leg['bones'])}")
+    for arm in roles["arms"]:
+        lines.append(f"arm {arm['side']}: {n(arm['bones'])}")
+    lines += [f"note: {note}" for note in roles["notes"]]
+    return lines
+
+
+class MINISKELETON_OT_add_motion(bpy.types.Operator):
+    """Key a head shake, walk or run on the active armature, from the roles of its bones"""
+
+    bl_idname = "pose.miniskeleton_add_motion"
+    bl_label = "Add Motion"
+    bl_options = {"REGISTER", "UNDO"}
+
+    motion: EnumProperty(name="Motion", items=MOTIONS, default="WALK")
+    amplitude: FloatProperty(name="Amplitude", default=math.radians(30), min=0.0, max=math.pi,
+                             subtype="ANGLE", description="Head shake: yaw of neck and head together")
+    cycles: FloatProperty(name="Cycles", default=2.0, min=0.5, max=100.0,
+                          description="Shakes (head shake) or gait cycles (walk, run)")
+    duration: FloatProperty(name="Duration", default=1.5, min=0.1, max=60.0, unit="TIME_ABSOLUTE",
+                            description="Head shake length in seconds")
+    stride: FloatProperty(name="Stride", default=1.0, min=0.0, max=3.0,
+                          description="Stride length, 1 = natural for the leg length")
+    speed: FloatProperty(name="Speed", default=1.0, min=0.2, max=5.0,
+                         description="Cadence, 1 = natural for the leg length")
+    root_motion: BoolProperty(name="Move Forward", default=True,
+                              description="Move the root bone forward (else walk on the spot)")
+    append: BoolProperty(name="Append", default=True,
+                         description="Start after the last existing key (else at the current frame)")
+    blend: FloatProperty(name="Blend", default=0.25, min=0.0, max=5.0, unit="TIME_ABSOLUTE",
+                         description="Seconds between the last existing key and the new motion")
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        layout.prop(self, "motion")
+        layout.prop(self, "cycles")
+        if self.motion == "HEAD_SHAKE":
+            layout.prop(self, "amplitude")
+            layout.prop(self, "duration")
+        else:
+            layout.prop(self, "stride")
+            layout.prop(self, "speed")
+            layout.prop(self, "root_motion")
+        layout.prop(self, "append")
+        layout.prop(self, "blend")
+
+    def execute(self, context):
+        import miniskeleton_core as core
+
+        arm = motion_armature(context)
+        if arm is None:
+            self.report({"ERROR"}, "No armature: make the armature (or a mesh it deforms) active")
+            return {"CANCELLED"}
+        if arm.mode == "EDIT":
+            self.report({"ERROR"}, f"Armature '{arm.name}' is in Edit Mode: switch to Object or Pose Mode")
+            return {"CANCELLED"}
+        scale = max(arm.dimensions.length, 1e-30)
+        bones = mesh_io.armature_bones(arm, min_length=1e-6 * scale)
+        if len(bones.names) < 3:
+            self.report({"ERROR"}, f"Armature '{arm.name}' has too few deform bones for a motion")
+            return {"CANCELLED"}
+        scene = context.scene
+        fps = scene.render.fps / scene.render.fps_base
+        try:
+            out = core.make_motion(
+                bones.heads, bones.tails, bones.parents, rest_matrices(arm, bones.names), self.motion,
+                names=bones.names, fps=fps, cycles=self.cycles, duration=self.duration,
+                amplitude=self.amplitude, stride=self.stride, speed=self.speed,
+                root_motion=self.root_motion)
+        except ValueError as err:
+            self.report({"ERROR"}, f"{arm.name}: {err}")
+            return {"CANCELLED"}
+        roles = out["roles"]
+        lines = describe_roles(roles, bones.names)
+        print(f"[MiniSkeleton] roles of '{arm.name}':")
+        for line in lines:
+            print(f"[MiniSkeleton]   {line}")
+
+        last = last_key_frame(arm) if self.append else None
+        if last is None:
+            start = scene.frame_start if self.append else scene.frame_current
+        else:
+            start = int(math.floor(last)) + max(1, round(self.blend * fps))
+        frames = self.write_keys(context, arm, bones.names, out, start)
+        end = start + frames - 1
+        # the timeline ends with the motion just appended (never cuts a longer one short)
+        scene.frame_end = max(end, int(math.ceil(last_key_frame(arm)))) if self.append else \
+            max(scene.frame_end, end)
+        label = dict((m[0], m[1]) for m in MOTIONS)[self.motion]
+        legs = ", ".join(bones.names[leg["bones"][0]] for leg in roles["legs"])
+        self.report({"INFO"}, f"{label} ({roles['plan']}): frames {start}-{end}; head "
+                    f"{bones.names[roles['head']]}, legs {legs}; spine "
+                    f"{', '.join(bones.names[i] for i in roles['spine'])} (full list in the console)")
+        return {"FINISHED"}
+
+    def write_keys(self, context, arm, names, out, start) -> int:
+        scene = context.scene
+        frame_before = scene.frame_current
+        rot = out["rotations"]
+        frames = int(out["frames"])
+        animated = [int(b) for b in out["animated"]]
+        pose = arm.pose.bones
+        if arm.animation_data is None:
+            arm.animation_data_create()
+        root_pb = pose[names[out["roles"]["root"]]]
+        # Where the root is now (after earlier motions), to continue from there.
+        earlier = last_key_frame(arm)
+        keyed_before = keyed_rotation_bones(arm)
+
+        if earlier is not None:
+            # bones this motion keys for the first time hold their pose until it starts
+            # (an F-curve holds its first key's value before it)
+            for b in animated:
+                pb = pose[names[b]]
+                if pb.name not in keyed_before:
+                    pb.keyframe_insert(rotation_path(pb), frame=earlier, group=pb.name)
+        for b in animated:
+            pb = pose[names[b]]
+            euler = None
+            for k in range(frames):
+                q = Quaternion([float(x) for x in rot[k, b]])
+                euler = key_rotation(pb, q, start + k, euler)
+        # bones keyed by earlier motions that this one leaves alone go back to rest
+        animated_names = {names[b] for b in animated}
+        for name in keyed_before - animated_names:
+            if name in pose:
+                key_rotation(pose[name], Quaternion(), start)
+
+        to_local = self.root_world_to_local(arm, root_pb) if out["roles"]["single_tree"] else None
+        if earlier is not None:
+            scene.frame_set(int(math.floor(earlier)))
+        if to_local is not None:
+            world = to_local.inverted() @ root_pb.location   # drop the last frame's bob
+            world.z = 0.0
+            root_base = to_local @ world
+        else:
+            root_base = arm.location.copy()
+            root_base.z = self.object_base_z(arm)
+        scene.frame_set(frame_before)
+        if out["moves_root"]:
+            if earlier is not None:   # hold still until the motion starts
+                if to_local is not None and not self.has_root_keys(arm, root_pb):
+                    root_pb.keyframe_insert("location", frame=earlier, group=root_pb.name)
+                elif to_local is None and not self.has_object_keys(arm):
+                    arm.keyframe_insert("location", frame=earlier)
+            offsets = out["root_offset"]
+            for k in range(frames):
+                self.key_root(arm, root_pb, to_local, root_base, Vector(offsets[k].tolist()), start + k)
+        elif earlier is not None:
+            # keep the distance travelled, drop the gait's vertical bob
+            if to_local is not None and self.has_root_keys(arm, root_pb):
+                world = to_local.inverted() @ root_base
+                world.z = 0.0
+                root_pb.location = to_local @ world
+                root_pb.keyframe_insert("location", frame=start, group=root_pb.name)
+            elif to_local is None and self.has_object_keys(arm):
+                arm.location.z = self.object_base_z(arm)
+                arm.keyframe_insert("location", index=2, frame=start)
+        return frames
+
+    @staticmethod
+    def has_object_keys(arm) -> bool:
+        return any(fc.data_path == "location" for fc in action_fcurves(arm))
+
+    @staticmethod
+    def object_base_z(arm) -> float:
+        """The object's height before any motion moved it (its first location key)."""
+        for fc in action_fcurves(arm):
+            if fc.data_path == "location" and fc.array_index == 2 and len(fc.keyframe_points):
+                return fc.keyframe_points[0].co[1]
+        return arm.location.z
+
+    @staticmethod
+    def root_world_to_local(arm, root_pb) -> Matrix | None:
+        """World offset -> the root pose bone's location space; None when it cannot translate
+        (connected), or when the rig is several trees: then the object moves instead."""
+        if root_pb.bone.use_connect:
+            return None
+        m = arm.matrix_world.to_3x3() @ root_pb.bone.matrix_local.to_3x3()
+        try:
+            return m.inverted()
+        except ValueError:
+            return None
+
+    @staticmethod
+    def has_root_keys(arm, root_pb) -> bool:
+        path = root_pb.path_from_id("location")
+        return any(fc.data_path == path for fc in action_fcurves(arm))
+
+    @staticmethod
+    def key_root(arm, root_pb, to_local, base, offset, frame):
+        """Key the root at ``base`` + world ``offset`` (the object when the root cannot move)."""
+        if to_local is not None:
+            root_pb.location = base + to_local @ offset
+            root_pb.keyframe_insert("location", frame=frame, group=root_pb.name)
+        else:
+            arm.location = base + offset
+            arm.keyframe_insert("location", frame=frame)
+
+
+# ---------------------------------------------------------------------------- video
+
+ENGINES = [
+    ("WORKBENCH", "Workbench", "Fast solid shading, any machine"),
+    ("EEVEE", "EEVEE", "Real-time renderer (needs a GPU context)"),
+    ("CYCLES", "Cycles", "Path tracer on the CPU (slow)"),
+]
+
+
+def character_objects(scene) -> list[bpy.types.Object]:
+    """What the camera should frame: visible meshes an armature deforms (else all visible
+    meshes, else the armatures). Ground planes and props without a rig are left out."""
+    meshes = [ob for ob in scene.objects if ob.type == "MESH" and ob.visible_get()]
+    rigged = [ob for ob in meshes if any(m.type == "ARMATURE" and m.object for m in ob.modifiers)
+              or (ob.parent is not None and ob.parent.type == "ARMATURE")]
+    return rigged or meshes or [ob for ob in scene.objects if ob.type == "ARMATURE"]
+
+
+def motion_boxes(scene, objects, samples: int = 24) -> list[tuple[int, Vector, Vector]]:
+    """World bounding boxes (frame, lo, hi) of ``objects`` at ``samples`` frames spread evenly
+    over the frame range (start and end included)."""
+    current = scene.frame_current
+    n = scene.frame_end - scene.frame_start + 1
+    frames = sorted({scene.frame_start + round(i * (n - 1) / max(samples - 1, 1))
+                     for i in range(min(samples, n))})
+    boxes = []
+    for f in frames:
+        scene.frame_set(f)
+        dg = bpy.context.evaluated_depsgraph_get()
+        lo = Vector((math.inf,) * 3)
+        hi = Vector((-math.inf,) * 3)
+        for ob in objects:
+            ev = ob.evaluated_get(dg)
+            for c in ev.bound_box:
+                p = ev.matrix_world @ Vector(c)
+                lo = Vector(map(min, lo, p))
+                hi = Vector(map(max, hi, p))
+        boxes.append((f, lo, hi))
+    scene.frame_set(current)
+    return boxes
+
+
+def union_box(boxes) -> tuple[Vector, Vector]:
+    lo = Vector(map(min, *(b[1] for b in boxes))) if len(boxes) > 1 else boxes[0][1].copy()
+    hi = Vector(map(max, *(b[2] for b in boxes))) if len(boxes) > 1 else boxes[0][2].copy()
+    return lo, hi
+
+
+def _fit_distance(lo: Vector, hi: Vector, rot: Quaternion, angle: float, aspect: float) -> float:
+    """Distance along the view axis at which the box (lo, hi) fits the frame (with a margin)."""
+    right, up, back = (rot @ Vector(a) for a in ((1, 0, 0), (0, 1, 0), (0, 0, 1)))
+    tx = math.tan(angle / 2) if aspect >= 1 else math.tan(angle / 2) * aspect
+    ty = tx / aspect
+    centre, dist, margin = (lo + hi) / 2, 0.0, 0.88
+    for i in range(8):
+        c = Vector((hi.x if i & 1 else lo.x, hi.y if i & 2 else lo.y, hi.z if i & 4 else lo.z)) - centre
+        x, y, z = c.dot(right), c.dot(up), c.dot(back)
+        dist = max(dist, z + abs(x) / (tx * margin), z + abs(y) / (ty * margin))
+    return dist
+
+
+def _new_camera(scene) -> bpy.types.Object:
+    data = bpy.data.cameras.new("MiniSkeletonCamera")
+    data.lens = 40
+    cam = bpy.data.objects.new("MiniSkeletonCamera", data)
+    scene.collection.objects.link(cam)
+    scene.camera = cam
+    return cam
+
+
+def _clip_for(cam: bpy.types.Object, dist: float) -> None:
+    cam.data.clip_end = max(cam.data.clip_end, dist * 4)
+    cam.data.clip_start = min(cam.data.clip_start, dist / 100)
+
+
+def add_camera(scene, lo: Vector, hi: Vector, aspect: float) -> bpy.types.Object:
+    """A fixed camera looking at the box (lo, hi) from the front-side, the whole box in view."""
+    size = hi - lo
+    if size.y > 1.5 * size.x:      # long travel along Y: look from the side
+        view = Vector((1.0, -0.35, 0.4))
+    elif size.x > 1.5 * size.y:    # along X
+        view = Vector((0.35, -1.0, 0.4))
+    else:
+        view = Vector((1.2, -1.8, 0.7))
+    rot = (-view.normalized()).to_track_quat("-Z", "Y")
+    cam = _new_camera(scene)
+    dist = _fit_distance(lo, hi, rot, cam.data.angle, aspect)
+    _clip_for(cam, dist)
+    cam.location = (lo + hi) / 2 + rot @ Vector((0, 0, dist))
+    cam.rotation_euler = rot.to_euler()
+    return cam
+
+
+def add_follow_camera(scene, boxes, aspect: float) -> bpy.types.Object:
+    """A camera that travels along with the character (front three-quarter view of the way it
+    moves), far enough that its largest box fits; keyed at the sampled frames."""
+    lo, hi = union_box(boxes)
+    c0 = (boxes[0][1] + boxes[0][2]) / 2
+    c1 = (boxes[-1][1] + boxes[-1][2]) / 2
+    travel = Vector((c1.x - c0.x, c1.y - c0.y, 0.0))
+    if travel.length < 1e-3 * max((hi - lo).length, 1e-9):
+        return add_camera(scene, lo, hi, aspect)
+    t = travel.normalized()
+    side = Vector((-t.y, t.x, 0.0))            # left of the direction of travel
+    view = side + 0.6 * t + Vector((0, 0, 0.35))
+    rot = (-view.normalized()).to_track_quat("-Z", "Y")
+    half = Vector(map(max, *((b[2] - b[1]) / 2 for b in boxes))) if len(boxes) > 1 else \
+        (boxes[0][2] - boxes[0][1]) / 2
+    cam = _new_camera(scene)
+    dist = _fit_distance(-half, half, rot, cam.data.angle, aspect)
+    _clip_for(cam, dist)
+    cam.rotation_euler = rot.to_euler()
+    mid_z = (lo.z + hi.z) / 2
+    for f, blo, bhi in boxes:
+        c = (blo + bhi) / 2
+        c.z = mid_z                                # no bobbing camera
+        cam.location = c + rot @ Vector((0, 0, dist))
+        cam.keyframe_insert("location", frame=f)
+    return cam
+
+
+def add_light(scene) -> bpy.types.Object:
+    data = bpy.data.lights.new("MiniSkeletonSun", "SUN")
+    data.energy = 3.0
+    sun = bpy.data.objects.new("MiniSkeletonSun", data)
+    sun.rotation_euler = (math.radians(50), math.radians(10), math.radians(30))
+    scene.collection.objects.link(sun)
+    return sun
+
+
+def set_engine(scene, engine: str) -> None:
+    if engine == "WORKBENCH":
+        scene.render.engine = "BLENDER_WORKBENCH"
+        shading = scene.display.shading
+        shading.light = "STUDIO"
+        shading.color_type = "MATERIAL"
+        shading.show_shadows = True
+        shading.show_cavity = True
+    elif engine == "EEVEE":
+        for name in ("BLENDER_EEVEE_NEXT", "BLENDER_EEVEE"):  # 4.2-4.4 / 5.0
+            try:
+                scene.render.engine = name
+                break
+            except TypeError:
+                continue
+    else:
+        scene.render.engine = "CYCLES"
+        scene.cycles.device = "CPU"
+        scene.cycles.samples = 32
+
+
+def set_mp4(scene, path: Path) -> None:
+    """H.264 in MP4. Blender 5.0 first needs media_type = 'VIDEO' before FFMPEG is accepted."""
+    im = scene.render.image_settings
+    if hasattr(im, "media_type"):
+        im.media_type = "VIDEO"
+    im.file_format = "FFMPEG"
+    ff = scene.render.ffmpeg
+    ff.format = "MPEG4"
+    ff.codec = "H264"
+    ff.constant_rate_factor = "MEDIUM"
+    ff.ffmpeg_preset = "GOOD"
+    ff.gopsize = max(1, round(scene.render.fps / scene.render.fps_base))
+    ff.audio_codec = "NONE"
+    scene.render.use_file_extension = True
+    scene.render.filepath = str(path)
+
+
+def default_video_path(scene) -> Path:
+    if bpy.data.filepath:
+        blend = Path(bpy.data.filepath)
+        return blend.with_suffix(".mp4")
+    return Path.cwd() / "out" / f"{bpy.path.clean_name(scene.name)}.mp4"
+
+
+class MINISKELETON_OT_make_video(bpy.types.Operator):
+    """Render the scene's frame range to an MP4 (H.264); adds a camera and light if there is none"""
+
+    bl_idname = "render.miniskeleton_make_video"
+    bl_label = "Make Video (MP4)"
+    bl_options = {"REGISTER"}
+
+    filepath: StringProperty(name="File", subtype="FILE_PATH", default="",
+                             description="Output .mp4; empty = next to the .blend, else out/")
+    engine: EnumProperty(name="Engine", items=ENGINES, default="WORKBENCH")
+    resolution_x: IntProperty(name="Width", default=960, min=16, max=7680)
+    resolution_y: IntProperty(name="Height", default=540, min=16, max=4320)
+    fps: IntProperty(name="FPS", default=0, min=0, max=240, description="0 = the scene's frame rate")
+    camera: EnumProperty(
+        name="Camera", default="IF_MISSING",
+        items=[("IF_MISSING", "Add If Missing", "Use the scene camera; add one framing the whole "
+                "motion (and a light) when there is none"),
+               ("NEW", "New Framing Camera", "Always add a camera framing the whole motion"),
+               ("FOLLOW", "New Following Camera", "Always add a camera that travels along with "
+                "the character, closer than one framing the whole motion"),
+               ("SCENE", "Scene Camera", "Use the scene camera only")])
+
+    def execute(self, context):
+        scene = context.scene
+        start_t = time.perf_counter()
+        if scene.camera is None or self.camera in ("NEW", "FOLLOW"):
+            if self.camera == "SCENE":
+                self.report({"ERROR"}, "The scene has no camera")
+                return {"CANCELLED"}
+            objects = character_objects(scene)
+            if not objects:
+                self.report({"ERROR"}, "Nothing to film: no visible mesh or armature")
+                return {"CANCELLED"}
+            boxes = motion_boxes(scene, objects)
+            aspect = self.resolution_x / self.resolution_y
+            if self.camera == "FOLLOW":
+                add_follow_camera(scene, boxes, aspect)
+            else:
+                add_camera(scene, *union_box(boxes), aspect)
+            if not any(ob.type == "LIGHT" for ob in scene.objects):
+                add_light(scene)
+        render = scene.render
+        # H.264 wants even dimensions
+        render.resolution_x = self.resolution_x + self.resolution_x % 2
+        render.resolution_y = self.resolution_y + self.resolution_y % 2
+        render.resolution_percentage = 100
+        if self.fps:
+            render.fps, render.fps_base = self.fps, 1.0
+        set_engine(scene, self.engine)
+        path = Path(bpy.path.abspath(self.filepath)) if self.filepath else default_video_path(scene)
+        if path.suffix.lower() != ".mp4":
+            path = path.with_suffix(".mp4")
+        path.parent.mkdir(parents=True, exist_ok=True)
+        if path.exists():
+            path.unlink()
+        set_mp4(scene, path)
+
+        total = scene.frame_end - scene.frame_start + 1
+        wm = context.window_manager
+        done = [0]
+
+        def progress(_scene, _depsgraph=None):
+            done[0] += 1
+            wm.progress_update(done[0])
+            if done[0] == total or done[0] % 10 == 0:
+                print(f"[MiniSkeleton] video: frame {done[0]}/{total}", flush=True)
+
+        wm.progress_begin(0, total)
+        bpy.app.handlers.render_post.append(progress)
+        try:
+            bpy.ops.render.render(animation=True)
+        finally:
+            bpy.app.handlers.render_post.remove(progress)
+            wm.progress_end()
+        if not path.exists() or path.stat().st_size == 0:
+            self.report({"ERROR"}, f"Rendering did not write {path}")
+            return {"CANCELLED"}
+        secs = time.perf_counter() - start_t
+        self.report({"INFO"}, f"Wrote {path} ({total} frames, {render.resolution_x}x"
+                    f"{render.resolution_y}, {path.stat().st_size // 1024} KiB) in {secs:.1f} s")
+        return {"FINISHED"}
+
+
+classes = (MINISKELETON_OT_add_motion, MINISKELETON_OT_make_video)

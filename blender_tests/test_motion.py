@@ -1,0 +1,239 @@
+"""pose.miniskeleton_add_motion and render.miniskeleton_make_video in real Blender: roles on a
+generated quadruped and biped, walk phases measured on the feet, head shake, appending, MP4."""
+
+import shutil
+import subprocess
+
+import bpy
+import numpy as np
+import pytest
+from mathutils import Vector
+
+import builders as B
+import creature
+
+ADDON = "bl_ext.user_default.miniskeleton"
+
+
+def motion_module():
+    import importlib
+
+    return importlib.import_module(ADDON + ".operators_motion")
+
+
+def skeleton_arrays(arm):
+    """(names, heads, tails, parents, rest) as the operator reads them."""
+    mesh_io = __import__(ADDON + ".mesh_io", fromlist=["mesh_io"])
+    bones = mesh_io.armature_bones(arm)
+    return bones, motion_module().rest_matrices(arm, bones.names)
+
+
+def biped_rig():
+    """A human facing -Y, arms down: hips, spine, chest, neck, head; clavicle..hand; thigh..toe."""
+    bones = [("hips", (0, 0, 1.0), (0, 0, 1.1), None, False),
+             ("spine", (0, 0, 1.1), (0, 0, 1.3), "hips", True),
+             ("chest", (0, 0, 1.3), (0, 0, 1.5), "spine", True),
+             ("neck", (0, 0, 1.5), (0, 0, 1.6), "chest", True),
+             ("head", (0, 0, 1.6), (0, 0, 1.8), "neck", True)]
+    for s, x in (("L", 1), ("R", -1)):
+        bones += [(f"shoulder.{s}", (0.02 * x, 0, 1.45), (0.18 * x, 0, 1.45), "chest", False),
+                  (f"upper_arm.{s}", (0.18 * x, 0, 1.45), (0.2 * x, 0, 1.17), f"shoulder.{s}", True),
+                  (f"forearm.{s}", (0.2 * x, 0, 1.17), (0.21 * x, -0.02, 0.92), f"upper_arm.{s}", True),
+                  (f"hand.{s}", (0.21 * x, -0.02, 0.92), (0.21 * x, -0.02, 0.75), f"forearm.{s}", True),
+                  (f"thigh.{s}", (0.1 * x, 0, 1.0), (0.1 * x, -0.02, 0.52), "hips", False),
+                  (f"shin.{s}", (0.1 * x, -0.02, 0.52), (0.1 * x, 0, 0.08), f"thigh.{s}", True),
+                  (f"foot.{s}", (0.1 * x, 0, 0.08), (0.1 * x, -0.14, 0.02), f"shin.{s}", True),
+                  (f"toe.{s}", (0.1 * x, -0.14, 0.02), (0.1 * x, -0.2, 0.02), f"foot.{s}", True)]
+    return B.armature("Biped", bones)
+
+
+def roles_by_name(arm):
+    import miniskeleton_core as core
+
+    bones, _ = skeleton_arrays(arm)
+    r = core.detect_roles(bones.heads, bones.tails, bones.parents, names=bones.names)
+    n = bones.names
+    legs = {(("front" if leg["group"] == 0 else "back"), leg["side"]): [n[i] for i in leg["bones"]]
+            for leg in r["legs"]}
+    return r, n, legs
+
+
+def add_motion(arm, **props):
+    B.set_active(arm)
+    return bpy.ops.pose.miniskeleton_add_motion(**props)
+
+
+def tails_over_frames(arm, names, frames):
+    """{bone: (len(frames), 3) world tail positions}."""
+    scene = bpy.context.scene
+    out = {n: [] for n in names}
+    m = arm.matrix_world
+    for f in frames:
+        scene.frame_set(f)
+        for n in names:
+            out[n].append(tuple(m @ arm.pose.bones[n].tail))
+    return {n: np.array(v) for n, v in out.items()}
+
+
+# ---------------------------------------------------------------- roles
+
+
+def test_roles_on_generated_quadruped():
+    arm = creature.build_armature()
+    r, n, legs = roles_by_name(arm)
+    assert r["plan"] == "quadruped"
+    assert [n[i] for i in r["spine"]] == ["spine", "chest"]
+    assert [n[i] for i in r["neck"]] == ["neck"]
+    assert n[r["head"]] == "head"
+    assert sorted(n[i] for i in r["head_extras"]) == ["ear.L", "ear.R", "jaw"]
+    assert [n[i] for i in r["tail"]] == ["tail.001", "tail.002", "tail.003"]
+    assert legs == {("front", "L"): ["upper_arm.L", "forearm.L", "hand.L"],
+                    ("front", "R"): ["upper_arm.R", "forearm.R", "hand.R"],
+                    ("back", "L"): ["thigh.L", "shin.L", "foot.L"],
+                    ("back", "R"): ["thigh.R", "shin.R", "foot.R"]}
+    assert np.allclose(r["forward"], (0, -1, 0), atol=1e-3)
+
+
+def test_roles_on_generated_biped_and_the_operator_reports_them(capsys):
+    arm = biped_rig()
+    r, n, legs = roles_by_name(arm)
+    assert r["plan"] == "biped"
+    assert [n[i] for i in r["spine"]] == ["hips", "spine", "chest"]
+    assert n[r["head"]] == "head"
+    assert legs[("front", "L")][:3] == ["thigh.L", "shin.L", "foot.L"]
+    assert legs[("front", "R")][:3] == ["thigh.R", "shin.R", "foot.R"]
+    assert sorted(n[a["bones"][1]] for a in r["arms"]) == ["upper_arm.L", "upper_arm.R"]
+    assert add_motion(arm, motion="WALK", cycles=1) == {"FINISHED"}
+    printed = capsys.readouterr().out
+    assert "head: head" in printed and "leg L: thigh.L, shin.L, foot.L" in printed, printed
+
+
+def test_no_legs_or_no_head_is_refused_clearly():
+    arm = B.chain("Pole", count=4)
+    arm.location.z = 2.0
+    with pytest.raises(RuntimeError, match="no legs"):
+        add_motion(arm, motion="WALK")
+    assert arm.animation_data is None or not motion_module().action_fcurves(arm)
+    legs_only = B.armature("Stool", [("seat", (-0.3, 0, 1), (0.3, 0, 1), None, False),
+                                     ("leg.L", (0.3, 0, 1), (0.3, 0, 0), "seat", False),
+                                     ("leg.R", (-0.3, 0, 1), (-0.3, 0, 0), "seat", False)])
+    with pytest.raises(RuntimeError, match="no head"):
+        add_motion(legs_only, motion="HEAD_SHAKE")
+
+
+# ---------------------------------------------------------------- motions
+
+
+def test_walk_feet_alternate_in_phase():
+    import miniskeleton_core as core
+
+    arm = creature.build_armature()
+    scene = bpy.context.scene
+    assert add_motion(arm, motion="WALK", cycles=2) == {"FINISHED"}
+    bones, rest = skeleton_arrays(arm)
+    fpc = int(core.make_motion(bones.heads, bones.tails, bones.parents, rest, "WALK",
+                               names=bones.names, fps=scene.render.fps)["frames_per_cycle"])
+    start = scene.frame_start
+    assert scene.frame_end >= start + 2 * fpc
+    feet = ["hand.L", "hand.R", "foot.L", "foot.R"]
+    pos = tails_over_frames(arm, feet, range(start, start + fpc))
+    peak = {}
+    for name in feet:
+        z = pos[name][:, 2]
+        assert z.max() - z.min() > 0.05, f"{name} does not lift: {z.max() - z.min():.3f}"
+        peak[name] = int(np.argmax(z)) / fpc
+    for left, right in (("hand.L", "hand.R"), ("foot.L", "foot.R")):
+        d = abs(peak[left] - peak[right]) % 1.0
+        assert abs(min(d, 1 - d) - 0.5) < 0.1, (left, right, peak)
+    # the root moved forward (-Y) over the walk
+    travelled = tails_over_frames(arm, ["spine"], [start, start + 2 * fpc])["spine"]
+    assert travelled[1][1] < travelled[0][1] - 0.5
+
+
+def test_head_shake_moves_head_not_feet_and_walk_appends():
+    arm = creature.build_armature()
+    scene = bpy.context.scene
+    assert add_motion(arm, motion="HEAD_SHAKE", duration=1.0, cycles=2) == {"FINISHED"}
+    mm = motion_module()
+    end = mm.last_key_frame(arm)
+    assert end == scene.frame_start + round(scene.render.fps * 1.0)
+    frames = range(scene.frame_start, int(end) + 1)
+    pos = tails_over_frames(arm, ["head", "jaw", "hand.L", "foot.R"], frames)
+    assert np.ptp(pos["jaw"][:, 0]) > 0.1          # the snout swings sideways
+    for foot in ("hand.L", "foot.R"):
+        assert np.ptp(pos[foot], axis=0).max() < 1e-5
+    paths = {fc.data_path for fc in mm.action_fcurves(arm)}
+    assert 'pose.bones["head"].rotation_quaternion' in paths
+    assert not any('"foot.L"' in p for p in paths)
+    # appending: the walk starts after the shake; the action now holds both
+    assert add_motion(arm, motion="WALK", cycles=1) == {"FINISHED"}
+    foot_w = next(fc for fc in mm.action_fcurves(arm)
+                  if fc.data_path == 'pose.bones["foot.L"].rotation_quaternion' and fc.array_index == 0)
+    keys = sorted(kp.co[:] for kp in foot_w.keyframe_points)
+    assert keys[0] == (end, 1.0)      # the foot holds its rest pose until the walk starts
+    assert keys[1][0] > end
+    assert scene.frame_end >= mm.last_key_frame(arm)
+    # keys are in the action the Dope Sheet / Graph Editor show, grouped by bone
+    action = arm.animation_data.action
+    assert action is not None and action.users >= 1
+    groups = {fc.group.name for fc in mm.action_fcurves(arm) if fc.group}
+    assert {"head", "foot.L", "thigh.R"} <= groups
+
+
+def test_run_is_faster_and_keeps_going_after_walk():
+    arm = biped_rig()
+    mm = motion_module()
+    assert add_motion(arm, motion="WALK", cycles=1) == {"FINISHED"}
+    walk_end = mm.last_key_frame(arm)
+    assert add_motion(arm, motion="RUN", cycles=2) == {"FINISHED"}
+    assert mm.last_key_frame(arm) > walk_end
+    scene = bpy.context.scene
+    hips = tails_over_frames(arm, ["hips"], [int(walk_end), int(mm.last_key_frame(arm))])["hips"]
+    assert hips[1][1] < hips[0][1] - 0.5   # continued forward from where the walk ended
+
+
+# ---------------------------------------------------------------- video
+
+
+def probe(path):
+    """(frames, width, height) of a movie: ffprobe when present, else Blender's movie reader."""
+    if shutil.which("ffprobe"):
+        out = subprocess.run(["ffprobe", "-v", "error", "-select_streams", "v:0", "-count_frames",
+                              "-show_entries", "stream=nb_read_frames,width,height,codec_name",
+                              "-of", "default=noprint_wrappers=1", str(path)],
+                             capture_output=True, text=True, check=True).stdout
+        d = dict(line.split("=", 1) for line in out.split())
+        assert d["codec_name"] == "h264"
+        return int(d["nb_read_frames"]), int(d["width"]), int(d["height"])
+    clip = bpy.data.movieclips.load(str(path))
+    return clip.frame_duration, clip.size[0], clip.size[1]
+
+
+def test_video_is_a_valid_mp4(tmp_path):
+    body, arm = creature.build_body(subdivisions=0), creature.build_armature()
+    B.select_for_parenting([body], arm)
+    assert bpy.ops.object.miniskeleton_auto_weights(method="BILINEAR") == {"FINISHED"}
+    assert add_motion(arm, motion="HEAD_SHAKE", duration=0.25, cycles=1) == {"FINISHED"}
+    scene = bpy.context.scene
+    scene.frame_start, scene.frame_end = 1, 5
+    out = tmp_path / "clip.mp4"
+    assert scene.camera is None
+    assert bpy.ops.render.miniskeleton_make_video(filepath=str(out), resolution_x=64,
+                                                  resolution_y=48) == {"FINISHED"}
+    assert scene.camera is not None and scene.render.engine == "BLENDER_WORKBENCH"
+    assert out.read_bytes()[4:8] == b"ftyp"
+    assert probe(out) == (5, 64, 48)
+    # the camera sees the whole character: its bounding box projects inside the frame
+    from bpy_extras.object_utils import world_to_camera_view
+
+    for c in body.bound_box:
+        p = world_to_camera_view(scene, scene.camera, body.matrix_world @ Vector(c))
+        assert 0 <= p.x <= 1 and 0 <= p.y <= 1 and p.z > 0
+
+
+def test_menus_and_panel():
+    assert hasattr(bpy.types, "MINISKELETON_PT_motion")
+    for menu in ("VIEW3D_MT_pose", "TOPBAR_MT_render"):
+        funcs = getattr(bpy.types, menu)._dyn_ui_initialize()
+        assert any(getattr(f, "__name__", "").startswith("draw_") and
+                   getattr(f, "__module__", "").endswith("miniskeleton.ui") for f in funcs), menu
