@@ -105,7 +105,8 @@ def detect_roles(bone_heads: ArrayLike, bone_tails: ArrayLike, parents: ArrayLik
                  names: Optional[list[str]] = None) -> dict:
     """Bone roles found from the geometry (+Z up), names as hints: {root, spine, neck, head,
     head_extras, tail, legs, arms ([{bones, side 'L'|'R', group (0 = front)}]), plan
-    ('biped'|'quadruped'|'multiped'), up, forward, left, ground, height, leg_length, notes}.
+    ('biped'|'quadruped'|'multiped'), up, forward, left, ground, height, leg_length,
+    single_tree (moving the root bone moves every role bone), notes}.
     ValueError saying 'no legs' / 'no head' when those cannot be found."""
 
 def make_motion(

@@ -513,7 +513,7 @@ fn gait(
 mod tests {
     use super::*;
     use crate::roles::detect_roles;
-    use crate::roles::tests::{biped, creature};
+    use crate::roles::tests::{biped, creature, spot};
 
     /// Rest matrices with Y along the bone (roll arbitrary but fixed), row-major.
     fn q(r: [f32; 4]) -> Quat {
@@ -609,6 +609,12 @@ mod tests {
     fn quadruped_walk_and_run() {
         check_walk(creature(), Motion::Walk);
         check_walk(creature(), Motion::Run);
+    }
+
+    #[test]
+    fn quadruped_of_separate_trees_walks() {
+        check_walk(spot(), Motion::Walk);
+        check_walk(spot(), Motion::Run);
     }
 
     #[test]

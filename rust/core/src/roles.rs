@@ -10,24 +10,30 @@
 //!   [`Roles`]: bone indices per role, the body's up/forward/left axes and the leg length.
 //!
 //! Method (all thresholds relative to the skeleton height h = top z - lowest z):
-//! 1. Main tree: the root whose subtree has the most bones; other trees are ignored.
+//! 1. Main tree: trees that touch are joined (see below); then the root whose subtree has the
+//!    most bones; other trees are ignored.
 //! 2. Sagittal plane: the vertical plane through the end points' centroid whose mirror image
 //!    of the end points best matches them (1° scan then refinement). Bones within 0.05 h of
 //!    it are *midline* bones.
-//! 3. Legs: "ground leaves" are leaf bones ending within 0.12 h of the lowest point. Bottom up,
+//! 3. Legs: "ground leaves" are leaf bones ending within 0.2 h of the lowest point. Bottom up,
 //!    a bone with two or more "long" children (reaching down 0.2 h or more from their head)
 //!    that contain ground leaves is a split: each such child holding one foot is a leg top, and
 //!    the leg is the chain from it down to its foot. Short branches (toe and heel) merge.
-//! 4. Head: the highest midline leaf outside the legs (a bone named head/neck/jaw/skull on its
-//!    way scores higher, one named tail lower). The path root → that leaf is the body axis;
-//!    the head bone is on it (by name, else the leaf's parent when the leaf has non-limb
-//!    siblings like ears, else the leaf). The spine is the axis from the root down to the
-//!    deepest bone carrying a limb (leg or arm); the neck is what lies between spine and head.
+//! 4. Head: the highest midline end (a midline bone with no midline bone below it) outside the
+//!    legs (a bone named head/neck/jaw/skull on its way scores higher, one named tail lower).
+//!    The path root → that end is the body axis; the head bone is on it (by name, else the
+//!    end's parent when the end is a leaf with non-limb siblings like ears, else the end). The
+//!    spine is the axis from the root down to the deepest bone carrying a limb (leg or arm),
+//!    plus the bones carrying legs off the axis; the neck lies between spine and head.
 //! 5. Forward is the horizontal axis in the sagittal plane pointing from the legs to the head
 //!    (bipeds: along the feet; if still undecided Blender's -Y); left = up × forward; legs get
 //!    their side from the plane and their front/back group from their position along forward.
 //! 6. Arms: paired, non-midline chains of two or more bones and length ≥ 0.2 h hanging off the
-//!    spine. Tail: the midline chain hanging off the spine that points backwards.
+//!    spine, never rising above where they start (horns and ears do). Tail: the midline chain
+//!    hanging off the spine that points backwards, not carrying legs.
+//!
+//! Rigs made of several root chains that meet at shared joints (common in hand-made and
+//! glTF rigs) are joined first: see `joined_parents`.
 //!
 //! Known limitations: assumes +Z up and a roughly symmetric rest pose; legs must reach the
 //! ground in the rest pose; control rigs (IK targets, mechanism bones) should be filtered out
@@ -92,11 +98,14 @@ pub struct Roles {
     pub height: f32,
     /// Mean vertical reach of the legs (hip head to the ground), same unit as the input.
     pub leg_length: f32,
+    /// Whether every role bone descends from `root` in the input hierarchy (else the trees were
+    /// joined where they touch, and moving the root bone would not move the whole body).
+    pub single_tree: bool,
     /// Remarks for the user (names disagreeing with the geometry, guessed forward …).
     pub notes: Vec<String>,
 }
 
-const GROUND_FRACTION: f32 = 0.12;
+const GROUND_FRACTION: f32 = 0.2;
 const LONG_FRACTION: f32 = 0.2;
 const MIDLINE_FRACTION: f32 = 0.05;
 const ARM_FRACTION: f32 = 0.2;
@@ -173,6 +182,55 @@ fn validate(heads: &[[f32; 3]], tails: &[[f32; 3]], parents: &[i32], names: &[St
     Ok(())
 }
 
+/// Parents with separate trees joined where they touch: rigs made of several root chains
+/// (a neck tree, leg trees, a body tree meeting at shared joints) become one tree. A root whose
+/// head lies on another tree's bone tail becomes that bone's child; a root whose head coincides
+/// with another tree's bone head joins that bone's parent (or that bone). Trees holding more
+/// ground leaves (feet), then more bones, win the root. `tol` is the coincidence distance.
+fn joined_parents(heads: &[[f32; 3]], tails: &[[f32; 3]], parents: &[i32], ground_leaf: &[bool], tol: f32) -> Vec<i32> {
+    let n = parents.len();
+    let mut eff = parents.to_vec();
+    let root_of = |eff: &[i32], mut b: usize| {
+        while eff[b] >= 0 {
+            b = eff[b] as usize;
+        }
+        b
+    };
+    let close = |a: [f32; 3], b: [f32; 3]| (v(a) - v(b)).length() <= tol;
+    // tails first
+    for r in 0..n {
+        if eff[r] >= 0 {
+            continue;
+        }
+        let cand = (0..n)
+            .filter(|&b| root_of(&eff, b) != r && close(heads[r], tails[b]))
+            .min_by(|&a, &b| {
+                let da = (v(heads[r]) - v(tails[a])).length();
+                let db = (v(heads[r]) - v(tails[b])).length();
+                da.partial_cmp(&db).unwrap_or(std::cmp::Ordering::Equal)
+            });
+        if let Some(b) = cand {
+            eff[r] = b as i32;
+        }
+    }
+    // then shared heads, weakest trees first
+    let strength = |eff: &[i32], root: usize| {
+        let members: Vec<usize> = (0..n).filter(|&b| root_of(eff, b) == root).collect();
+        (members.iter().filter(|&&b| ground_leaf[b]).count(), members.len())
+    };
+    let mut roots: Vec<usize> = (0..n).filter(|&b| eff[b] < 0).collect();
+    roots.sort_by_key(|&r| strength(&eff, r));
+    for r in roots {
+        let best = (0..n)
+            .filter(|&b| root_of(&eff, b) != r && close(heads[r], heads[b]))
+            .max_by_key(|&b| strength(&eff, root_of(&eff, b)));
+        if let Some(b) = best {
+            eff[r] = if eff[b] >= 0 { eff[b] } else { b as i32 };
+        }
+    }
+    eff
+}
+
 fn build_tree(parents: &[i32]) -> Tree {
     let n = parents.len();
     let mut children = vec![Vec::new(); n];
@@ -246,6 +304,23 @@ pub fn detect_roles(
 ) -> Result<Roles> {
     validate(heads, tails, parents, names)?;
     let n = heads.len();
+    let real_parents = parents;
+    let joined = {
+        let all: Vec<Vec3> = heads.iter().chain(tails).map(|&p| v(p)).collect();
+        let zmin = all.iter().map(|p| p.z).fold(f32::INFINITY, f32::min);
+        let zmax = all.iter().map(|p| p.z).fold(f32::NEG_INFINITY, f32::max);
+        let lo = all.iter().fold(Vec3::splat(f32::INFINITY), |a, &p| a.min(p));
+        let hi = all.iter().fold(Vec3::splat(f32::NEG_INFINITY), |a, &p| a.max(p));
+        let mut has_child = vec![false; n];
+        for &p in parents.iter().filter(|&&p| p >= 0) {
+            has_child[p as usize] = true;
+        }
+        let ground_leaf: Vec<bool> = (0..n)
+            .map(|b| !has_child[b] && heads[b][2].min(tails[b][2]) - zmin <= GROUND_FRACTION * (zmax - zmin))
+            .collect();
+        joined_parents(heads, tails, parents, &ground_leaf, 1e-3 * (hi - lo).length())
+    };
+    let parents = &joined[..];
     let tree = build_tree(parents);
     let kids = &tree.children;
     let h = |b: usize| v(heads[b]);
@@ -356,11 +431,17 @@ pub fn detect_roles(
         path
     };
     const HEAD_WORDS: [&str; 5] = ["head", "neck", "jaw", "skull", "face"];
+    // midline ends: midline bones with no midline bone below them (a jaw, a head whose
+    // children are all paired, a tail tip)
+    let mut midline_below = vec![false; n];
+    for &b in tree.order.iter().rev() {
+        midline_below[b] = kids[b].iter().any(|&c| midline(c) || midline_below[c]);
+    }
     let head_leaf = tree
         .order
         .iter()
         .copied()
-        .filter(|&b| kids[b].is_empty() && !in_leg[b] && midline(b) && b != tree.root)
+        .filter(|&b| !midline_below[b] && !in_leg[b] && midline(b) && b != tree.root)
         .map(|b| {
             let mut score = (h(b).z.max(t(b).z) - ground) / height;
             let path = ancestors(b);
@@ -414,7 +495,11 @@ pub fn detect_roles(
                 continue;
             }
             let (chain, reach) = chain_down(c);
-            if chain.len() >= 2 && reach >= ARM_FRACTION * height {
+            // arms hang from their shoulder (or reach sideways): never above it, unlike
+            // horns and ears
+            let top_z = chain.iter().map(|&b| h(b).z.max(t(b).z)).fold(f32::NEG_INFINITY, f32::max);
+            let below = top_z <= h(c).z.max(h(a).z) + 0.05 * height;
+            if chain.len() >= 2 && reach >= ARM_FRACTION * height && below {
                 arm_cands.push((i, chain));
             }
         }
@@ -437,7 +522,8 @@ pub fn detect_roles(
     let mut hi_idx = match named_head {
         Some(i) => i,
         None => {
-            let siblings_non_limb = leaf_parent >= 0
+            let siblings_non_limb = kids[head_leaf].is_empty()
+                && leaf_parent >= 0
                 && kids[leaf_parent as usize]
                     .iter()
                     .any(|&c| c != head_leaf && !in_leg[c] && !is_arm_top(c));
@@ -465,7 +551,21 @@ pub fn detect_roles(
     if s_idx >= hi_idx {
         s_idx = hi_idx - 1;
     }
-    let spine: Vec<usize> = axis[..=s_idx].to_vec();
+    let mut spine: Vec<usize> = axis[..=s_idx].to_vec();
+    // bones carrying legs off the axis (a body chain running back to the hips) join the spine
+    let mut leg_carrier = vec![false; n];
+    for &top in &leg_tops {
+        let mut cur = parents[top];
+        while cur >= 0 && !leg_carrier[cur as usize] {
+            leg_carrier[cur as usize] = true;
+            cur = parents[cur as usize];
+        }
+    }
+    for &b in &tree.order {
+        if leg_carrier[b] && !on_axis[b] && !in_leg[b] {
+            spine.push(b);
+        }
+    }
     let neck: Vec<usize> = axis[s_idx + 1..hi_idx].to_vec();
     let head = axis[hi_idx];
     let mut head_extras = Vec::new();
@@ -555,7 +655,7 @@ pub fn detect_roles(
     let mut best = 0.0f32;
     for &sb in &spine {
         for &c in &kids[sb] {
-            if on_axis[c] || in_leg[c] || is_arm_top(c) || !midline(c) {
+            if on_axis[c] || in_leg[c] || leg_carrier[c] || is_arm_top(c) || !midline(c) {
                 continue;
             }
             let (chain, _) = chain_down(c);
@@ -567,6 +667,16 @@ pub fn detect_roles(
         }
     }
 
+    // does moving the root bone move every role bone (one real tree)?
+    let real_root = |mut b: usize| {
+        while real_parents[b] >= 0 {
+            b = real_parents[b] as usize;
+        }
+        b
+    };
+    let single_tree = spine.iter().chain(&neck).chain(&tail).chain([&head])
+        .chain(legs.iter().flat_map(|l| &l.bones))
+        .all(|&b| real_root(b) == tree.root);
     let leg_length = legs.iter().map(|l| h(l.bones[0]).z - low[l.bones[0]]).sum::<f32>() / legs.len() as f32;
     Ok(Roles {
         root: tree.root,
@@ -584,6 +694,7 @@ pub fn detect_roles(
         ground,
         height,
         leg_length,
+        single_tree,
         notes,
     })
 }
@@ -687,6 +798,77 @@ pub(crate) mod tests {
         (names.clone(), b.iter().map(|x| x.1).collect(), b.iter().map(|x| x.2).collect(), parents)
     }
 
+    /// Spot the cow's hand-made rig (shared/models/spot_rig.glb, world space, faces +Y): seven
+    /// separate root trees meeting at shared joints, glTF-style "_leaf" bones pointing down.
+    pub fn spot() -> (Vec<String>, Vec<[f32; 3]>, Vec<[f32; 3]>, Vec<i32>) {
+        let rows: Vec<(&str, i32, [f32; 3], [f32; 3])> = vec![
+        ("neck_root", -1, [-0.381, 1.063, -2.066], [-0.101, 13.428, 5.895]),
+        ("neck_mid", 0, [-0.101, 13.428, 5.895], [-0.212, 18.991, 10.368]),
+        ("horn_L", 1, [-0.212, 18.991, 10.368], [-6.378, 25.468, 24.616]),
+        ("horn_L_leaf", 2, [-6.378, 25.468, 24.616], [-6.378, 25.468, 7.794]),
+        ("horn_R", 1, [-0.212, 18.991, 10.368], [6.497, 24.447, 24.722]),
+        ("horn_R_leaf", 4, [6.497, 24.447, 24.722], [6.497, 24.447, 7.964]),
+        ("head", 1, [-0.212, 18.991, 10.368], [0.236, 29.999, 0.921]),
+        ("mouth_corner_L", 6, [0.236, 29.999, 0.921], [-8.785, 30.503, -3.304]),
+        ("mouth_corner_L_leaf", 7, [-8.785, 30.503, -3.304], [-8.785, 30.503, -13.278]),
+        ("mouth_corner_R", 6, [0.236, 29.999, 0.921], [9.443, 29.571, -2.784]),
+        ("mouth_corner_R_leaf", 9, [9.443, 29.571, -2.784], [9.443, 29.571, -12.718]),
+        ("ear_L", 1, [-0.212, 18.991, 10.368], [-14.103, 19.757, 18.456]),
+        ("ear_L_leaf", 11, [-14.103, 19.757, 18.456], [-14.103, 19.757, 2.364]),
+        ("ear_R", 1, [-0.212, 18.991, 10.368], [12.500, 20.474, 17.781]),
+        ("ear_R_leaf", 13, [12.500, 20.474, 17.781], [12.500, 20.474, 2.991]),
+        ("tail", -1, [-0.126, -19.630, -0.258], [-0.192, -31.141, 2.012]),
+        ("tail_leaf", 15, [-0.192, -31.141, 2.012], [-0.192, -31.141, -9.720]),
+        ("leg_back_L_hip", -1, [-0.126, -19.630, -0.258], [-7.242, -24.055, -8.304]),
+        ("leg_back_L_knee", 17, [-7.242, -24.055, -8.304], [-9.483, -26.620, -15.140]),
+        ("leg_back_L_ankle", 18, [-9.483, -26.620, -15.140], [-8.732, -30.331, -24.003]),
+        ("leg_back_L_ankle_leaf", 19, [-8.732, -30.331, -24.003], [-8.732, -30.331, -33.640]),
+        ("leg_back_R_hip", -1, [-0.126, -19.630, -0.258], [8.380, -23.808, -8.587]),
+        ("leg_back_R_knee", 21, [8.380, -23.808, -8.587], [8.918, -25.599, -14.206]),
+        ("leg_back_R_ankle", 22, [8.918, -25.599, -14.206], [8.273, -28.903, -21.816]),
+        ("leg_back_R_ankle_leaf", 23, [8.273, -28.903, -21.816], [8.273, -28.903, -30.137]),
+        ("leg_front_L_hip", -1, [-0.381, 1.063, -2.066], [-8.424, 2.490, -14.507]),
+        ("leg_front_L_knee", 25, [-8.424, 2.490, -14.507], [-9.609, 0.564, -23.343]),
+        ("leg_front_L_ankle", 26, [-9.609, 0.564, -23.343], [-9.465, -1.663, -30.617]),
+        ("leg_front_L_ankle_leaf", 27, [-9.465, -1.663, -30.617], [-9.465, -1.663, -38.225]),
+        ("leg_front_R_hip", -1, [-0.381, 1.063, -2.066], [9.579, 1.752, -14.207]),
+        ("leg_front_R_knee", 29, [9.579, 1.752, -14.207], [9.919, 0.176, -23.441]),
+        ("leg_front_R_ankle", 30, [9.919, 0.176, -23.441], [9.354, -1.618, -30.241]),
+        ("leg_front_R_ankle_leaf", 31, [9.354, -1.618, -30.241], [9.354, -1.618, -37.297]),
+        ("body_root", -1, [-0.381, 1.063, -2.066], [-0.013, -5.187, -2.594]),
+        ("body_spine", 33, [-0.013, -5.187, -2.594], [0.082, -10.042, -2.627]),
+        ("body_back", 34, [0.082, -10.042, -2.627], [-0.126, -19.630, -0.258]),
+        ("body_back_leaf", 35, [-0.126, -19.630, -0.258], [-0.126, -19.631, -10.137]),
+        ];
+        (
+            rows.iter().map(|r| r.0.to_string()).collect(),
+            rows.iter().map(|r| r.2).collect(),
+            rows.iter().map(|r| r.3).collect(),
+            rows.iter().map(|r| r.1).collect(),
+        )
+    }
+
+    #[test]
+    fn quadruped_made_of_separate_trees() {
+        let (names, h, t, p) = spot();
+        let r = detect_roles(&h, &t, &p, &names).unwrap();
+        assert_eq!(r.plan, BodyPlan::Quadruped);
+        assert_eq!(names[r.root], "body_root");
+        assert_eq!(named(&names, &r.spine), ["body_root", "body_spine", "body_back"]);
+        assert_eq!(named(&names, &r.neck), ["neck_root", "neck_mid"]);
+        assert_eq!(names[r.head], "head");
+        assert_eq!(named(&names, &r.tail), ["tail", "tail_leaf"]);
+        assert_eq!(leg(&names, &r, Side::Left, 0)[0], "leg_front_L_hip");
+        assert_eq!(leg(&names, &r, Side::Right, 0)[0], "leg_front_R_hip");
+        assert_eq!(leg(&names, &r, Side::Left, 1)[..3], ["leg_back_L_hip", "leg_back_L_knee", "leg_back_L_ankle"]);
+        assert!((Vec3::from(r.forward) - Vec3::Y).length() < 1e-2, "{:?}", r.forward);
+        assert!(!r.single_tree);
+        // without names the head is still found at the front end
+        let r2 = detect_roles(&h, &t, &p, &[]).unwrap();
+        assert_eq!(r2.legs.len(), 4);
+        assert!(["head", "neck_mid"].contains(&names[r2.head].as_str()), "{}", names[r2.head]);
+    }
+
     fn named(names: &[String], ids: &[usize]) -> Vec<String> {
         ids.iter().map(|&i| names[i].clone()).collect()
     }
@@ -714,6 +896,7 @@ pub(crate) mod tests {
         assert!((Vec3::from(r.forward) - Vec3::NEG_Y).length() < 1e-3, "{:?}", r.forward);
         assert!((Vec3::from(r.left) - Vec3::X).length() < 1e-3);
         assert!(r.notes.is_empty(), "{:?}", r.notes);
+        assert!(r.single_tree);
     }
 
     #[test]

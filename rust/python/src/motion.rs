@@ -46,6 +46,7 @@ fn roles_dict<'py>(py: Python<'py>, r: &Roles) -> PyResult<Bound<'py, PyDict>> {
     d.set_item("ground", r.ground)?;
     d.set_item("height", r.height)?;
     d.set_item("leg_length", r.leg_length)?;
+    d.set_item("single_tree", r.single_tree)?;
     d.set_item("notes", r.notes.clone())?;
     Ok(d)
 }
@@ -73,7 +74,8 @@ fn skeleton(
 
 /// Roles of a skeleton's bones (+Z up): dict with root, spine, neck, head, head_extras, tail,
 /// legs/arms ([{bones, side 'L'/'R', group}], group 0 = front), plan, up/forward/left,
-/// ground, height, leg_length, notes. ValueError (saying what is missing) with no legs or head.
+/// ground, height, leg_length, single_tree (moving the root bone moves the body), notes.
+/// ValueError (saying what is missing) with no legs or head.
 #[pyfunction]
 #[pyo3(signature = (bone_heads, bone_tails, parents, names=None))]
 pub fn detect_roles<'py>(
