@@ -201,10 +201,10 @@ class MINISKELETON_OT_auto_weights(bpy.types.Operator):
                 except (ValueError, RuntimeError, core.Cancelled) as err:
                     self.report({"ERROR"}, f"Mesh '{ob.name}': {err}; nothing was changed")
                     return {"CANCELLED"}
-                if report and report.get("fallback_pieces"):
-                    notes.append(f"{ob.name}: {report['fallback_pieces']} of {report['pieces']} "
-                                 f"pieces saw no bone and used the nearest bone "
-                                 f"({report['rigid_pieces']} rigid)")
+                if report and (report.get("fallback_pieces") or report.get("rigid_pieces")):
+                    notes.append(f"{ob.name}: of {report['pieces']} pieces, "
+                                 f"{report['fallback_pieces']} saw no bone (nearest bone used), "
+                                 f"{report['rigid_pieces']} bound rigidly (no bone inside)")
                 if report and report.get("factorization_failed"):
                     notes.append(f"{ob.name}: heat solve failed, nearest-bone weights used")
                 results.append((ob, i, w))
