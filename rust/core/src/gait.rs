@@ -28,8 +28,8 @@
 //!   0.15, back L 0.65: back legs offset); quadruped run as a rotary gallop (back L 0, back R
 //!   0.1, front R 0.45, front L 0.55); more legs alternate by group (tripod-like).
 //! - Cycle period from the leg length (pendulum scaling): walk 1.05 s · √(L / 0.9 m), run
-//!   0.6 s · √(L / 0.9 m), divided by `speed`; stride per cycle 1.3 L (walk) or 2.6 L (run)
-//!   times `stride`.
+//!   0.6 s · √(L / 0.9 m), the root clamped to [0.6, 1.6] (rigs not in metres), divided by
+//!   `speed`; stride per cycle 1.3 L (walk) or 2.6 L (run) times `stride`.
 //! - Body: spine yaw/roll sway (walk), pitch flexion (quadruped run) or twist and lean (biped
 //!   run); neck/head bob at the step rate with the head steadied; tail sway with a lag; biped
 //!   arms swing against the legs.
@@ -376,7 +376,9 @@ fn gait(
     let hv = |b: usize| Vec3::from(heads[b]);
 
     // timing and amplitudes
-    let pendulum = (l / 0.9).sqrt();
+    // pendulum scaling, assuming metres; clamped so rigs in other units (centimetres, a
+    // 60-unit cow) still get a plausible cadence
+    let pendulum = (l / 0.9).sqrt().clamp(0.6, 1.6);
     let period = if run { 0.6 } else { 1.05 } * pendulum / p.speed;
     let fpc = (period * p.fps).round().max(8.0);
     let frames = (p.cycles * fpc).round().max(1.0) as usize + 1;
@@ -621,6 +623,12 @@ mod tests {
     fn biped_walk_and_run() {
         check_walk(biped(), Motion::Walk);
         check_walk(biped(), Motion::Run);
+    }
+
+    #[test]
+    fn cadence_does_not_depend_on_units_beyond_reason() {
+        let (.., cow) = run(spot(), Motion::Walk); // ~40 units per leg
+        assert!(cow.frames_per_cycle <= 1.05 * 1.6 * 24.0 + 1.0, "{}", cow.frames_per_cycle);
     }
 
     #[test]
