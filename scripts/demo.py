@@ -1,5 +1,6 @@
 """The MiniSkeleton demo, headless: generate (or import) a creature, bind it with Auto Weights
-(Heat), pose it, render a PNG with Workbench and save the .blend.
+(Heat), pose it, render a PNG with Workbench and save the .blend; then key a head shake, a walk
+and a run on it, render them to an MP4 and save the .blend again.
 
     python scripts/demo.py --out out [--model path/to/model.glb]
 
@@ -150,6 +151,48 @@ def render_png(path: Path, size=(960, 640)):
         raise SystemExit(f"render did not write {path}")
 
 
+def rest_pose(rig):
+    """Back to the rest pose before the motions (the still pose above was for the PNG)."""
+    import bpy
+
+    for pb in rig.pose.bones:
+        pb.location = (0, 0, 0)
+        pb.rotation_quaternion = (1, 0, 0, 0)
+        pb.rotation_euler = (0, 0, 0)
+        pb.scale = (1, 1, 1)
+    bpy.context.view_layer.update()
+
+
+def add_motion(rig, motion, **props):
+    """pose.miniskeleton_add_motion on the rig, appended after the keys already there."""
+    import bpy
+
+    for ob in bpy.context.view_layer.objects:
+        ob.select_set(ob == rig)
+    bpy.context.view_layer.objects.active = rig
+    result = bpy.ops.pose.miniskeleton_add_motion(motion=motion, **props)
+    if result != {"FINISHED"}:
+        raise SystemExit(f"{motion} failed: {result}")
+    scene = bpy.context.scene
+    print(f"[demo]   timeline now {scene.frame_start}-{scene.frame_end}")
+
+
+def render_video(path: Path, size=(480, 320)):
+    """render.miniskeleton_make_video: Workbench MP4, a new camera travelling with the creature
+    (the still's camera stays in the file); the ground is widened to cover the whole path."""
+    import bpy
+
+    ground = bpy.data.objects.get("Ground")
+    if ground is not None:
+        ground.scale = (4.0, 4.0, 1.0)
+    result = bpy.ops.render.miniskeleton_make_video(
+        filepath=str(path), engine="WORKBENCH", resolution_x=size[0], resolution_y=size[1],
+        camera="FOLLOW")
+    if result != {"FINISHED"} or not path.exists():
+        raise SystemExit(f"video failed: {result}")
+    print(f"[demo]   {path.stat().st_size // 1024} KiB")
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--out", default="out", type=Path)
@@ -177,6 +220,14 @@ def main(argv=None):
     blend = args.out.resolve() / "demo.blend"
     st.run("save .blend", lambda: bpy.ops.wm.save_as_mainfile(filepath=str(blend)))
     print(f"[demo] wrote {png} and {blend}")
+    st.run("rest pose", rest_pose, rig)
+    st.run("motion: head shake", lambda: add_motion(rig, "HEAD_SHAKE", duration=1.25, cycles=2))
+    st.run("motion: walk", lambda: add_motion(rig, "WALK", cycles=2))
+    st.run("motion: run", lambda: add_motion(rig, "RUN", cycles=2))
+    mp4 = args.out.resolve() / "demo.mp4"
+    st.run("render MP4 (Workbench)", render_video, mp4)
+    st.run("save .blend with the motion", lambda: bpy.ops.wm.save_as_mainfile(filepath=str(blend)))
+    print(f"[demo] wrote {mp4} and {blend}")
     st.total()
 
 
