@@ -226,6 +226,7 @@ def main(argv=None):
     st.run("motion: run", lambda: add_motion(rig, "RUN", cycles=2))
     mp4 = args.out.resolve() / "demo.mp4"
     st.run("render MP4 (Workbench)", render_video, mp4)
+    bpy.context.preferences.filepaths.save_version = 0  # no demo.blend1 next to it
     st.run("save .blend with the motion", lambda: bpy.ops.wm.save_as_mainfile(filepath=str(blend)))
     print(f"[demo] wrote {mp4} and {blend}")
     st.total()
