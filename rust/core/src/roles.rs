@@ -798,50 +798,58 @@ pub(crate) mod tests {
         (names.clone(), b.iter().map(|x| x.1).collect(), b.iter().map(|x| x.2).collect(), parents)
     }
 
-    /// Spot the cow's hand-made rig (shared/models/spot_rig.glb, world space, faces +Y): seven
-    /// separate root trees meeting at shared joints, glTF-style "_leaf" bones pointing down.
+    /// A generated rig with the structure of Spot the cow's hand-made one (not its data): seven
+    /// separate root trees meeting at shared joints (chest, hips, skull), glTF-style "_leaf"
+    /// bones pointing straight down, legs about 40 units long, facing +Y, Z up.
     pub fn spot() -> (Vec<String>, Vec<[f32; 3]>, Vec<[f32; 3]>, Vec<i32>) {
-        let rows: Vec<(&str, i32, [f32; 3], [f32; 3])> = vec![
-        ("neck_root", -1, [-0.381, 1.063, -2.066], [-0.101, 13.428, 5.895]),
-        ("neck_mid", 0, [-0.101, 13.428, 5.895], [-0.212, 18.991, 10.368]),
-        ("horn_L", 1, [-0.212, 18.991, 10.368], [-6.378, 25.468, 24.616]),
-        ("horn_L_leaf", 2, [-6.378, 25.468, 24.616], [-6.378, 25.468, 7.794]),
-        ("horn_R", 1, [-0.212, 18.991, 10.368], [6.497, 24.447, 24.722]),
-        ("horn_R_leaf", 4, [6.497, 24.447, 24.722], [6.497, 24.447, 7.964]),
-        ("head", 1, [-0.212, 18.991, 10.368], [0.236, 29.999, 0.921]),
-        ("mouth_corner_L", 6, [0.236, 29.999, 0.921], [-8.785, 30.503, -3.304]),
-        ("mouth_corner_L_leaf", 7, [-8.785, 30.503, -3.304], [-8.785, 30.503, -13.278]),
-        ("mouth_corner_R", 6, [0.236, 29.999, 0.921], [9.443, 29.571, -2.784]),
-        ("mouth_corner_R_leaf", 9, [9.443, 29.571, -2.784], [9.443, 29.571, -12.718]),
-        ("ear_L", 1, [-0.212, 18.991, 10.368], [-14.103, 19.757, 18.456]),
-        ("ear_L_leaf", 11, [-14.103, 19.757, 18.456], [-14.103, 19.757, 2.364]),
-        ("ear_R", 1, [-0.212, 18.991, 10.368], [12.500, 20.474, 17.781]),
-        ("ear_R_leaf", 13, [12.500, 20.474, 17.781], [12.500, 20.474, 2.991]),
-        ("tail", -1, [-0.126, -19.630, -0.258], [-0.192, -31.141, 2.012]),
-        ("tail_leaf", 15, [-0.192, -31.141, 2.012], [-0.192, -31.141, -9.720]),
-        ("leg_back_L_hip", -1, [-0.126, -19.630, -0.258], [-7.242, -24.055, -8.304]),
-        ("leg_back_L_knee", 17, [-7.242, -24.055, -8.304], [-9.483, -26.620, -15.140]),
-        ("leg_back_L_ankle", 18, [-9.483, -26.620, -15.140], [-8.732, -30.331, -24.003]),
-        ("leg_back_L_ankle_leaf", 19, [-8.732, -30.331, -24.003], [-8.732, -30.331, -33.640]),
-        ("leg_back_R_hip", -1, [-0.126, -19.630, -0.258], [8.380, -23.808, -8.587]),
-        ("leg_back_R_knee", 21, [8.380, -23.808, -8.587], [8.918, -25.599, -14.206]),
-        ("leg_back_R_ankle", 22, [8.918, -25.599, -14.206], [8.273, -28.903, -21.816]),
-        ("leg_back_R_ankle_leaf", 23, [8.273, -28.903, -21.816], [8.273, -28.903, -30.137]),
-        ("leg_front_L_hip", -1, [-0.381, 1.063, -2.066], [-8.424, 2.490, -14.507]),
-        ("leg_front_L_knee", 25, [-8.424, 2.490, -14.507], [-9.609, 0.564, -23.343]),
-        ("leg_front_L_ankle", 26, [-9.609, 0.564, -23.343], [-9.465, -1.663, -30.617]),
-        ("leg_front_L_ankle_leaf", 27, [-9.465, -1.663, -30.617], [-9.465, -1.663, -38.225]),
-        ("leg_front_R_hip", -1, [-0.381, 1.063, -2.066], [9.579, 1.752, -14.207]),
-        ("leg_front_R_knee", 29, [9.579, 1.752, -14.207], [9.919, 0.176, -23.441]),
-        ("leg_front_R_ankle", 30, [9.919, 0.176, -23.441], [9.354, -1.618, -30.241]),
-        ("leg_front_R_ankle_leaf", 31, [9.354, -1.618, -30.241], [9.354, -1.618, -37.297]),
-        ("body_root", -1, [-0.381, 1.063, -2.066], [-0.013, -5.187, -2.594]),
-        ("body_spine", 33, [-0.013, -5.187, -2.594], [0.082, -10.042, -2.627]),
-        ("body_back", 34, [0.082, -10.042, -2.627], [-0.126, -19.630, -0.258]),
-        ("body_back_leaf", 35, [-0.126, -19.630, -0.258], [-0.126, -19.631, -10.137]),
+        let chest = [0.0, 0.0, -2.0];
+        let hips = [0.0, -20.0, 0.0];
+        let skull = [0.0, 19.0, 10.0];
+        let down = |p: [f32; 3], d: f32| [p[0], p[1], p[2] - d];
+        let mut rows: Vec<(String, i32, [f32; 3], [f32; 3])> = Vec::new();
+        let mut add = |name: &str, parent: i32, h: [f32; 3], t: [f32; 3]| -> i32 {
+            rows.push((name.to_string(), parent, h, t));
+            rows.len() as i32 - 1
+        };
+        let root = add("neck_root", -1, chest, [0.0, 13.0, 6.0]);
+        let mid = add("neck_mid", root, [0.0, 13.0, 6.0], skull);
+        for (side, x) in [("L", -1.0f32), ("R", 1.0)] {
+            let horn = add(&format!("horn_{side}"), mid, skull, [6.5 * x, 25.0, 24.5]);
+            add(&format!("horn_{side}_leaf"), horn, [6.5 * x, 25.0, 24.5], [6.5 * x, 25.0, 8.0]);
+        }
+        let head = add("head", mid, skull, [0.0, 30.0, 1.0]);
+        for (side, x) in [("L", -1.0f32), ("R", 1.0)] {
+            let m = add(&format!("mouth_corner_{side}"), head, [0.0, 30.0, 1.0], [9.0 * x, 30.0, -3.0]);
+            add(&format!("mouth_corner_{side}_leaf"), m, [9.0 * x, 30.0, -3.0], [9.0 * x, 30.0, -13.0]);
+        }
+        for (side, x) in [("L", -1.0f32), ("R", 1.0)] {
+            let e = add(&format!("ear_{side}"), mid, skull, [13.0 * x, 20.0, 18.0]);
+            add(&format!("ear_{side}_leaf"), e, [13.0 * x, 20.0, 18.0], [13.0 * x, 20.0, 2.5]);
+        }
+        let tail = add("tail", -1, hips, [0.0, -31.0, 2.0]);
+        add("tail_leaf", tail, [0.0, -31.0, 2.0], down([0.0, -31.0, 2.0], 11.5));
+        // (upper end, knee, ankle) per pair: front knees bend forward, hind hocks backward
+        let legs = [
+            ("back", hips, [7.5, -24.0, -8.5], [9.0, -26.0, -15.0], [8.5, -29.5, -23.0]),
+            ("front", chest, [8.5, 2.5, -14.5], [9.5, 0.5, -23.5], [9.5, -1.5, -30.5]),
         ];
+        for (end, root_joint, hip, knee, ankle) in legs {
+            for (side, x) in [("L", -1.0f32), ("R", 1.0)] {
+                let hip = [hip[0] * x, hip[1], hip[2]];
+                let knee = [knee[0] * x, knee[1], knee[2]];
+                let ankle = [ankle[0] * x, ankle[1], ankle[2]];
+                let h = add(&format!("leg_{end}_{side}_hip"), -1, root_joint, hip);
+                let k = add(&format!("leg_{end}_{side}_knee"), h, hip, knee);
+                let a = add(&format!("leg_{end}_{side}_ankle"), k, knee, ankle);
+                add(&format!("leg_{end}_{side}_ankle_leaf"), a, ankle, down(ankle, 8.5));
+            }
+        }
+        let body = add("body_root", -1, chest, [0.0, -5.0, -2.5]);
+        let spine = add("body_spine", body, [0.0, -5.0, -2.5], [0.0, -10.0, -2.5]);
+        let back = add("body_back", spine, [0.0, -10.0, -2.5], hips);
+        add("body_back_leaf", back, hips, down(hips, 10.0));
         (
-            rows.iter().map(|r| r.0.to_string()).collect(),
+            rows.iter().map(|r| r.0.clone()).collect(),
             rows.iter().map(|r| r.2).collect(),
             rows.iter().map(|r| r.3).collect(),
             rows.iter().map(|r| r.1).collect(),
