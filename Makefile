@@ -77,6 +77,8 @@ test-blender-4.2: $(EXT_ZIP)
 bench: $(EXT_ZIP)
 	cargo bench -p miniskeleton-core
 	$(VPY) bench/bench_weights.py
+	$(VPY) bench/eval_weights.py
+	$(VPY) bench/bench_fit.py
 
 clean:
 	rm -rf dist addon/wheels out .build
