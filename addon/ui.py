@@ -7,6 +7,14 @@ import bpy
 WEIGHTS_OP = "object.miniskeleton_auto_weights"
 
 
+class SidebarPanel:
+    """Mixin: a panel in the 3D viewport sidebar (N), tab "MiniSkeleton"."""
+
+    bl_space_type = "VIEW_3D"
+    bl_region_type = "UI"
+    bl_category = "MiniSkeleton"
+
+
 def draw_parent_menu(self, context):
     """Object > Parent (and Weight Paint > Weights): 'With MiniSkeleton Weights' > methods."""
     layout = self.layout
@@ -15,15 +23,11 @@ def draw_parent_menu(self, context):
     layout.operator_menu_enum(WEIGHTS_OP, "method", text="With MiniSkeleton Weights")
 
 
-class MINISKELETON_PT_weights(bpy.types.Panel):
+class MINISKELETON_PT_weights(SidebarPanel, bpy.types.Panel):
     """Sidebar > MiniSkeleton > Weights"""
 
     bl_label = "Weights"
     bl_idname = "MINISKELETON_PT_weights"
-    bl_space_type = "VIEW_3D"
-    bl_region_type = "UI"
-    bl_category = "MiniSkeleton"
-
     def draw(self, context):
         layout = self.layout
         col = layout.column(align=True)
@@ -35,41 +39,16 @@ class MINISKELETON_PT_weights(bpy.types.Panel):
             op.method = method
 
 
-classes = (MINISKELETON_PT_weights,)
-
-_MENUS = ("VIEW3D_MT_object_parent", "VIEW3D_MT_paint_weight")
-
-
-def register_menus() -> None:
-    for name in _MENUS:
-        getattr(bpy.types, name).append(draw_parent_menu)
-    register_motion_menus()
-    register_puppet_menus()
-    register_skeleton_menus()
-
-
-def unregister_menus() -> None:
-    unregister_motion_menus()
-    unregister_skeleton_menus()
-    unregister_puppet_menus()
-    for name in _MENUS:
-        getattr(bpy.types, name).remove(draw_parent_menu)
-
-
 # ---------------------------------------------------------------------------- Puppet
 
 PUPPET_OP = "object.miniskeleton_add_puppet"
 
 
-class MINISKELETON_PT_puppet(bpy.types.Panel):
+class MINISKELETON_PT_puppet(SidebarPanel, bpy.types.Panel):
     """Sidebar > MiniSkeleton > Puppet: add a shadow puppet, live solving, bake, theatre"""
 
     bl_label = "Puppet"
     bl_idname = "MINISKELETON_PT_puppet"
-    bl_space_type = "VIEW_3D"
-    bl_region_type = "UI"
-    bl_category = "MiniSkeleton"
-
     def draw(self, context):
         from .operators_puppet import LIVE_KEY, puppet_rig
 
@@ -97,15 +76,6 @@ def draw_puppet_add_menu(self, context):
     self.layout.operator_menu_enum(PUPPET_OP, "type", text="Shadow Puppet", icon="OUTLINER_OB_ARMATURE")
 
 
-classes = classes + (MINISKELETON_PT_puppet,)
-
-
-def register_puppet_menus() -> None:
-    bpy.types.VIEW3D_MT_armature_add.append(draw_puppet_add_menu)
-
-
-def unregister_puppet_menus() -> None:
-    bpy.types.VIEW3D_MT_armature_add.remove(draw_puppet_add_menu)
 
 
 # ---------------------------------------------------------------------------- Skeleton
@@ -113,15 +83,11 @@ def unregister_puppet_menus() -> None:
 FIT_OP = "armature.miniskeleton_fit_skeleton"
 
 
-class MINISKELETON_PT_skeleton(bpy.types.Panel):
+class MINISKELETON_PT_skeleton(SidebarPanel, bpy.types.Panel):
     """Sidebar > MiniSkeleton > Skeleton: fit, restore, Blender's own bone editing, rig exchange"""
 
     bl_label = "Skeleton"
     bl_idname = "MINISKELETON_PT_skeleton"
-    bl_space_type = "VIEW_3D"
-    bl_region_type = "UI"
-    bl_category = "MiniSkeleton"
-
     def draw(self, context):
         layout = self.layout
         col = layout.column(align=True)
@@ -163,20 +129,6 @@ def draw_import_menu(self, context):
     self.layout.operator("import_scene.miniskeleton_npz", text="MiniSkeleton Rig Bundle Weights (.npz)")
 
 
-classes = classes + (MINISKELETON_PT_skeleton,)
-
-_SKELETON_MENUS = (("VIEW3D_MT_edit_armature", draw_armature_menu), ("VIEW3D_MT_pose", draw_armature_menu),
-                   ("TOPBAR_MT_file_export", draw_export_menu), ("TOPBAR_MT_file_import", draw_import_menu))
-
-
-def register_skeleton_menus() -> None:
-    for name, fn in _SKELETON_MENUS:
-        getattr(bpy.types, name).append(fn)
-
-
-def unregister_skeleton_menus() -> None:
-    for name, fn in _SKELETON_MENUS:
-        getattr(bpy.types, name).remove(fn)
 
 
 # ---------------------------------------------------------------------------- Motion
@@ -185,15 +137,11 @@ MOTION_OP = "pose.miniskeleton_add_motion"
 VIDEO_OP = "render.miniskeleton_make_video"
 
 
-class MINISKELETON_PT_motion(bpy.types.Panel):
+class MINISKELETON_PT_motion(SidebarPanel, bpy.types.Panel):
     """Sidebar > MiniSkeleton > Motion: head shake / walk / run keys, then an MP4"""
 
     bl_label = "Motion"
     bl_idname = "MINISKELETON_PT_motion"
-    bl_space_type = "VIEW_3D"
-    bl_region_type = "UI"
-    bl_category = "MiniSkeleton"
-
     def draw(self, context):
         layout = self.layout
         col = layout.column(align=True)
@@ -221,16 +169,30 @@ def draw_render_video_menu(self, context):
     layout.operator(VIDEO_OP, text="Make Video (MP4, MiniSkeleton)", icon="RENDER_ANIMATION")
 
 
-classes = classes + (MINISKELETON_PT_motion,)
+# ---------------------------------------------------------------------------- Registration
 
-_MOTION_MENUS = (("VIEW3D_MT_pose", draw_pose_motion_menu), ("TOPBAR_MT_render", draw_render_video_menu))
+classes = (MINISKELETON_PT_weights, MINISKELETON_PT_skeleton, MINISKELETON_PT_motion,
+           MINISKELETON_PT_puppet)
+
+# (Blender menu, draw function appended to it), in the order they are added.
+MENUS = (
+    ("VIEW3D_MT_object_parent", draw_parent_menu),
+    ("VIEW3D_MT_paint_weight", draw_parent_menu),
+    ("VIEW3D_MT_armature_add", draw_puppet_add_menu),
+    ("VIEW3D_MT_edit_armature", draw_armature_menu),
+    ("VIEW3D_MT_pose", draw_armature_menu),
+    ("TOPBAR_MT_file_export", draw_export_menu),
+    ("TOPBAR_MT_file_import", draw_import_menu),
+    ("VIEW3D_MT_pose", draw_pose_motion_menu),
+    ("TOPBAR_MT_render", draw_render_video_menu),
+)
 
 
-def register_motion_menus() -> None:
-    for name, fn in _MOTION_MENUS:
-        getattr(bpy.types, name).append(fn)
+def register_menus() -> None:
+    for menu, draw in MENUS:
+        getattr(bpy.types, menu).append(draw)
 
 
-def unregister_motion_menus() -> None:
-    for name, fn in _MOTION_MENUS:
-        getattr(bpy.types, name).remove(fn)
+def unregister_menus() -> None:
+    for menu, draw in reversed(MENUS):
+        getattr(bpy.types, menu).remove(draw)
