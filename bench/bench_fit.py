@@ -7,8 +7,13 @@ skipped, never copied here) and for the generated creature (scripts/creature.py)
 model's own skeleton, displace every joint randomly (seeded, uniform in a ball of radius 5 % of
 the mesh's bounding-box diagonal), run ``armature.miniskeleton_fit_skeleton`` and compare with
 the original joints. Joints are the unique bone ends (a connected child's head is its parent's
-tail). Prints a markdown table: mean joint error before / after (% of the diagonal), the ratio,
-joints outside the mesh (original, before, after) and the operator's time; also writes it to
+tail), and only the real ones are scored: every bone head, plus a tail only where it is a real
+joint -- another bone's head, or any tail of a rig built in Blender (the creature). glTF stores
+joints (nodes) only, so on an imported model Blender's importer invents every tail that is not a
+child's head (leaf bones, bones with several children); those are displaced with the rest but not
+scored. Prints a markdown table: mean joint error before / after (% of the diagonal), the ratio,
+the error after over the joints that were inside the mesh in the original rest pose, joints
+outside the mesh (original, before, after) and the operator's time; also writes it to
 out/bench_fit.md. Nothing is asserted (the test on the creature asserts).
 """
 
@@ -68,6 +73,15 @@ def read_joints(bpy, arm, rig_io, diag):
     return rig_io.joint_graph(h, t, parents, conn, 1e-6 * diag)
 
 
+def real_joints(ends, imported):
+    """(j,) bool: joints that are real -- bone heads, and tails unless the importer invented them."""
+    real = np.zeros(int(ends.max()) + 1, dtype=bool)
+    real[ends[:, 0]] = True
+    if not imported:
+        real[ends[:, 1]] = True
+    return real
+
+
 def joints_now(bpy, arm, ends):
     ebs = list(edit_bones(bpy, arm))
     j = np.zeros((int(ends.max()) + 1, 3))
@@ -106,7 +120,13 @@ def run(bpy, name, seeds, rig_io, core, mesh_io):
     tris = np.concatenate(tris).astype(np.uint32)
     diag = float(np.linalg.norm(verts.max(0) - verts.min(0)))  # armature space
     orig, ends = read_joints(bpy, arm, rig_io, diag)
-    out_orig = int((~core.points_inside(verts, tris, orig.astype(np.float32))).sum())
+    real = real_joints(ends, imported=name != "creature")
+    inside_orig = core.points_inside(verts, tris, orig.astype(np.float32))
+    out_orig = int((~inside_orig & real).sum())
+    scored_in = real & inside_orig
+
+    def outside(j):
+        return int((~core.points_inside(verts, tris, j.astype(np.float32)) & real).sum())
     rows = []
     for seed in range(seeds):
         rng = np.random.default_rng(seed + 1)
@@ -123,15 +143,15 @@ def run(bpy, name, seeds, rig_io, core, mesh_io):
         if res != {"FINISHED"}:
             return None
         fitted = joints_now(bpy, arm, ends)
-        rows.append((np.linalg.norm(moved - orig, axis=1).mean() / diag * 100,
-                     np.linalg.norm(fitted - orig, axis=1).mean() / diag * 100,
-                     int((~core.points_inside(verts, tris, moved.astype(np.float32))).sum()),
-                     int((~core.points_inside(verts, tris, fitted.astype(np.float32))).sum()), secs))
+        err0 = np.linalg.norm(moved - orig, axis=1) / diag * 100
+        err1 = np.linalg.norm(fitted - orig, axis=1) / diag * 100
+        rows.append((err0[real].mean(), err1[real].mean(), err0[scored_in].mean(), err1[scored_in].mean(),
+                     outside(moved), outside(fitted), secs))
         set_joints(bpy, arm, orig, ends)
     r = np.array(rows, dtype=np.float64)
-    return dict(model=name, joints=len(orig), vertices=len(verts), out_orig=out_orig,
-                before=r[:, 0].mean(), after=r[:, 1].mean(), out_before=r[:, 2].mean(),
-                out_after=r[:, 3].max(), secs=r[:, 4].mean())
+    return dict(model=name, joints=int(real.sum()), ends=len(orig), vertices=len(verts), out_orig=out_orig,
+                before=r[:, 0].mean(), after=r[:, 1].mean(), before_in=r[:, 2].mean(), after_in=r[:, 3].mean(),
+                out_before=r[:, 4].mean(), out_after=r[:, 5].max(), secs=r[:, 6].mean())
 
 
 def main():
@@ -150,21 +170,24 @@ def main():
             names.append(m)
         else:
             print(f"skipped {m}: not in {MODELS_DIR}")
-    lines = ["| model | joints | vertices | outside (original) | mean error before % | after % | after/before "
-             "| outside before (mean) | outside after (max) | fit s |",
-             "|---|---|---|---|---|---|---|---|---|---|"]
+    lines = ["| model | joints (bone ends) | vertices | outside (original) | mean error before % | after % "
+             "| after/before | before / after, joints inside originally % | outside before (mean) "
+             "| outside after (max) | fit s |",
+             "|---|---|---|---|---|---|---|---|---|---|---|"]
     for name in names:
         r = run(bpy, name, args.seeds, rig_io, core, mesh_io)
         if r is None:
             print(f"skipped {name}: no single armature with meshes, or the fit failed")
             continue
-        lines.append(f"| {r['model']} | {r['joints']} | {r['vertices']} | {r['out_orig']} | {r['before']:.2f} | "
-                     f"{r['after']:.2f} | {r['after'] / r['before']:.2f} | {r['out_before']:.1f} | "
+        lines.append(f"| {r['model']} | {r['joints']} ({r['ends']}) | {r['vertices']} | {r['out_orig']} | "
+                     f"{r['before']:.2f} | {r['after']:.2f} | {r['after'] / r['before']:.2f} | "
+                     f"{r['before_in']:.2f} / {r['after_in']:.2f} | {r['out_before']:.1f} | "
                      f"{int(r['out_after'])} | {r['secs']:.2f} |")
         print(lines[-1], flush=True)
     table = "\n".join(lines)
     print(f"\nJoints displaced uniformly in a ball of 5 % of the diagonal, {args.seeds} seeds; errors in % of "
-          "the mesh bounding-box diagonal, against the model's own joints.\n")
+          "the mesh bounding-box diagonal, against the model's own real joints (invented glTF tails not "
+          "scored); outside counts are real joints.\n")
     print(table)
     out = ROOT / "out"
     out.mkdir(exist_ok=True)
