@@ -61,11 +61,24 @@ pub struct FitOptions {
     /// Put free limb ends (a bone's tail with no other bone) one local radius short of the tip
     /// of the mesh beyond them, where the medial axis of a rounded end stops.
     pub tip: bool,
+    /// A joint moves at most this far while fitting (fraction of the bounding-box diagonal; the
+    /// final pull inside may add more): how rough the input skeleton is assumed to be. Large
+    /// moves are where the centre lines of body sections mislead junction joints.
+    pub max_move: f64,
 }
 
 impl Default for FitOptions {
     fn default() -> Self {
-        FitOptions { symmetry: None, rays: 12, samples: 5, rounds: 12, tolerance: 1e-4, stiffness: 0.05, tip: true }
+        FitOptions {
+            symmetry: None,
+            rays: 12,
+            samples: 5,
+            rounds: 12,
+            tolerance: 1e-4,
+            stiffness: 0.05,
+            tip: true,
+            max_move: 0.12,
+        }
     }
 }
 
@@ -109,8 +122,6 @@ const PARITY_DIRS: [[f32; 3]; 7] = [
 const TIP_MARGIN: f64 = 0.3;
 /// Joints pulled inside go this far (unit frame) past the surface, at most half the chord.
 const PULL_DEPTH: f64 = 0.005;
-/// A joint moves at most this far (unit frame) while fitting (pulling inside may add more).
-const MAX_MOVE: f64 = 0.12;
 /// Hits closer than this (unit frame) along one ray count once (shared edges report twice).
 const DEDUP: f32 = 1e-6;
 /// Rays never need to be longer than this in the unit frame (the mesh fits in diagonal 1).
@@ -427,9 +438,10 @@ pub fn fit_joints(
             )));
         }
     }
-    if opts.rays < 3 || opts.samples < 1 || !(opts.stiffness > 0.0) || !(opts.tolerance > 0.0) {
+    if opts.rays < 3 || opts.samples < 1 || !(opts.stiffness > 0.0) || !(opts.tolerance > 0.0) || !(opts.max_move > 0.0)
+    {
         return Err(Error::InvalidArgument(
-            "fit options: rays >= 3, samples >= 1, stiffness > 0 and tolerance > 0".into(),
+            "fit options: rays >= 3, samples >= 1, stiffness > 0, tolerance > 0 and max_move > 0".into(),
         ));
     }
     let frame = Frame::of_points(vertices);
@@ -613,8 +625,8 @@ pub fn fit_joints(
         // Never wander off: a rough joint is near its place (MAX_MOVE of the diagonal).
         for (q, q0) in next.iter_mut().zip(&start) {
             let d = *q - *q0;
-            if d.length() > MAX_MOVE {
-                *q = *q0 + d * (MAX_MOVE / d.length());
+            if d.length() > opts.max_move {
+                *q = *q0 + d * (opts.max_move / d.length());
             }
         }
         symmetrize(&mut next);

@@ -131,6 +131,21 @@ fn straight_tube_centres_perpendicular() {
     assert_eq!((rep.open_edges, rep.nonmanifold_edges, rep.pieces), (0, 0, 1));
 }
 
+/// `max_move` caps how far a joint inside the mesh travels (fraction of the bounding-box diagonal).
+#[test]
+fn max_move_caps_the_fit() {
+    let (v, t) = capped_cylinder(0.5, 4.0, 40, 32);
+    let diag = (1.0f32 + 1.0 + 16.0).sqrt();
+    let start: Vec<[f32; 3]> = (0..5).map(|i| [0.3, 0.0, 0.4 + 0.8 * i as f32]).collect();
+    let opts = FitOptions { max_move: 0.02, tip: false, ..FitOptions::default() };
+    let (out, rep) = fit_joints(&v, &t, &start, &chain_bones(5), &[true; 5], &opts).unwrap();
+    for (o, s) in out.iter().zip(&start) {
+        assert!(dist(*o, *s) <= 0.02 * diag * 1.001, "moved {} > cap: {o:?}", dist(*o, *s));
+        assert!(o[0] < 0.3 - 0.01, "did not move toward the axis: {o:?}");
+    }
+    assert_eq!(rep.count_outside_after(), 0);
+}
+
 /// A bent limb (L): the corner joint goes to the corner, from any side.
 #[test]
 fn bent_tube_corner() {
@@ -257,6 +272,8 @@ fn mesh_checks_and_errors() {
     assert!(matches!(fit_joints(&v, &t, &[], &[], &[], &opts), Err(Error::NoBones(_))));
     let deg = vec![[0u32, 0, 1]];
     assert!(matches!(fit_joints(&v, &deg, &j, &[[0, 1]], &[true; 2], &opts), Err(Error::EmptyMesh(_))));
+    let bad_move = FitOptions { max_move: 0.0, ..opts.clone() };
+    assert!(matches!(fit_joints(&v, &t, &j, &[[0, 1]], &[true; 2], &bad_move), Err(Error::InvalidArgument(_))));
     let bad_sym = FitOptions { symmetry: Some(Symmetry { axis: 3, plane: 0.0, mirror: vec![0, 1] }), ..opts.clone() };
     assert!(matches!(fit_joints(&v, &t, &j, &[[0, 1]], &[true; 2], &bad_sym), Err(Error::InvalidArgument(_))));
     // A joint with no bone and coincident joints are fine.

@@ -10,11 +10,12 @@ use pyo3::types::PyDict;
 
 /// Fit joints (j,3) into the mesh: each joint goes to the nearest point of its bones' centre
 /// lines. bones (b,2) joint indices; movable (j,) bool (default all); symmetry_axis 0/1/2 with
-/// joint_mirror (j,) mirror joint indices. Returns (joints (j,3) float32, report dict).
+/// joint_mirror (j,) mirror joint indices; max_move caps each joint's fitting move (fraction of the
+/// mesh's bounding-box diagonal). Returns (joints (j,3) float32, report dict).
 #[pyfunction]
 #[pyo3(signature = (vertices, triangles, joints, bones, movable=None, *, symmetry_axis=None,
                     symmetry_plane=0.0, joint_mirror=None, rays=12, samples=5, rounds=12,
-                    tolerance=1e-4, stiffness=0.05, tip=true))]
+                    tolerance=1e-4, stiffness=0.05, tip=true, max_move=0.12))]
 #[allow(clippy::too_many_arguments)]
 pub fn fit_joints<'py>(
     py: Python<'py>,
@@ -32,6 +33,7 @@ pub fn fit_joints<'py>(
     tolerance: f64,
     stiffness: f64,
     tip: bool,
+    max_move: f64,
 ) -> PyResult<(Bound<'py, PyArray2<f32>>, Bound<'py, PyDict>)> {
     let v = rows::<f32, 3>(&vertices, "vertices")?;
     let t = rows::<u32, 3>(&triangles, "triangles")?;
@@ -43,7 +45,7 @@ pub fn fit_joints<'py>(
         (Some(axis), Some(m)) => Some(Symmetry { axis, plane: symmetry_plane, mirror: vector(&m) }),
         _ => return Err(PyValueError::new_err("symmetry_axis and joint_mirror go together")),
     };
-    let opts = FitOptions { symmetry, rays, samples, rounds, tolerance, stiffness, tip };
+    let opts = FitOptions { symmetry, rays, samples, rounds, tolerance, stiffness, tip, max_move };
     let (out, rep) = guarded(py, move || fit::fit_joints(&v, &t, &j, &b, &mv, &opts))?;
     let d = PyDict::new(py);
     d.set_item("outside_before", rep.count_outside_before())?;
