@@ -11,7 +11,7 @@ import json
 
 import bpy
 import numpy as np
-from bpy.props import EnumProperty, IntProperty, StringProperty
+from bpy.props import EnumProperty, FloatProperty, IntProperty, StringProperty
 from bpy_extras.io_utils import ExportHelper, ImportHelper
 
 from . import mesh_io, rig_io
@@ -53,6 +53,42 @@ def _armature_check(op, arm):
     return True
 
 
+def _fit_graph(ends, real, parents, follow, names):
+    """The joints and bones the fit sees: (joint indices (k,), bones (e,2) uint32 into them,
+    mirror (k,) int32). Without ``follow`` every bone end is a joint and every bone an edge. With
+    ``follow`` (a rig whose tails were invented by an importer) only bone heads and tails that are
+    some bone's head are joints, and the edges are the bones whose tail is such a joint plus
+    parent head -> child head (glTF's own joint hierarchy)."""
+    nj = int(ends.max()) + 1
+    if not follow:
+        keep = np.arange(nj)
+        edges = [tuple(e) for e in ends[real]]
+    else:
+        is_head = np.zeros(nj, dtype=bool)
+        is_head[ends[:, 0]] = True
+        keep = np.flatnonzero(is_head)
+        edges = []
+        for i, (h, t) in enumerate(ends):
+            if real[i] and is_head[t]:
+                edges.append((h, t))
+            p = parents[i]
+            if p >= 0 and ends[p, 0] != h:
+                edges.append((ends[p, 0], h))
+        seen, uniq = set(), []
+        for a, b in edges:
+            if (a, b) not in seen and (b, a) not in seen:
+                seen.add((a, b))
+                uniq.append((a, b))
+        edges = uniq
+    pos = np.full(nj, -1, dtype=np.int64)
+    pos[keep] = np.arange(len(keep))
+    bones = np.array([(pos[a], pos[b]) for a, b in edges], dtype=np.uint32).reshape(-1, 2)
+    full = rig_io.joint_mirror(names, ends)
+    mirror = np.array([pos[m] if 0 <= m < nj and pos[m] >= 0 else i for i, m in enumerate(full[keep])],
+                      dtype=np.int32)
+    return keep, bones, mirror
+
+
 class MINISKELETON_OT_fit_skeleton(bpy.types.Operator):
     """Move the selected joints (all when none are selected) to the middle of the selected meshes"""
 
@@ -67,6 +103,17 @@ class MINISKELETON_OT_fit_skeleton(bpy.types.Operator):
                 "and centre joints on the armature's x = 0")])
     rounds: IntProperty(name="Rounds", default=12, min=1, max=100,
                         description="Maximum rounds of centre lines and joint updates")
+    max_move: FloatProperty(name="Max Move", default=5.0, min=0.1, max=100.0, subtype="PERCENTAGE",
+                            description="How far a joint may move while fitting, in % of the mesh's "
+                            "bounding-box diagonal (how rough the skeleton is; pulling a joint inside "
+                            "the mesh may add more)")
+    tails: EnumProperty(
+        name="Free Tails", default="AUTO",
+        items=[("AUTO", "Auto", "Follow their bone when no bone of the armature is connected (an imported "
+                "glTF/FBX rig: those formats store joints only and the importer invents tails), else Joints"),
+               ("JOINTS", "Joints", "Every bone tail is a joint and is fitted"),
+               ("FOLLOW", "Follow Bone", "A tail that is not another bone's head was invented: it keeps its "
+                "bone's direction and length from the fitted head; bones are fitted from parent to child heads")])
 
     def _inputs(self, context, arm):
         """(vertices (n,3) in armature space, triangles) of the selected meshes, or None (reported)."""
@@ -141,15 +188,22 @@ class MINISKELETON_OT_fit_skeleton(bpy.types.Operator):
                 return {"CANCELLED"}
 
             real = ends[:, 0] != ends[:, 1]
+            follow = self.tails == "FOLLOW" or (self.tails == "AUTO" and not any(connected))
+            fit_j, fit_bones, mirror = _fit_graph(ends, real, parents, follow, names)
             kw = {}
             if self.symmetry == "X":
-                kw = dict(symmetry_axis=0, symmetry_plane=0.0, joint_mirror=rig_io.joint_mirror(names, ends))
+                kw = dict(symmetry_axis=0, symmetry_plane=0.0, joint_mirror=mirror)
             try:
-                new, rep = core.fit_joints(verts, tris, joints.astype(np.float32), ends[real].astype(np.uint32),
-                                           movable, rounds=self.rounds, **kw)
+                sub, rep = core.fit_joints(verts, tris, joints[fit_j].astype(np.float32), fit_bones,
+                                           movable[fit_j], rounds=self.rounds, tip=not follow,
+                                           max_move=self.max_move / 100.0, **kw)
             except (ValueError, RuntimeError) as err:
                 self.report({"ERROR"}, f"Fit failed: {err}; nothing was changed")
                 return {"CANCELLED"}
+            new = joints.copy()
+            new[fit_j] = sub
+            fitted = np.zeros(nj, dtype=bool)
+            fitted[fit_j] = True
 
             rig_io.ensure_snapshot(arm, ebs)
             new = new.astype(np.float64)
@@ -157,7 +211,8 @@ class MINISKELETON_OT_fit_skeleton(bpy.types.Operator):
                 eb.use_connect = False
             for i, eb in enumerate(bones):
                 h = new[ends[i, 0]]
-                t = new[ends[i, 1]] if real[i] else h + (tails[i] - heads[i])
+                # An invented tail (not fitted) keeps the bone's direction and length from its head.
+                t = new[ends[i, 1]] if real[i] and fitted[ends[i, 1]] else h + (tails[i] - heads[i])
                 if np.linalg.norm(t - h) <= 1e-6 * size:
                     t = h + (tails[i] - heads[i])  # never collapse a bone (Blender would delete it)
                 eb.head = h
@@ -173,8 +228,9 @@ class MINISKELETON_OT_fit_skeleton(bpy.types.Operator):
             self.report({"WARNING"}, f"The mesh has {rep['pieces']} separate pieces: each joint was "
                         "fitted into the piece around it")
         level = {"WARNING"} if rep["outside_after"] else {"INFO"}
-        self.report(level, f"Fitted {int(movable.sum())} of {nj} joints: outside the mesh before "
-                    f"{rep['outside_before']}, after {rep['outside_after']}")
+        extra = f" ({nj - len(fit_j)} invented tails followed their bones)" if len(fit_j) < nj else ""
+        self.report(level, f"Fitted {int(movable[fit_j].sum())} of {len(fit_j)} joints{extra}: outside the mesh "
+                    f"before {rep['outside_before']}, after {rep['outside_after']}")
         return {"FINISHED"}
 
 

@@ -105,7 +105,7 @@ def set_joints(bpy, arm, joints, ends):
     bpy.ops.object.mode_set(mode="OBJECT")
 
 
-def run(bpy, name, seeds, rig_io, core, mesh_io):
+def run(bpy, name, seeds, rig_io, core, mesh_io, **op):
     arm, meshes = load(bpy, name)
     if arm is None or not meshes:
         return None
@@ -138,7 +138,7 @@ def run(bpy, name, seeds, rig_io, core, mesh_io):
             o.select_set(o in meshes or o is arm)
         bpy.context.view_layer.objects.active = arm
         start = time.perf_counter()
-        res = bpy.ops.armature.miniskeleton_fit_skeleton()
+        res = bpy.ops.armature.miniskeleton_fit_skeleton(**op)
         secs = time.perf_counter() - start
         if res != {"FINISHED"}:
             return None
@@ -158,6 +158,8 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--models", default=",".join(MODELS))
     ap.add_argument("--seeds", type=int, default=3)
+    ap.add_argument("--tails", default="AUTO", help="the operator's Free Tails option")
+    ap.add_argument("--max-move", type=float, default=None, help="the operator's Max Move (%%)")
     args = ap.parse_args()
     bpy = blender_session.start()
     rig_io = importlib.import_module(blender_session.ADDON_MODULE + ".rig_io")
@@ -175,7 +177,8 @@ def main():
              "| outside after (max) | fit s |",
              "|---|---|---|---|---|---|---|---|---|---|---|"]
     for name in names:
-        r = run(bpy, name, args.seeds, rig_io, core, mesh_io)
+        op = dict(tails=args.tails) | ({} if args.max_move is None else dict(max_move=args.max_move))
+        r = run(bpy, name, args.seeds, rig_io, core, mesh_io, **op)
         if r is None:
             print(f"skipped {name}: no single armature with meshes, or the fit failed")
             continue

@@ -116,6 +116,31 @@ def test_fit_creature_halves_error_and_leaves_none_outside():
             assert np.allclose(b.head_local, b.parent.tail_local, atol=1e-6)
 
 
+def test_fit_imported_rig_invented_tails_follow_their_bones():
+    """No bone connected (as after a glTF/FBX import): tails that are no bone's head are invented,
+    keep their bone's vector from the fitted head; the real joints (heads) still go inside."""
+    body, arm, ends, orig, moved, diag = creature_setup(seed=3)
+    builders.set_active(arm)
+    bpy.ops.object.mode_set(mode="EDIT")
+    for eb in arm.data.edit_bones:
+        eb.use_connect = False
+    heads = {tuple(np.round(eb.head, 6)) for eb in arm.data.edit_bones}
+    vec = {eb.name: np.array(eb.tail - eb.head) for eb in arm.data.edit_bones
+           if tuple(np.round(eb.tail, 6)) not in heads}
+    bpy.ops.object.mode_set(mode="OBJECT")
+    assert vec  # leaf bones
+    builders.select_for_parenting([body], arm)
+    assert bpy.ops.armature.miniskeleton_fit_skeleton() == {"FINISHED"}
+    bpy.ops.object.mode_set(mode="EDIT")
+    ebs = arm.data.edit_bones
+    for name, v in vec.items():
+        assert np.allclose(np.array(ebs[name].tail - ebs[name].head), v, atol=1e-5 * diag), name
+    new_heads = np.array([eb.head for eb in ebs], dtype=np.float32)
+    bpy.ops.object.mode_set(mode="OBJECT")
+    v, t = mesh_arrays(body)
+    assert core.points_inside(v, t, new_heads).all()
+
+
 def test_fit_is_idempotent_and_keeps_rolls():
     body, arm, ends, orig, moved, diag = creature_setup(seed=2)
     before = edit_state(arm)
