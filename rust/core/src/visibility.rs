@@ -122,24 +122,7 @@ impl RayMesh {
     /// mesh unit measured along the normalized direction. Output: distances in `[0, max_dist]`;
     /// a ray through a shared edge or vertex may report (nearly) the same distance twice.
     pub fn ray_hits(&self, origin: Vec3, dir: Vec3, max_dist: f32) -> Vec<f32> {
-        let len = dir.length();
-        let mut hits = Vec::new();
-        if self.tris.is_empty() || !(len > 0.0) || !len.is_finite() || !origin.is_finite() || !(max_dist >= 0.0) {
-            return hits;
-        }
-        let dir = dir / len;
-        let (ray, inv, tmax) = (Ray::new(origin, dir), dir.recip(), max_dist.min(f32::MAX));
-        self.bvh.traverse(|node| {
-            if !node_hit(node, origin, inv, tmax) {
-                return TraversalAction::Prune;
-            }
-            if let Some(t) = node.leaf_data().and_then(|i| self.triangle_hit(i, &ray, tmax)) {
-                hits.push(t);
-            }
-            TraversalAction::Continue
-        });
-        hits.sort_by(|a, b| a.total_cmp(b));
-        hits
+        self.ray_hits_where(origin, dir, max_dist, |_| true)
     }
 
     /// [`ray_hits`](Self::ray_hits) restricted to the input triangles `t` with `keep(t)`
