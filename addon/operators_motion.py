@@ -325,6 +325,7 @@ ENGINES = [
     ("WORKBENCH", "Workbench", "Fast solid shading, any machine"),
     ("EEVEE", "EEVEE", "Real-time renderer (needs a GPU context)"),
     ("CYCLES", "Cycles", "Path tracer on the CPU (slow)"),
+    ("SCENE", "Scene's Own", "Keep the scene's engine and its settings (e.g. a Shadow Theatre preset)"),
 ]
 
 
@@ -450,6 +451,9 @@ def add_light(scene) -> bpy.types.Object:
 
 
 def set_engine(scene, engine: str) -> None:
+    """Pick the render engine with settings that suit a character video; SCENE changes nothing."""
+    if engine == "SCENE":
+        return
     if engine == "WORKBENCH":
         scene.render.engine = "BLENDER_WORKBENCH"
         shading = scene.display.shading

@@ -231,6 +231,29 @@ def test_video_is_a_valid_mp4(tmp_path):
         assert 0 <= p.x <= 1 and 0 <= p.y <= 1 and p.z > 0
 
 
+def test_video_with_the_scenes_own_engine_and_camera(tmp_path):
+    # As a Shadow Theatre preset is rendered: its engine, shading and camera are kept.
+    body, arm = creature.build_body(subdivisions=0), creature.build_armature()
+    scene = bpy.context.scene
+    scene.render.engine = "BLENDER_WORKBENCH"
+    scene.display.shading.light = "FLAT"
+    scene.display.shading.show_cavity = False
+    cam = bpy.data.objects.new("Audience", bpy.data.cameras.new("Audience"))
+    scene.collection.objects.link(cam)
+    cam.location = (0, -8, 1)
+    cam.rotation_euler = (1.5708, 0, 0)
+    scene.camera = cam
+    scene.frame_start, scene.frame_end = 1, 3
+    out = tmp_path / "theatre.mp4"
+    assert bpy.ops.render.miniskeleton_make_video(
+        filepath=str(out), engine="SCENE", camera="SCENE", resolution_x=64, resolution_y=48,
+        fps=24) == {"FINISHED"}
+    assert probe(out) == (3, 64, 48)
+    assert scene.camera == cam and len([o for o in scene.objects if o.type == "CAMERA"]) == 1
+    assert scene.display.shading.light == "FLAT" and not scene.display.shading.show_cavity
+    assert scene.render.fps == 24
+
+
 def test_menus_and_panel():
     assert hasattr(bpy.types, "MINISKELETON_PT_motion")
     for menu in ("VIEW3D_MT_pose", "TOPBAR_MT_render"):

@@ -22,20 +22,21 @@ import blender_session  # noqa: E402
 
 
 class Stages:
-    """Prints '[stage] name ... 1.23 s' lines."""
+    """Prints '[prefix] name ... 1.23 s' lines, one per stage, and the total."""
 
-    def __init__(self):
+    def __init__(self, prefix: str = "demo"):
+        self.prefix = prefix
         self.t0 = time.perf_counter()
 
     def run(self, name, fn, *args):
         t = time.perf_counter()
-        print(f"[demo] {name} ...", flush=True)
+        print(f"[{self.prefix}] {name} ...", flush=True)
         out = fn(*args)
-        print(f"[demo] {name}: {time.perf_counter() - t:.2f} s", flush=True)
+        print(f"[{self.prefix}] {name}: {time.perf_counter() - t:.2f} s", flush=True)
         return out
 
     def total(self):
-        print(f"[demo] total: {time.perf_counter() - self.t0:.2f} s", flush=True)
+        print(f"[{self.prefix}] total: {time.perf_counter() - self.t0:.2f} s", flush=True)
 
 
 def make_creature():

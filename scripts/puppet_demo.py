@@ -15,24 +15,16 @@ import argparse
 import importlib
 import math
 import sys
-import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import blender_session  # noqa: E402
+from demo import Stages  # noqa: E402
 
 KINDS = {"three-rod": "THREE_ROD", "five-rod": "FIVE_ROD", "prop": "PROP", "strip": "STRIP",
          "quadruped": "QUADRUPED"}
 CYCLE = 24          # frames per step cycle / wave
-
-
-def _stage(name, fn, *args):
-    t = time.perf_counter()
-    print(f"[puppet] {name} ...", flush=True)
-    out = fn(*args)
-    print(f"[puppet] {name}: {time.perf_counter() - t:.2f} s", flush=True)
-    return out
 
 
 def build(kind):
@@ -113,29 +105,15 @@ def theatre(frames, size):
 
 
 def render(path: Path, size):
+    """render.miniskeleton_make_video with the theatre's camera, engine and shading."""
     import bpy
 
-    scene = bpy.context.scene
-    r = scene.render
-    r.resolution_x, r.resolution_y = size
-    r.resolution_percentage = 100
-    r.fps = 24
-    scene.display.render_aa = "8"
-    settings = r.image_settings
-    if hasattr(settings, "media_type"):          # Blender 5.0: pick video before the container
-        settings.media_type = "VIDEO"
-    settings.file_format = "FFMPEG"
-    r.ffmpeg.format = "MPEG4"
-    r.ffmpeg.codec = "H264"
-    r.ffmpeg.constant_rate_factor = "MEDIUM"
-    r.filepath = str(path)
-    bpy.ops.render.render(animation=True)
-    if not path.exists():
-        # Some builds add the frame range to the name; take the newest match.
-        found = sorted(path.parent.glob(path.stem + "*.mp4"), key=lambda p: p.stat().st_mtime)
-        if not found:
-            raise SystemExit(f"render did not write {path}")
-        found[-1].replace(path)
+    bpy.context.scene.display.render_aa = "8"
+    result = bpy.ops.render.miniskeleton_make_video(
+        filepath=str(path), engine="SCENE", camera="SCENE", resolution_x=size[0],
+        resolution_y=size[1], fps=24)
+    if result != {"FINISHED"} or not path.exists():
+        raise SystemExit(f"video failed: {result}")
 
 
 def main(argv=None):
@@ -150,19 +128,19 @@ def main(argv=None):
     out = args.out.resolve()
     out.mkdir(parents=True, exist_ok=True)
 
-    t0 = time.perf_counter()
-    bpy = _stage("start Blender and install the extension", blender_session.start)
-    _stage("empty scene", blender_session.reset_scene)
-    rig, rods = _stage(f"build {args.puppet} puppet", build, kind)
-    _stage(f"animate rods ({args.frames} frames)", animate, kind, rig, rods, args.frames)
-    _stage("bake puppet animation (Rust IK per frame)", bake, rig)
-    _stage("shadow theatre", theatre, args.frames, size)
+    st = Stages("puppet")
+    bpy = st.run("start Blender and install the extension", blender_session.start)
+    st.run("empty scene", blender_session.reset_scene)
+    rig, rods = st.run(f"build {args.puppet} puppet", build, kind)
+    st.run(f"animate rods ({args.frames} frames)", animate, kind, rig, rods, args.frames)
+    st.run("bake puppet animation (Rust IK per frame)", bake, rig)
+    st.run("shadow theatre", theatre, args.frames, size)
     mp4 = out / "puppet.mp4"
-    _stage(f"render {size[0]}x{size[1]} x {args.frames} frames (Workbench)", render, mp4, size)
+    st.run(f"render {size[0]}x{size[1]} x {args.frames} frames (Workbench)", render, mp4, size)
     blend = out / "puppet.blend"
-    _stage("save .blend", lambda: bpy.ops.wm.save_as_mainfile(filepath=str(blend)))
+    st.run("save .blend", lambda: bpy.ops.wm.save_as_mainfile(filepath=str(blend)))
     print(f"[puppet] wrote {mp4} ({mp4.stat().st_size // 1024} KiB) and {blend}")
-    print(f"[puppet] total: {time.perf_counter() - t0:.2f} s", flush=True)
+    st.total()
 
 
 if __name__ == "__main__":
