@@ -176,11 +176,3 @@ def parent_keep_transform(ob: bpy.types.Object, arm_ob: bpy.types.Object) -> Non
     ob.parent_type = "OBJECT"
     ob.matrix_parent_inverse = arm_ob.matrix_world.inverted_safe()
     ob.matrix_basis = (arm_ob.matrix_world @ ob.matrix_parent_inverse).inverted_safe() @ world
-
-
-def mesh_size(vertices: np.ndarray) -> float:
-    """Bounding-box diagonal of (n, 3) points; 0 for fewer than two points."""
-    if len(vertices) < 2:
-        return 0.0
-    return float(np.linalg.norm(vertices.max(axis=0) - vertices.min(axis=0)))
-

@@ -12,7 +12,7 @@ pub fn rows<T: numpy::Element + Copy + Default, const C: usize>(
 ) -> PyResult<Vec<[T; C]>> {
     let view = arr.as_array();
     let (n, c) = view.dim();
-    if c != C && !(n == 0) {
+    if c != C && n != 0 {
         return Err(PyValueError::new_err(format!(
             "{name} must have shape (n, {C}), got ({n}, {c})"
         )));
