@@ -84,8 +84,8 @@ def _fit_graph(ends, real, parents, follow, names):
     pos[keep] = np.arange(len(keep))
     bones = np.array([(pos[a], pos[b]) for a, b in edges], dtype=np.uint32).reshape(-1, 2)
     full = rig_io.joint_mirror(names, ends)
-    mirror = np.array([pos[m] if 0 <= m < nj and pos[m] >= 0 else i for i, m in enumerate(full[keep])],
-                      dtype=np.int32)
+    # A partner that is not a fitted joint (an invented tail) leaves the joint free (-1).
+    mirror = np.array([pos[m] if 0 <= m < nj and pos[m] >= 0 else -1 for m in full[keep]], dtype=np.int32)
     return keep, bones, mirror
 
 

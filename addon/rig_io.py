@@ -175,17 +175,19 @@ def _parents_first(parents: list[int]) -> list[int]:
 
 
 def joint_mirror(bone_names: list[str], bone_joints: np.ndarray) -> np.ndarray:
-    """Mirror joint of each joint by Blender's left/right bone names (itself on the centre line)."""
+    """Mirror joint of each joint by its bones' left/right names (``mesh_io.bone_mirror_indices``):
+    the partner's joint; itself for a joint of centre bones only (it stays on the centre line);
+    -1 for a joint of side bones without a partner (fitted on its own)."""
     j = int(bone_joints.max()) + 1 if len(bone_joints) else 0
     mirror = np.arange(j, dtype=np.int32)
-    index = {n: i for i, n in enumerate(bone_names)}
-    for bi, name in enumerate(bone_names):
-        other = mesh_io.mirror_name(name)
-        if other == name or other not in index:
-            continue
-        oi = index[other]
-        for end in (0, 1):
-            mirror[bone_joints[bi, end]] = bone_joints[oi, end]
+    bone_mirror = mesh_io.bone_mirror_indices(bone_names)
+    for bi, m in enumerate(bone_mirror):  # unpaired side bones first: a partner found later wins
+        if m < 0:
+            mirror[bone_joints[bi]] = -1
+    for bi, m in enumerate(bone_mirror):
+        if m >= 0 and m != bi:
+            for end in (0, 1):
+                mirror[bone_joints[bi, end]] = bone_joints[m, end]
     return mirror
 
 

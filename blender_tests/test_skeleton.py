@@ -185,6 +185,37 @@ def test_fit_symmetry_x():
             assert abs(b.head_local.x) < 1e-6 and (abs(b.tail_local.x) < 1e-6 or b.name.startswith("ear")), b.name
 
 
+def test_mirror_pairs_by_name():
+    mesh_io = importlib.import_module("bl_ext.user_default.miniskeleton.mesh_io")
+    names = ["spine", "arm.L", "arm.R", "b_LeftUpperArm_09", "b_RightUpperArm_06", "leg_back_L_knee",
+             "leg_back_R_knee", "hand_L", "tail.001", "ear.L"]
+    m = mesh_io.bone_mirror_indices(names).tolist()
+    assert m[0] == 0 and m[8] == 8                      # centre bones: themselves
+    assert (m[1], m[2]) == (2, 1)                       # Blender's suffixes
+    assert (m[3], m[4]) == (4, 3)                       # numbered glTF names, Left/Right words
+    assert (m[5], m[6]) == (6, 5)                       # _L_ inside the name
+    assert m[7] == -1 and m[9] == -1                    # side bones without a partner: free
+
+
+def test_fit_symmetry_leaves_unpaired_side_joints_off_the_centre_line():
+    body, arm, ends, orig, moved, diag = creature_setup(seed=3)
+    bpy.context.view_layer.objects.active = arm
+    bpy.ops.object.mode_set(mode="EDIT")
+    eb = arm.data.edit_bones
+    lone = max((b for b in eb if b.name.endswith(".R") and not b.children), key=lambda b: abs(b.tail.x))
+    lone.name = lone.name[:-2] + "_side.R"              # its partner's name no longer matches
+    name = lone.name                                    # (edit bones die with Edit Mode)
+    bpy.ops.object.mode_set(mode="OBJECT")
+    x_before = arm.data.bones[name].tail_local.x
+    assert abs(x_before) > 0.02 * diag
+    for o in bpy.context.view_layer.objects:
+        o.select_set(o in (body, arm))
+    bpy.context.view_layer.objects.active = arm
+    assert bpy.ops.armature.miniskeleton_fit_skeleton(symmetry="X") == {"FINISHED"}
+    x_after = arm.data.bones[name].tail_local.x
+    assert abs(x_after) > 0.01 * diag and np.sign(x_after) == np.sign(x_before), (x_before, x_after)
+
+
 def test_fit_selected_joints_only():
     body, arm, ends, orig, moved, diag = creature_setup(seed=4)
     builders.set_active(arm, selected=[body])

@@ -37,7 +37,8 @@ pub struct Symmetry {
     pub axis: usize,
     /// Coordinate of the mirror plane along `axis`, in input units.
     pub plane: f64,
-    /// `(j,)`: the mirror joint of each joint, itself (or -1) for centre-line joints.
+    /// `(j,)`: the mirror joint of each joint, itself for centre-line joints, -1 for a joint
+    /// with no partner (a side joint whose mirror is missing: fitted on its own).
     pub mirror: Vec<i32>,
 }
 
@@ -457,14 +458,10 @@ pub fn fit_joints(
             if !s.plane.is_finite() {
                 return Err(Error::NonFinite { what: "symmetry plane", count: 1 });
             }
-            let mirror: Vec<usize> = s
-                .mirror
-                .iter()
-                .enumerate()
-                .map(|(i, &m)| if m < 0 || m as usize >= nj { i } else { m as usize })
-                .collect();
-            // Only keep pairs that agree both ways.
-            let mirror: Vec<usize> = (0..nj).map(|i| if mirror[mirror[i]] == i { mirror[i] } else { i }).collect();
+            let raw: Vec<Option<usize>> =
+                s.mirror.iter().map(|&m| (m >= 0 && (m as usize) < nj).then_some(m as usize)).collect();
+            // Only keep pairs that agree both ways; the others are free.
+            let mirror: Vec<Option<usize>> = (0..nj).map(|i| raw[i].filter(|&m| raw[m] == Some(i))).collect();
             let plane = (s.plane - frame.centre[s.axis]) / frame.diagonal;
             Some((s.axis, plane, mirror))
         }
@@ -491,7 +488,7 @@ pub fn fit_joints(
         if let Some((axis, plane, mirror)) = &sym {
             let old = p.clone();
             for i in 0..nj {
-                let m = mirror[i];
+                let Some(m) = mirror[i] else { continue };
                 if !movable[i] {
                     continue;
                 }
@@ -645,7 +642,7 @@ pub fn fit_joints(
             if !outside[j] || !movable[j] {
                 return None;
             }
-            let plane = sym.as_ref().and_then(|(axis, _, m)| (m[j] == j).then_some(*axis));
+            let plane = sym.as_ref().and_then(|(axis, _, m)| (m[j] == Some(j)).then_some(*axis));
             // The 24 nearest vertices (brute force: few joints are outside).
             let mut near: Vec<(f64, DVec3)> = unit_v.iter().map(|v| ((*v - p[j]).length_squared(), *v)).collect();
             let k = near.len().min(24);
@@ -665,7 +662,7 @@ pub fn fit_joints(
     }
     if let Some((axis, plane, mirror)) = &sym {
         for j in 0..nj {
-            let m = mirror[j];
+            let Some(m) = mirror[j] else { continue };
             if m != j && movable[j] && pulled[j].is_some() && pulled[m].is_none() {
                 // The pulled side wins; its partner follows exactly.
                 if movable[m] {
@@ -687,7 +684,7 @@ pub fn fit_joints(
     if let (Some(s), Some((_, _, mirror))) = (&opts.symmetry, &sym) {
         let mut out = out;
         for j in 0..nj {
-            let m = mirror[j];
+            let Some(m) = mirror[j] else { continue };
             if !movable[j] {
                 continue;
             }

@@ -40,7 +40,8 @@ use std::time::Instant;
 pub struct Symmetry {
     /// Mirror axis: 0 = X, 1 = Y, 2 = Z. The mirror plane is the input coordinate 0 on it.
     pub axis: usize,
-    /// `(b,)` mirror bone of each bone (itself for centre bones); must be an involution.
+    /// `(b,)` mirror bone of each bone (itself for centre bones, -1 for a side bone with no
+    /// partner, left unaveraged); must be an involution.
     pub bone_mirror: Vec<i32>,
     /// Matching tolerance for mirrored vertex positions, relative to the bbox diagonal.
     pub tolerance: f32,

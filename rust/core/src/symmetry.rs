@@ -82,12 +82,16 @@ pub fn mirror_map(points: &[DVec3], axis: usize, plane: f64, tolerance: f64) -> 
     Ok(map)
 }
 
-/// Check a bone mirror map: `(b,)`, entries in `0..b`, an involution. Errors otherwise.
+/// Check a bone mirror map: `(b,)`, entries in `0..b` forming an involution, or `-1` for a
+/// side bone with no partner (its weights are not averaged). Errors otherwise.
 pub fn validate_bone_mirror(bone_mirror: &[i32], b: usize) -> Result<()> {
     if bone_mirror.len() != b {
         return Err(Error::Shape(format!("bone_mirror has {} entries for {} bones", bone_mirror.len(), b)));
     }
     for (i, &m) in bone_mirror.iter().enumerate() {
+        if m == -1 {
+            continue;
+        }
         if m < 0 || m as usize >= b || bone_mirror[m as usize] != i as i32 {
             return Err(Error::InvalidArgument(format!(
                 "bone_mirror must pair bones both ways (bone {i} -> {m})"
@@ -161,6 +165,8 @@ mod tests {
         let bm = [1, 0, 2];
         validate_bone_mirror(&bm, 3).unwrap();
         assert!(validate_bone_mirror(&[1, 1, 2], 3).is_err());
+        validate_bone_mirror(&[-1, 1, 2], 3).unwrap();
+        assert!(validate_bone_mirror(&[-2, 1, 2], 3).is_err());
         let n = 4;
         let mut cols = vec![
             1.0, 0.0, 0.5, 0.3, // bone 0
@@ -176,5 +182,9 @@ mod tests {
         assert!((cols[8] - 0.2).abs() < 1e-12 && (cols[9] - 0.2).abs() < 1e-12);
         // unmatched vertex 3 unchanged
         assert_eq!((cols[3], cols[7], cols[11]), (0.3, 0.7, 0.0));
+        // a side bone with no partner (-1) is left as it is
+        let before = cols.clone();
+        symmetrize_columns(&mut cols, n, &m, &[-1, -1, 2]);
+        assert_eq!(&cols[..8], &before[..8]);
     }
 }
