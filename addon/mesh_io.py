@@ -162,6 +162,19 @@ def write_vertex_groups(ob: bpy.types.Object, names: list[str], dense: np.ndarra
     """
     me = ob.data
     locked = []
+    # Each bpy.ops call updates the view layer before and after it, which re-evaluates a visible
+    # mesh every time; hidden from viewports it is not evaluated at all (40 groups at 103k
+    # vertices: 0.17 s visible, 0.03 s hidden). The user's setting comes back in any case.
+    hidden = ob.hide_viewport
+    ob.hide_viewport = True
+    try:
+        _convert_groups(ob, me, names, dense, write, locked)
+    finally:
+        ob.hide_viewport = hidden
+    return locked
+
+
+def _convert_groups(ob, me, names, dense, write, locked):
     with bpy.context.temp_override(object=ob, active_object=ob):
         for b, name in enumerate(names):
             if not write[b]:
@@ -178,7 +191,6 @@ def write_vertex_groups(ob: bpy.types.Object, names: list[str], dense: np.ndarra
             bpy.ops.geometry.attribute_convert(mode="VERTEX_GROUP")
             group = ob.vertex_groups.get(_TMP_ATTR)
             group.name = name
-    return locked
 
 
 def ensure_armature_modifier(ob: bpy.types.Object, arm_ob: bpy.types.Object) -> bool:

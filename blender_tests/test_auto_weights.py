@@ -1,5 +1,6 @@
 """object.miniskeleton_auto_weights in real Blender: every method, write-back, undo, bad input."""
 
+import importlib
 import math
 import os
 
@@ -111,6 +112,19 @@ def test_foreign_groups_untouched_bone_groups_replaced():
     assert (w[bottom, 3] == 0).all() and (w[bottom, 0] > 0.5).all()
     assert ob.modifiers.get("Keep") == other_mod and other_mod.type == "SUBSURF"
     assert [m.type for m in ob.modifiers] == ["ARMATURE", "SUBSURF"]  # deform first
+    assert not ob.hide_viewport  # hidden only while the groups are written
+
+
+def test_group_writer_keeps_viewport_visibility():
+    mesh_io = importlib.import_module("bl_ext.user_default.miniskeleton.mesh_io")
+    ob = B.cylinder()
+    n = len(ob.data.vertices)
+    dense = np.stack([np.linspace(0, 1, n), np.linspace(1, 0, n)]).astype(np.float32)
+    for hidden in (True, False):
+        ob.hide_viewport = hidden
+        mesh_io.write_vertex_groups(ob, ["A", "B"], dense, np.ones(2, bool))
+        assert ob.hide_viewport == hidden
+        assert B.weights_matrix(ob, ["A", "B"]) == pytest.approx(dense.T, abs=1e-7)
 
 
 def test_selected_bones_only_writes_only_those():
