@@ -1,11 +1,18 @@
 """Speed: MiniSkeleton's Auto Weights (Heat) operator vs Blender's own
 ``parent_set(type='ARMATURE_AUTO')`` on the same capped cylinder + bone chain, in one process.
 
-    .venv/bin/python bench/bench_weights.py [--sizes 6.5k:10,26k:20,103k:40,206k:40] [--no-blender]
+    .venv/bin/python bench/bench_weights.py [--sizes 6.5k:10,26k:20,103k:40,206k:40]
+                                            [--shapes issue,thin] [--repeats 3] [--no-blender]
 
-Prints a markdown table: vertices, bones, Blender s, ours s (whole operator: read mesh, weights,
-write groups), ratio, and the core's own split (total / factor+solve). Also IDW and BILINEAR.
-Nothing is asserted: tests check correctness, this measures speed.
+Two cylinder shapes per size. Blender's time depends strongly on the proportions (at 103k
+vertices: 5.6 s with 128 segments around, 8.7 s with 256, 18 s with 512), ours hardly:
+  issue  segments around chosen so that Blender's own time on this machine is close to the
+         issue's reference figures (0.19 / 1.39 / 12.5 / 54.1 s);
+  thin   128 segments around at every size (a long thin tube: Blender's best case).
+Prints a markdown table: shape, vertices, bones, Blender s, ours s (whole operator: read mesh,
+weights, write groups; median of --repeats runs), ratio, and the core's own split (total /
+factor+solve, best of the repeats). Also IDW and BILINEAR. Nothing is asserted: tests check
+correctness, this measures speed.
 """
 
 from __future__ import annotations
@@ -20,7 +27,11 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "scripts"))
 import blender_session  # noqa: E402
 
-SIZES = {"6.5k": (50, 128), "26k": (203, 128), "103k": (805, 128), "206k": (1610, 128)}
+# (rings, segments) per size and shape.
+SHAPES = {
+    "issue": {"6.5k": (80, 80), "26k": (133, 192), "103k": (268, 384), "206k": (200, 1024)},
+    "thin": {"6.5k": (50, 128), "26k": (203, 128), "103k": (805, 128), "206k": (1610, 128)},
+}
 
 
 def cylinder_object(bpy, core, rings, segments, height):
@@ -85,15 +96,18 @@ def timed(fn):
 def main(argv=None):
     ap = argparse.ArgumentParser()
     ap.add_argument("--sizes", default="6.5k:10,26k:20,103k:40,206k:40")
+    ap.add_argument("--shapes", default="issue,thin", help="cylinder proportions: issue, thin")
+    ap.add_argument("--repeats", type=int, default=3, help="runs of our operator (median) and core (best)")
     ap.add_argument("--no-blender", action="store_true", help="skip Blender's own operator")
     args = ap.parse_args(argv)
     bpy = blender_session.start()
     import miniskeleton_core as core
 
     rows = []
-    for spec in args.sizes.split(","):
+    specs = [(shape, spec) for shape in args.shapes.split(",") for spec in args.sizes.split(",")]
+    for shape, spec in specs:
         size, bones = spec.split(":")
-        rings, segments = SIZES[size]
+        rings, segments = SHAPES[shape][size]
         blender_session.reset_scene()
         height = 8.0
         mesh, v, t = cylinder_object(bpy, core, rings, segments, height)
@@ -107,33 +121,40 @@ def main(argv=None):
             blender_missing = unweighted(mesh)
             unbind(mesh)
 
-        select(bpy, mesh, rig)
-        ours_s, res = timed(lambda: bpy.ops.object.miniskeleton_auto_weights(method="HEAT"))
-        assert res == {"FINISHED"}
+        runs = []
+        for _ in range(max(args.repeats, 1)):
+            unbind(mesh)
+            select(bpy, mesh, rig)
+            secs, res = timed(lambda: bpy.ops.object.miniskeleton_auto_weights(method="HEAT"))
+            assert res == {"FINISHED"}
+            runs.append(secs)
+        ours_s = float(np.median(runs))
         ours_missing = unweighted(mesh)
-        core_s, (_, _, report) = timed(lambda: core.heat_weights_report(v, t, heads, tails))
+        core_s, report = min((timed(lambda: core.heat_weights_report(v, t, heads, tails)[2])
+                              for _ in range(max(args.repeats, 1))), key=lambda r: r[0])
         fs = sum(s for k, s in report["timings"].items() if k in ("factor", "solve"))
         extra = {}
         for method in ("BILINEAR", "IDW"):
             unbind(mesh)
             select(bpy, mesh, rig)
             extra[method], _ = timed(lambda: bpy.ops.object.miniskeleton_auto_weights(method=method))
-        rows.append((n, int(bones), blender_s, blender_missing, ours_s, ours_missing, core_s, fs,
+        rows.append((f"{shape} {rings}x{segments}", n, int(bones), blender_s, blender_missing, ours_s, ours_missing, core_s, fs,
                      extra["BILINEAR"], extra["IDW"], report["timings"]))
-        print(f"done {n} vertices", flush=True)
+        print(f"done {shape} {n} vertices", flush=True)
 
     print()
-    print("| vertices | bones | Blender ARMATURE_AUTO s | unweighted | ours HEAT s | unweighted | speed-up "
-          "| core heat s | factor+solve s | core / (factor+solve) | ours BILINEAR s | ours IDW s |")
-    print("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
-    for n, b, bs, bm, os_, om, cs, fs, bil, idw, _ in rows:
+    print("| shape rings x segments | vertices | bones | Blender ARMATURE_AUTO s | unweighted | ours HEAT s "
+          "| unweighted | speed-up | core heat s | factor+solve s | core / (factor+solve) | ours BILINEAR s "
+          "| ours IDW s |")
+    print("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
+    for shape, n, b, bs, bm, os_, om, cs, fs, bil, idw, _ in rows:
         ratio = f"{bs / os_:.1f}x" if bs else "-"
-        print(f"| {n} | {b} | {bs if bs is None else f'{bs:.2f}'} | {bm if bm is not None else '-'} "
+        print(f"| {shape} | {n} | {b} | {bs if bs is None else f'{bs:.2f}'} | {bm if bm is not None else '-'} "
               f"| {os_:.3f} | {om} | {ratio} | {cs:.3f} | {fs:.3f} | {cs / max(fs, 1e-9):.2f} "
               f"| {bil:.3f} | {idw:.3f} |")
     print()
-    for n, *_, timings in rows:
-        print(f"core stages at {n}: " + ", ".join(f"{k} {s:.3f}" for k, s in timings.items()))
+    for shape, n, *_, timings in rows:
+        print(f"core stages, {shape}, {n}: " + ", ".join(f"{k} {s:.3f}" for k, s in timings.items()))
 
 
 if __name__ == "__main__":

@@ -119,10 +119,11 @@ pub struct HeatReport {
     pub regularized: bool,
     /// Every Cholesky attempt failed: nearest-bone weights were returned instead.
     pub factorization_failed: bool,
-    /// Wall-clock seconds per stage, in order: "prepare" (normalize, weld, faces, pieces,
-    /// cotangents), "stiffness" (sparse pattern), "visibility+symbolic" (wall time of the
-    /// two overlapped tasks, followed by their own durations "bvh", "rays", "symbolic"),
-    /// "assemble", "factor", "solve", "finish" (clip, rigid, symmetry, top-k), "total".
+    /// Wall-clock seconds per stage, in order: "prepare" (validate, normalize, weld, faces),
+    /// "bvh|laplacian+symbolic" (wall time of two overlapped tasks, followed by their own
+    /// durations: "bvh"; "laplacian" = pieces, cotangents, normals, sparse pattern; "symbolic"),
+    /// "rays" (nearest visible bone), "assemble", "factor", "solve", "finish" (clip, rigid,
+    /// symmetry, top-k), "total".
     pub timings: Vec<(&'static str, f64)>,
 }
 
@@ -293,49 +294,53 @@ pub fn heat_weights(
         })
         .collect();
 
-    // 3. Pieces.
-    let (labels, npieces) = connected_components(nw, &tris);
-
-    // 4. Cotangent stiffness and mass.
-    let cot = cotan_laplacian(&wpos, &tris);
     lap(&mut report, "prepare");
     tick(0.05)?;
 
-    // 5. Nearest visible bone per vertex, overlapped with the symbolic Cholesky analysis
-    //    (AMD ordering + supernodes), which only needs the sparsity pattern of L.
-    let normals = if opts.normal_distance { vertex_normals(&wpos, &tris, &labels, npieces) } else { vec![DVec3::ZERO; nw] };
-    let csc = stiffness_lower_csc(nw, &cot.edges);
-    let symbolic_mat = SymbolicSparseColMatRef::new_checked(nw, nw, &csc.col_ptr, None, &csc.row_idx);
-    lap(&mut report, "stiffness");
+    // 3-5. The BVH of the triangles (for visibility) is built on one thread while the other
+    //      finds the pieces, the cotangent stiffness and mass, the normals, the sparse pattern
+    //      and its symbolic Cholesky analysis (AMD ordering + supernodes); then every vertex
+    //      looks for its nearest visible bone on all threads.
     let need_rays = opts.visibility || opts.rigid_accessories;
-    let ((mut symbolic, t_sym), (sources, ray_mesh, t_bvh, t_vis)) = rayon::join(
-        || {
-            let s = Instant::now();
-            (symbolic_factor(symbolic_mat), s.elapsed().as_secs_f64())
-        },
+    let ((ray_mesh, t_bvh), ((labels, npieces), cot, normals, csc, mut symbolic, t_lap, t_sym)) = rayon::join(
         || {
             let s = Instant::now();
             let ray_mesh = need_rays.then(|| {
-                let wpos32: Vec<[f32; 3]> = wpos.par_iter().map(|p| p.as_vec3().to_array()).collect();
+                let wpos32: Vec<[f32; 3]> = wpos.iter().map(|p| p.as_vec3().to_array()).collect();
                 RayMesh::new(&wpos32, &tris)
             });
-            let t_bvh = s.elapsed().as_secs_f64();
+            (ray_mesh, s.elapsed().as_secs_f64())
+        },
+        || {
             let s = Instant::now();
-            let mut sources: Vec<Source> = Vec::with_capacity(nw);
-            wpos.par_iter()
-                .with_min_len(256)
-                .zip(normals.par_iter())
-                .map_init(
-                    || vec![0.0f64; 2 * b],
-                    |dist, (x, n)| nearest_visible_bone(*x, *n, &bones, ray_mesh.as_ref().filter(|_| opts.visibility), dist),
-                )
-                .collect_into_vec(&mut sources);
-            (sources, ray_mesh, t_bvh, s.elapsed().as_secs_f64())
+            let pieces = connected_components(nw, &tris);
+            let cot = cotan_laplacian(&wpos, &tris);
+            let normals = if opts.normal_distance {
+                vertex_normals(&wpos, &tris, &pieces.0, pieces.1)
+            } else {
+                vec![DVec3::ZERO; nw]
+            };
+            let csc = stiffness_lower_csc(nw, &cot.edges);
+            let t_lap = s.elapsed().as_secs_f64();
+            let s = Instant::now();
+            let pattern = SymbolicSparseColMatRef::new_checked(nw, nw, &csc.col_ptr, None, &csc.row_idx);
+            let symbolic = symbolic_factor(pattern);
+            (pieces, cot, normals, csc, symbolic, t_lap, s.elapsed().as_secs_f64())
         },
     );
-    let mut sources = sources;
-    lap(&mut report, "visibility+symbolic");
-    report.timings.extend([("bvh", t_bvh), ("rays", t_vis), ("symbolic", t_sym)]);
+    let symbolic_mat = SymbolicSparseColMatRef::new_checked(nw, nw, &csc.col_ptr, None, &csc.row_idx);
+    lap(&mut report, "bvh|laplacian+symbolic");
+    report.timings.extend([("bvh", t_bvh), ("laplacian", t_lap), ("symbolic", t_sym)]);
+    let mut sources: Vec<Source> = Vec::with_capacity(nw);
+    wpos.par_iter()
+        .with_min_len(256)
+        .zip(normals.par_iter())
+        .map_init(
+            || vec![0.0f64; 2 * b],
+            |dist, (x, n)| nearest_visible_bone(*x, *n, &bones, ray_mesh.as_ref().filter(|_| opts.visibility), dist),
+        )
+        .collect_into_vec(&mut sources);
+    lap(&mut report, "rays");
     tick(0.2)?;
 
     // 6. Pieces: fallback and rigid accessories; isolated vertices.
