@@ -2,7 +2,9 @@
 
 Context like Blender's Ctrl+P > With Automatic Weights: the selected meshes and the active
 armature (in Weight Paint mode: the painted mesh and its armature). Everything is validated
-and computed before anything is written, so an error leaves every mesh as it was.
+and computed before anything is written, so an error leaves every mesh as it was. Invoked from
+the UI on large meshes, the computation runs on a worker thread (the core releases the GIL)
+while a modal loop shows progress; Esc cancels it and nothing is written.
 """
 
 from __future__ import annotations
@@ -146,33 +148,12 @@ class MINISKELETON_OT_auto_weights(bpy.types.Operator):
 
     # ------------------------------------------------------------------ run
 
-    def _weights(self, core, ob, verts, bones, progress):
-        """Run the chosen method on one mesh; returns (indices, weights, heat report or None)."""
-        k = self.max_influences
-        if self.method == "IDW":
-            i, w = core.idw_weights(verts, bones.heads, bones.tails, max_influences=k, power=self.power)
-            return i, w, None
-        if self.method == "BILINEAR":
-            i, w = core.bilinear_weights(
-                verts, bones.heads, bones.tails, bones.parents, max_influences=k, nearest=self.nearest,
-                falloff="gaussian" if self.falloff == "GAUSSIAN" else "inverse_power",
-                sigma=self.sigma if self.sigma > 0 else None, power=self.power)
-            return i, w, None
-        tris = mesh_io.mesh_triangles(ob)
-        mirror = mesh_io.bone_mirror_indices(bones.names) if self.symmetry == "X" else None
-        i, w, report = core.heat_weights_report(
-            verts, tris, bones.heads, bones.tails, max_influences=k, visibility=self.visibility,
-            bone_mirror=mirror, progress=progress)
-        return i, w, report
-
-    def execute(self, context):
-        import miniskeleton_core as core
-
+    def _prepare(self, context):
+        """Validate and read every input: (armature, bones, [(mesh, world vertices)]) or None (reported)."""
         checked = self._validate(context)
         if checked is None:
-            return {"CANCELLED"}
+            return None
         arm, meshes, bones = checked
-
         inputs = []
         for ob in meshes:
             verts = mesh_io.mesh_world_vertices(ob)
@@ -180,47 +161,31 @@ class MINISKELETON_OT_auto_weights(bpy.types.Operator):
             if bad:
                 self.report({"ERROR"}, f"Mesh '{ob.name}' has {bad} vertices with NaN or infinite "
                             "coordinates; nothing was changed")
-                return {"CANCELLED"}
+                return None
             if len(verts) == 0:
                 self.report({"ERROR"}, f"Mesh '{ob.name}' has no vertices; nothing was changed")
-                return {"CANCELLED"}
-            inputs.append((ob, verts))
+                return None
+            tris = mesh_io.mesh_triangles(ob) if self.method == "HEAT" else None
+            inputs.append((ob, ob.name, verts, tris))
+        return arm, bones, inputs
 
-        wm = context.window_manager
-        wm.progress_begin(0, 1000)
-        start = time.perf_counter()
-        results = []
-        notes = []
-        try:
-            for m, (ob, verts) in enumerate(inputs):
-                def progress(f, m=m):
-                    wm.progress_update(int(1000 * (m + f) / len(inputs)))
-                    return True
-                try:
-                    i, w, report = self._weights(core, ob, verts, bones, progress)
-                except (ValueError, RuntimeError, core.Cancelled) as err:
-                    self.report({"ERROR"}, f"Mesh '{ob.name}': {err}; nothing was changed")
-                    return {"CANCELLED"}
-                if report and (report.get("fallback_pieces") or report.get("rigid_pieces")):
-                    notes.append(f"{ob.name}: of {report['pieces']} pieces, "
-                                 f"{report['fallback_pieces']} saw no bone (nearest bone used), "
-                                 f"{report['rigid_pieces']} bound rigidly (no bone inside)")
-                if report and report.get("factorization_failed"):
-                    notes.append(f"{ob.name}: heat solve failed, nearest-bone weights used")
-                results.append((ob, i, w))
+    def _settings(self, bones) -> dict:
+        """The options as plain values, safe to use from a worker thread."""
+        return dict(method=self.method, k=self.max_influences, power=self.power, nearest=self.nearest,
+                    falloff="gaussian" if self.falloff == "GAUSSIAN" else "inverse_power",
+                    sigma=self.sigma if self.sigma > 0 else None, visibility=self.visibility,
+                    mirror=mesh_io.bone_mirror_indices(bones.names) if self.symmetry == "X" else None)
 
-            write = bones.selected if self.selected_bones_only else np.ones(len(bones.names), bool)
-            kept_locked = set()
-            for ob, i, w in results:
-                dense = mesh_io.dense_weights(i, w, len(bones.names))
-                kept_locked.update(mesh_io.write_vertex_groups(ob, bones.names, dense, write))
-                mesh_io.ensure_armature_modifier(ob, arm)
-                mesh_io.parent_keep_transform(ob, arm)
-        finally:
-            wm.progress_end()
-
-        secs = time.perf_counter() - start
-        nverts = sum(len(v) for _, v in inputs)
+    def _write(self, arm, bones, inputs, results, notes, secs):
+        """Write groups, modifier and parent for every mesh (main thread), then report."""
+        write = bones.selected if self.selected_bones_only else np.ones(len(bones.names), bool)
+        kept_locked = set()
+        for ob, i, w in results:
+            dense = mesh_io.dense_weights(i, w, len(bones.names))
+            kept_locked.update(mesh_io.write_vertex_groups(ob, bones.names, dense, write))
+            mesh_io.ensure_armature_modifier(ob, arm)
+            mesh_io.parent_keep_transform(ob, arm)
+        nverts = sum(len(v) for _, _, v, _ in inputs)
         label = dict((m[0], m[1]) for m in METHODS)[self.method]
         msg = (f"{label}: {nverts} vertices in {len(inputs)} mesh(es), {int(write.sum())} bones, "
                f"{secs:.2f} s")
@@ -230,6 +195,178 @@ class MINISKELETON_OT_auto_weights(bpy.types.Operator):
             self.report({"WARNING"}, note)
         self.report({"INFO"}, msg)
         return {"FINISHED"}
+
+    def execute(self, context):
+        import miniskeleton_core as core
+
+        prepared = self._prepare(context)
+        if prepared is None:
+            return {"CANCELLED"}
+        return self._run_blocking(context, core, prepared)
+
+    def _run_blocking(self, context, core, prepared):
+        arm, bones, inputs = prepared
+        wm = context.window_manager
+        wm.progress_begin(0, 1000)
+        start = time.perf_counter()
+        try:
+            def progress(f):
+                wm.progress_update(int(1000 * f))
+                return True
+            try:
+                results, notes = compute_weights(core, self._settings(bones), bones, inputs, progress)
+            except WeightsError as err:
+                self.report({"ERROR"}, str(err))
+                return {"CANCELLED"}
+            return self._write(arm, bones, inputs, results, notes, time.perf_counter() - start)
+        finally:
+            wm.progress_end()
+
+    # ------------------------------------------------------------------ interactive: Esc cancels
+
+    def invoke(self, context, event):
+        """From the UI: large inputs are computed on a worker thread so that Esc can cancel;
+        small ones (and headless runs, which have no event loop) run ``execute`` directly."""
+        import miniskeleton_core as core
+
+        if context.window is None:
+            return self.execute(context)
+        prepared = self._prepare(context)
+        if prepared is None:
+            return {"CANCELLED"}
+        _, bones, inputs = prepared
+        if sum(len(v) for _, _, v, _ in inputs) < BACKGROUND_VERTICES:
+            return self._run_blocking(context, core, prepared)
+        self._prepared = prepared
+        self._start = time.perf_counter()
+        settings = self._settings(bones)
+        self._job = WeightsJob(lambda progress: compute_weights(core, settings, bones, inputs, progress))
+        self._job.start()
+        wm = context.window_manager
+        wm.progress_begin(0, 1000)
+        self._timer = wm.event_timer_add(0.1, window=context.window)
+        wm.modal_handler_add(self)
+        context.workspace.status_text_set("Auto Weights: computing... Esc to cancel")
+        return {"RUNNING_MODAL"}
+
+    def modal(self, context, event):
+        job = self._job
+        if event.type == "ESC":
+            job.cancel()
+        if event.type != "TIMER":
+            return {"RUNNING_MODAL"}  # the meshes must not change while their weights are computed
+        wm = context.window_manager
+        wm.progress_update(int(1000 * job.fraction))
+        if job.running():
+            return {"RUNNING_MODAL"}
+        wm.event_timer_remove(self._timer)
+        wm.progress_end()
+        context.workspace.status_text_set(None)
+        if job.cancelled:
+            self.report({"WARNING"}, "Auto Weights cancelled; nothing was changed")
+            return {"CANCELLED"}
+        if job.error is not None:
+            self.report({"ERROR"}, str(job.error))
+            return {"CANCELLED"}
+        arm, bones, inputs = self._prepared
+        results, notes = job.result
+        return self._write(arm, bones, inputs, results, notes, time.perf_counter() - self._start)
+
+
+def mesh_weights(core, settings: dict, verts, tris, bones, progress):
+    """One mesh with the chosen method: (indices, weights, heat report or None). No bpy."""
+    k = settings["k"]
+    if settings["method"] == "IDW":
+        i, w = core.idw_weights(verts, bones.heads, bones.tails, max_influences=k, power=settings["power"])
+        return i, w, None
+    if settings["method"] == "BILINEAR":
+        i, w = core.bilinear_weights(
+            verts, bones.heads, bones.tails, bones.parents, max_influences=k, nearest=settings["nearest"],
+            falloff=settings["falloff"], sigma=settings["sigma"], power=settings["power"])
+        return i, w, None
+    return core.heat_weights_report(
+        verts, tris, bones.heads, bones.tails, max_influences=k, visibility=settings["visibility"],
+        bone_mirror=settings["mirror"], progress=progress)
+
+
+def compute_weights(core, settings: dict, bones, inputs, progress):
+    """Weights of every mesh, nothing written: (results [(mesh, indices, weights)], notes).
+    No bpy calls (meshes are passed through untouched), so it may run on a worker thread.
+    ``progress(f)`` gets the overall fraction and returns False to cancel (the core then
+    raises ``Cancelled``). Other errors are raised as ``WeightsError`` for the status bar."""
+    results, notes = [], []
+    for m, (ob, name, verts, tris) in enumerate(inputs):
+        def step(f, m=m):
+            return progress((m + f) / len(inputs))
+        try:
+            i, w, report = mesh_weights(core, settings, verts, tris, bones, step)
+        except (ValueError, RuntimeError) as err:
+            raise WeightsError(f"Mesh '{name}': {err}; nothing was changed") from err
+        if report and (report.get("fallback_pieces") or report.get("rigid_pieces")):
+            notes.append(f"{name}: of {report['pieces']} pieces, "
+                         f"{report['fallback_pieces']} saw no bone (nearest bone used), "
+                         f"{report['rigid_pieces']} bound rigidly (no bone inside)")
+        if report and report.get("factorization_failed"):
+            notes.append(f"{name}: heat solve failed, nearest-bone weights used")
+        results.append((ob, i, w))
+    return results, notes
+
+
+# Meshes with at least this many vertices in total are computed on a worker thread when the
+# operator is invoked from the UI (about 0.2 s of Heat on 2 cores): Esc cancels them.
+BACKGROUND_VERTICES = 50_000
+
+
+class WeightsError(Exception):
+    """A mesh whose weights cannot be computed; the message is for the status bar."""
+
+
+class WeightsJob:
+    """Run ``compute(progress)`` on a worker thread. The core releases the GIL while it works,
+    so Blender's UI keeps running; ``cancel()`` makes the next progress tick return False, which
+    the core answers by stopping with ``Cancelled``. Afterwards exactly one of ``result``,
+    ``error`` (a ``WeightsError``) or ``cancelled`` is set."""
+
+    def __init__(self, compute):
+        import threading
+
+        self._compute = compute
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._run, name="miniskeleton-weights", daemon=True)
+        self.fraction = 0.0
+        self.result = None
+        self.error = None
+        self.cancelled = False
+
+    def _progress(self, f: float) -> bool:
+        self.fraction = float(f)
+        return not self._stop.is_set()
+
+    def _run(self):
+        import miniskeleton_core as core
+
+        try:
+            self.result = self._compute(self._progress)
+        except core.Cancelled:
+            self.cancelled = True
+        except WeightsError as err:
+            self.error = err
+        except Exception as err:  # never leave the modal loop waiting on a dead job
+            self.error = WeightsError(f"Auto Weights failed: {err}; nothing was changed")
+
+    def start(self):
+        self._thread.start()
+
+    def cancel(self):
+        self._stop.set()
+
+    def running(self) -> bool:
+        return self._thread.is_alive()
+
+    def wait(self, timeout: float | None = None) -> bool:
+        """Block until the job ends (or ``timeout``); True if it ended."""
+        self._thread.join(timeout)
+        return not self._thread.is_alive()
 
 
 classes = (MINISKELETON_OT_auto_weights,)

@@ -276,3 +276,71 @@ def test_weight_paint_mode_uses_painted_mesh_and_its_armature():
     assert bpy.ops.object.miniskeleton_auto_weights(method="BILINEAR") == {"FINISHED"}
     bpy.ops.object.mode_set(mode="OBJECT")
     assert sorted(g.name for g in ob.vertex_groups) == NAMES
+
+
+# ---------------------------------------------------------------- worker thread (Esc to cancel)
+
+
+def _weights_module():
+    return importlib.import_module("bl_ext.user_default.miniskeleton.operators_weights")
+
+
+def _job_inputs(rings=120, segments=64):
+    mesh_io = importlib.import_module("bl_ext.user_default.miniskeleton.mesh_io")
+    ob = B.cylinder(rings=rings, segments=segments)
+    arm = B.chain()
+    bones = mesh_io.armature_bones(arm)
+    inputs = [(ob, ob.name, mesh_io.mesh_world_vertices(ob), mesh_io.mesh_triangles(ob))]
+    settings = dict(method="HEAT", k=4, power=2.0, nearest=3, falloff="gaussian", sigma=None,
+                    visibility=True, mirror=None)
+    return ob, bones, inputs, settings
+
+
+def test_weights_job_runs_on_a_worker_thread():
+    ow = _weights_module()
+    import miniskeleton_core as core
+
+    ob, bones, inputs, settings = _job_inputs()
+    job = ow.WeightsJob(lambda progress: ow.compute_weights(core, settings, bones, inputs, progress))
+    job.start()
+    assert job.wait(60)
+    assert not job.cancelled and job.error is None and job.fraction == pytest.approx(1.0)
+    (got_ob, idx, w), = job.result[0]
+    assert got_ob is ob and idx.shape == (len(ob.data.vertices), 4)
+    assert w.sum(axis=1) == pytest.approx(1.0, abs=1e-5)
+    assert len(ob.vertex_groups) == 0  # the job computes, it never writes
+
+
+def test_weights_job_cancel_stops_the_core_and_writes_nothing():
+    ow = _weights_module()
+    import miniskeleton_core as core
+
+    ob, bones, inputs, settings = _job_inputs()
+    job = ow.WeightsJob(lambda progress: ow.compute_weights(core, settings, bones, inputs, progress))
+    job.cancel()  # Esc pressed before the first progress tick
+    job.start()
+    assert job.wait(60)
+    assert job.cancelled and job.result is None and job.error is None
+    assert len(ob.vertex_groups) == 0
+
+
+def test_weights_job_reports_bad_input_as_an_error():
+    ow = _weights_module()
+    import miniskeleton_core as core
+
+    ob, bones, inputs, settings = _job_inputs()
+    ob_, name, verts, tris = inputs[0]
+    bad = [(ob_, name, verts, np.full_like(tris, len(verts) + 5))]  # triangle indices out of range
+    job = ow.WeightsJob(lambda progress: ow.compute_weights(core, settings, bones, bad, progress))
+    job.start()
+    assert job.wait(60)
+    assert not job.cancelled and job.result is None
+    assert isinstance(job.error, ow.WeightsError) and name in str(job.error)
+
+
+def test_invoke_without_a_window_runs_directly():
+    ob = B.cylinder()
+    arm = B.chain()
+    B.select_for_parenting([ob], arm)
+    assert bpy.ops.object.miniskeleton_auto_weights("INVOKE_DEFAULT") == {"FINISHED"}
+    assert B.weights_matrix(ob, NAMES).sum(axis=1) == pytest.approx(1.0, abs=1e-5)
