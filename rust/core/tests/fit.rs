@@ -119,7 +119,7 @@ fn straight_tube_centres_perpendicular() {
         .map(|p| [p[0] + 0.3 * rng.next(), p[1] + 0.3 * rng.next(), p[2]])
         .collect();
     let (out, rep) = fit_joints(&v, &t, &start, &chain_bones(5), &[true; 5], &FitOptions::default()).unwrap();
-    for (o, s) in out.iter().zip(&start) {
+    for o in &out {
         assert!(o[0].abs() < 0.02 && o[1].abs() < 0.02, "not centred: {o:?}");
     }
     for (o, s) in out[..4].iter().zip(&start) {
