@@ -1,7 +1,7 @@
 """Quality: MiniSkeleton's Auto Weights (Heat) and Blender's own ``parent_set(type='ARMATURE_AUTO')``
 against the artist's weights of real rigged models, in one process.
 
-    .venv/bin/python bench/eval_weights.py [--models Fox,CesiumMan] [--no-blender] [--detail 5]
+    .venv/bin/python bench/eval_weights.py [--models Fox,CesiumMan] [--no-blender] [--detail 5] [--symmetry X]
         [--clips 3] [--frames 20] [--actions ThumbsUp,Wave]
 
 Models are read from ``../shared/models/`` relative to the project root (never copied into the
@@ -97,6 +97,9 @@ def strip(meshes, bones):
                 ob.vertex_groups.remove(g)
 
 
+SYMMETRY = {"value": "NONE"}  # our operator's Symmetry option (--symmetry)
+
+
 def bind(bpy, arm, meshes, ours):
     """Ctrl+P-style selection, then our operator or Blender's; returns (seconds, result)."""
     for ob in bpy.context.view_layer.objects:
@@ -106,7 +109,7 @@ def bind(bpy, arm, meshes, ours):
     bpy.context.view_layer.update()
     t = time.perf_counter()
     if ours:
-        res = bpy.ops.object.miniskeleton_auto_weights(method="HEAT")
+        res = bpy.ops.object.miniskeleton_auto_weights(method="HEAT", symmetry=SYMMETRY["value"])
     else:
         res = bpy.ops.object.parent_set(type="ARMATURE_AUTO", keep_transform=True)
     secs = time.perf_counter() - t
@@ -474,6 +477,8 @@ def main(argv=None):
                     help="comma-separated model names (file stems in ../shared/models)")
     ap.add_argument("--models-dir", default=str(MODELS_DIR))
     ap.add_argument("--no-blender", action="store_true", help="skip Blender's own operator")
+    ap.add_argument("--symmetry", default="NONE", choices=["NONE", "X"],
+                    help="our operator's Symmetry (world x = 0 mirror plane, bones paired by name)")
     ap.add_argument("--clips", type=int, default=3,
                     help="first N actions of the model (bpy.data order); 0: 8 seeded random poses")
     ap.add_argument("--actions", default="",
@@ -483,6 +488,7 @@ def main(argv=None):
     ap.add_argument("--detail", type=int, default=5, help="rows in the per-model detail lists")
     ap.add_argument("--out", default=str(ROOT / "out" / "eval_weights.md"))
     args = ap.parse_args(argv)
+    SYMMETRY["value"] = args.symmetry
 
     folder = Path(args.models_dir)
     if not folder.is_dir():
