@@ -385,14 +385,7 @@ pub fn solve_ccd_classic3d(
     for (q2, q3) in p2.iter_mut().zip(&p) {
         *q2 = [q3.x, q3.y];
     }
-    positions_to_angles(chain, &p2);
-    fk_into(chain, &mut p2);
-    let error = dist2(p2[b], target).sqrt();
-    Ok(SolveReport {
-        iterations,
-        error,
-        reached: error <= opts.tolerance,
-    })
+    Ok(settle_positions(chain, &mut p2, target, iterations, opts.tolerance))
 }
 
 /// Baseline: FABRIK, Forward And Backward Reaching Inverse Kinematics (Aristidou & Lasenby,
@@ -441,46 +434,41 @@ pub fn solve_fabrik(
             // Forward reaching: tip to root.
             p[b] = target;
             for i in (0..b).rev() {
-                let d = sub(p[i], p[i + 1]);
-                let r = norm(d);
-                let dir = if r > 1e-300 {
-                    [d[0] / r, d[1] / r]
-                } else {
-                    fallback
-                };
-                let l = chain.lengths[i];
-                p[i] = [p[i + 1][0] + l * dir[0], p[i + 1][1] + l * dir[1]];
+                p[i] = reach_toward(p[i + 1], p[i], chain.lengths[i], fallback);
             }
             // Backward reaching: root to tip.
             p[0] = base;
             for i in 0..b {
-                let d = sub(p[i + 1], p[i]);
-                let r = norm(d);
-                let dir = if r > 1e-300 {
-                    [d[0] / r, d[1] / r]
-                } else {
-                    fallback
-                };
-                let l = chain.lengths[i];
-                p[i + 1] = [p[i][0] + l * dir[0], p[i][1] + l * dir[1]];
+                p[i + 1] = reach_toward(p[i], p[i + 1], chain.lengths[i], fallback);
             }
             if dist2(p[b], target).sqrt() <= opts.tolerance {
                 break;
             }
         }
     }
-    positions_to_angles(chain, &p);
-    fk_into(chain, &mut p);
-    let error = dist2(p[b], target).sqrt();
-    Ok(SolveReport {
-        iterations,
-        error,
-        reached: error <= opts.tolerance,
-    })
+    Ok(settle_positions(chain, &mut p, target, iterations, opts.tolerance))
 }
 
 // ---------------------------------------------------------------------------------------------
 // Internals.
+
+/// FABRIK's step: the point at distance `l` from `anchor` toward `toward` (along `fallback`
+/// when the two coincide).
+fn reach_toward(anchor: [f64; 2], toward: [f64; 2], l: f64, fallback: [f64; 2]) -> [f64; 2] {
+    let d = sub(toward, anchor);
+    let r = norm(d);
+    let dir = if r > 1e-300 { [d[0] / r, d[1] / r] } else { fallback };
+    [anchor[0] + l * dir[0], anchor[1] + l * dir[1]]
+}
+
+/// End of the position-based baselines: joint positions `p` -> clamped relative angles on
+/// `chain`, `p` recomputed from them, and the report with the error of that final pose.
+fn settle_positions(chain: &mut Chain2d, p: &mut Vec<[f64; 2]>, target: [f64; 2], iterations: usize, tolerance: f64) -> SolveReport {
+    positions_to_angles(chain, p);
+    fk_into(chain, p);
+    let error = dist2(p[p.len() - 1], target).sqrt();
+    SolveReport { iterations, error, reached: error <= tolerance }
+}
 
 /// One effector of the CCD core.
 #[derive(Clone, Copy)]
