@@ -207,19 +207,14 @@ class MINISKELETON_OT_fit_skeleton(bpy.types.Operator):
 
             rig_io.ensure_snapshot(arm, ebs)
             new = new.astype(np.float64)
-            for eb in bones:  # detach first so moving a child never drags its parent's tail around
-                eb.use_connect = False
-            for i, eb in enumerate(bones):
-                h = new[ends[i, 0]]
+            new_heads = new[ends[:, 0]]
+            new_tails = new[ends[:, 1]]
+            for i in range(len(bones)):
+                h = new_heads[i]
                 # An invented tail (not fitted) keeps the bone's direction and length from its head.
-                t = new[ends[i, 1]] if real[i] and fitted[ends[i, 1]] else h + (tails[i] - heads[i])
-                if np.linalg.norm(t - h) <= 1e-6 * size:
-                    t = h + (tails[i] - heads[i])  # never collapse a bone (Blender would delete it)
-                eb.head = h
-                eb.tail = t
-                eb.align_roll(zaxes[i])
-            for i, eb in enumerate(bones):
-                eb.use_connect = connected[i]
+                if not (real[i] and fitted[ends[i, 1]]) or np.linalg.norm(new_tails[i] - h) <= 1e-6 * size:
+                    new_tails[i] = h + (tails[i] - heads[i])  # and never collapse a bone (Blender deletes it)
+            rig_io.place_bone_ends(bones, new_heads, new_tails, zaxes)
 
         if rep["open_edges"] or rep["nonmanifold_edges"]:
             self.report({"WARNING"}, f"The mesh is not closed ({rep['open_edges']} open edges, "

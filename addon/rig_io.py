@@ -130,6 +130,23 @@ def apply_rest_pose(edit_bones, snap: dict) -> None:
         eb.use_connect = bool(c)
 
 
+def place_bone_ends(edit_bones, heads, tails, z_axes=None) -> None:
+    """Move every edit bone to ``heads[i]``/``tails[i]`` (armature space), keeping which bones
+    are connected: connections are dropped first so that moving a child never drags its
+    parent's tail, then put back. With ``z_axes``, each bone's roll is re-aligned to it."""
+    ebs = list(edit_bones)
+    connected = [eb.use_connect for eb in ebs]
+    for eb in ebs:
+        eb.use_connect = False
+    for i, eb in enumerate(ebs):
+        eb.head = heads[i]
+        eb.tail = tails[i]
+        if z_axes is not None:
+            eb.align_roll(z_axes[i])
+    for eb, c in zip(ebs, connected):
+        eb.use_connect = c
+
+
 # ---------------------------------------------------------------------------- joint graph
 
 def joint_graph(heads: np.ndarray, tails: np.ndarray, parents: list[int], connected: list[bool],

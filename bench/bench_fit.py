@@ -93,16 +93,8 @@ def joints_now(bpy, arm, ends):
     return j
 
 
-def set_joints(bpy, arm, joints, ends):
-    ebs = list(edit_bones(bpy, arm))
-    conn = [eb.use_connect for eb in ebs]
-    for eb in ebs:
-        eb.use_connect = False
-    for i, eb in enumerate(ebs):
-        eb.head = joints[ends[i, 0]]
-        eb.tail = joints[ends[i, 1]]
-    for eb, c in zip(ebs, conn):
-        eb.use_connect = c
+def set_joints(bpy, arm, joints, ends, rig_io):
+    rig_io.place_bone_ends(edit_bones(bpy, arm), joints[ends[:, 0]], joints[ends[:, 1]])
     bpy.ops.object.mode_set(mode="OBJECT")
 
 
@@ -142,14 +134,14 @@ def run(bpy, name, seeds, rig_io, core, mesh_io, **op):
     if not fit()[0]:
         return None
     floor = np.linalg.norm(joints_now(bpy, arm, ends) - orig, axis=1)[real].mean() / diag * 100
-    set_joints(bpy, arm, orig, ends)
+    set_joints(bpy, arm, orig, ends, rig_io)
     rows = []
     for seed in range(seeds):
         rng = np.random.default_rng(seed + 1)
         d = rng.normal(size=orig.shape)
         d *= (0.05 * diag * rng.random(len(orig)) ** (1 / 3) / np.linalg.norm(d, axis=1))[:, None]
         moved = orig + d
-        set_joints(bpy, arm, moved, ends)
+        set_joints(bpy, arm, moved, ends, rig_io)
         ok, secs = fit()
         if not ok:
             return None
@@ -158,7 +150,7 @@ def run(bpy, name, seeds, rig_io, core, mesh_io, **op):
         err1 = np.linalg.norm(fitted - orig, axis=1) / diag * 100
         rows.append((err0[real].mean(), err1[real].mean(), err0[scored_in].mean(), err1[scored_in].mean(),
                      outside(moved), outside(fitted), secs))
-        set_joints(bpy, arm, orig, ends)
+        set_joints(bpy, arm, orig, ends, rig_io)
     r = np.array(rows, dtype=np.float64)
     return dict(model=name, joints=int(real.sum()), ends=len(orig), vertices=len(verts), out_orig=out_orig, floor=floor,
                 before=r[:, 0].mean(), after=r[:, 1].mean(), before_in=r[:, 2].mean(), after_in=r[:, 3].mean(),

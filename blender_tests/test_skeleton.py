@@ -54,15 +54,7 @@ def set_joints(arm, joints, ends):
     """Move every bone end to its joint (Edit Mode), keeping connections."""
     builders.set_active(arm)
     bpy.ops.object.mode_set(mode="EDIT")
-    ebs = list(arm.data.edit_bones)
-    conn = [eb.use_connect for eb in ebs]
-    for eb in ebs:
-        eb.use_connect = False
-    for i, eb in enumerate(ebs):
-        eb.head = joints[ends[i, 0]]
-        eb.tail = joints[ends[i, 1]]
-    for eb, c in zip(ebs, conn):
-        eb.use_connect = c
+    rig_io.place_bone_ends(arm.data.edit_bones, joints[ends[:, 0]], joints[ends[:, 1]])
     bpy.ops.object.mode_set(mode="OBJECT")
 
 
