@@ -9,7 +9,9 @@
 //! to the centre lines of its bones (their intersection at a bend; along a straight chain, where
 //! the mesh says nothing about the position along the limb, it keeps its own position), and
 //! the process repeats until nothing moves. Sampling inside the bones rather than at the joint
-//! keeps junctions (a shoulder sitting inside the torso) from pulling a joint into the body.
+//! keeps junctions (a shoulder sitting inside the torso) from pulling a joint into the body,
+//! and a stub bone leaving a junction (shorter than its sections are wide: pelvis to hip, chest
+//! to shoulder) has no centre line at all, since its sections are slices of the body it lies in.
 //!
 //! Inside/outside is decided by ray parity (hit counts along several fixed directions,
 //! majority vote), so it is reliable on closed meshes and approximate on open ones. Joints
@@ -62,6 +64,13 @@ pub struct FitOptions {
     /// Put free limb ends (a bone's tail with no other bone) one local radius short of the tip
     /// of the mesh beyond them, where the medial axis of a rounded end stops.
     pub tip: bool,
+    /// A bone leaving a junction (a joint with 3 or more bones) whose thinnest cross-section
+    /// has a radius above this fraction of its length is a stub inside a body part (pelvis to
+    /// hip, chest to shoulder) and gives its joints no centre line: sections across a torso
+    /// would drag a hip or shoulder toward the torso's middle. Chains (a spine, a thick tail)
+    /// are not junctions and keep their lines. 0 disables. Default 0.5 (the section is wider
+    /// than the bone is long).
+    pub stub_ratio: f64,
     /// A joint moves at most this far while fitting (fraction of the bounding-box diagonal; the
     /// final pull inside may add more): how rough the input skeleton is assumed to be. Large
     /// moves are where the centre lines of body sections mislead junction joints.
@@ -78,6 +87,7 @@ impl Default for FitOptions {
             tolerance: 1e-4,
             stiffness: 0.05,
             tip: true,
+            stub_ratio: 0.5,
             max_move: 0.12,
         }
     }
@@ -440,9 +450,10 @@ pub fn fit_joints(
         }
     }
     if opts.rays < 3 || opts.samples < 1 || !(opts.stiffness > 0.0) || !(opts.tolerance > 0.0) || !(opts.max_move > 0.0)
+        || !(opts.stub_ratio >= 0.0)
     {
         return Err(Error::InvalidArgument(
-            "fit options: rays >= 3, samples >= 1, stiffness > 0, tolerance > 0 and max_move > 0".into(),
+            "fit options: rays >= 3, samples >= 1, stiffness > 0, tolerance > 0, max_move > 0 and stub_ratio >= 0".into(),
         ));
     }
     let frame = Frame::of_points(vertices);
@@ -537,6 +548,14 @@ pub fn fit_joints(
                     }
                 }
                 if pts.is_empty() {
+                    return None;
+                }
+                // A stub branching off a junction (shorter than its thinnest section is wide:
+                // the link from a pelvis to a hip, from a chest to a shoulder) lies inside a
+                // body part; its sections are slices of that body, so it has no centre line.
+                let thinnest = pts.iter().map(|x| x.2).fold(f64::INFINITY, f64::min);
+                let branch = incident[b[0] as usize].len() >= 3;
+                if branch && opts.stub_ratio > 0.0 && thinnest > opts.stub_ratio * len {
                     return None;
                 }
                 // Weighted least squares of the offset, linear in s, weights 1 / r^2: thin

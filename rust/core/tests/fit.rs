@@ -173,6 +173,41 @@ fn bent_tube_corner() {
     assert!(after < 0.35 * before, "corner error {after} vs {before} before");
 }
 
+/// Shoulders inside a torso: the chest-to-shoulder stubs (shorter than the torso is wide,
+/// leaving the chest junction) give no centre line, so each shoulder stays on its arm's axis
+/// instead of being dragged toward the torso's middle; with the stub rule off they are dragged.
+#[test]
+fn stub_bone_does_not_drag_its_joint() {
+    let (mut v, mut t) = tube(&[[0.0, 0.0, 0.0], [0.0, 0.0, 2.0]], 0.5, 20, 32);
+    for x in [1.0f32, -1.0] {
+        let (av, at) = tube(&[[0.5 * x, 0.0, 1.2], [1.8 * x, 0.0, 1.2]], 0.12, 20, 16);
+        let base = v.len() as u32;
+        v.extend(av);
+        t.extend(at.iter().map(|f| f.map(|i| i + base)));
+    }
+    // Chest on the torso's axis; per side a shoulder inside the torso at the arm's height, an
+    // elbow and a wrist; a pelvis below the chest.
+    let start = vec![
+        [0.0, 0.0, 1.2],
+        [0.4, 0.0, 1.2],
+        [1.1, 0.0, 1.2],
+        [1.7, 0.0, 1.2],
+        [-0.4, 0.0, 1.2],
+        [-1.1, 0.0, 1.2],
+        [-1.7, 0.0, 1.2],
+        [0.0, 0.0, 0.5],
+    ];
+    let bones = vec![[0, 1], [1, 2], [2, 3], [0, 4], [4, 5], [5, 6], [7, 0]];
+    let movable = [false, true, true, false, true, true, false, false];
+    let (out, _) = fit_joints(&v, &t, &start, &bones, &movable, &FitOptions::default()).unwrap();
+    for j in [1, 4] {
+        assert!(dist(out[j], start[j]) < 0.01, "shoulder {j} moved: {:?}", out[j]);
+    }
+    let off = FitOptions { stub_ratio: 0.0, ..FitOptions::default() };
+    let (dragged, _) = fit_joints(&v, &t, &start, &bones, &movable, &off).unwrap();
+    assert!(dist(dragged[1], start[1]) > 0.05, "without the rule the torso drags it: {:?}", dragged[1]);
+}
+
 /// Fitting a fitted skeleton changes nothing beyond the tolerance.
 #[test]
 fn idempotent() {

@@ -15,7 +15,7 @@ use pyo3::types::PyDict;
 #[pyfunction]
 #[pyo3(signature = (vertices, triangles, joints, bones, movable=None, *, symmetry_axis=None,
                     symmetry_plane=0.0, joint_mirror=None, rays=12, samples=5, rounds=12,
-                    tolerance=1e-4, stiffness=0.05, tip=true, max_move=0.12))]
+                    tolerance=1e-4, stiffness=0.05, tip=true, max_move=0.12, stub_ratio=0.5))]
 #[allow(clippy::too_many_arguments)]
 pub fn fit_joints<'py>(
     py: Python<'py>,
@@ -34,6 +34,7 @@ pub fn fit_joints<'py>(
     stiffness: f64,
     tip: bool,
     max_move: f64,
+    stub_ratio: f64,
 ) -> PyResult<(Bound<'py, PyArray2<f32>>, Bound<'py, PyDict>)> {
     let v = rows::<f32, 3>(&vertices, "vertices")?;
     let t = rows::<u32, 3>(&triangles, "triangles")?;
@@ -45,7 +46,7 @@ pub fn fit_joints<'py>(
         (Some(axis), Some(m)) => Some(Symmetry { axis, plane: symmetry_plane, mirror: vector(&m) }),
         _ => return Err(PyValueError::new_err("symmetry_axis and joint_mirror go together")),
     };
-    let opts = FitOptions { symmetry, rays, samples, rounds, tolerance, stiffness, tip, max_move };
+    let opts = FitOptions { symmetry, rays, samples, rounds, tolerance, stiffness, tip, max_move, stub_ratio };
     let (out, rep) = guarded(py, move || fit::fit_joints(&v, &t, &j, &b, &mv, &opts))?;
     let d = PyDict::new(py);
     d.set_item("outside_before", rep.count_outside_before())?;
