@@ -155,7 +155,14 @@ class MINISKELETON_OT_auto_weights(bpy.types.Operator):
             return None
         arm, meshes, bones = checked
         inputs = []
+        # Linked duplicates (Alt+D) share one mesh, and Blender keeps vertex weights in the
+        # mesh: compute them once, on the first of those objects; the others get the modifier.
+        owner, self._linked = {}, []
         for ob in meshes:
+            if ob.data in owner:
+                self._linked.append((ob, owner[ob.data]))
+                continue
+            owner[ob.data] = ob
             verts = mesh_io.mesh_world_vertices(ob)
             bad = int((~np.isfinite(verts)).any(axis=1).sum())
             if bad:
@@ -185,6 +192,11 @@ class MINISKELETON_OT_auto_weights(bpy.types.Operator):
             kept_locked.update(mesh_io.write_vertex_groups(ob, bones.names, dense, write))
             mesh_io.ensure_armature_modifier(ob, arm)
             mesh_io.parent_keep_transform(ob, arm)
+        for ob, first in getattr(self, "_linked", ()):
+            mesh_io.ensure_armature_modifier(ob, arm)
+            mesh_io.parent_keep_transform(ob, arm)
+            notes.append(f"'{ob.name}' shares its mesh with '{first.name}': weights computed once, "
+                         f"from '{first.name}'")
         nverts = sum(len(v) for _, _, v, _ in inputs)
         label = dict((m[0], m[1]) for m in METHODS)[self.method]
         msg = (f"{label}: {nverts} vertices in {len(inputs)} mesh(es), {int(write.sum())} bones, "

@@ -163,6 +163,32 @@ def test_multiple_meshes_with_own_transforms_world_space():
     np.testing.assert_allclose(wa[ia], wb[ib], atol=1e-3)
 
 
+def test_linked_duplicates_computed_once_from_the_first():
+    # Alt+D duplicates share one mesh, and Blender stores weights in the mesh: one answer,
+    # from the first selected object; every duplicate gets the modifier and the parent.
+    arm = B.chain()
+    a = B.cylinder("A")
+    b = bpy.data.objects.new("B", a.data)
+    bpy.context.scene.collection.objects.link(b)
+    b.location = (0.25, 0.0, 0.0)  # moved: its own world-space weights would differ
+    expected = {}
+    for ob in (a, b):
+        assert bind([ob], arm, method="HEAT") == {"FINISHED"}
+        expected[ob.name] = B.weights_matrix(ob, NAMES)
+    assert np.abs(expected["A"] - expected["B"]).max() > 1e-3
+    for ob in (a, b):
+        ob.vertex_groups.clear()
+        ob.modifiers.clear()
+        ob.parent = None
+    B.select_for_parenting([a, b], arm)
+    first = [ob for ob in bpy.context.selected_objects if ob in (a, b)][0]
+    assert bpy.ops.object.miniskeleton_auto_weights(method="HEAT") == {"FINISHED"}
+    np.testing.assert_allclose(B.weights_matrix(a, NAMES), expected[first.name], atol=1e-6)
+    for ob in (a, b):
+        assert [m.object for m in ob.modifiers if m.type == "ARMATURE"] == [arm]
+        assert ob.parent is arm
+
+
 def test_undo_restores_previous_groups_exactly():
     ob = B.cylinder()
     arm = B.chain()
