@@ -1,6 +1,6 @@
 """Fit Skeleton to Mesh against the artists' own skeletons.
 
-    .venv/bin/python bench/bench_fit.py [--models Fox.glb,CesiumMan.gltf,spot_rig.glb] [--seeds 3] [--symmetry X]
+    .venv/bin/python bench/bench_fit.py [--models Fox.glb,CesiumMan.gltf,spot_rig.glb] [--seeds 10] [--symmetry X]
 
 For each model in ``../shared/models/`` (relative to the project root; missing files are
 skipped, never copied here) and for the generated creature (scripts/creature.py): take the
@@ -160,7 +160,7 @@ def run(bpy, name, seeds, rig_io, core, mesh_io, **op):
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--models", default=",".join(MODELS))
-    ap.add_argument("--seeds", type=int, default=3)
+    ap.add_argument("--seeds", type=int, default=10)
     ap.add_argument("--tails", default="AUTO", help="the operator's Free Tails option")
     ap.add_argument("--max-move", type=float, default=None, help="the operator's Max Move (%%)")
     ap.add_argument("--symmetry", default="NONE", choices=["NONE", "X"], help="the operator's Symmetry")
