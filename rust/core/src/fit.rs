@@ -120,6 +120,7 @@ impl FitReport {
 }
 
 /// Fixed, irrational directions for the parity test.
+#[allow(clippy::approx_constant)] // rounded unit vectors, not the constant 1/sqrt(2)
 const PARITY_DIRS: [[f32; 3]; 7] = [
     [0.5773, 0.6123, 0.5402],
     [-0.7071, 0.3162, 0.6325],

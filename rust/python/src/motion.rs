@@ -1,4 +1,5 @@
 //! Bindings for motion: skeleton roles (`roles.rs`) and procedural gaits (`gait.rs`).
+#![allow(clippy::approx_constant)] // make_motion's amplitude=0.5236 rad (30 degrees) is a literal so Python's signature shows it
 
 use crate::convert::{from_rows, rows, vector};
 use crate::error::guarded;
