@@ -97,8 +97,9 @@ def fit_joints(vertices: ArrayLike, triangles: ArrayLike, joints: ArrayLike, bon
     centre lines (cross-section centres); joints left outside are pulled in. bones (b,2) joint
     indices; movable (j,) bool; with symmetry_axis, joint_mirror (j,) pairs end exactly mirrored,
     centre joints (mirror = itself) on the plane, joints with mirror -1 are free. max_move caps a
-    joint's fitting move (fraction of the bbox diagonal). A bone whose thinnest section's radius exceeds
-    stub_ratio times its length (pelvis to hip) gives no centre line; 0 disables. Report: outside_before/after (+ _mask), rounds, max_move,
+    joint's fitting move (fraction of the bbox diagonal). A bone leaving a junction (a joint of 3+ bones)
+    whose thinnest section's radius exceeds stub_ratio times its length (pelvis to hip) gives no
+    centre line; 0 disables. Report: outside_before/after (+ _mask), rounds, max_move,
     open_edges, nonmanifold_edges, pieces."""
 
 def points_inside(vertices: ArrayLike, triangles: ArrayLike, points: ArrayLike) -> npt.NDArray[np.bool_]:
