@@ -149,7 +149,8 @@ class MINISKELETON_OT_auto_weights(bpy.types.Operator):
     # ------------------------------------------------------------------ run
 
     def _prepare(self, context):
-        """Validate and read every input: (armature, bones, [(mesh, world vertices)]) or None (reported)."""
+        """Validate and read every input: (armature, bones, inputs [(mesh, name, world vertices,
+        triangles)], linked [(duplicate, mesh it shares data with)]) or None (reported)."""
         checked = self._validate(context)
         if checked is None:
             return None
@@ -157,10 +158,10 @@ class MINISKELETON_OT_auto_weights(bpy.types.Operator):
         inputs = []
         # Linked duplicates (Alt+D) share one mesh, and Blender keeps vertex weights in the
         # mesh: compute them once, on the first of those objects; the others get the modifier.
-        owner, self._linked = {}, []
+        owner, linked = {}, []
         for ob in meshes:
             if ob.data in owner:
-                self._linked.append((ob, owner[ob.data]))
+                linked.append((ob, owner[ob.data]))
                 continue
             owner[ob.data] = ob
             verts = mesh_io.mesh_world_vertices(ob)
@@ -174,7 +175,7 @@ class MINISKELETON_OT_auto_weights(bpy.types.Operator):
                 return None
             tris = mesh_io.mesh_triangles(ob) if self.method == "HEAT" else None
             inputs.append((ob, ob.name, verts, tris))
-        return arm, bones, inputs
+        return arm, bones, inputs, linked
 
     def _settings(self, bones) -> dict:
         """The options as plain values, safe to use from a worker thread."""
@@ -183,8 +184,9 @@ class MINISKELETON_OT_auto_weights(bpy.types.Operator):
                     sigma=self.sigma if self.sigma > 0 else None, visibility=self.visibility,
                     mirror=mesh_io.bone_mirror_indices(bones.names) if self.symmetry == "X" else None)
 
-    def _write(self, arm, bones, inputs, results, notes, secs):
+    def _write(self, prepared, results, notes, secs):
         """Write groups, modifier and parent for every mesh (main thread), then report."""
+        arm, bones, inputs, linked = prepared
         write = bones.selected if self.selected_bones_only else np.ones(len(bones.names), bool)
         kept_locked = set()
         for ob, i, w in results:
@@ -192,7 +194,7 @@ class MINISKELETON_OT_auto_weights(bpy.types.Operator):
             kept_locked.update(mesh_io.write_vertex_groups(ob, bones.names, dense, write))
             mesh_io.ensure_armature_modifier(ob, arm)
             mesh_io.parent_keep_transform(ob, arm)
-        for ob, first in getattr(self, "_linked", ()):
+        for ob, first in linked:
             mesh_io.ensure_armature_modifier(ob, arm)
             mesh_io.parent_keep_transform(ob, arm)
             notes.append(f"'{ob.name}' shares its mesh with '{first.name}': weights computed once, "
@@ -217,7 +219,7 @@ class MINISKELETON_OT_auto_weights(bpy.types.Operator):
         return self._run_blocking(context, core, prepared)
 
     def _run_blocking(self, context, core, prepared):
-        arm, bones, inputs = prepared
+        _, bones, inputs, _ = prepared
         wm = context.window_manager
         wm.progress_begin(0, 1000)
         start = time.perf_counter()
@@ -230,7 +232,7 @@ class MINISKELETON_OT_auto_weights(bpy.types.Operator):
             except WeightsError as err:
                 self.report({"ERROR"}, str(err))
                 return {"CANCELLED"}
-            return self._write(arm, bones, inputs, results, notes, time.perf_counter() - start)
+            return self._write(prepared, results, notes, time.perf_counter() - start)
         finally:
             wm.progress_end()
 
@@ -246,7 +248,7 @@ class MINISKELETON_OT_auto_weights(bpy.types.Operator):
         prepared = self._prepare(context)
         if prepared is None:
             return {"CANCELLED"}
-        _, bones, inputs = prepared
+        _, bones, inputs, _ = prepared
         if sum(len(v) for _, _, v, _ in inputs) < BACKGROUND_VERTICES:
             return self._run_blocking(context, core, prepared)
         self._prepared = prepared
@@ -280,9 +282,8 @@ class MINISKELETON_OT_auto_weights(bpy.types.Operator):
         if job.error is not None:
             self.report({"ERROR"}, str(job.error))
             return {"CANCELLED"}
-        arm, bones, inputs = self._prepared
         results, notes = job.result
-        return self._write(arm, bones, inputs, results, notes, time.perf_counter() - self._start)
+        return self._write(self._prepared, results, notes, time.perf_counter() - self._start)
 
 
 def mesh_weights(core, settings: dict, verts, tris, bones, progress):
