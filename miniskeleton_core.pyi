@@ -35,18 +35,22 @@ def heat_weights(
     vertices: ArrayLike, triangles: ArrayLike, bone_heads: ArrayLike, bone_tails: ArrayLike, *,
     max_influences: int = 4, min_weight: float = 1e-3, visibility: bool = True,
     weld_tolerance: float = 1e-5, heat_constant: float = 1.0, bone_mirror: Optional[ArrayLike] = None,
-    symmetry_axis: int = 0, symmetry_tolerance: float = 1e-3,
+    symmetry_axis: int = 0, symmetry_tolerance: float = 1e-3, parents: Optional[ArrayLike] = None,
     progress: Optional[Callable[[float], Optional[bool]]] = None,
 ) -> Influences:
     """Bone-heat weights (Baran & Popovic 2007) on the position-welded surface; never leaves a vertex unweighted.
     bone_mirror (b,): mirror bone of each bone (itself for centre bones, -1 for a side bone with no
-    partner); with it, mirrored vertices get mirrored weights (symmetry_axis, symmetry_tolerance)."""
+    partner); with it, mirrored vertices get mirrored weights (symmetry_axis, symmetry_tolerance).
+    parents (b,): parent bone of each bone (-1 for roots), for imported (glTF/FBX) rigs whose tails
+    the importer invented: a bone whose children start away from its tail is then the segments
+    from its head to their heads that lie inside the mesh (plus head -> tail when a child starts
+    there; head -> tail alone when no such segment is inside, e.g. a root on the ground)."""
 
 def heat_weights_report(
     vertices: ArrayLike, triangles: ArrayLike, bone_heads: ArrayLike, bone_tails: ArrayLike, *,
     max_influences: int = 4, min_weight: float = 1e-3, visibility: bool = True,
     weld_tolerance: float = 1e-5, heat_constant: float = 1.0, bone_mirror: Optional[ArrayLike] = None,
-    symmetry_axis: int = 0, symmetry_tolerance: float = 1e-3,
+    symmetry_axis: int = 0, symmetry_tolerance: float = 1e-3, parents: Optional[ArrayLike] = None,
     progress: Optional[Callable[[float], Optional[bool]]] = None,
 ) -> Tuple[npt.NDArray[np.int32], npt.NDArray[np.float32], dict]:
     """As heat_weights, plus a report: pieces, fallback_pieces (saw no bone), rigid_pieces, boneless_pieces,

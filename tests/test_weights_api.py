@@ -168,3 +168,20 @@ def test_symmetric_mesh_symmetric_weights():
     d = dense(i, w, 3)
     np.testing.assert_allclose(d[: len(v), 0], d[len(v):, 1], atol=1e-5)
     np.testing.assert_allclose(d[: len(v), 2], d[len(v):, 2], atol=1e-5)
+
+
+def test_heat_parents_make_imported_bones_reach_their_children():
+    # An importer-style chain: bone 0's tail is a sideways stub, its child starts 0.9 higher.
+    v, t = msc.capped_cylinder(0.08, 2.0, 41, 16)
+    heads = np.array([[0, 0, 0.1], [0, 0, 1.0]], np.float32)
+    tails = np.array([[0.05, 0, 0.1], [0, 0, 1.9]], np.float32)
+    mid = (v[:, 2] > 0.4) & (v[:, 2] < 0.7)
+    plain = dense(*msc.heat_weights(v, t, heads, tails), 2)
+    reach = dense(*msc.heat_weights(v, t, heads, tails, parents=[-1, 0]), 2)
+    check_influences(*msc.heat_weights(v, t, heads, tails, parents=np.array([-1, 0])), len(v), 4, 2)
+    assert reach[mid, 0].mean() > 0.9 > plain[mid, 0].mean()
+    # Roots only (no child anywhere) change nothing.
+    np.testing.assert_array_equal(dense(*msc.heat_weights(v, t, heads, tails, parents=[-1, -1]), 2), plain)
+    for bad, what in (([-1], "parents for 2 bones"), ([-1, 1], "parent of bone 1"), ([-1, 5], "parent of bone 1")):
+        with pytest.raises(ValueError, match=what):
+            msc.heat_weights(v, t, heads, tails, parents=bad)

@@ -79,6 +79,13 @@ pub struct HeatOptions {
     /// Rank bones by Blender's normal-weighted distance (see [`heat_weights`]) instead of the
     /// plain distance. Default true.
     pub normal_distance: bool,
+    /// `(b,)` parent of each bone (`-1` for roots), for rigs imported from glTF or FBX,
+    /// whose tails Blender invents: when given, a bone whose children start away from its
+    /// tail is represented by the segments from its head to those children's heads that lie
+    /// inside the mesh (see [`crate::reach`]), plus head -> tail when a child starts there;
+    /// a bone with no such segment inside (a root on the ground) keeps head -> tail.
+    /// Default `None`: every bone is head -> tail, as in Blender.
+    pub parents: Option<Vec<i32>>,
 }
 
 impl Default for HeatOptions {
@@ -94,6 +101,7 @@ impl Default for HeatOptions {
             weight_limit_end: WEIGHT_LIMIT_END,
             rigid_accessories: true,
             normal_distance: true,
+            parents: None,
         }
     }
 }
@@ -157,6 +165,8 @@ const BONE_SAMPLES: [f64; 5] = [0.0, 0.25, 0.5, 0.75, 1.0];
 const BONE_INSIDE_SAMPLES: usize = 3;
 /// An accessory is at most this fraction of the skeleton's bbox diagonal.
 const ACCESSORY_SIZE: f64 = 0.5;
+/// Distance (unit frame) under which a child's head counts as starting at a bone's tail or head.
+const REACH_TOLERANCE: f64 = 1e-5;
 /// Minimum vertex-to-bone distance used in `H = c / d^2`, in bbox diagonals.
 pub const MIN_DISTANCE: f64 = 1e-5;
 /// Diagonal regularizations tried in turn: `A_ii += r (L_ii + M_ii)`.
@@ -269,6 +279,9 @@ pub fn heat_weights(
             return Err(Error::InvalidArgument("symmetry axis must be 0..=2 and tolerance >= 0".into()));
         }
     }
+    if let Some(parents) = &opts.parents {
+        crate::reach::validate_parents(parents, b)?;
+    }
     if u32::try_from(b).is_err() || u32::try_from(vertices.len()).is_err() {
         return Err(Error::InvalidArgument("too many bones or vertices (limit 2^32 - 1)".into()));
     }
@@ -301,7 +314,7 @@ pub fn heat_weights(
     //      finds the pieces, the cotangent stiffness and mass, the normals, the sparse pattern
     //      and its symbolic Cholesky analysis (AMD ordering + supernodes); then every vertex
     //      looks for its nearest visible bone on all threads.
-    let need_rays = opts.visibility || opts.rigid_accessories;
+    let need_rays = opts.visibility || opts.rigid_accessories || opts.parents.is_some();
     let ((ray_mesh, t_bvh), ((labels, npieces), cot, normals, csc, mut symbolic, t_lap, t_sym)) = rayon::join(
         || {
             let s = Instant::now();
@@ -331,31 +344,45 @@ pub fn heat_weights(
     let symbolic_mat = SymbolicSparseColMatRef::new_checked(nw, nw, &csc.col_ptr, None, &csc.row_idx);
     lap(&mut report, "bvh|laplacian+symbolic");
     report.timings.extend([("bvh", t_bvh), ("laplacian", t_lap), ("symbolic", t_sym)]);
+    let mass = &cot.mass;
+    let mut pieces = piece_stats(&labels, npieces, &wpos, &tris, mass);
+    // The segments standing for the bones (several per bone on imported rigs), and each
+    // segment's bone; sources below are in bones.
+    let (segs, owner) = match (&opts.parents, ray_mesh.as_ref()) {
+        (Some(parents), Some(rm)) => reach_segments(rm, &bones, parents, &pieces, &labels, &tris),
+        _ => (bones.clone(), (0..b as u32).collect()),
+    };
+    let mut bone_len = vec![0.0f64; b];
+    for ((h, t), &o) in segs.iter().zip(&owner) {
+        bone_len[o as usize] = bone_len[o as usize].max((*t - *h).length());
+    }
     let mut sources: Vec<Source> = Vec::with_capacity(nw);
     wpos.par_iter()
         .with_min_len(256)
         .zip(normals.par_iter())
         .map_init(
-            || vec![0.0f64; 2 * b],
-            |dist, (x, n)| nearest_visible_bone(*x, *n, &bones, ray_mesh.as_ref().filter(|_| opts.visibility), dist),
+            || vec![0.0f64; 2 * segs.len()],
+            |dist, (x, n)| {
+                let s = nearest_visible_bone(*x, *n, &segs, ray_mesh.as_ref().filter(|_| opts.visibility), dist);
+                s.owned(&owner)
+            },
         )
         .collect_into_vec(&mut sources);
+    mark_sources(&mut pieces, &labels, &sources);
     lap(&mut report, "rays");
     tick(0.2)?;
 
     // 6. Pieces: fallback and rigid accessories; isolated vertices.
     let c = HEAT_SCALE * opts.heat_constant as f64;
-    let mass = &cot.mass;
-    let mut pieces = piece_stats(&labels, npieces, &wpos, &tris, mass, &sources);
     let mut rigid: Vec<Option<Ties>> = vec![None; npieces];
     // Accessories (see the doc of `heat_weights`).
     if let (true, Some(rm)) = (opts.rigid_accessories, ray_mesh.as_ref()) {
         let inside: Vec<bool> = (0..npieces)
             .into_par_iter()
-            .map(|i| pieces[i].active && piece_contains_bone(rm, i as u32, &pieces[i], &bones, &labels, &tris))
+            .map(|i| pieces[i].active && piece_contains_bone(rm, i as u32, &pieces[i], &segs, &labels, &tris))
             .collect();
         let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
-        for (h, t) in &bones {
+        for (h, t) in &segs {
             lo = lo.min(h.min(*t));
             hi = hi.max(h.max(*t));
         }
@@ -366,14 +393,14 @@ pub fn heat_weights(
         let union = active.iter().fold(PieceStats::default(), |u, &i| u.merged(&pieces[i]));
         if !active.is_empty() && active.iter().all(|&i| !inside[i]) && union.size() <= max_size {
             // A prop (the whole mesh holds no bone): one rigid body on one bone.
-            let ties = nearest_bones(union.centre(), &bones);
+            let ties = nearest_bones(union.centre(), &segs).owned(&owner);
             for &i in &active {
                 rigid[i] = Some(ties);
             }
         } else {
             for &i in &active {
                 if !inside[i] && Some(i) != largest && pieces[i].size() <= max_size {
-                    rigid[i] = Some(nearest_bones(pieces[i].centre(), &bones));
+                    rigid[i] = Some(nearest_bones(pieces[i].centre(), &segs).owned(&owner));
                 }
             }
         }
@@ -385,8 +412,7 @@ pub fn heat_weights(
         report.pieces += 1;
         if !p.sees {
             report.fallback_pieces += 1;
-            let (h, t) = bones[p.best.1 as usize];
-            if rigid[i].is_none() && p.size() <= (t - h).length() {
+            if rigid[i].is_none() && p.size() <= bone_len[p.best.1 as usize] {
                 rigid[i] = Some(Ties::one(p.best.1));
             }
         }
@@ -590,6 +616,36 @@ impl Ties {
     fn one(j: u32) -> Ties {
         Ties { bones: [j, u32::MAX, u32::MAX, u32::MAX], count: 1 }
     }
+
+    /// Segment indices mapped to their bones (`owner`), duplicates merged.
+    fn owned(self, owner: &[u32]) -> Ties {
+        let (bones, count) = owned_ties(self.bones, self.count, owner);
+        Ties { bones, count }
+    }
+}
+
+/// The first `count` segment indices of `ties` mapped through `owner`, duplicates merged,
+/// order kept; `u32::MAX` padded.
+fn owned_ties(ties: [u32; MAX_TIES], count: u8, owner: &[u32]) -> ([u32; MAX_TIES], u8) {
+    let mut out = [u32::MAX; MAX_TIES];
+    let mut n = 0u8;
+    for &j in &ties[..count as usize] {
+        let o = owner[j as usize];
+        if !out[..n as usize].contains(&o) {
+            out[n as usize] = o;
+            n += 1;
+        }
+    }
+    (out, n)
+}
+
+impl Source {
+    /// The same source in bones: segment indices mapped through `owner` (ties of one bone's
+    /// segments merged).
+    fn owned(self, owner: &[u32]) -> Source {
+        let (bones, count) = owned_ties(self.bones, self.count, owner);
+        Source { bones, count, nearest: owner[self.nearest as usize], ..self }
+    }
 }
 
 /// The bone(s) nearest to the point `p` (ties within [`TIE_RATIO`], lowest indices first).
@@ -683,27 +739,16 @@ impl PieceStats {
     }
 }
 
-/// Per-piece statistics: bbox, visibility, nearest bone, area, volume, closedness (an XOR of
-/// hashed edges per piece is 0 exactly when, up to hash collisions, every edge occurs an
-/// even number of times).
-fn piece_stats(
-    labels: &[u32],
-    npieces: usize,
-    wpos: &[DVec3],
-    tris: &[[u32; 3]],
-    mass: &[f64],
-    sources: &[Source],
-) -> Vec<PieceStats> {
+/// Per-piece geometry: bbox, area, volume, closedness (an XOR of hashed edges per piece is
+/// 0 exactly when, up to hash collisions, every edge occurs an even number of times).
+/// Visibility and the nearest bone come later, from [`mark_sources`].
+fn piece_stats(labels: &[u32], npieces: usize, wpos: &[DVec3], tris: &[[u32; 3]], mass: &[f64]) -> Vec<PieceStats> {
     let mut pieces = vec![PieceStats::default(); npieces];
     for (v, &l) in labels.iter().enumerate() {
         let p = &mut pieces[l as usize];
         p.active |= mass[v] > 0.0;
-        p.sees |= sources[v].count > 0;
         p.lo = p.lo.min(wpos[v]);
         p.hi = p.hi.max(wpos[v]);
-        if sources[v].nearest_dist < p.best.0 {
-            p.best = (sources[v].nearest_dist, sources[v].nearest);
-        }
     }
     let mut xor = vec![0u64; npieces];
     for t in tris {
@@ -726,6 +771,54 @@ fn piece_stats(
         p.closed = x == 0;
     }
     pieces
+}
+
+/// Per piece: does some vertex see a bone, and which bone is nearest to it.
+fn mark_sources(pieces: &mut [PieceStats], labels: &[u32], sources: &[Source]) {
+    for (s, &l) in sources.iter().zip(labels) {
+        let p = &mut pieces[l as usize];
+        p.sees |= s.count > 0;
+        if s.nearest_dist < p.best.0 {
+            p.best = (s.nearest_dist, s.nearest);
+        }
+    }
+}
+
+/// The segments standing for the bones on an imported rig (see [`HeatOptions::parents`]):
+/// per bone, its spans to children ([`crate::reach::child_segments`]) that lie inside a
+/// piece of the mesh (as in [`piece_contains_bone`]), plus head -> tail when a child starts
+/// at the tail or no span is inside. Returns `(segments, bone of each segment)`.
+fn reach_segments(
+    rm: &RayMesh,
+    bones: &[(DVec3, DVec3)],
+    parents: &[i32],
+    pieces: &[PieceStats],
+    labels: &[u32],
+    tris: &[[u32; 3]],
+) -> (Vec<(DVec3, DVec3)>, Vec<u32>) {
+    let heads: Vec<DVec3> = bones.iter().map(|s| s.0).collect();
+    let tails: Vec<DVec3> = bones.iter().map(|s| s.1).collect();
+    let (spans, tail_child) = crate::reach::child_segments(&heads, &tails, parents, REACH_TOLERANCE);
+    let inside: Vec<bool> = spans
+        .par_iter()
+        .map(|&(j, c)| {
+            let seg = [(heads[j], c)];
+            pieces.iter().enumerate().any(|(i, p)| p.active && piece_contains_bone(rm, i as u32, p, &seg, labels, tris))
+        })
+        .collect();
+    let (mut segs, mut owner) = (Vec::new(), Vec::new());
+    for j in 0..bones.len() {
+        let mine: Vec<DVec3> = spans.iter().zip(&inside).filter(|(s, &ins)| s.0 == j && ins).map(|(s, _)| s.1).collect();
+        if mine.is_empty() || tail_child[j] {
+            segs.push(bones[j]);
+            owner.push(j as u32);
+        }
+        for c in mine {
+            segs.push((heads[j], c));
+            owner.push(j as u32);
+        }
+    }
+    (segs, owner)
 }
 
 #[inline]

@@ -22,6 +22,7 @@ pub mod idw;
 pub mod bilinear;
 pub mod heat;
 pub mod symmetry;
+pub mod reach;
 
 // Posing.
 pub mod lbs;

@@ -405,3 +405,52 @@ fn prop_mesh_is_one_rigid_body() {
     assert!(is_rigid_on(&inf, body, 1));
     assert!(is_rigid_on(&inf, leaf, 1));
 }
+
+/// An imported-style rig (tails invented by the importer, nothing connected) in a thin upright
+/// cylinder: a root below the mesh, a bone whose tail is a short sideways stub while its child
+/// starts 0.9 higher, and that child. Returns (mesh, bones, parents).
+fn imported_rig() -> (Mesh, Bones, Vec<i32>) {
+    let m = capped_cylinder(0.08, 2.0, 41, 16);
+    let heads = vec![[0.0, 0.0, -0.5], [0.0, 0.0, 0.1], [0.0, 0.0, 1.0]];
+    let tails = vec![[0.3, 0.0, -0.5], [0.05, 0.0, 0.1], [0.0, 0.0, 1.9]];
+    (m, (heads, tails), vec![-1, 0, 1])
+}
+
+/// Mean weight of `bone` over the vertices with `z` in `[lo, hi]`.
+fn mean_weight(m: &Mesh, inf: &Influences, bone: i32, lo: f32, hi: f32) -> f32 {
+    let rows: Vec<usize> = (0..m.0.len()).filter(|&v| (lo..=hi).contains(&m.0[v][2])).collect();
+    let sum: f32 = rows
+        .iter()
+        .map(|&v| {
+            let (idx, w) = inf.row(v);
+            idx.iter().zip(w).filter(|(j, _)| **j == bone).map(|(_, w)| *w).sum::<f32>()
+        })
+        .sum();
+    sum / rows.len() as f32
+}
+
+#[test]
+fn imported_bones_reach_their_children_inside_the_mesh() {
+    let (m, b, parents) = imported_rig();
+    let (tails, _) = heat(&m, &b, &HeatOptions::default());
+    let opts = HeatOptions { parents: Some(parents), ..HeatOptions::default() };
+    let (reach, _) = heat(&m, &b, &opts);
+    assert_rows_sum_to_one(&reach);
+    // Between bone 1's head and its child's head the limb is bone 1's.
+    let (with, without) = (mean_weight(&m, &reach, 1, 0.4, 0.7), mean_weight(&m, &tails, 1, 0.4, 0.7));
+    assert!(with > 0.9, "bone 1 reaching its child: {with}");
+    assert!(without < 0.8, "bone 1 as its invented stub: {without}");
+    // The root's span up to bone 1 runs mostly outside the mesh: not used, so the root (below
+    // the mesh, its tail sideways) leads no vertex, while taking that span would give it the
+    // bottom cap.
+    for v in 0..m.0.len() {
+        let (idx, w) = reach.row(v);
+        let lead = idx[w.iter().enumerate().max_by(|a, b| a.1.total_cmp(b.1)).unwrap().0];
+        assert_ne!(lead, 0, "vertex {v} at z {} led by the root", m.0[v][2]);
+    }
+    // Bad parents are errors.
+    for bad in [vec![-1, 0], vec![-1, 1, 1], vec![-1, 0, 3]] {
+        let opts = HeatOptions { parents: Some(bad), ..HeatOptions::default() };
+        assert!(heat_weights(&m.0, &m.1, &b.0, &b.1, &opts, None).is_err());
+    }
+}

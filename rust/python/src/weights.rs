@@ -118,6 +118,7 @@ fn heat_impl<'py>(
     bone_mirror: Option<PyArrayLike1<'py, i32, AllowTypeChange>>,
     symmetry_axis: usize,
     symmetry_tolerance: f32,
+    parents: Option<PyArrayLike1<'py, i32, AllowTypeChange>>,
     progress: Option<Py<PyAny>>,
 ) -> PyResult<(Pair<'py>, Bound<'py, PyDict>)> {
     let v = rows::<f32, 3>(&vertices, "vertices")?;
@@ -139,6 +140,7 @@ fn heat_impl<'py>(
         weld_tolerance,
         heat_constant,
         symmetry,
+        parents: parents.map(|p| vector(&p)),
         ..HeatOptions::default()
     };
     // A Python progress callable is called with the GIL re-acquired; returning False cancels.
@@ -160,7 +162,7 @@ fn heat_impl<'py>(
 #[pyfunction]
 #[pyo3(signature = (vertices, triangles, bone_heads, bone_tails, *, max_influences=4, min_weight=1e-3,
                     visibility=true, weld_tolerance=1e-5, heat_constant=1.0, bone_mirror=None,
-                    symmetry_axis=0, symmetry_tolerance=1e-3, progress=None))]
+                    symmetry_axis=0, symmetry_tolerance=1e-3, parents=None, progress=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn heat_weights<'py>(
     py: Python<'py>,
@@ -176,11 +178,12 @@ pub fn heat_weights<'py>(
     bone_mirror: Option<PyArrayLike1<'py, i32, AllowTypeChange>>,
     symmetry_axis: usize,
     symmetry_tolerance: f32,
+    parents: Option<PyArrayLike1<'py, i32, AllowTypeChange>>,
     progress: Option<Py<PyAny>>,
 ) -> PyResult<Pair<'py>> {
     let (pair, _) = heat_impl(
         py, vertices, triangles, bone_heads, bone_tails, max_influences, min_weight, visibility,
-        weld_tolerance, heat_constant, bone_mirror, symmetry_axis, symmetry_tolerance, progress,
+        weld_tolerance, heat_constant, bone_mirror, symmetry_axis, symmetry_tolerance, parents, progress,
     )?;
     Ok(pair)
 }
@@ -189,7 +192,7 @@ pub fn heat_weights<'py>(
 #[pyfunction]
 #[pyo3(signature = (vertices, triangles, bone_heads, bone_tails, *, max_influences=4, min_weight=1e-3,
                     visibility=true, weld_tolerance=1e-5, heat_constant=1.0, bone_mirror=None,
-                    symmetry_axis=0, symmetry_tolerance=1e-3, progress=None))]
+                    symmetry_axis=0, symmetry_tolerance=1e-3, parents=None, progress=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn heat_weights_report<'py>(
     py: Python<'py>,
@@ -205,11 +208,12 @@ pub fn heat_weights_report<'py>(
     bone_mirror: Option<PyArrayLike1<'py, i32, AllowTypeChange>>,
     symmetry_axis: usize,
     symmetry_tolerance: f32,
+    parents: Option<PyArrayLike1<'py, i32, AllowTypeChange>>,
     progress: Option<Py<PyAny>>,
 ) -> PyResult<(Bound<'py, PyArray2<i32>>, Bound<'py, PyArray2<f32>>, Bound<'py, PyDict>)> {
     let ((i, w), report) = heat_impl(
         py, vertices, triangles, bone_heads, bone_tails, max_influences, min_weight, visibility,
-        weld_tolerance, heat_constant, bone_mirror, symmetry_axis, symmetry_tolerance, progress,
+        weld_tolerance, heat_constant, bone_mirror, symmetry_axis, symmetry_tolerance, parents, progress,
     )?;
     Ok((i, w, report))
 }

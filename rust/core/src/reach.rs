@@ -1,0 +1,80 @@
+//! Bones of imported rigs reach their children.
+//!
+//! glTF (and FBX) store joints, not bones. Blender's importer gives every joint a tail along
+//! the joint's local Y axis, which on a limb often points out of it: the Fox sample's upper
+//! arm points forward while its leg goes down to the forearm's head. On such a rig a bone
+//! really spans from its head to the heads of its children; [`child_segments`] lists those
+//! spans, and [`crate::heat`] uses the ones lying inside the mesh in place of head -> tail.
+
+use crate::{Error, Result};
+use glam::DVec3;
+
+/// Check a parent list for `b` bones: `(b,)`, each `-1` (root) or another bone's index.
+pub fn validate_parents(parents: &[i32], b: usize) -> Result<()> {
+    if parents.len() != b {
+        return Err(Error::Shape(format!("{} parents for {b} bones", parents.len())));
+    }
+    for (i, &p) in parents.iter().enumerate() {
+        if p < -1 || p >= b as i32 || p == i as i32 {
+            return Err(Error::InvalidArgument(format!(
+                "parent of bone {i} is {p}; it must be -1 or another bone's index (0..{b})"
+            )));
+        }
+    }
+    Ok(())
+}
+
+/// Spans from bones to children that do not start at the bone's tail.
+///
+/// Inputs: bone `heads` / `tails` `(b,)`, `parents` `(b,)` (validated, `-1` for roots), and
+/// `tol`, the distance under which two points coincide. Output: `(spans, tail_child)`:
+/// `spans` lists `(bone, child head)` for every child whose head lies farther than `tol`
+/// from both the bone's tail and its head (a child at the same head adds no extent), in
+/// bone order; `tail_child[b]` says some child of `b` starts at its tail (a connected chain,
+/// whose head -> tail segment is real).
+pub fn child_segments(heads: &[DVec3], tails: &[DVec3], parents: &[i32], tol: f64) -> (Vec<(usize, DVec3)>, Vec<bool>) {
+    let mut spans = Vec::new();
+    let mut tail_child = vec![false; heads.len()];
+    let mut children: Vec<Vec<usize>> = vec![Vec::new(); heads.len()];
+    for (c, &p) in parents.iter().enumerate() {
+        if p >= 0 {
+            children[p as usize].push(c);
+        }
+    }
+    for (b, kids) in children.iter().enumerate() {
+        for &c in kids {
+            if heads[c].distance(tails[b]) <= tol {
+                tail_child[b] = true;
+            } else if heads[c].distance(heads[b]) > tol {
+                spans.push((b, heads[c]));
+            }
+        }
+    }
+    (spans, tail_child)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn spans_skip_connected_and_coincident_children() {
+        // 0: root at the origin with an invented tail along +y; 1 starts away from it (span);
+        // 2 starts at 1's tail (connected); 3 starts at 1's head (no extent).
+        let heads = [DVec3::ZERO, DVec3::new(0.0, 0.0, 1.0), DVec3::new(0.0, 0.0, 2.0), DVec3::new(0.0, 0.0, 1.0)];
+        let tails = [DVec3::new(0.0, 1.0, 0.0), DVec3::new(0.0, 0.0, 2.0), DVec3::new(0.0, 0.0, 3.0), DVec3::new(1.0, 0.0, 1.0)];
+        let parents = [-1, 0, 1, 1];
+        validate_parents(&parents, 4).unwrap();
+        let (spans, tail_child) = child_segments(&heads, &tails, &parents, 1e-6);
+        assert_eq!(spans, vec![(0, heads[1])]);
+        assert_eq!(tail_child, vec![false, true, false, false]);
+    }
+
+    #[test]
+    fn bad_parents_are_errors() {
+        assert!(matches!(validate_parents(&[-1, 0], 3), Err(Error::Shape(_))));
+        assert!(matches!(validate_parents(&[-1, 1], 2), Err(Error::InvalidArgument(_))));
+        assert!(matches!(validate_parents(&[-1, 2], 2), Err(Error::InvalidArgument(_))));
+        assert!(matches!(validate_parents(&[-2, 0], 2), Err(Error::InvalidArgument(_))));
+    }
+}
