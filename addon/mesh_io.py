@@ -21,7 +21,9 @@ class Bones:
     """Deform bones of an armature in world space (rest pose).
 
     names: bone names (b,); heads, tails: (b, 3) float32 world space; parents: (b,) int32
-    index into these bones or -1; selected: (b,) bool; skipped: names of zero-length bones.
+    index into these bones or -1; selected: (b,) bool; skipped: names of zero-length bones;
+    connected: some bone of the armature is connected to its parent (rigs built in Blender
+    are; imported glTF/FBX rigs, whose tails the importer invents, are not).
     """
 
     names: list[str]
@@ -30,6 +32,7 @@ class Bones:
     parents: np.ndarray
     selected: np.ndarray
     skipped: list[str] = field(default_factory=list)
+    connected: bool = True
 
 
 def mesh_world_vertices(ob: bpy.types.Object) -> np.ndarray:
@@ -83,7 +86,8 @@ def armature_bones(arm_ob: bpy.types.Object, min_length: float = 0.0) -> Bones:
         parents.append(index[p.name] if p is not None else -1)
     as3 = lambda rows: np.asarray(rows, dtype=np.float32).reshape(-1, 3)  # noqa: E731
     return Bones(names, as3(heads), as3(tails), np.asarray(parents, dtype=np.int32),
-                 np.asarray(sel, dtype=bool), skipped)
+                 np.asarray(sel, dtype=bool), skipped,
+                 connected=any(b.use_connect for b in arm_ob.data.bones))
 
 
 _MIRROR_PATTERNS = [

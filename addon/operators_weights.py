@@ -77,6 +77,14 @@ class MINISKELETON_OT_auto_weights(bpy.types.Operator):
     visibility: BoolProperty(
         name="Visibility Test", default=True,
         description="A bone heats a vertex only if the straight line to it stays inside the mesh")
+    bone_extent: EnumProperty(
+        name="Bone Extent", default="AUTO",
+        items=[("AUTO", "Auto", "Imported rigs (no bone connected to its parent, as glTF and FBX "
+                "imports are): To Children; rigs built in Blender: Head to Tail"),
+               ("TAIL", "Head to Tail", "Each bone is its head-to-tail segment, as in Blender"),
+               ("CHILDREN", "To Children", "A bone whose children start away from its tail reaches "
+                "their heads (the segments that lie inside the mesh); importers invent tails, "
+                "often pointing out of the limb")])
     # IDW
     power: FloatProperty(name="Power", default=2.0, min=0.1, max=16.0,
                          description="Inverse-distance exponent p")
@@ -103,6 +111,7 @@ class MINISKELETON_OT_auto_weights(bpy.types.Operator):
         if self.method == "HEAT":
             layout.prop(self, "symmetry")
             layout.prop(self, "visibility")
+            layout.prop(self, "bone_extent")
         elif self.method == "IDW":
             layout.prop(self, "power")
         else:
@@ -182,7 +191,14 @@ class MINISKELETON_OT_auto_weights(bpy.types.Operator):
         return dict(method=self.method, k=self.max_influences, power=self.power, nearest=self.nearest,
                     falloff="gaussian" if self.falloff == "GAUSSIAN" else "inverse_power",
                     sigma=self.sigma if self.sigma > 0 else None, visibility=self.visibility,
-                    mirror=mesh_io.bone_mirror_indices(bones.names) if self.symmetry == "X" else None)
+                    mirror=mesh_io.bone_mirror_indices(bones.names) if self.symmetry == "X" else None,
+                    parents=bones.parents if self._reach_children(bones) else None)
+
+    def _reach_children(self, bones) -> bool:
+        """Bones reach their children's heads (Bone Extent; Auto: on imported rigs)."""
+        if self.bone_extent == "AUTO":
+            return not bones.connected
+        return self.bone_extent == "CHILDREN"
 
     def _write(self, prepared, results, notes, secs):
         """Write groups, modifier and parent for every mesh (main thread), then report."""
@@ -299,7 +315,7 @@ def mesh_weights(core, settings: dict, verts, tris, bones, progress):
         return i, w, None
     return core.heat_weights_report(
         verts, tris, bones.heads, bones.tails, max_influences=k, visibility=settings["visibility"],
-        bone_mirror=settings["mirror"], progress=progress)
+        bone_mirror=settings["mirror"], parents=settings["parents"], progress=progress)
 
 
 def compute_weights(core, settings: dict, bones, inputs, progress):

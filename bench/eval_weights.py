@@ -2,7 +2,7 @@
 against the artist's weights of real rigged models, in one process.
 
     .venv/bin/python bench/eval_weights.py [--models Fox,CesiumMan] [--no-blender] [--detail 5] [--symmetry X]
-        [--clips 3] [--frames 20] [--actions ThumbsUp,Wave]
+        [--clips 3] [--frames 20] [--actions ThumbsUp,Wave] [--bone-extent AUTO|TAIL|CHILDREN]
 
 Models are read from ``../shared/models/`` relative to the project root (never copied into the
 repository); a missing folder or file is skipped with a message. For each model the glTF is
@@ -100,6 +100,7 @@ def strip(meshes, bones):
 
 
 SYMMETRY = {"value": "NONE"}  # our operator's Symmetry option (--symmetry)
+BONE_EXTENT = {"value": "AUTO"}  # our operator's Bone Extent option (--bone-extent)
 
 
 def bind(bpy, arm, meshes, ours):
@@ -111,7 +112,8 @@ def bind(bpy, arm, meshes, ours):
     bpy.context.view_layer.update()
     t = time.perf_counter()
     if ours:
-        res = bpy.ops.object.miniskeleton_auto_weights(method="HEAT", symmetry=SYMMETRY["value"])
+        res = bpy.ops.object.miniskeleton_auto_weights(method="HEAT", symmetry=SYMMETRY["value"],
+                                                        bone_extent=BONE_EXTENT["value"])
     else:
         res = bpy.ops.object.parent_set(type="ARMATURE_AUTO", keep_transform=True)
     secs = time.perf_counter() - t
@@ -500,6 +502,8 @@ def main(argv=None):
     ap.add_argument("--no-blender", action="store_true", help="skip Blender's own operator")
     ap.add_argument("--symmetry", default="NONE", choices=["NONE", "X"],
                     help="our operator's Symmetry (world x = 0 mirror plane, bones paired by name)")
+    ap.add_argument("--bone-extent", default="AUTO", choices=["AUTO", "TAIL", "CHILDREN"],
+                    help="our operator's Bone Extent (AUTO: imported rigs reach their children)")
     ap.add_argument("--clips", type=int, default=3,
                     help="first N actions of the model (bpy.data order); 0: 8 seeded random poses")
     ap.add_argument("--actions", default="",
@@ -510,6 +514,7 @@ def main(argv=None):
     ap.add_argument("--out", default=str(ROOT / "out" / "eval_weights.md"))
     args = ap.parse_args(argv)
     SYMMETRY["value"] = args.symmetry
+    BONE_EXTENT["value"] = args.bone_extent
 
     folder = Path(args.models_dir)
     if not folder.is_dir():

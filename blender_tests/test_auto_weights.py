@@ -318,7 +318,7 @@ def _job_inputs(rings=120, segments=64):
     bones = mesh_io.armature_bones(arm)
     inputs = [(ob, ob.name, mesh_io.mesh_world_vertices(ob), mesh_io.mesh_triangles(ob))]
     settings = dict(method="HEAT", k=4, power=2.0, nearest=3, falloff="gaussian", sigma=None,
-                    visibility=True, mirror=None)
+                    visibility=True, mirror=None, parents=None)
     return ob, bones, inputs, settings
 
 

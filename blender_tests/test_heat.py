@@ -109,3 +109,44 @@ def test_sealed_piece_is_weighted_rigidly_where_blender_writes_nothing():
     assert (w.sum(1) > 0.999).all()
     button = w[len(body_v) + len(shell_v):]
     assert (button.max(1) == 1.0).all() and len(set(button.argmax(1))) == 1
+
+
+def imported_style_rig(connected):
+    """A cylinder and a glTF-import-style chain: each tail a short sideways stub (the importer
+    invents tails), each child starting 1.2 higher, nothing connected. ``connected``: a rig
+    built in Blender instead, whose first bone reaches and connects to the second (the
+    second's tail is still a stub)."""
+    ob = B.cylinder(radius=0.2, height=4.0, rings=40, segments=16)
+    zs = [0.2, 1.4, 2.6]
+    bones = []
+    for i, z in enumerate(zs):
+        tail = (0.1, 0, z) if i + 1 < len(zs) else (0, 0, 3.8)
+        if connected and i == 0:
+            tail = (0, 0, zs[1])
+        bones.append((f"Bone{i}", (0, 0, z), tail, f"Bone{i-1}" if i else None, connected and i == 1))
+    return ob, B.armature(bones=bones)
+
+
+def test_bone_extent_auto_reaches_children_on_imported_rigs_only():
+    names = ["Bone0", "Bone1", "Bone2"]
+    ob, arm = imported_style_rig(connected=False)
+    z = B.world_vertices(ob)[:, 2]
+    mid = (z > 0.6) & (z < 1.0)  # between Bone0's head and its child's
+    assert bind([ob], arm) == {"FINISHED"}  # Auto on a rig with nothing connected: To Children
+    auto = B.weights_matrix(ob, names)
+    assert bind([ob], arm, bone_extent="TAIL") == {"FINISHED"}
+    tail = B.weights_matrix(ob, names)
+    assert auto[mid, 0].mean() > 0.9 > tail[mid, 0].mean()
+    assert bind([ob], arm, bone_extent="CHILDREN") == {"FINISHED"}
+    np.testing.assert_allclose(B.weights_matrix(ob, names), auto, atol=1e-6)
+    # A rig built in Blender (something connected): Auto is head -> tail, as in Blender, even
+    # where a child starts away from its parent's tail (Bone1 -> Bone2).
+    ob2, arm2 = imported_style_rig(connected=True)
+    z2 = B.world_vertices(ob2)[:, 2]
+    mid2 = (z2 > 1.8) & (z2 < 2.2)  # between Bone1's head and Bone2's
+    assert bind([ob2], arm2) == {"FINISHED"}
+    auto2 = B.weights_matrix(ob2, names)
+    assert bind([ob2], arm2, bone_extent="TAIL") == {"FINISHED"}
+    np.testing.assert_allclose(B.weights_matrix(ob2, names), auto2, atol=1e-6)
+    assert bind([ob2], arm2, bone_extent="CHILDREN") == {"FINISHED"}
+    assert B.weights_matrix(ob2, names)[mid2, 1].mean() > 0.9 > auto2[mid2, 1].mean()
