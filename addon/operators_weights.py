@@ -219,6 +219,8 @@ class MINISKELETON_OT_auto_weights(bpy.types.Operator):
         label = dict((m[0], m[1]) for m in METHODS)[self.method]
         msg = (f"{label}: {nverts} vertices in {len(inputs)} mesh(es), {int(write.sum())} bones, "
                f"{secs:.2f} s")
+        if self.method == "HEAT" and self._reach_children(bones):
+            msg += "; bones reach their children (imported rig, see Bone Extent)"
         if kept_locked:
             notes.append(f"locked groups kept: {', '.join(sorted(kept_locked)[:5])}")
         for note in notes:
