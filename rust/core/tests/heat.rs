@@ -454,3 +454,39 @@ fn imported_bones_reach_their_children_inside_the_mesh() {
         assert!(heat_weights(&m.0, &m.1, &b.0, &b.1, &opts, None).is_err());
     }
 }
+
+/// Random rigs (bones anywhere, inside or outside, any valid parent list) on a mesh of two
+/// pieces: reaching children never fails and every row sums to 1.
+#[test]
+fn random_imported_rigs_always_give_weights() {
+    let mut state = 0x2545_F491_4F6C_DD1Du64;
+    let mut next = move || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        (state >> 11) as f32 / (1u64 << 53) as f32
+    };
+    let (mut v, mut t) = capped_cylinder(0.2, 2.0, 21, 12);
+    let (v2, t2) = capped_cylinder(0.1, 0.5, 6, 8);
+    let base = v.len() as u32;
+    v.extend(v2.iter().map(|p| [p[0] + 1.0, p[1], p[2]]));
+    t.extend(t2.iter().map(|f| f.map(|i| i + base)));
+    for _ in 0..40 {
+        let b = 1 + (next() * 8.0) as usize;
+        let mut point = || [next() * 2.0 - 0.5, next() * 0.6 - 0.3, next() * 2.6 - 0.3];
+        let heads: Vec<[f32; 3]> = (0..b).map(|_| point()).collect();
+        let tails: Vec<[f32; 3]> = heads.iter().map(|h| [h[0] + 0.1, h[1], h[2] + 0.05]).collect();
+        // Parents: -1 or any other bone (cycles included: only direct parents matter).
+        let parents: Vec<i32> = (0..b)
+            .map(|i| {
+                let p = ((next() * (b + 1) as f32) as i32 - 1).min(b as i32 - 1);
+                if p == i as i32 { -1 } else { p }
+            })
+            .collect();
+        let opts = HeatOptions { parents: Some(parents.clone()), ..HeatOptions::default() };
+        let (inf, _) = heat_weights(&v, &t, &heads, &tails, &opts, None)
+            .unwrap_or_else(|e| panic!("parents {parents:?}: {e}"));
+        assert_rows_sum_to_one(&inf);
+        assert!(inf.indices.iter().all(|&j| j < b as i32));
+    }
+}
