@@ -22,8 +22,7 @@ class Bones:
 
     names: bone names (b,); heads, tails: (b, 3) float32 world space; parents: (b,) int32
     index into these bones or -1; selected: (b,) bool; skipped: names of zero-length bones;
-    connected: some bone of the armature is connected to its parent (rigs built in Blender
-    are; imported glTF/FBX rigs, whose tails the importer invents, are not).
+    imported: the armature looks imported (see ``invented_tails``).
     """
 
     names: list[str]
@@ -32,7 +31,7 @@ class Bones:
     parents: np.ndarray
     selected: np.ndarray
     skipped: list[str] = field(default_factory=list)
-    connected: bool = True
+    imported: bool = False
 
 
 def mesh_world_vertices(ob: bpy.types.Object) -> np.ndarray:
@@ -86,8 +85,15 @@ def armature_bones(arm_ob: bpy.types.Object, min_length: float = 0.0) -> Bones:
         parents.append(index[p.name] if p is not None else -1)
     as3 = lambda rows: np.asarray(rows, dtype=np.float32).reshape(-1, 3)  # noqa: E731
     return Bones(names, as3(heads), as3(tails), np.asarray(parents, dtype=np.int32),
-                 np.asarray(sel, dtype=bool), skipped,
-                 connected=any(b.use_connect for b in arm_ob.data.bones))
+                 np.asarray(sel, dtype=bool), skipped, imported=invented_tails(arm_ob.data.bones))
+
+
+def invented_tails(bones) -> bool:
+    """Does this armature look imported from glTF/FBX, whose tails the importer invented?
+    True when no bone is connected to its parent (rigs built in Blender have connected
+    chains). ``bones``: an armature's bones or edit bones. The Auto rule of both Auto Weights'
+    Bone Extent and Fit's Free Tails."""
+    return not any(b.use_connect for b in bones)
 
 
 _MIRROR_PATTERNS = [

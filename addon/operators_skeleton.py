@@ -188,7 +188,7 @@ class MINISKELETON_OT_fit_skeleton(bpy.types.Operator):
                 return {"CANCELLED"}
 
             real = ends[:, 0] != ends[:, 1]
-            follow = self.tails == "FOLLOW" or (self.tails == "AUTO" and not any(connected))
+            follow = self.tails == "FOLLOW" or (self.tails == "AUTO" and mesh_io.invented_tails(bones))
             fit_j, fit_bones, mirror = _fit_graph(ends, real, parents, follow, names)
             kw = {}
             if self.symmetry == "X":

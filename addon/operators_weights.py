@@ -197,7 +197,7 @@ class MINISKELETON_OT_auto_weights(bpy.types.Operator):
     def _reach_children(self, bones) -> bool:
         """Bones reach their children's heads (Bone Extent; Auto: on imported rigs)."""
         if self.bone_extent == "AUTO":
-            return not bones.connected
+            return bones.imported
         return self.bone_extent == "CHILDREN"
 
     def _write(self, prepared, results, notes, secs):
