@@ -96,14 +96,16 @@ def fit_joints(vertices: ArrayLike, triangles: ArrayLike, joints: ArrayLike, bon
                movable: Optional[ArrayLike] = None, *, symmetry_axis: Optional[int] = None,
                symmetry_plane: float = 0.0, joint_mirror: Optional[ArrayLike] = None, rays: int = 12,
                samples: int = 5, rounds: int = 12, tolerance: float = 1e-4, stiffness: float = 0.05, tip: bool = True,
-               max_move: float = 0.12, stub_ratio: float = 0.5) -> Tuple[npt.NDArray[np.float32], dict]:
+               max_move: float = 0.12, stub_ratio: float = 0.5,
+               min_sections: int = 2) -> Tuple[npt.NDArray[np.float32], dict]:
     """Fit joints (j,3) into the mesh (same space): each goes to the nearest point of its bones'
     centre lines (cross-section centres); joints left outside are pulled in. bones (b,2) joint
     indices; movable (j,) bool; with symmetry_axis, joint_mirror (j,) pairs end exactly mirrored,
     centre joints (mirror = itself) on the plane, joints with mirror -1 are free. max_move caps a
     joint's fitting move (fraction of the bbox diagonal). A bone leaving a junction (a joint of 3+ bones)
     whose thinnest section's radius exceeds stub_ratio times its length (pelvis to hip) gives no
-    centre line; 0 disables. Report: outside_before/after (+ _mask), rounds, max_move,
+    centre line; 0 disables. A bone with fewer than min_sections usable sections (one pins a point,
+    not a direction) gives no centre line either. Report: outside_before/after (+ _mask), rounds, max_move,
     open_edges, nonmanifold_edges, pieces."""
 
 def points_inside(vertices: ArrayLike, triangles: ArrayLike, points: ArrayLike) -> npt.NDArray[np.bool_]:

@@ -57,3 +57,29 @@ def test_fit_real_models_leaves_no_joint_outside(name):
     assert r["out_before"] > 0  # the displacement pushes some joints out ...
     assert r["out_after"] == 0  # ... and the fit brings every one back in
     assert r["after"] < r["before"], r  # lower on every model (halved only on some: bench_fit)
+
+
+def test_fit_leaves_fox_front_legs_where_the_artist_put_them():
+    """Fox's upper legs run from the shoulder, inside the torso, down the leg: only their lowest
+    sections cross the leg itself. One section pins a point, not a direction, so such a bone
+    gives no centre line (FitOptions::min_sections); following the bone through that one point
+    dragged the undisplaced shoulders and elbows 5 % of the diagonal (bench_fit's floor)."""
+    need("Fox.glb")
+    rig_io = importlib.import_module(blender_session.ADDON_MODULE + ".rig_io")
+    mesh_io = importlib.import_module(blender_session.ADDON_MODULE + ".mesh_io")
+    arm, meshes = bench_fit.load(bpy, "Fox.glb")
+    inv = np.linalg.inv(np.array(arm.matrix_world))  # edit bones are in armature space
+    verts = np.concatenate([mesh_io.mesh_world_vertices(o) @ inv[:3, :3].T + inv[:3, 3] for o in meshes])
+    diag = float(np.linalg.norm(np.ptp(verts, axis=0)))
+    orig, ends = bench_fit.read_joints(bpy, arm, rig_io, diag)
+    names = [b.name for b in arm.data.bones]
+    for o in bpy.context.view_layer.objects:
+        o.select_set(o in meshes or o is arm)
+    bpy.context.view_layer.objects.active = arm
+    assert bpy.ops.armature.miniskeleton_fit_skeleton(tails="AUTO", symmetry="NONE") == {"FINISHED"}
+    moved = np.linalg.norm(bench_fit.joints_now(bpy, arm, ends) - orig, axis=1) / diag
+    legs = [n for n in names if "UpperArm" in n or "ForeArm" in n]
+    assert len(legs) == 4, names
+    for n in legs:
+        j = ends[names.index(n), 0]
+        assert moved[j] < 0.01, f"{n} moved {moved[j]:.3f} of the diagonal"

@@ -75,6 +75,11 @@ pub struct FitOptions {
     /// final pull inside may add more): how rough the input skeleton is assumed to be. Large
     /// moves are where the centre lines of body sections mislead junction joints.
     pub max_move: f64,
+    /// A bone needs at least this many usable cross-sections (or all `samples`, if fewer) for a
+    /// centre line. One section pins a point, not a direction: when the bone's other sections
+    /// are slices of another part (an upper leg whose top runs into a torso), following the
+    /// bone's own direction through that one point lets its joints drift round after round.
+    pub min_sections: usize,
 }
 
 impl Default for FitOptions {
@@ -89,6 +94,7 @@ impl Default for FitOptions {
             tip: true,
             stub_ratio: 0.5,
             max_move: 0.12,
+            min_sections: 2,
         }
     }
 }
@@ -548,7 +554,8 @@ pub fn fit_joints(
                         pts.push((s, off, r));
                     }
                 }
-                if pts.is_empty() {
+                // Too few sections (see `min_sections`): no centre line.
+                if pts.len() < opts.min_sections.clamp(1, opts.samples) {
                     return None;
                 }
                 // A stub branching off a junction (shorter than its thinnest section is wide:

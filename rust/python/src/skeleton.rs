@@ -11,11 +11,12 @@ use pyo3::types::PyDict;
 /// Fit joints (j,3) into the mesh: each joint goes to the nearest point of its bones' centre
 /// lines. bones (b,2) joint indices; movable (j,) bool (default all); symmetry_axis 0/1/2 with
 /// joint_mirror (j,) mirror joint indices; max_move caps each joint's fitting move (fraction of the
-/// mesh's bounding-box diagonal). Returns (joints (j,3) float32, report dict).
+/// mesh's bounding-box diagonal); stub_ratio and min_sections: see `FitOptions`. Returns
+/// (joints (j,3) float32, report dict).
 #[pyfunction]
 #[pyo3(signature = (vertices, triangles, joints, bones, movable=None, *, symmetry_axis=None,
                     symmetry_plane=0.0, joint_mirror=None, rays=12, samples=5, rounds=12,
-                    tolerance=1e-4, stiffness=0.05, tip=true, max_move=0.12, stub_ratio=0.5))]
+                    tolerance=1e-4, stiffness=0.05, tip=true, max_move=0.12, stub_ratio=0.5, min_sections=2))]
 #[allow(clippy::too_many_arguments)]
 pub fn fit_joints<'py>(
     py: Python<'py>,
@@ -35,6 +36,7 @@ pub fn fit_joints<'py>(
     tip: bool,
     max_move: f64,
     stub_ratio: f64,
+    min_sections: usize,
 ) -> PyResult<(Bound<'py, PyArray2<f32>>, Bound<'py, PyDict>)> {
     let v = rows::<f32, 3>(&vertices, "vertices")?;
     let t = rows::<u32, 3>(&triangles, "triangles")?;
@@ -46,7 +48,7 @@ pub fn fit_joints<'py>(
         (Some(axis), Some(m)) => Some(Symmetry { axis, plane: symmetry_plane, mirror: vector(&m) }),
         _ => return Err(PyValueError::new_err("symmetry_axis and joint_mirror go together")),
     };
-    let opts = FitOptions { symmetry, rays, samples, rounds, tolerance, stiffness, tip, max_move, stub_ratio };
+    let opts = FitOptions { symmetry, rays, samples, rounds, tolerance, stiffness, tip, max_move, stub_ratio, min_sections };
     let (out, rep) = guarded(py, move || fit::fit_joints(&v, &t, &j, &b, &mv, &opts))?;
     let d = PyDict::new(py);
     d.set_item("outside_before", rep.count_outside_before())?;
