@@ -98,10 +98,9 @@ def set_joints(bpy, arm, joints, ends, rig_io):
     bpy.ops.object.mode_set(mode="OBJECT")
 
 
-def run(bpy, name, seeds, rig_io, core, mesh_io, **op):
-    arm, meshes = load(bpy, name)
-    if arm is None or not meshes:
-        return None
+def armature_space_mesh(arm, meshes, mesh_io):
+    """The meshes in the armature's space, where edit bones live: (vertices (n,3) float32,
+    triangles (m,3) uint32, bounding-box diagonal)."""
     inv = np.linalg.inv(np.array(arm.matrix_world))
     verts, tris, base = [], [], 0
     for ob in meshes:
@@ -111,7 +110,24 @@ def run(bpy, name, seeds, rig_io, core, mesh_io, **op):
         base += len(v)
     verts = np.concatenate(verts)
     tris = np.concatenate(tris).astype(np.uint32)
-    diag = float(np.linalg.norm(verts.max(0) - verts.min(0)))  # armature space
+    return verts, tris, float(np.linalg.norm(verts.max(0) - verts.min(0)))
+
+
+def fit(bpy, arm, meshes, **op):
+    """Select the meshes and the armature (active) and run Fit Skeleton: (finished, seconds)."""
+    for o in bpy.context.view_layer.objects:
+        o.select_set(o in meshes or o is arm)
+    bpy.context.view_layer.objects.active = arm
+    start = time.perf_counter()
+    ok = bpy.ops.armature.miniskeleton_fit_skeleton(**op) == {"FINISHED"}
+    return ok, time.perf_counter() - start
+
+
+def run(bpy, name, seeds, rig_io, core, mesh_io, **op):
+    arm, meshes = load(bpy, name)
+    if arm is None or not meshes:
+        return None
+    verts, tris, diag = armature_space_mesh(arm, meshes, mesh_io)
     orig, ends = read_joints(bpy, arm, rig_io, diag)
     real = real_joints(ends, imported=name != "creature")
     inside_orig = core.points_inside(verts, tris, orig.astype(np.float32))
@@ -121,17 +137,9 @@ def run(bpy, name, seeds, rig_io, core, mesh_io, **op):
     def outside(j):
         return int((~core.points_inside(verts, tris, j.astype(np.float32)) & real).sum())
 
-    def fit():
-        for o in bpy.context.view_layer.objects:
-            o.select_set(o in meshes or o is arm)
-        bpy.context.view_layer.objects.active = arm
-        start = time.perf_counter()
-        ok = bpy.ops.armature.miniskeleton_fit_skeleton(**op) == {"FINISHED"}
-        return ok, time.perf_counter() - start
-
     # Floor: how far the fit moves the artist's own joints (where the mesh's centres disagree
     # with the artist, no displacement can be undone below this).
-    if not fit()[0]:
+    if not fit(bpy, arm, meshes, **op)[0]:
         return None
     floor = np.linalg.norm(joints_now(bpy, arm, ends) - orig, axis=1)[real].mean() / diag * 100
     set_joints(bpy, arm, orig, ends, rig_io)
@@ -142,7 +150,7 @@ def run(bpy, name, seeds, rig_io, core, mesh_io, **op):
         d *= (0.05 * diag * rng.random(len(orig)) ** (1 / 3) / np.linalg.norm(d, axis=1))[:, None]
         moved = orig + d
         set_joints(bpy, arm, moved, ends, rig_io)
-        ok, secs = fit()
+        ok, secs = fit(bpy, arm, meshes, **op)
         if not ok:
             return None
         fitted = joints_now(bpy, arm, ends)

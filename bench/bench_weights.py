@@ -14,8 +14,8 @@ weights, write groups; median of --repeats runs), ratio, and the core's own spli
 repeats): total against factor+solve, the latter both as numeric factor + solves ("f+s") and
 with the symbolic analysis (AMD ordering, elimination tree, supernodes) that is part of any
 sparse factorization, as in SciPy's SuperLU figure the issue compares with ("sym+f+s"; our
-symbolic step runs while the BVH is built, so it is not on the critical path). Also IDW and BILINEAR. Nothing is asserted: tests check
-correctness, this measures speed.
+symbolic step runs while the BVH is built, so it is not on the critical path). Also IDW and
+BILINEAR. Nothing is asserted: tests check correctness, this measures speed.
 """
 
 from __future__ import annotations

@@ -23,8 +23,8 @@ Per model (all skinned meshes together, every split vertex counted):
   (up to --frames frames of each of the first --clips animations, in the file's order; seeded
   random poses if it has none), as % of the bounding-box diagonal of the rest mesh. ``--clips 1``
   (the file's first animation) reproduces the issue's figures for Blender: Fox 0.90 (Survey),
-  CesiumMan 0.15, q_Bunny 2.66 (Death) here, against the issue's 0.89 / 0.15 / 2.65. Both sides use normalized weights;
-  an unweighted vertex stays at rest, as in Blender's Armature modifier. Before it is used, the
+  CesiumMan 0.15, q_Bunny 2.66 (Death) here, against the issue's 0.89 / 0.15 / 2.65. Both sides
+  use normalized weights; an unweighted vertex stays at rest, as in Blender's Armature modifier. Before it is used, the
   numpy skinning is checked against Blender's evaluated mesh for the artist weights (and ours)
   on one frame: the max difference is printed.
 - time s: the whole operator call.

@@ -315,4 +315,3 @@ fn mesh_checks_and_errors() {
     let (out, _) = fit_joints(&v, &t, &[[0.0, 0.0, 1.0], [0.0, 0.0, 1.0], [0.2, 0.1, 2.0]], &[[0, 1]], &[true; 3], &opts).unwrap();
     assert!(out.iter().all(|p| p.iter().all(|c| c.is_finite())));
 }
-
