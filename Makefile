@@ -59,6 +59,7 @@ demo: $(EXT_ZIP)
 test: test-rust test-python test-blender
 
 test-rust:
+	cargo fmt --all -- --check  # rustfmt.toml: 120 columns, as the code was written
 	cargo test -p miniskeleton-core --release
 
 test-python: $(WHEEL)

@@ -13,8 +13,7 @@ use std::hint::black_box;
 use std::time::Instant;
 
 use miniskeleton_core::ik2d::{
-    forward, solve_ccd, solve_ccd_classic3d, solve_ccd_pure, solve_fabrik, Chain2d, SolveOptions,
-    SolveReport,
+    forward, solve_ccd, solve_ccd_classic3d, solve_ccd_pure, solve_fabrik, Chain2d, SolveOptions, SolveReport,
 };
 use miniskeleton_core::Result;
 
@@ -55,15 +54,9 @@ fn main() {
             let mut rest = Chain2d::straight([0.0, 0.0], 0.0, lengths);
             rest.angles.iter_mut().for_each(|a| *a = 0.1);
             let mut posed = rest.clone();
-            posed
-                .angles
-                .iter_mut()
-                .for_each(|a| *a = rng.uniform(-PI, PI));
+            posed.angles.iter_mut().for_each(|a| *a = rng.uniform(-PI, PI));
             let target = *forward(&posed).unwrap().last().unwrap();
-            let opts = SolveOptions {
-                max_iterations: 200,
-                tolerance: 1e-3 * rest.reach(),
-            };
+            let opts = SolveOptions { max_iterations: 200, tolerance: 1e-3 * rest.reach() };
             cases.push((rest, target, opts));
         }
         for (name, solve) in methods {

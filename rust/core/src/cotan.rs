@@ -41,11 +41,7 @@ pub fn triangle_cotangents(a: DVec3, b: DVec3, c: DVec3) -> Option<(f64, [f64; 3
     if !(twice_area > DEGENERATE_RATIO * longest) || !(twice_area > f64::MIN_POSITIVE) {
         return None;
     }
-    let mut cot = [
-        ab.dot(ac) / twice_area,
-        (-ab).dot(bc) / twice_area,
-        (-ac).dot(-bc) / twice_area,
-    ];
+    let mut cot = [ab.dot(ac) / twice_area, (-ab).dot(bc) / twice_area, (-ac).dot(-bc) / twice_area];
     let big = cot.iter().fold(0.0f64, |m, c| m.max(c.abs()));
     if big > COT_CLAMP {
         let s = COT_CLAMP / big;
@@ -68,11 +64,7 @@ pub fn cotan_laplacian(positions: &[DVec3], triangles: &[[u32; 3]]) -> CotanLapl
             if t.iter().any(|&i| i as usize >= n) || t[0] == t[1] || t[1] == t[2] || t[0] == t[2] {
                 return None;
             }
-            triangle_cotangents(
-                positions[t[0] as usize],
-                positions[t[1] as usize],
-                positions[t[2] as usize],
-            )
+            triangle_cotangents(positions[t[0] as usize], positions[t[1] as usize], positions[t[2] as usize])
         })
         .collect();
     let mut mass = vec![0.0f64; n];
@@ -115,11 +107,8 @@ pub struct LowerCsc {
 /// `L_ij = -sum w` over the entries of edge `{i, j}`, `L_ii = sum_j sum w`. Every column has an
 /// explicit diagonal (possibly 0). O(E log E) with a parallel sort.
 pub fn stiffness_lower_csc(n: usize, edges: &[(u32, u32, f64)]) -> LowerCsc {
-    let mut keyed: Vec<(u64, f64)> = edges
-        .par_iter()
-        .with_min_len(4096)
-        .map(|&(i, j, w)| (((i as u64) << 32) | j as u64, w))
-        .collect();
+    let mut keyed: Vec<(u64, f64)> =
+        edges.par_iter().with_min_len(4096).map(|&(i, j, w)| (((i as u64) << 32) | j as u64, w)).collect();
     keyed.par_sort_unstable_by_key(|e| e.0);
 
     let mut diag = vec![0.0f64; n];
@@ -189,8 +178,7 @@ mod tests {
 
     #[test]
     fn sliver_is_clamped_not_indefinite() {
-        let (_, cot) =
-            triangle_cotangents(DVec3::ZERO, DVec3::X, DVec3::new(0.5, 1e-7, 0.0)).unwrap();
+        let (_, cot) = triangle_cotangents(DVec3::ZERO, DVec3::X, DVec3::new(0.5, 1e-7, 0.0)).unwrap();
         assert!(cot.iter().all(|c| c.abs() <= COT_CLAMP * (1.0 + 1e-12)));
         assert!(cot[0] * cot[1] + cot[1] * cot[2] + cot[2] * cot[0] >= 0.0);
         assert!(triangle_cotangents(DVec3::ZERO, DVec3::X, DVec3::X * 2.0).is_none());

@@ -31,10 +31,9 @@ impl fmt::Display for Error {
             Error::NonFinite { what, count } => {
                 write!(f, "{count} {what}(s) have NaN or infinite values")
             }
-            Error::BadIndex { triangle, index, vertex_count } => write!(
-                f,
-                "triangle {triangle} refers to vertex {index}, but the mesh has {vertex_count} vertices"
-            ),
+            Error::BadIndex { triangle, index, vertex_count } => {
+                write!(f, "triangle {triangle} refers to vertex {index}, but the mesh has {vertex_count} vertices")
+            }
             Error::NoBones(s) => write!(f, "no usable bones: {s}"),
             Error::Shape(s) => write!(f, "shape mismatch: {s}"),
             Error::InvalidArgument(s) => write!(f, "invalid argument: {s}"),

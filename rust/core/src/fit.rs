@@ -213,7 +213,13 @@ fn sym_eigen(m: DMat3) -> ([f64; 3], [DVec3; 3]) {
 
 /// Two unit vectors completing `d` (unit) to an orthonormal basis.
 fn basis(d: DVec3) -> (DVec3, DVec3) {
-    let a = if d.x.abs() < 0.6 { DVec3::X } else if d.y.abs() < 0.6 { DVec3::Y } else { DVec3::Z };
+    let a = if d.x.abs() < 0.6 {
+        DVec3::X
+    } else if d.y.abs() < 0.6 {
+        DVec3::Y
+    } else {
+        DVec3::Z
+    };
     let u = d.cross(a).normalize();
     (u, d.cross(u))
 }
@@ -320,20 +326,24 @@ fn pull_inside(rm: &RayMesh, p: DVec3, plane: Option<usize>, toward: &[DVec3]) -
         .filter(|w| *w != DVec3::ZERO)
         .collect();
     for i in 0..n + extra.len() {
-        let w = if i >= n { extra[i - n] } else { match plane {
-            None => {
-                // Fibonacci sphere.
-                let z = 1.0 - (2.0 * i as f64 + 1.0) / n as f64;
-                let r = (1.0 - z * z).max(0.0).sqrt();
-                let a = i as f64 * 2.399_963_229_728_653;
-                DVec3::new(r * a.cos(), r * a.sin(), z)
+        let w = if i >= n {
+            extra[i - n]
+        } else {
+            match plane {
+                None => {
+                    // Fibonacci sphere.
+                    let z = 1.0 - (2.0 * i as f64 + 1.0) / n as f64;
+                    let r = (1.0 - z * z).max(0.0).sqrt();
+                    let a = i as f64 * 2.399_963_229_728_653;
+                    DVec3::new(r * a.cos(), r * a.sin(), z)
+                }
+                Some(axis) => {
+                    let a = std::f64::consts::TAU * i as f64 / n as f64;
+                    let (u, v) = basis(DVec3::AXES[axis]);
+                    u * a.cos() + v * a.sin()
+                }
             }
-            Some(axis) => {
-                let a = std::f64::consts::TAU * i as f64 / n as f64;
-                let (u, v) = basis(DVec3::AXES[axis]);
-                u * a.cos() + v * a.sin()
-            }
-        } };
+        };
         let h = hits(rm, p, w);
         let mut k = 0;
         // Pairs (entry, exit) along the ray; the first whose middle tests inside.
@@ -456,11 +466,16 @@ pub fn fit_joints(
             )));
         }
     }
-    if opts.rays < 3 || opts.samples < 1 || !(opts.stiffness > 0.0) || !(opts.tolerance > 0.0) || !(opts.max_move > 0.0)
+    if opts.rays < 3
+        || opts.samples < 1
+        || !(opts.stiffness > 0.0)
+        || !(opts.tolerance > 0.0)
+        || !(opts.max_move > 0.0)
         || !(opts.stub_ratio >= 0.0)
     {
         return Err(Error::InvalidArgument(
-            "fit options: rays >= 3, samples >= 1, stiffness > 0, tolerance > 0, max_move > 0 and stub_ratio >= 0".into(),
+            "fit options: rays >= 3, samples >= 1, stiffness > 0, tolerance > 0, max_move > 0 and stub_ratio >= 0"
+                .into(),
         ));
     }
     let frame = Frame::of_points(vertices);
@@ -676,9 +691,11 @@ pub fn fit_joints(
             if k > 0 && k < near.len() {
                 near.select_nth_unstable_by(k - 1, |a, b| a.0.total_cmp(&b.0));
             }
-            let toward: Vec<DVec3> = near[..k].iter().map(|x| x.1).chain(
-                incident[j].iter().map(|&e| p[(bones[e][0] + bones[e][1]) as usize - j])
-            ).collect();
+            let toward: Vec<DVec3> = near[..k]
+                .iter()
+                .map(|x| x.1)
+                .chain(incident[j].iter().map(|&e| p[(bones[e][0] + bones[e][1]) as usize - j]))
+                .collect();
             pull_inside(&rm, p[j], plane, &toward)
         })
         .collect();
@@ -740,15 +757,8 @@ fn finish(
     rounds: usize,
     (open_edges, nonmanifold_edges, pieces): (usize, usize, usize),
 ) -> Result<(Vec<[f32; 3]>, FitReport)> {
-    let max_move = out
-        .iter()
-        .zip(joints)
-        .map(|(a, b)| (to_dvec(*a) - to_dvec(*b)).length())
-        .fold(0.0, f64::max);
-    Ok((
-        out,
-        FitReport { outside_before, outside_after, rounds, max_move, open_edges, nonmanifold_edges, pieces },
-    ))
+    let max_move = out.iter().zip(joints).map(|(a, b)| (to_dvec(*a) - to_dvec(*b)).length()).fold(0.0, f64::max);
+    Ok((out, FitReport { outside_before, outside_after, rounds, max_move, open_edges, nonmanifold_edges, pieces }))
 }
 
 #[cfg(test)]

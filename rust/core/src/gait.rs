@@ -240,7 +240,13 @@ fn leg_phases(roles: &Roles, motion: Motion) -> Vec<f32> {
         .map(|l| {
             let left = l.side == Side::Left;
             match (roles.plan, motion) {
-                (BodyPlan::Biped, _) => if left { 0.0 } else { 0.5 },
+                (BodyPlan::Biped, _) => {
+                    if left {
+                        0.0
+                    } else {
+                        0.5
+                    }
+                }
                 (BodyPlan::Quadruped, Motion::Run) => match (l.group == 0, left) {
                     (false, true) => 0.0,
                     (false, false) => 0.1,
@@ -263,7 +269,14 @@ fn leg_phases(roles: &Roles, motion: Motion) -> Vec<f32> {
         .collect()
 }
 
-fn check(heads: &[[f32; 3]], tails: &[[f32; 3]], parents: &[i32], rest: &[[f32; 9]], roles: &Roles, p: &GaitParams) -> Result<()> {
+fn check(
+    heads: &[[f32; 3]],
+    tails: &[[f32; 3]],
+    parents: &[i32],
+    rest: &[[f32; 9]],
+    roles: &Roles,
+    p: &GaitParams,
+) -> Result<()> {
     let n = heads.len();
     if tails.len() != n || parents.len() != n || rest.len() != n {
         return Err(Error::Shape(format!(
@@ -273,8 +286,14 @@ fn check(heads: &[[f32; 3]], tails: &[[f32; 3]], parents: &[i32], rest: &[[f32; 
             rest.len()
         )));
     }
-    let all = roles.spine.iter().chain(&roles.neck).chain(&roles.head_extras).chain(&roles.tail)
-        .chain(roles.legs.iter().flat_map(|l| &l.bones)).chain(roles.arms.iter().flat_map(|l| &l.bones))
+    let all = roles
+        .spine
+        .iter()
+        .chain(&roles.neck)
+        .chain(&roles.head_extras)
+        .chain(&roles.tail)
+        .chain(roles.legs.iter().flat_map(|l| &l.bones))
+        .chain(roles.arms.iter().flat_map(|l| &l.bones))
         .chain([&roles.head, &roles.root]);
     if all.into_iter().any(|&b| b >= n) {
         return Err(Error::Shape("roles refer to bones that are not in the arrays".into()));
@@ -396,7 +415,11 @@ fn gait(
     let phases = leg_phases(roles, p.motion);
 
     // per-leg joints and flex directions
-    struct LegJoints { hip: usize, knee: Option<(usize, f32)>, ankle: Option<(usize, f32)> }
+    struct LegJoints {
+        hip: usize,
+        knee: Option<(usize, f32)>,
+        ankle: Option<(usize, f32)>,
+    }
     let legs: Vec<LegJoints> = roles
         .legs
         .iter()
@@ -430,9 +453,8 @@ fn gait(
     let mut rotations = Vec::with_capacity(frames * n);
     let mut root_offset = Vec::with_capacity(frames);
     let feet: Vec<usize> = roles.legs.iter().map(|l| *l.bones.last().unwrap()).collect();
-    let foot_low = |h: &[[f32; 3]], t: &[[f32; 3]]| {
-        feet.iter().map(|&b| h[b][2].min(t[b][2])).fold(f32::INFINITY, f32::min)
-    };
+    let foot_low =
+        |h: &[[f32; 3]], t: &[[f32; 3]]| feet.iter().map(|&b| h[b][2].min(t[b][2])).fold(f32::INFINITY, f32::min);
     let rest_low = foot_low(heads, tails);
     let mut left_hip = 0.0;
     let mut right_hip = 0.0;
@@ -449,7 +471,11 @@ fn gait(
                 let s = (ph - duty) / (1.0 - duty);
                 (-hip_amp * (PI * s).cos(), knee_amp * (PI * s).sin(), ankle_amp * (PI * s).sin())
             };
-            if leg.side == Side::Left { left_hip = theta } else { right_hip = theta }
+            if leg.side == Side::Left {
+                left_hip = theta
+            } else {
+                right_hip = theta
+            }
             poser.rotate(joints.hip, right, theta);
             let mut bend = theta;
             if let Some((b, sign)) = joints.knee {
@@ -495,7 +521,11 @@ fn gait(
         for (j, &b) in roles.tail.iter().enumerate() {
             let a = (if run { 12f32 } else { 10.0 }).to_radians() * (0.5 + 0.5 * j as f32 / nt) / nt * 3.0;
             let s = (w - 0.6 * (j + 1) as f32).sin();
-            if run { poser.rotate(b, right, a * s) } else { poser.rotate(b, up, a * s) }
+            if run {
+                poser.rotate(b, right, a * s)
+            } else {
+                poser.rotate(b, up, a * s)
+            }
         }
         if sway.is_empty() && roles.neck.is_empty() {
             poser.touch(roles.head);
@@ -534,8 +564,10 @@ mod tests {
             .collect()
     }
 
-    fn run(skel: (Vec<String>, Vec<[f32; 3]>, Vec<[f32; 3]>, Vec<i32>), motion: Motion)
-           -> (Vec<String>, Vec<[f32; 3]>, Vec<[f32; 3]>, Vec<i32>, Vec<[f32; 9]>, Roles, Clip) {
+    fn run(
+        skel: (Vec<String>, Vec<[f32; 3]>, Vec<[f32; 3]>, Vec<i32>),
+        motion: Motion,
+    ) -> (Vec<String>, Vec<[f32; 3]>, Vec<[f32; 3]>, Vec<i32>, Vec<[f32; 9]>, Roles, Clip) {
         let (names, h, t, p) = skel;
         let rest = rest_of(&h, &t);
         let roles = detect_roles(&h, &t, &p, &names).unwrap();
@@ -545,8 +577,14 @@ mod tests {
     }
 
     /// Foot tail heights per frame for each leg.
-    fn foot_heights(h: &[[f32; 3]], t: &[[f32; 3]], p: &[i32], rest: &[[f32; 9]], roles: &Roles, clip: &Clip)
-                    -> Vec<Vec<f32>> {
+    fn foot_heights(
+        h: &[[f32; 3]],
+        t: &[[f32; 3]],
+        p: &[i32],
+        rest: &[[f32; 9]],
+        roles: &Roles,
+        clip: &Clip,
+    ) -> Vec<Vec<f32>> {
         let mut out = vec![Vec::new(); roles.legs.len()];
         for f in 0..clip.frames {
             let local = &clip.rotations[f * clip.bone_count..(f + 1) * clip.bone_count];

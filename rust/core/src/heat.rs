@@ -533,13 +533,8 @@ pub fn heat_weights(
     // 11. Top-k per welded vertex, then copy to every input vertex.
     let mut welded = Influences::empty(nw, opts.max_influences);
     let k = welded.k;
-    welded
-        .indices
-        .par_chunks_mut(k)
-        .zip(welded.weights.par_chunks_mut(k))
-        .enumerate()
-        .with_min_len(1024)
-        .for_each(|(v, (idx, w))| {
+    welded.indices.par_chunks_mut(k).zip(welded.weights.par_chunks_mut(k)).enumerate().with_min_len(1024).for_each(
+        |(v, (idx, w))| {
             let mut used = top_k_row(|j| weight_limit(x[j * nw + v] as f32, ls, le), b, opts.min_weight, idx, w);
             if used == 0 {
                 // Every weight fell below the ramp (many equal bones): keep them unramped.
@@ -549,19 +544,17 @@ pub fn heat_weights(
                 idx[0] = sources[v].nearest as i32;
                 w[0] = 1.0;
             }
-        });
+        },
+    );
     drop(x);
     let mut out = Influences::empty(vertices.len(), k);
-    out.indices
-        .par_chunks_mut(k)
-        .zip(out.weights.par_chunks_mut(k))
-        .zip(map.par_iter())
-        .with_min_len(1024)
-        .for_each(|((idx, w), &m)| {
+    out.indices.par_chunks_mut(k).zip(out.weights.par_chunks_mut(k)).zip(map.par_iter()).with_min_len(1024).for_each(
+        |((idx, w), &m)| {
             let (si, sw) = welded.row(m as usize);
             idx.copy_from_slice(si);
             w.copy_from_slice(sw);
-        });
+        },
+    );
     lap(&mut report, "finish");
     report.timings.push(("total", t0.elapsed().as_secs_f64()));
     tick(1.0)?;
@@ -707,7 +700,11 @@ impl Default for PieceStats {
 impl PieceStats {
     /// Bounding-box diagonal.
     fn size(&self) -> f64 {
-        if self.hi.x >= self.lo.x { (self.hi - self.lo).length() } else { 0.0 }
+        if self.hi.x >= self.lo.x {
+            (self.hi - self.lo).length()
+        } else {
+            0.0
+        }
     }
 
     /// Centre of mass: of the enclosed volume for a closed piece with a volume, else of the
@@ -809,7 +806,8 @@ fn reach_segments(
         .collect();
     let (mut segs, mut owner) = (Vec::new(), Vec::new());
     for j in 0..bones.len() {
-        let mine: Vec<DVec3> = spans.iter().zip(&inside).filter(|(s, &ins)| s.0 == j && ins).map(|(s, _)| s.1).collect();
+        let mine: Vec<DVec3> =
+            spans.iter().zip(&inside).filter(|(s, &ins)| s.0 == j && ins).map(|(s, _)| s.1).collect();
         if mine.is_empty() || tail_child[j] {
             segs.push(bones[j]);
             owner.push(j as u32);
@@ -854,7 +852,8 @@ fn piece_contains_bone(
                 break;
             }
             let p = *h + (*t - *h) * s;
-            if p.cmpge(lo).all() && p.cmple(hi).all() && rm.odd_parity_count(p.as_vec3(), &dirs, 1e-4, own) > ndirs / 2 {
+            if p.cmpge(lo).all() && p.cmple(hi).all() && rm.odd_parity_count(p.as_vec3(), &dirs, 1e-4, own) > ndirs / 2
+            {
                 count += 1;
             }
         }
@@ -905,7 +904,10 @@ fn symbolic_factor(a: SymbolicSparseColMatRef<'_, usize>) -> Option<SymbolicChol
 }
 
 /// Numeric factorization; `None` on a non-positive pivot or allocation failure.
-fn numeric_factor(symbolic: SymbolicCholesky<usize>, a: SparseColMatRef<'_, usize, f64>) -> std::result::Result<Factor, SymbolicCholesky<usize>> {
+fn numeric_factor(
+    symbolic: SymbolicCholesky<usize>,
+    a: SparseColMatRef<'_, usize, f64>,
+) -> std::result::Result<Factor, SymbolicCholesky<usize>> {
     let par = Par::rayon(0);
     let mut values = Vec::new();
     if values.try_reserve_exact(symbolic.len_val()).is_err() {
@@ -940,7 +942,13 @@ fn numeric_factor(symbolic: SymbolicCholesky<usize>, a: SparseColMatRef<'_, usiz
 /// to `x`: a bone behind the surface keeps its distance, one beside it counts double, one in
 /// front of it (outside the body) is all but excluded. The heat source uses that distance too.
 /// `nearest` is the nearest bone by plain distance.
-fn nearest_visible_bone(x: DVec3, normal: DVec3, bones: &[(DVec3, DVec3)], rays: Option<&RayMesh>, scratch: &mut [f64]) -> Source {
+fn nearest_visible_bone(
+    x: DVec3,
+    normal: DVec3,
+    bones: &[(DVec3, DVec3)],
+    rays: Option<&RayMesh>,
+    scratch: &mut [f64],
+) -> Source {
     let b = bones.len();
     let (dist, euclid) = scratch.split_at_mut(b);
     let mut src = Source { bones: [u32::MAX; MAX_TIES], count: 0, dist: 0.0, nearest: 0, nearest_dist: f64::INFINITY };
@@ -1037,9 +1045,7 @@ mod visibility_tests {
     /// must not be chosen; with visibility off it is.
     #[test]
     fn hidden_bone_is_skipped() {
-        let v: Vec<[f32; 3]> = (0..8)
-            .map(|i| [(i & 1) as f32, ((i >> 1) & 1) as f32, ((i >> 2) & 1) as f32])
-            .collect();
+        let v: Vec<[f32; 3]> = (0..8).map(|i| [(i & 1) as f32, ((i >> 1) & 1) as f32, ((i >> 2) & 1) as f32]).collect();
         let q = [[0, 1, 3, 2], [4, 6, 7, 5], [0, 4, 5, 1], [2, 3, 7, 6], [0, 2, 6, 4], [1, 5, 7, 3]];
         let t: Vec<[u32; 3]> = q.iter().flat_map(|q| [[q[0], q[1], q[2]], [q[0], q[2], q[3]]]).collect();
         let rm = RayMesh::new(&v, &t);

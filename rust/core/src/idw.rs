@@ -40,7 +40,12 @@ pub(crate) fn bones_in_frame(frame: &Frame, heads: &[[f32; 3]], tails: &[[f32; 3
 /// Scale-free: distances are measured in units of the mesh's bounding-box diagonal.
 /// Output: [`Influences`] with `n` rows, every row non-empty, strongest bone = nearest segment.
 /// Errors: empty mesh, non-finite input, no bones / mismatched bone arrays, bad options.
-pub fn idw_weights(vertices: &[[f32; 3]], heads: &[[f32; 3]], tails: &[[f32; 3]], opts: &IdwOptions) -> Result<Influences> {
+pub fn idw_weights(
+    vertices: &[[f32; 3]],
+    heads: &[[f32; 3]],
+    tails: &[[f32; 3]],
+    opts: &IdwOptions,
+) -> Result<Influences> {
     validate_mesh(vertices, &[], false)?;
     validate_bones(heads, tails)?;
     if !(opts.power.is_finite() && opts.power >= 0.0) {

@@ -57,13 +57,7 @@ impl Chain2d {
     /// A straight chain (all relative angles 0) with no joint limits.
     pub fn straight(base: [f64; 2], base_angle: f64, lengths: Vec<f64>) -> Self {
         let b = lengths.len();
-        Chain2d {
-            base,
-            base_angle,
-            lengths,
-            angles: vec![0.0; b],
-            limits: vec![[-PI, PI]; b],
-        }
+        Chain2d { base, base_angle, lengths, angles: vec![0.0; b], limits: vec![[-PI, PI]; b] }
     }
 
     /// Total length `sum(lengths)`: the largest distance from the base the tip can reach.
@@ -85,20 +79,14 @@ pub struct SolveOptions {
 impl Default for SolveOptions {
     /// 200 passes, tolerance 1e-3 (absolute).
     fn default() -> Self {
-        SolveOptions {
-            max_iterations: 200,
-            tolerance: 1e-3,
-        }
+        SolveOptions { max_iterations: 200, tolerance: 1e-3 }
     }
 }
 
 impl SolveOptions {
     /// 200 passes and a tolerance of `1e-3 * chain.reach()`.
     pub fn for_chain(chain: &Chain2d) -> Self {
-        SolveOptions {
-            max_iterations: 200,
-            tolerance: 1e-3 * chain.reach(),
-        }
+        SolveOptions { max_iterations: 200, tolerance: 1e-3 * chain.reach() }
     }
 }
 
@@ -197,20 +185,11 @@ pub fn solve_ccd(chain: &mut Chain2d, target: [f64; 2], opts: SolveOptions) -> R
 /// unreachable, collinear and zero-length handling). Kept for comparison (benches/ik2d.rs) and
 /// for callers who want the textbook behaviour; it needs many more passes near the boundary
 /// of the workspace.
-pub fn solve_ccd_pure(
-    chain: &mut Chain2d,
-    target: [f64; 2],
-    opts: SolveOptions,
-) -> Result<SolveReport> {
+pub fn solve_ccd_pure(chain: &mut Chain2d, target: [f64; 2], opts: SolveOptions) -> Result<SolveReport> {
     ccd_single(chain, target, opts, false)
 }
 
-fn ccd_single(
-    chain: &mut Chain2d,
-    target: [f64; 2],
-    opts: SolveOptions,
-    polish: bool,
-) -> Result<SolveReport> {
+fn ccd_single(chain: &mut Chain2d, target: [f64; 2], opts: SolveOptions, polish: bool) -> Result<SolveReport> {
     check_chain(chain)?;
     check_point(target, "target")?;
     check_opts(opts)?;
@@ -223,32 +202,17 @@ fn ccd_single(
     if dist > reach && dist > 0.0 {
         let root = wrap_angle(to[1].atan2(to[0]) - chain.base_angle);
         let fits = clamp_to_limits(root, chain.limits[0]) == root
-            && chain.limits[1..]
-                .iter()
-                .all(|&l| clamp_to_limits(0.0, l) == 0.0);
+            && chain.limits[1..].iter().all(|&l| clamp_to_limits(0.0, l) == 0.0);
         if fits {
             chain.angles[0] = root;
             chain.angles[1..].iter_mut().for_each(|a| *a = 0.0);
             let mut p = Vec::with_capacity(b + 1);
             fk_into(chain, &mut p);
             let error = dist2(p[b], target).sqrt();
-            return Ok(SolveReport {
-                iterations: 0,
-                error,
-                reached: error <= opts.tolerance,
-            });
+            return Ok(SolveReport { iterations: 0, error, reached: error <= opts.tolerance });
         }
     }
-    Ok(ccd_core(
-        chain,
-        &[Effector {
-            joint: b,
-            target,
-            weight: 1.0,
-        }],
-        opts,
-        polish,
-    ))
+    Ok(ccd_core(chain, &[Effector { joint: b, target, weight: 1.0 }], opts, polish))
 }
 
 /// Multi-effector planar CCD, for strip puppets (snake, dragon, ribbon) whose head, middle and
@@ -293,16 +257,10 @@ pub fn solve_multi(
             )));
         }
         total_weight += weight;
-        effs.push(Effector {
-            joint,
-            target,
-            weight,
-        });
+        effs.push(Effector { joint, target, weight });
     }
     if total_weight <= 0.0 {
-        return Err(Error::InvalidArgument(
-            "all effector weights are zero".into(),
-        ));
+        return Err(Error::InvalidArgument("all effector weights are zero".into()));
     }
     clamp_all(chain);
     Ok(ccd_core(chain, &effs, opts, true))
@@ -340,11 +298,7 @@ pub fn solve_two_arm_grip(
 /// `atan2` of the bone directions, clamped to the limits (limits are not enforced during the
 /// iterations, which is what this baseline lacks), and the reported error is recomputed from
 /// those angles. No special case for unreachable targets.
-pub fn solve_ccd_classic3d(
-    chain: &mut Chain2d,
-    target: [f64; 2],
-    opts: SolveOptions,
-) -> Result<SolveReport> {
+pub fn solve_ccd_classic3d(chain: &mut Chain2d, target: [f64; 2], opts: SolveOptions) -> Result<SolveReport> {
     check_chain(chain)?;
     check_point(target, "target")?;
     check_opts(opts)?;
@@ -399,11 +353,7 @@ pub fn solve_ccd_classic3d(
 /// to relative angles (`atan2` of bone directions; a zero-length bone keeps its parent's
 /// direction) and clamped to the limits, which FABRIK itself does not know about; the
 /// reported error is recomputed from the clamped angles.
-pub fn solve_fabrik(
-    chain: &mut Chain2d,
-    target: [f64; 2],
-    opts: SolveOptions,
-) -> Result<SolveReport> {
+pub fn solve_fabrik(chain: &mut Chain2d, target: [f64; 2], opts: SolveOptions) -> Result<SolveReport> {
     check_chain(chain)?;
     check_point(target, "target")?;
     check_opts(opts)?;
@@ -416,11 +366,7 @@ pub fn solve_fabrik(
     let dist = norm(to);
     let mut iterations = 0;
     if dist > reach {
-        let d = if dist > 0.0 {
-            [to[0] / dist, to[1] / dist]
-        } else {
-            [1.0, 0.0]
-        };
+        let d = if dist > 0.0 { [to[0] / dist, to[1] / dist] } else { [1.0, 0.0] };
         for i in 0..b {
             let l = chain.lengths[i];
             p[i + 1] = [p[i][0] + l * d[0], p[i][1] + l * d[1]];
@@ -463,7 +409,13 @@ fn reach_toward(anchor: [f64; 2], toward: [f64; 2], l: f64, fallback: [f64; 2]) 
 
 /// End of the position-based baselines: joint positions `p` -> clamped relative angles on
 /// `chain`, `p` recomputed from them, and the report with the error of that final pose.
-fn settle_positions(chain: &mut Chain2d, p: &mut Vec<[f64; 2]>, target: [f64; 2], iterations: usize, tolerance: f64) -> SolveReport {
+fn settle_positions(
+    chain: &mut Chain2d,
+    p: &mut Vec<[f64; 2]>,
+    target: [f64; 2],
+    iterations: usize,
+    tolerance: f64,
+) -> SolveReport {
     positions_to_angles(chain, p);
     fk_into(chain, p);
     let error = dist2(p[p.len() - 1], target).sqrt();
@@ -484,22 +436,13 @@ const STALL_RATIO: f64 = 1e-3;
 const MAX_PERTURBATIONS: usize = 8;
 
 /// CCD on validated input with angles already within limits. Returns the best pose seen.
-fn ccd_core(
-    chain: &mut Chain2d,
-    effs: &[Effector],
-    opts: SolveOptions,
-    polish: bool,
-) -> SolveReport {
+fn ccd_core(chain: &mut Chain2d, effs: &[Effector], opts: SolveOptions, polish: bool) -> SolveReport {
     let b = chain.lengths.len();
     let mut pos: Vec<[f64; 2]> = Vec::with_capacity(b + 1);
     fk_into(chain, &mut pos);
     let (mut f, err) = evaluate(&pos, effs);
     if err <= opts.tolerance {
-        return SolveReport {
-            iterations: 0,
-            error: err,
-            reached: true,
-        };
+        return SolveReport { iterations: 0, error: err, reached: true };
     }
     let mut best_angles = chain.angles.clone();
     let (mut best_f, mut best_err) = (f, err);
@@ -565,11 +508,7 @@ fn ccd_core(
             best_angles.copy_from_slice(&chain.angles);
         }
         if err_new <= opts.tolerance {
-            return SolveReport {
-                iterations,
-                error: err_new,
-                reached: true,
-            };
+            return SolveReport { iterations, error: err_new, reached: true };
         }
         if f_new > f * (1.0 - STALL_RATIO) {
             if perturbations >= MAX_PERTURBATIONS {
@@ -587,11 +526,7 @@ fn ccd_core(
         }
     }
     chain.angles.copy_from_slice(&best_angles);
-    SolveReport {
-        iterations,
-        error: best_err,
-        reached: best_err <= opts.tolerance,
-    }
+    SolveReport { iterations, error: best_err, reached: best_err <= opts.tolerance }
 }
 
 /// A CCD pass that leaves more than this fraction of the weighted squared error triggers a
@@ -606,12 +541,7 @@ const SLOW_RATIO: f64 = 0.25;
 /// clamped to their limits. Tries three dampings; keeps the first pose that lowers `F`
 /// (updating `chain` and `pos`, returning the new `(F, worst distance)`), else restores the pose
 /// and returns `None`.
-fn lm_step(
-    chain: &mut Chain2d,
-    effs: &[Effector],
-    pos: &mut Vec<[f64; 2]>,
-    f: f64,
-) -> Option<(f64, f64)> {
+fn lm_step(chain: &mut Chain2d, effs: &[Effector], pos: &mut Vec<[f64; 2]>, f: f64) -> Option<(f64, f64)> {
     let b = chain.lengths.len();
     let m2 = 2 * effs.len();
     // J' row-major, m2 x b; r' (m2).
@@ -647,9 +577,7 @@ fn lm_step(
             a[x * m2 + x] += mu * scale;
         }
         let y = solve_dense(&mut a, r.clone(), m2)?;
-        let mut step: Vec<f64> = (0..b)
-            .map(|i| (0..m2).map(|x| jac[x * b + i] * y[x]).sum())
-            .collect();
+        let mut step: Vec<f64> = (0..b).map(|i| (0..m2).map(|x| jac[x * b + i] * y[x]).sum()).collect();
         let biggest = step.iter().fold(0.0f64, |acc, v| acc.max(v.abs()));
         if biggest > 0.5 {
             step.iter_mut().for_each(|v| *v *= 0.5 / biggest);
@@ -672,8 +600,7 @@ fn lm_step(
 /// partial pivoting; `None` when singular or non-finite.
 fn solve_dense(a: &mut [f64], mut rhs: Vec<f64>, n: usize) -> Option<Vec<f64>> {
     for col in 0..n {
-        let piv =
-            (col..n).max_by(|&x, &y| a[x * n + col].abs().total_cmp(&a[y * n + col].abs()))?;
+        let piv = (col..n).max_by(|&x, &y| a[x * n + col].abs().total_cmp(&a[y * n + col].abs()))?;
         let pv = a[piv * n + col];
         if !pv.is_finite() || pv.abs() <= 1e-300 {
             return None;
@@ -726,11 +653,7 @@ fn perturb(chain: &mut Chain2d, count: usize) {
         let plus = clamp_to_limits(old + sign * magnitude, lim);
         let minus = clamp_to_limits(old - sign * magnitude, lim);
         let (dp, dm) = (wrap_angle(plus - old), wrap_angle(minus - old));
-        let new = if dp.abs() >= 0.5 * magnitude || dp.abs() >= dm.abs() {
-            plus
-        } else {
-            minus
-        };
+        let new = if dp.abs() >= 0.5 * magnitude || dp.abs() >= dm.abs() { plus } else { minus };
         total += wrap_angle(new - old);
         chain.angles[i] = new;
     }
@@ -773,11 +696,7 @@ fn positions_to_angles(chain: &mut Chain2d, p: &[[f64; 2]]) {
     let mut parent = chain.base_angle;
     for i in 0..chain.lengths.len() {
         let d = sub(p[i + 1], p[i]);
-        let rel = if d[0] == 0.0 && d[1] == 0.0 {
-            0.0
-        } else {
-            wrap_angle(d[1].atan2(d[0]) - parent)
-        };
+        let rel = if d[0] == 0.0 && d[1] == 0.0 { 0.0 } else { wrap_angle(d[1].atan2(d[0]) - parent) };
         let rel = clamp_to_limits(rel, chain.limits[i]);
         chain.angles[i] = rel;
         parent += rel;
@@ -807,28 +726,17 @@ fn check_chain(chain: &Chain2d) -> Result<()> {
         + chain.lengths.iter().filter(|x| !x.is_finite()).count()
         + chain.angles.iter().filter(|x| !x.is_finite()).count();
     if bad > 0 {
-        return Err(Error::NonFinite {
-            what: "IK chain",
-            count: bad,
-        });
+        return Err(Error::NonFinite { what: "IK chain", count: bad });
     }
     let nan_limits = chain.limits.iter().flatten().filter(|x| x.is_nan()).count();
     if nan_limits > 0 {
-        return Err(Error::NonFinite {
-            what: "joint limit",
-            count: nan_limits,
-        });
+        return Err(Error::NonFinite { what: "joint limit", count: nan_limits });
     }
     if let Some(i) = chain.lengths.iter().position(|&l| l < 0.0) {
-        return Err(Error::InvalidArgument(format!(
-            "bone {i} has negative length {}",
-            chain.lengths[i]
-        )));
+        return Err(Error::InvalidArgument(format!("bone {i} has negative length {}", chain.lengths[i])));
     }
     if !chain.reach().is_finite() {
-        return Err(Error::InvalidArgument(
-            "the bone lengths overflow: their sum is not finite".into(),
-        ));
+        return Err(Error::InvalidArgument("the bone lengths overflow: their sum is not finite".into()));
     }
     if let Some(i) = chain.limits.iter().position(|l| l[0] > l[1]) {
         return Err(Error::InvalidArgument(format!(
@@ -849,10 +757,7 @@ fn check_point(p: [f64; 2], what: &'static str) -> Result<()> {
 
 fn check_opts(opts: SolveOptions) -> Result<()> {
     if !opts.tolerance.is_finite() || opts.tolerance < 0.0 {
-        return Err(Error::InvalidArgument(format!(
-            "tolerance must be finite and >= 0, got {}",
-            opts.tolerance
-        )));
+        return Err(Error::InvalidArgument(format!("tolerance must be finite and >= 0, got {}", opts.tolerance)));
     }
     Ok(())
 }

@@ -19,7 +19,11 @@ pub struct Influences {
 impl Influences {
     /// Number of vertices (rows).
     pub fn n(&self) -> usize {
-        if self.k == 0 { 0 } else { self.indices.len() / self.k }
+        if self.k == 0 {
+            0
+        } else {
+            self.indices.len() / self.k
+        }
     }
 
     /// `n` empty rows of `k` slots (`k` clamped to >= 1).
@@ -56,7 +60,13 @@ impl Influences {
 /// slots `-1` / `0`. After a first normalization to sum 1, entries below `min_weight` are
 /// dropped (the largest one is always kept) and the rest renormalized. A row without any
 /// positive value is left empty. Returns the number of used slots.
-pub fn top_k_row(value: impl Fn(usize) -> f32, b: usize, min_weight: f32, out_idx: &mut [i32], out_w: &mut [f32]) -> usize {
+pub fn top_k_row(
+    value: impl Fn(usize) -> f32,
+    b: usize,
+    min_weight: f32,
+    out_idx: &mut [i32],
+    out_w: &mut [f32],
+) -> usize {
     let k = out_idx.len().min(out_w.len());
     out_idx.fill(-1);
     out_w.fill(0.0);
@@ -117,15 +127,12 @@ pub fn top_k_row(value: impl Fn(usize) -> f32, b: usize, min_weight: f32, out_id
 pub fn top_k_normalized(dense: &[f32], n: usize, b: usize, k: usize, min_weight: f32) -> Influences {
     let mut out = Influences::empty(n, k);
     let k = out.k;
-    out.indices
-        .par_chunks_mut(k)
-        .zip(out.weights.par_chunks_mut(k))
-        .enumerate()
-        .with_min_len(1024)
-        .for_each(|(v, (idx, w))| {
+    out.indices.par_chunks_mut(k).zip(out.weights.par_chunks_mut(k)).enumerate().with_min_len(1024).for_each(
+        |(v, (idx, w))| {
             let base = v * b;
             top_k_row(|j| dense.get(base + j).copied().unwrap_or(0.0), b, min_weight, idx, w);
-        });
+        },
+    );
     out
 }
 
@@ -136,10 +143,26 @@ mod tests {
     #[test]
     fn keeps_largest_and_normalizes() {
         let dense = [
-            0.1, 0.5, 0.0, 0.3, 0.2, // -> 1, 3, 4 (top 3)
-            0.0, 0.0, 0.0, 0.0, 0.0, // empty
-            f32::NAN, -1.0, 2.0, 0.0, 1e-6, // -> 2 only after pruning
-            0.25, 0.25, 0.25, 0.25, 0.0, // ties -> lowest indices
+            0.1,
+            0.5,
+            0.0,
+            0.3,
+            0.2, // -> 1, 3, 4 (top 3)
+            0.0,
+            0.0,
+            0.0,
+            0.0,
+            0.0, // empty
+            f32::NAN,
+            -1.0,
+            2.0,
+            0.0,
+            1e-6, // -> 2 only after pruning
+            0.25,
+            0.25,
+            0.25,
+            0.25,
+            0.0, // ties -> lowest indices
         ];
         let inf = top_k_normalized(&dense, 4, 5, 3, 1e-3);
         assert_eq!(inf.n(), 4);

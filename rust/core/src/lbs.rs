@@ -47,9 +47,8 @@ pub fn lbs(
     bone_matrices: &[[[f32; 4]; 4]],
 ) -> Result<Vec<[f32; 3]>> {
     let n = vertices.len();
-    let expected = n
-        .checked_mul(k)
-        .ok_or_else(|| Error::Shape(format!("{n} vertices times k = {k} slots overflows")))?;
+    let expected =
+        n.checked_mul(k).ok_or_else(|| Error::Shape(format!("{n} vertices times k = {k} slots overflows")))?;
     if indices.len() != expected {
         return Err(Error::Shape(format!(
             "indices has {} entries, expected n * k = {n} * {k} = {expected}",
@@ -63,40 +62,23 @@ pub fn lbs(
         )));
     }
 
-    let bad_vertices = vertices
-        .par_iter()
-        .map(|v| v.iter().filter(|c| !c.is_finite()).count())
-        .sum::<usize>();
+    let bad_vertices = vertices.par_iter().map(|v| v.iter().filter(|c| !c.is_finite()).count()).sum::<usize>();
     if bad_vertices > 0 {
-        return Err(Error::NonFinite {
-            what: "vertex",
-            count: bad_vertices,
-        });
+        return Err(Error::NonFinite { what: "vertex", count: bad_vertices });
     }
     let bad_weights = weights.par_iter().filter(|w| !w.is_finite()).count();
     if bad_weights > 0 {
-        return Err(Error::NonFinite {
-            what: "weight",
-            count: bad_weights,
-        });
+        return Err(Error::NonFinite { what: "weight", count: bad_weights });
     }
     // Only the three affine rows are used, so only they have to be finite.
-    let bad_matrices = bone_matrices
-        .iter()
-        .map(|m| m[..3].iter().flatten().filter(|c| !c.is_finite()).count())
-        .sum::<usize>();
+    let bad_matrices =
+        bone_matrices.iter().map(|m| m[..3].iter().flatten().filter(|c| !c.is_finite()).count()).sum::<usize>();
     if bad_matrices > 0 {
-        return Err(Error::NonFinite {
-            what: "bone matrix",
-            count: bad_matrices,
-        });
+        return Err(Error::NonFinite { what: "bone matrix", count: bad_matrices });
     }
 
     let bones = bone_matrices.len();
-    if let Some(pos) = indices
-        .iter()
-        .position(|&j| j < -1 || (j >= 0 && j as usize >= bones))
-    {
+    if let Some(pos) = indices.iter().position(|&j| j < -1 || (j >= 0 && j as usize >= bones)) {
         return Err(Error::InvalidArgument(format!(
             "vertex {} slot {} refers to bone {}, but there are {bones} bone matrices \
              (use -1 for an unused slot)",
@@ -133,20 +115,12 @@ pub fn lbs(
                 let wj = wj as f64;
                 for (r, a) in acc.iter_mut().enumerate() {
                     let row = &m[r];
-                    *a += wj
-                        * (row[0] as f64 * x
-                            + row[1] as f64 * y
-                            + row[2] as f64 * z
-                            + row[3] as f64);
+                    *a += wj * (row[0] as f64 * x + row[1] as f64 * y + row[2] as f64 * z + row[3] as f64);
                 }
                 sum += wj;
             }
             if sum > 0.0 {
-                [
-                    (acc[0] / sum) as f32,
-                    (acc[1] / sum) as f32,
-                    (acc[2] / sum) as f32,
-                ]
+                [(acc[0] / sum) as f32, (acc[1] / sum) as f32, (acc[2] / sum) as f32]
             } else {
                 *v
             }

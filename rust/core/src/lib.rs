@@ -8,29 +8,29 @@ pub mod error;
 pub use error::{Error, Result};
 
 // Mesh input, topology and operators.
-pub mod mesh;
-pub mod segment;
-pub mod weld;
-pub mod islands;
 pub mod cotan;
-pub mod visibility;
+pub mod islands;
+pub mod mesh;
 pub mod primitives;
+pub mod segment;
+pub mod visibility;
+pub mod weld;
 
 // Skinning weights.
-pub mod influence;
-pub mod idw;
 pub mod bilinear;
 pub mod heat;
-pub mod symmetry;
+pub mod idw;
+pub mod influence;
 pub mod reach;
+pub mod symmetry;
 
 // Posing.
-pub mod lbs;
 pub mod ik2d;
+pub mod lbs;
 
 // Skeleton.
 pub mod fit;
 
 // Motion.
-pub mod roles;
 pub mod gait;
+pub mod roles;

@@ -13,11 +13,7 @@ use rayon::prelude::*;
 /// Input: `points`, `(n, 3)`. Output: number of points (0..=n) with a non-finite coordinate,
 /// so the error can say "3 vertices", which is what a rigger can look for.
 pub fn count_non_finite(points: &[[f32; 3]]) -> usize {
-    points
-        .par_iter()
-        .with_min_len(4096)
-        .filter(|p| p.iter().any(|c| !c.is_finite()))
-        .count()
+    points.par_iter().with_min_len(4096).filter(|p| p.iter().any(|c| !c.is_finite())).count()
 }
 
 /// Validate a triangle mesh.
@@ -38,10 +34,7 @@ pub fn validate_mesh(vertices: &[[f32; 3]], triangles: &[[u32; 3]], need_faces: 
         return Err(Error::NonFinite { what: "vertex", count: bad });
     }
     let n = vertices.len();
-    let first_bad = triangles
-        .par_iter()
-        .with_min_len(4096)
-        .position_first(|t| t.iter().any(|&i| i as usize >= n));
+    let first_bad = triangles.par_iter().with_min_len(4096).position_first(|t| t.iter().any(|&i| i as usize >= n));
     if let Some(ti) = first_bad {
         let index = triangles[ti].iter().copied().find(|&i| i as usize >= n).unwrap_or(0);
         return Err(Error::BadIndex { triangle: ti, index: index as i64, vertex_count: n });
@@ -53,11 +46,7 @@ pub fn validate_mesh(vertices: &[[f32; 3]], triangles: &[[u32; 3]], need_faces: 
 /// and finite coordinates. Errors: [`Error::NoBones`], [`Error::Shape`], [`Error::NonFinite`].
 pub fn validate_bones(heads: &[[f32; 3]], tails: &[[f32; 3]]) -> Result<()> {
     if heads.len() != tails.len() {
-        return Err(Error::Shape(format!(
-            "{} bone heads but {} bone tails",
-            heads.len(),
-            tails.len()
-        )));
+        return Err(Error::Shape(format!("{} bone heads but {} bone tails", heads.len(), tails.len())));
     }
     if heads.is_empty() {
         return Err(Error::NoBones("the bone list is empty".into()));
@@ -84,10 +73,7 @@ pub fn bounding_box(points: &[[f32; 3]]) -> (DVec3, DVec3) {
                 (lo.min(q), hi.max(q))
             },
         )
-        .reduce(
-            || (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
-            |a, b| (a.0.min(b.0), a.1.max(b.1)),
-        )
+        .reduce(|| (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)), |a, b| (a.0.min(b.0), a.1.max(b.1)))
 }
 
 /// `[f32; 3]` -> `DVec3`.
@@ -110,10 +96,7 @@ impl Frame {
     pub fn of_points(points: &[[f32; 3]]) -> Frame {
         let (lo, hi) = bounding_box(points);
         let d = (hi - lo).length();
-        Frame {
-            centre: (lo + hi) * 0.5,
-            diagonal: if d.is_finite() && d > 0.0 { d } else { 1.0 },
-        }
+        Frame { centre: (lo + hi) * 0.5, diagonal: if d.is_finite() && d > 0.0 { d } else { 1.0 } }
     }
 
     /// Input units -> unit frame.

@@ -62,7 +62,12 @@ mod tests {
         // 0: root at the origin with an invented tail along +y; 1 starts away from it (span);
         // 2 starts at 1's tail (connected); 3 starts at 1's head (no extent).
         let heads = [DVec3::ZERO, DVec3::new(0.0, 0.0, 1.0), DVec3::new(0.0, 0.0, 2.0), DVec3::new(0.0, 0.0, 1.0)];
-        let tails = [DVec3::new(0.0, 1.0, 0.0), DVec3::new(0.0, 0.0, 2.0), DVec3::new(0.0, 0.0, 3.0), DVec3::new(1.0, 0.0, 1.0)];
+        let tails = [
+            DVec3::new(0.0, 1.0, 0.0),
+            DVec3::new(0.0, 0.0, 2.0),
+            DVec3::new(0.0, 0.0, 3.0),
+            DVec3::new(1.0, 0.0, 1.0),
+        ];
         let parents = [-1, 0, 1, 1];
         validate_parents(&parents, 4).unwrap();
         let (spans, tail_child) = child_segments(&heads, &tails, &parents, 1e-6);

@@ -202,13 +202,11 @@ fn joined_parents(heads: &[[f32; 3]], tails: &[[f32; 3]], parents: &[i32], groun
         if eff[r] >= 0 {
             continue;
         }
-        let cand = (0..n)
-            .filter(|&b| root_of(&eff, b) != r && close(heads[r], tails[b]))
-            .min_by(|&a, &b| {
-                let da = (v(heads[r]) - v(tails[a])).length();
-                let db = (v(heads[r]) - v(tails[b])).length();
-                da.partial_cmp(&db).unwrap_or(std::cmp::Ordering::Equal)
-            });
+        let cand = (0..n).filter(|&b| root_of(&eff, b) != r && close(heads[r], tails[b])).min_by(|&a, &b| {
+            let da = (v(heads[r]) - v(tails[a])).length();
+            let db = (v(heads[r]) - v(tails[b])).length();
+            da.partial_cmp(&db).unwrap_or(std::cmp::Ordering::Equal)
+        });
         if let Some(b) = cand {
             eff[r] = b as i32;
         }
@@ -296,12 +294,7 @@ fn mirror_normal(points: &[Vec3], centre: Vec3) -> Vec3 {
 
 /// Find the roles of a skeleton's bones (see the module doc). Fails with
 /// [`Error::NoBones`] naming what is missing when no legs or no head can be found.
-pub fn detect_roles(
-    heads: &[[f32; 3]],
-    tails: &[[f32; 3]],
-    parents: &[i32],
-    names: &[String],
-) -> Result<Roles> {
+pub fn detect_roles(heads: &[[f32; 3]], tails: &[[f32; 3]], parents: &[i32], names: &[String]) -> Result<Roles> {
     validate(heads, tails, parents, names)?;
     let n = heads.len();
     let real_parents = parents;
@@ -335,8 +328,7 @@ pub fn detect_roles(
     let size = (hi - lo).length();
     if !(height > 1e-6 * size.max(1e-30)) || height <= 0.0 {
         return Err(Error::NoBones(
-            "no legs: the skeleton is flat (no height along +Z), so no chain reaches down to the ground"
-                .into(),
+            "no legs: the skeleton is flat (no height along +Z), so no chain reaches down to the ground".into(),
         ));
     }
 
@@ -354,11 +346,8 @@ pub fn detect_roles(
             feet[b] = usize::from(near && !lower(names, b).contains("tail"));
             continue;
         }
-        let longs: Vec<usize> = kids[b]
-            .iter()
-            .copied()
-            .filter(|&c| feet[c] > 0 && h(c).z - low[c] >= LONG_FRACTION * height)
-            .collect();
+        let longs: Vec<usize> =
+            kids[b].iter().copied().filter(|&c| feet[c] > 0 && h(c).z - low[c] >= LONG_FRACTION * height).collect();
         feet[b] = match longs.len() {
             0 => usize::from(kids[b].iter().any(|&c| feet[c] > 0)),
             1 => feet[longs[0]],
@@ -383,15 +372,11 @@ pub fn detect_roles(
         let mut chain = vec![top];
         let mut cur = top;
         loop {
-            let next = kids[cur]
-                .iter()
-                .copied()
-                .filter(|&c| feet[c] > 0)
-                .max_by(|&a, &b| {
-                    let ka = (h(cur).z - low[a], (t(a) - h(a)).length());
-                    let kb = (h(cur).z - low[b], (t(b) - h(b)).length());
-                    ka.partial_cmp(&kb).unwrap_or(std::cmp::Ordering::Equal)
-                });
+            let next = kids[cur].iter().copied().filter(|&c| feet[c] > 0).max_by(|&a, &b| {
+                let ka = (h(cur).z - low[a], (t(a) - h(a)).length());
+                let kb = (h(cur).z - low[b], (t(b) - h(b)).length());
+                ka.partial_cmp(&kb).unwrap_or(std::cmp::Ordering::Equal)
+            });
             match next {
                 Some(c) => {
                     chain.push(c);
@@ -456,9 +441,7 @@ pub fn detect_roles(
         .max_by(|a, b| a.1.partial_cmp(&b.1).unwrap_or(std::cmp::Ordering::Equal))
         .map(|(b, _)| b);
     let Some(head_leaf) = head_leaf else {
-        return Err(Error::NoBones(
-            "no head: no bone chain runs along the body's middle away from the legs".into(),
-        ));
+        return Err(Error::NoBones("no head: no bone chain runs along the body's middle away from the legs".into()));
     };
     let axis = ancestors(head_leaf);
     let on_axis = {
@@ -479,9 +462,8 @@ pub fn detect_roles(
         }
         let mut chain = vec![top];
         let mut cur = top;
-        while let Some(&c) = kids[cur]
-            .iter()
-            .max_by(|&&a, &&b| reach[a].partial_cmp(&reach[b]).unwrap_or(std::cmp::Ordering::Equal))
+        while let Some(&c) =
+            kids[cur].iter().max_by(|&&a, &&b| reach[a].partial_cmp(&reach[b]).unwrap_or(std::cmp::Ordering::Equal))
         {
             chain.push(c);
             cur = c;
@@ -524,10 +506,12 @@ pub fn detect_roles(
         None => {
             let siblings_non_limb = kids[head_leaf].is_empty()
                 && leaf_parent >= 0
-                && kids[leaf_parent as usize]
-                    .iter()
-                    .any(|&c| c != head_leaf && !in_leg[c] && !is_arm_top(c));
-            if siblings_non_limb { axis.len() - 2 } else { axis.len() - 1 }
+                && kids[leaf_parent as usize].iter().any(|&c| c != head_leaf && !in_leg[c] && !is_arm_top(c));
+            if siblings_non_limb {
+                axis.len() - 2
+            } else {
+                axis.len() - 1
+            }
         }
     };
     // deepest axis bone carrying a limb, before the head
@@ -601,13 +585,21 @@ pub fn detect_roles(
     // ---- sides from geometry, checked against names
     let limb_side = |chain: &[usize], left: Vec3| {
         let m = chain.iter().map(|&b| (h(b) + t(b)) * 0.5).sum::<Vec3>() / chain.len() as f32;
-        if (m - centre).dot(left) >= 0.0 { Side::Left } else { Side::Right }
+        if (m - centre).dot(left) >= 0.0 {
+            Side::Left
+        } else {
+            Side::Right
+        }
     };
     let (mut agree, mut disagree) = (0, 0);
     for c in &leg_chains {
         let geo = limb_side(c, left);
         if let Some(named) = c.iter().find_map(|&b| names.get(b).and_then(|s| name_side(s))) {
-            if named == geo { agree += 1 } else { disagree += 1 }
+            if named == geo {
+                agree += 1
+            } else {
+                disagree += 1
+            }
         }
     }
     if disagree > 0 && agree == 0 && to_head.dot(along).abs() < 0.1 * height {
@@ -616,9 +608,8 @@ pub fn detect_roles(
         left = -left;
         notes.push("forward direction taken from the .L/.R bone names".into());
     } else if disagree > 0 {
-        notes.push(format!(
-            "{disagree} leg(s) named for the other side than where they are; roles follow the geometry"
-        ));
+        notes
+            .push(format!("{disagree} leg(s) named for the other side than where they are; roles follow the geometry"));
     }
 
     // ---- leg groups along the spine (front first)
@@ -674,7 +665,11 @@ pub fn detect_roles(
         }
         b
     };
-    let single_tree = spine.iter().chain(&neck).chain(&tail).chain([&head])
+    let single_tree = spine
+        .iter()
+        .chain(&neck)
+        .chain(&tail)
+        .chain([&head])
         .chain(legs.iter().flat_map(|l| &l.bones))
         .all(|&b| real_root(b) == tree.root);
     let leg_length = legs.iter().map(|l| h(l.bones[0]).z - low[l.bones[0]]).sum::<f32>() / legs.len() as f32;

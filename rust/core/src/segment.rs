@@ -16,11 +16,7 @@ use glam::{DVec3, Vec3};
 pub fn closest_point_on_segment(p: DVec3, a: DVec3, b: DVec3) -> (f64, f64) {
     let ab = b - a;
     let len2 = ab.length_squared();
-    let t = if len2 > f64::MIN_POSITIVE {
-        ((p - a).dot(ab) / len2).clamp(0.0, 1.0)
-    } else {
-        0.0
-    };
+    let t = if len2 > f64::MIN_POSITIVE { ((p - a).dot(ab) / len2).clamp(0.0, 1.0) } else { 0.0 };
     (t, (p - (a + ab * t)).length())
 }
 
@@ -29,11 +25,7 @@ pub fn closest_point_on_segment(p: DVec3, a: DVec3, b: DVec3) -> (f64, f64) {
 pub fn closest_point_on_segment_f32(p: Vec3, a: Vec3, b: Vec3) -> (f32, f32) {
     let ab = b - a;
     let len2 = ab.length_squared();
-    let t = if len2 > f32::MIN_POSITIVE {
-        ((p - a).dot(ab) / len2).clamp(0.0, 1.0)
-    } else {
-        0.0
-    };
+    let t = if len2 > f32::MIN_POSITIVE { ((p - a).dot(ab) / len2).clamp(0.0, 1.0) } else { 0.0 };
     (t, (p - (a + ab * t)).length())
 }
 

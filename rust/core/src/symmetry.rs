@@ -93,9 +93,7 @@ pub fn validate_bone_mirror(bone_mirror: &[i32], b: usize) -> Result<()> {
             continue;
         }
         if m < 0 || m as usize >= b || bone_mirror[m as usize] != i as i32 {
-            return Err(Error::InvalidArgument(format!(
-                "bone_mirror must pair bones both ways (bone {i} -> {m})"
-            )));
+            return Err(Error::InvalidArgument(format!("bone_mirror must pair bones both ways (bone {i} -> {m})")));
         }
     }
     Ok(())

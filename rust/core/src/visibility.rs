@@ -70,14 +70,12 @@ impl RayMesh {
         if tris.is_empty() || triangles.len() > u32::MAX as usize {
             return RayMesh { bvh: Bvh::new(), tris: Vec::new(), orig: Vec::new() };
         }
-        let boxes: Vec<(Vec3, Vec3)> = tris
-            .par_iter()
-            .with_min_len(4096)
-            .map(|[a, b, c]| (a.min(*b).min(*c), a.max(*b).max(*c)))
-            .collect();
-        let (lo, hi) = boxes
-            .iter()
-            .fold((Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)), |(l, h), (a, b)| (l.min(*a), h.max(*b)));
+        let boxes: Vec<(Vec3, Vec3)> =
+            tris.par_iter().with_min_len(4096).map(|[a, b, c]| (a.min(*b).min(*c), a.max(*b).max(*c))).collect();
+        let (lo, hi) =
+            boxes.iter().fold((Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)), |(l, h), (a, b)| {
+                (l.min(*a), h.max(*b))
+            });
         let pad = Vec3::splat((hi - lo).length() * GROW + f32::MIN_POSITIVE);
         let bvh = Bvh::from_iter(
             BvhBuildStrategy::Binned,
@@ -205,9 +203,7 @@ mod tests {
     use crate::primitives::capped_cylinder;
 
     fn unit_cube() -> (Vec<[f32; 3]>, Vec<[u32; 3]>) {
-        let v: Vec<[f32; 3]> = (0..8)
-            .map(|i| [(i & 1) as f32, ((i >> 1) & 1) as f32, ((i >> 2) & 1) as f32])
-            .collect();
+        let v: Vec<[f32; 3]> = (0..8).map(|i| [(i & 1) as f32, ((i >> 1) & 1) as f32, ((i >> 2) & 1) as f32]).collect();
         let q = [[0, 1, 3, 2], [4, 6, 7, 5], [0, 4, 5, 1], [2, 3, 7, 6], [0, 2, 6, 4], [1, 5, 7, 3]];
         let t = q.iter().flat_map(|q| [[q[0], q[1], q[2]], [q[0], q[2], q[3]]]).collect();
         (v, t)
@@ -261,7 +257,8 @@ mod tests {
             let a = Vec3::new(rnd(), rnd(), rnd());
             let b = Vec3::new(rnd(), rnd(), rnd());
             let ray = Ray::new(a, b - a);
-            let brute: Vec<f32> = (0..rm.triangle_count() as u32).filter_map(|i| rm.triangle_hit(i, &ray, 1.0)).collect();
+            let brute: Vec<f32> =
+                (0..rm.triangle_count() as u32).filter_map(|i| rm.triangle_hit(i, &ray, 1.0)).collect();
             assert_eq!(rm.segment_blocked(a, b), !brute.is_empty());
             blocked += !brute.is_empty() as usize;
             // All hits along the (normalized) ray.
@@ -302,7 +299,9 @@ mod tests {
         let mut targets: Vec<Vec3> = cv.iter().map(|p| Vec3::from_array(*p)).collect();
         for tr in &ct {
             for k in 0..3 {
-                targets.push(0.5 * (Vec3::from_array(cv[tr[k] as usize]) + Vec3::from_array(cv[tr[(k + 1) % 3] as usize])));
+                targets.push(
+                    0.5 * (Vec3::from_array(cv[tr[k] as usize]) + Vec3::from_array(cv[tr[(k + 1) % 3] as usize])),
+                );
             }
         }
         for p in targets {

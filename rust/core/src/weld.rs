@@ -39,10 +39,7 @@ pub fn weld(positions: &[DVec3], tolerance: f64) -> (Vec<u32>, Vec<DVec3>) {
         // Range of cells the tolerance ball can touch, per axis (1 or 2 cells).
         let lo = ((*p - DVec3::splat(tol)) * inv).floor();
         let hi = ((*p + DVec3::splat(tol)) * inv).floor();
-        let (lo, hi) = (
-            [lo.x as i64, lo.y as i64, lo.z as i64],
-            [hi.x as i64, hi.y as i64, hi.z as i64],
-        );
+        let (lo, hi) = ([lo.x as i64, lo.y as i64, lo.z as i64], [hi.x as i64, hi.y as i64, hi.z as i64]);
         let mut found = u32::MAX;
         'search: for cx in lo[0]..=hi[0] {
             for cy in lo[1]..=hi[1] {

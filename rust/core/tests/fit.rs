@@ -114,10 +114,7 @@ fn straight_tube_centres_perpendicular() {
     let (v, t) = capped_cylinder(0.5, 4.0, 40, 32);
     let truth: Vec<[f32; 3]> = (0..5).map(|i| [0.0, 0.0, 0.4 + 0.8 * i as f32]).collect();
     let mut rng = Rng(7);
-    let start: Vec<[f32; 3]> = truth
-        .iter()
-        .map(|p| [p[0] + 0.3 * rng.next(), p[1] + 0.3 * rng.next(), p[2]])
-        .collect();
+    let start: Vec<[f32; 3]> = truth.iter().map(|p| [p[0] + 0.3 * rng.next(), p[1] + 0.3 * rng.next(), p[2]]).collect();
     let (out, rep) = fit_joints(&v, &t, &start, &chain_bones(5), &[true; 5], &FitOptions::default()).unwrap();
     for o in &out {
         assert!(o[0].abs() < 0.02 && o[1].abs() < 0.02, "not centred: {o:?}");
@@ -249,8 +246,12 @@ fn symmetry_exact() {
     t.extend(lt.iter().map(|tr| [tr[0] + base, tr[2] + base, tr[1] + base]));
     // joints 0..3 left, 3..6 right (deliberately not mirrored), 6 a centre joint (outside).
     let start = vec![
-        [1.1, 0.05, 0.3], [0.9, -0.1, 2.0], [1.8, 0.1, 2.9],
-        [-0.95, 0.1, 0.25], [-1.12, 0.0, 2.1], [-1.9, -0.05, 2.8],
+        [1.1, 0.05, 0.3],
+        [0.9, -0.1, 2.0],
+        [1.8, 0.1, 2.9],
+        [-0.95, 0.1, 0.25],
+        [-1.12, 0.0, 2.1],
+        [-1.9, -0.05, 2.8],
         [0.1, 0.0, 1.0],
     ];
     let bones = vec![[0, 1], [1, 2], [3, 4], [4, 5]];
@@ -312,6 +313,7 @@ fn mesh_checks_and_errors() {
     let bad_sym = FitOptions { symmetry: Some(Symmetry { axis: 3, plane: 0.0, mirror: vec![0, 1] }), ..opts.clone() };
     assert!(matches!(fit_joints(&v, &t, &j, &[[0, 1]], &[true; 2], &bad_sym), Err(Error::InvalidArgument(_))));
     // A joint with no bone and coincident joints are fine.
-    let (out, _) = fit_joints(&v, &t, &[[0.0, 0.0, 1.0], [0.0, 0.0, 1.0], [0.2, 0.1, 2.0]], &[[0, 1]], &[true; 3], &opts).unwrap();
+    let (out, _) =
+        fit_joints(&v, &t, &[[0.0, 0.0, 1.0], [0.0, 0.0, 1.0], [0.2, 0.1, 2.0]], &[[0, 1]], &[true; 3], &opts).unwrap();
     assert!(out.iter().all(|p| p.iter().all(|c| c.is_finite())));
 }

@@ -82,8 +82,7 @@ fn symmetric_mesh_and_skeleton_give_symmetric_weights() {
     let mirror_bone = [3usize, 2, 1, 0];
     // Vertex mirror by position.
     let find = |p: [f32; 3]| {
-        m.0.iter()
-            .position(|q| (q[0] + p[0]).abs() < 1e-5 && (q[1] - p[1]).abs() < 1e-5 && (q[2] - p[2]).abs() < 1e-5)
+        m.0.iter().position(|q| (q[0] + p[0]).abs() < 1e-5 && (q[1] - p[1]).abs() < 1e-5 && (q[2] - p[2]).abs() < 1e-5)
     };
     let vm: Vec<usize> = m.0.iter().map(|p| find(*p).expect("mirror vertex")).collect();
     let check = |inf: &Influences, tol: f32| {
@@ -480,12 +479,16 @@ fn random_imported_rigs_always_give_weights() {
         let parents: Vec<i32> = (0..b)
             .map(|i| {
                 let p = ((next() * (b + 1) as f32) as i32 - 1).min(b as i32 - 1);
-                if p == i as i32 { -1 } else { p }
+                if p == i as i32 {
+                    -1
+                } else {
+                    p
+                }
             })
             .collect();
         let opts = HeatOptions { parents: Some(parents.clone()), ..HeatOptions::default() };
-        let (inf, _) = heat_weights(&v, &t, &heads, &tails, &opts, None)
-            .unwrap_or_else(|e| panic!("parents {parents:?}: {e}"));
+        let (inf, _) =
+            heat_weights(&v, &t, &heads, &tails, &opts, None).unwrap_or_else(|e| panic!("parents {parents:?}: {e}"));
         assert_rows_sum_to_one(&inf);
         assert!(inf.indices.iter().all(|&j| j < b as i32));
     }

@@ -3,8 +3,8 @@
 use std::f64::consts::PI;
 
 use miniskeleton_core::ik2d::{
-    clamp_to_limits, forward, solve_ccd, solve_ccd_classic3d, solve_ccd_pure, solve_fabrik,
-    solve_multi, solve_two_arm_grip, wrap_angle, Chain2d, SolveOptions, SolveReport,
+    clamp_to_limits, forward, solve_ccd, solve_ccd_classic3d, solve_ccd_pure, solve_fabrik, solve_multi,
+    solve_two_arm_grip, wrap_angle, Chain2d, SolveOptions, SolveReport,
 };
 use miniskeleton_core::{Error, Result};
 
@@ -36,11 +36,7 @@ fn dist(a: [f64; 2], b: [f64; 2]) -> f64 {
 /// A chain of `b` bones with random lengths in [0.5, 1.5), straight, unlimited.
 fn random_chain(rng: &mut Rng, b: usize) -> Chain2d {
     let lengths = (0..b).map(|_| rng.uniform(0.5, 1.5)).collect();
-    Chain2d::straight(
-        [rng.uniform(-1.0, 1.0), rng.uniform(-1.0, 1.0)],
-        rng.uniform(-PI, PI),
-        lengths,
-    )
+    Chain2d::straight([rng.uniform(-1.0, 1.0), rng.uniform(-1.0, 1.0)], rng.uniform(-PI, PI), lengths)
 }
 
 /// A reachable target: forward kinematics of random angles.
@@ -54,10 +50,7 @@ fn assert_within_limits(chain: &Chain2d) {
     for (i, (&a, l)) in chain.angles.iter().zip(&chain.limits).enumerate() {
         assert!(a.is_finite(), "joint {i} angle {a}");
         assert!(a > -PI && a <= PI, "joint {i} angle {a} not wrapped");
-        assert!(
-            a >= l[0].max(-PI) - 1e-12 && a <= l[1].min(PI) + 1e-12,
-            "joint {i}: {a} outside {l:?}"
-        );
+        assert!(a >= l[0].max(-PI) - 1e-12 && a <= l[1].min(PI) + 1e-12, "joint {i}: {a} outside {l:?}");
     }
 }
 
@@ -99,20 +92,13 @@ fn random_reachable_targets_are_reached() {
             let opts = SolveOptions::for_chain(&c);
             let rep = solve_ccd(&mut c, target, opts).unwrap();
             let err = dist(tip(&c), target);
-            assert!(
-                (err - rep.error).abs() < 1e-9,
-                "reported {} but tip is {err} away",
-                rep.error
-            );
+            assert!((err - rep.error).abs() < 1e-9, "reported {} but tip is {err} away", rep.error);
             assert_within_limits(&c);
             if !(rep.reached && err <= opts.tolerance) {
                 failures += 1;
             }
         }
-        assert_eq!(
-            failures, 0,
-            "{b} bones: {failures}/{trials} random reachable targets missed"
-        );
+        assert_eq!(failures, 0, "{b} bones: {failures}/{trials} random reachable targets missed");
     }
 }
 
@@ -122,9 +108,7 @@ fn unreachable_target_gives_straight_chain_pointing_at_it() {
     for b in [1usize, 2, 3, 5, 10] {
         for _ in 0..20 {
             let mut c = random_chain(&mut rng, b);
-            c.angles
-                .iter_mut()
-                .for_each(|a| *a = rng.uniform(-2.0, 2.0));
+            c.angles.iter_mut().for_each(|a| *a = rng.uniform(-2.0, 2.0));
             let reach = c.reach();
             let dir = rng.uniform(-PI, PI);
             let d = reach * rng.uniform(1.05, 3.0);
@@ -132,19 +116,11 @@ fn unreachable_target_gives_straight_chain_pointing_at_it() {
             let opts = SolveOptions::for_chain(&c);
             let rep = solve_ccd(&mut c, target, opts).unwrap();
             assert!(!rep.reached);
-            assert!(
-                (rep.error - (d - reach)).abs() < 1e-9,
-                "error {} vs {}",
-                rep.error,
-                d - reach
-            );
+            assert!((rep.error - (d - reach)).abs() < 1e-9, "error {} vs {}", rep.error, d - reach);
             let p = forward(&c).unwrap();
             for i in 0..b {
                 let bone = (p[i + 1][1] - p[i][1]).atan2(p[i + 1][0] - p[i][0]);
-                assert!(
-                    wrap_angle(bone - dir).abs() < 1e-6,
-                    "bone {i} points {bone}, target {dir}"
-                );
+                assert!(wrap_angle(bone - dir).abs() < 1e-6, "bone {i} points {bone}, target {dir}");
             }
         }
     }
@@ -165,10 +141,7 @@ fn collinear_starts_converge() {
                 // get the paper's CCD step out of the collinear saddle.
                 for (variant, solve) in [("ccd", solve_ccd as Solver), ("pure", solve_ccd_pure)] {
                     let mut chain = rest.clone();
-                    let opts = SolveOptions {
-                        max_iterations: 1000,
-                        tolerance: 1e-3 * reach,
-                    };
+                    let opts = SolveOptions { max_iterations: 1000, tolerance: 1e-3 * reach };
                     let rep = solve(&mut chain, target, opts).unwrap();
                     let err = dist(tip(&chain), target);
                     assert!(
@@ -211,8 +184,7 @@ fn joint_limits_hold_after_solving() {
         assert!(c.angles[1] >= elbow[0] && c.angles[1] <= elbow[1]);
         // With a free shoulder the elbow range [0, 150] reaches the annulus
         // |1 + 0.9 e^{i 150deg}| <= r <= 1.9 (mirror poses are available by the shoulder).
-        let inner =
-            (1.0f64 + 0.9 * 150f64.to_radians().cos()).hypot(0.9 * 150f64.to_radians().sin());
+        let inner = (1.0f64 + 0.9 * 150f64.to_radians().cos()).hypot(0.9 * 150f64.to_radians().sin());
         if r > inner + 0.01 && r < 1.89 {
             assert!(rep.reached, "r = {r}: error {}", rep.error);
             reached += 1;
@@ -242,23 +214,11 @@ fn target_unreachable_within_limits_is_approached_as_closely_as_possible() {
         // Inside the inner radius left by the elbow limit.
         ([-PI, PI], [0.0, 150f64.to_radians()], [0.2, 0.1]),
         // Shoulder limited to +-30 deg, target straight up.
-        (
-            [(-30f64).to_radians(), 30f64.to_radians()],
-            [0.0, 150f64.to_radians()],
-            [0.0, 1.5],
-        ),
+        ([(-30f64).to_radians(), 30f64.to_radians()], [0.0, 150f64.to_radians()], [0.0, 1.5]),
         // Far away, but the elbow may not straighten: the closed-form straight pose is illegal.
-        (
-            [-PI, PI],
-            [30f64.to_radians(), 150f64.to_radians()],
-            [-3.0, 2.0],
-        ),
+        ([-PI, PI], [30f64.to_radians(), 150f64.to_radians()], [-3.0, 2.0]),
         // Shoulder limited, target behind.
-        (
-            [(-45f64).to_radians(), 45f64.to_radians()],
-            [0.0, 120f64.to_radians()],
-            [-1.0, -0.3],
-        ),
+        ([(-45f64).to_radians(), 45f64.to_radians()], [0.0, 120f64.to_radians()], [-1.0, -0.3]),
     ];
     for (k, (shoulder, elbow, target)) in cases.into_iter().enumerate() {
         let mut c = Chain2d::straight([0.0, 0.0], 0.0, vec![1.0, 1.0]);
@@ -270,37 +230,23 @@ fn target_unreachable_within_limits_is_approached_as_closely_as_possible() {
         assert!(!rep.reached, "case {k}");
         let err = dist(tip(&c), target);
         assert!((err - rep.error).abs() < 1e-9);
-        assert!(
-            err <= best + 1e-3,
-            "case {k}: error {err}, brute-force best {best}"
-        );
+        assert!(err <= best + 1e-3, "case {k}: error {err}, brute-force best {best}");
     }
 }
 
 #[test]
 fn zero_length_bones_give_finite_angles() {
     let mut rng = Rng(99);
-    for lengths in [
-        vec![1.0, 0.0, 1.0],
-        vec![0.0, 1.0, 1.0],
-        vec![1.0, 1.0, 0.0],
-        vec![0.0, 0.0],
-    ] {
+    for lengths in [vec![1.0, 0.0, 1.0], vec![0.0, 1.0, 1.0], vec![1.0, 1.0, 0.0], vec![0.0, 0.0]] {
         for _ in 0..50 {
             let mut c = Chain2d::straight([0.0, 0.0], 0.3, lengths.clone());
             let target = random_target(&mut rng, &c);
             let reach = c.reach();
-            let opts = SolveOptions {
-                max_iterations: 200,
-                tolerance: 1e-3 * reach.max(1.0),
-            };
+            let opts = SolveOptions { max_iterations: 200, tolerance: 1e-3 * reach.max(1.0) };
             let rep = solve_ccd(&mut c, target, opts).unwrap();
             assert!(rep.error.is_finite());
             assert_within_limits(&c);
-            assert!(forward(&c)
-                .unwrap()
-                .iter()
-                .all(|p| p[0].is_finite() && p[1].is_finite()));
+            assert!(forward(&c).unwrap().iter().all(|p| p[0].is_finite() && p[1].is_finite()));
             assert!(rep.reached, "{lengths:?}: error {}", rep.error);
         }
         // Also an unreachable target and a target on the base.
@@ -322,31 +268,16 @@ fn multi_effector_strip_reaches_head_middle_and_tail() {
             // Targets from one random pose: jointly reachable. Keep the strip gently curved
             // (relative angles within +-60 deg) like a snake or dragon.
             let mut pose = rest.clone();
-            pose.angles
-                .iter_mut()
-                .for_each(|a| *a = rng.uniform(-1.0, 1.0));
+            pose.angles.iter_mut().for_each(|a| *a = rng.uniform(-1.0, 1.0));
             let p = forward(&pose).unwrap();
-            let effectors = [
-                (b / 3, p[b / 3], 1.0),
-                (2 * b / 3, p[2 * b / 3], 1.0),
-                (b, p[b], 2.0),
-            ];
+            let effectors = [(b / 3, p[b / 3], 1.0), (2 * b / 3, p[2 * b / 3], 1.0), (b, p[b], 2.0)];
             let mut c = rest.clone();
-            let opts = SolveOptions {
-                max_iterations: 200,
-                tolerance: 1e-3 * c.reach(),
-            };
+            let opts = SolveOptions { max_iterations: 200, tolerance: 1e-3 * c.reach() };
             let rep = solve_multi(&mut c, &effectors, opts).unwrap();
             let q = forward(&c).unwrap();
-            let worst = effectors
-                .iter()
-                .map(|&(j, t, _)| dist(q[j], t))
-                .fold(0.0, f64::max);
+            let worst = effectors.iter().map(|&(j, t, _)| dist(q[j], t)).fold(0.0, f64::max);
             assert!((worst - rep.error).abs() < 1e-9);
-            assert!(
-                rep.reached && worst <= opts.tolerance,
-                "{b} bones: worst {worst}, {rep:?}"
-            );
+            assert!(rep.reached && worst <= opts.tolerance, "{b} bones: worst {worst}, {rep:?}");
         }
     }
 }
@@ -369,12 +300,7 @@ fn multi_effector_conflicting_targets_give_least_squares_compromise() {
     // One bone, two equally weighted targets for its tip at +-90 deg: the best is between.
     let mut c = Chain2d::straight([0.0, 0.0], 0.0, vec![1.0]);
     c.angles[0] = 1.0;
-    let rep = solve_multi(
-        &mut c,
-        &[(1, [0.0, 1.0], 1.0), (1, [1.0, -1.0], 1.0)],
-        SolveOptions::default(),
-    )
-    .unwrap();
+    let rep = solve_multi(&mut c, &[(1, [0.0, 1.0], 1.0), (1, [1.0, -1.0], 1.0)], SolveOptions::default()).unwrap();
     assert!(!rep.reached);
     // Procrustes: direction of the weighted sum of targets = (1, 0) -> angle 0.
     assert!(c.angles[0].abs() < 1e-9, "{}", c.angles[0]);
@@ -386,18 +312,11 @@ fn two_arm_grip_follows_rotating_prop() {
     // length 0.6 centred at (0, 0.6) is turned from -60 to +60 degrees.
     let arm = |x: f64| {
         let mut c = Chain2d::straight([x, 1.0], -PI / 2.0, vec![0.4, 0.35]);
-        c.limits[1] = if x < 0.0 {
-            [-150f64.to_radians(), 0.0]
-        } else {
-            [0.0, 150f64.to_radians()]
-        };
+        c.limits[1] = if x < 0.0 { [-150f64.to_radians(), 0.0] } else { [0.0, 150f64.to_radians()] };
         c
     };
     let (mut left, mut right) = (arm(-0.3), arm(0.3));
-    let opts = SolveOptions {
-        max_iterations: 200,
-        tolerance: 1e-3 * 0.75,
-    };
+    let opts = SolveOptions { max_iterations: 200, tolerance: 1e-3 * 0.75 };
     let mut frames = 0;
     for step in -6..=6 {
         let a = (10.0 * step as f64).to_radians();
@@ -436,20 +355,13 @@ fn baselines_reach_random_targets() {
             classic_ok += rc.reached as usize;
         }
         assert!(fabrik_ok >= 95, "{b} bones: FABRIK reached {fabrik_ok}/100");
-        assert!(
-            classic_ok >= 90,
-            "{b} bones: classic CCD reached {classic_ok}/100"
-        );
+        assert!(classic_ok >= 90, "{b} bones: classic CCD reached {classic_ok}/100");
     }
     // FABRIK on an unreachable target: straight toward it.
     let mut c = Chain2d::straight([0.0, 0.0], 1.0, vec![1.0, 1.0]);
     let rep = solve_fabrik(&mut c, [3.0, 0.0], SolveOptions::default()).unwrap();
     assert!((rep.error - 1.0).abs() < 1e-12);
-    assert!(
-        (c.angles[0] + 1.0).abs() < 1e-12 && c.angles[1].abs() < 1e-12,
-        "{:?}",
-        c.angles
-    );
+    assert!((c.angles[0] + 1.0).abs() < 1e-12 && c.angles[1].abs() < 1e-12, "{:?}", c.angles);
 }
 
 #[test]
@@ -458,61 +370,34 @@ fn invalid_input_is_an_error_and_leaves_chain_untouched() {
     let opts = SolveOptions::default();
 
     let mut c = good.clone();
-    assert_eq!(
-        solve_ccd(&mut c, [f64::NAN, f64::INFINITY], opts),
-        Err(Error::NonFinite {
-            what: "target",
-            count: 2
-        })
-    );
+    assert_eq!(solve_ccd(&mut c, [f64::NAN, f64::INFINITY], opts), Err(Error::NonFinite { what: "target", count: 2 }));
     assert_eq!(c, good);
 
     let mut c = good.clone();
     c.angles[1] = f64::NAN;
     let before = c.clone();
-    assert!(matches!(
-        solve_ccd(&mut c, [1.0, 1.0], opts),
-        Err(Error::NonFinite { count: 1, .. })
-    ));
+    assert!(matches!(solve_ccd(&mut c, [1.0, 1.0], opts), Err(Error::NonFinite { count: 1, .. })));
     assert!(c.angles[1].is_nan() && c.lengths == before.lengths);
 
     let mut c = good.clone();
     c.angles.pop();
-    assert!(matches!(
-        solve_fabrik(&mut c, [1.0, 1.0], opts),
-        Err(Error::Shape(_))
-    ));
+    assert!(matches!(solve_fabrik(&mut c, [1.0, 1.0], opts), Err(Error::Shape(_))));
     assert!(matches!(forward(&c), Err(Error::Shape(_))));
 
     let mut c = good.clone();
     c.lengths[0] = -1.0;
-    assert!(matches!(
-        solve_ccd_classic3d(&mut c, [1.0, 1.0], opts),
-        Err(Error::InvalidArgument(_))
-    ));
+    assert!(matches!(solve_ccd_classic3d(&mut c, [1.0, 1.0], opts), Err(Error::InvalidArgument(_))));
 
     let mut c = good.clone();
     c.limits[0] = [1.0, -1.0];
-    assert!(matches!(
-        solve_ccd(&mut c, [1.0, 1.0], opts),
-        Err(Error::InvalidArgument(_))
-    ));
+    assert!(matches!(solve_ccd(&mut c, [1.0, 1.0], opts), Err(Error::InvalidArgument(_))));
 
     let mut c = Chain2d::straight([0.0, 0.0], 0.0, vec![]);
-    assert!(matches!(
-        solve_ccd(&mut c, [1.0, 1.0], opts),
-        Err(Error::NoBones(_))
-    ));
+    assert!(matches!(solve_ccd(&mut c, [1.0, 1.0], opts), Err(Error::NoBones(_))));
 
     let mut c = good.clone();
-    let bad_opts = SolveOptions {
-        max_iterations: 10,
-        tolerance: f64::NAN,
-    };
-    assert!(matches!(
-        solve_ccd(&mut c, [1.0, 1.0], bad_opts),
-        Err(Error::InvalidArgument(_))
-    ));
+    let bad_opts = SolveOptions { max_iterations: 10, tolerance: f64::NAN };
+    assert!(matches!(solve_ccd(&mut c, [1.0, 1.0], bad_opts), Err(Error::InvalidArgument(_))));
 
     let mut c = good.clone();
     for effs in [
@@ -522,18 +407,9 @@ fn invalid_input_is_an_error_and_leaves_chain_untouched() {
         vec![(2, [1.0, 0.0], -1.0)],
         vec![(2, [1.0, 0.0], 0.0)],
     ] {
-        assert!(
-            matches!(
-                solve_multi(&mut c, &effs, opts),
-                Err(Error::InvalidArgument(_))
-            ),
-            "{effs:?}"
-        );
+        assert!(matches!(solve_multi(&mut c, &effs, opts), Err(Error::InvalidArgument(_))), "{effs:?}");
     }
-    assert!(matches!(
-        solve_multi(&mut c, &[(2, [f64::NAN, 0.0], 1.0)], opts),
-        Err(Error::NonFinite { .. })
-    ));
+    assert!(matches!(solve_multi(&mut c, &[(2, [f64::NAN, 0.0], 1.0)], opts), Err(Error::NonFinite { .. })));
     assert_eq!(c, good);
 
     let (mut l, mut r) = (good.clone(), good.clone());

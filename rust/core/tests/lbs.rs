@@ -3,22 +3,13 @@
 use miniskeleton_core::lbs::lbs;
 use miniskeleton_core::Error;
 
-const IDENTITY: [[f32; 4]; 4] = [
-    [1.0, 0.0, 0.0, 0.0],
-    [0.0, 1.0, 0.0, 0.0],
-    [0.0, 0.0, 1.0, 0.0],
-    [0.0, 0.0, 0.0, 1.0],
-];
+const IDENTITY: [[f32; 4]; 4] =
+    [[1.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0], [0.0, 0.0, 0.0, 1.0]];
 
 /// Row-major rotation about +Z by `deg` degrees, with translation `t` in column 3.
 fn rot_z(deg: f32, t: [f32; 3]) -> [[f32; 4]; 4] {
     let (s, c) = deg.to_radians().sin_cos();
-    [
-        [c, -s, 0.0, t[0]],
-        [s, c, 0.0, t[1]],
-        [0.0, 0.0, 1.0, t[2]],
-        [0.0, 0.0, 0.0, 1.0],
-    ]
+    [[c, -s, 0.0, t[0]], [s, c, 0.0, t[1]], [0.0, 0.0, 1.0, t[2]], [0.0, 0.0, 0.0, 1.0]]
 }
 
 fn close(a: [f32; 3], b: [f32; 3], tol: f32) -> bool {
@@ -65,18 +56,10 @@ fn translated_bone_translates_fully_weighted_vertices() {
     for i in 0..v.len() {
         let a = w[2 * i + 1];
         let expect = [v[i][0] + a * t[0], v[i][1] + a * t[1], v[i][2] + a * t[2]];
-        assert!(
-            close(out[i], expect, 1e-5),
-            "vertex {i}: {:?} != {expect:?}",
-            out[i]
-        );
+        assert!(close(out[i], expect, 1e-5), "vertex {i}: {:?} != {expect:?}", out[i]);
         if a == 1.0 {
             checked_full += 1;
-            assert!(close(
-                out[i],
-                [v[i][0] + t[0], v[i][1] + t[1], v[i][2] + t[2]],
-                1e-5
-            ));
+            assert!(close(out[i], [v[i][0] + t[0], v[i][1] + t[1], v[i][2] + t[2]], 1e-5));
         }
     }
     assert!(checked_full > 0);
@@ -90,14 +73,7 @@ fn half_half_blend_of_two_rotations_gives_chord_midpoint() {
     let v = vec![[1.0f32, 0.0, 0.0], [2.0, 0.0, 1.0]];
     let idx = vec![0, 1, 1, 0];
     let w = vec![0.5, 0.5, 0.5, 0.5];
-    let out = lbs(
-        &v,
-        &idx,
-        &w,
-        2,
-        &[rot_z(45.0, [0.0; 3]), rot_z(-45.0, [0.0; 3])],
-    )
-    .unwrap();
+    let out = lbs(&v, &idx, &w, 2, &[rot_z(45.0, [0.0; 3]), rot_z(-45.0, [0.0; 3])]).unwrap();
     let c = 45f32.to_radians().cos();
     assert!(close(out[0], [c, 0.0, 0.0], 1e-6), "{:?}", out[0]);
     assert!(close(out[1], [2.0 * c, 0.0, 1.0], 1e-6), "{:?}", out[1]);
@@ -106,14 +82,7 @@ fn half_half_blend_of_two_rotations_gives_chord_midpoint() {
 #[test]
 fn single_rotation_with_translation_is_row_major() {
     // 90 degrees about Z then +1 in X: (1,0,0) -> (0,1,0) + (1,0,0) = (1,1,0).
-    let out = lbs(
-        &[[1.0, 0.0, 0.0]],
-        &[0],
-        &[1.0],
-        1,
-        &[rot_z(90.0, [1.0, 0.0, 0.0])],
-    )
-    .unwrap();
+    let out = lbs(&[[1.0, 0.0, 0.0]], &[0], &[1.0], 1, &[rot_z(90.0, [1.0, 0.0, 0.0])]).unwrap();
     assert!(close(out[0], [1.0, 1.0, 0.0], 1e-6), "{:?}", out[0]);
 }
 
@@ -149,57 +118,27 @@ fn shape_and_non_finite_errors() {
     let v = vec![[0.0f32; 3]; 3];
     let idx = vec![0; 6];
     let w = vec![0.5; 6];
-    assert!(matches!(
-        lbs(&v, &idx[..5], &w, 2, &[IDENTITY]),
-        Err(Error::Shape(_))
-    ));
-    assert!(matches!(
-        lbs(&v, &idx, &w[..4], 2, &[IDENTITY]),
-        Err(Error::Shape(_))
-    ));
+    assert!(matches!(lbs(&v, &idx[..5], &w, 2, &[IDENTITY]), Err(Error::Shape(_))));
+    assert!(matches!(lbs(&v, &idx, &w[..4], 2, &[IDENTITY]), Err(Error::Shape(_))));
 
     let mut vn = v.clone();
     vn[1][2] = f32::NAN;
     vn[2][0] = f32::INFINITY;
-    assert_eq!(
-        lbs(&vn, &idx, &w, 2, &[IDENTITY]),
-        Err(Error::NonFinite {
-            what: "vertex",
-            count: 2
-        })
-    );
+    assert_eq!(lbs(&vn, &idx, &w, 2, &[IDENTITY]), Err(Error::NonFinite { what: "vertex", count: 2 }));
     let mut wn = w.clone();
     wn[3] = f32::NAN;
-    assert_eq!(
-        lbs(&v, &idx, &wn, 2, &[IDENTITY]),
-        Err(Error::NonFinite {
-            what: "weight",
-            count: 1
-        })
-    );
+    assert_eq!(lbs(&v, &idx, &wn, 2, &[IDENTITY]), Err(Error::NonFinite { what: "weight", count: 1 }));
     let mut m = IDENTITY;
     m[0][3] = f32::NEG_INFINITY;
-    assert_eq!(
-        lbs(&v, &idx, &w, 2, &[m]),
-        Err(Error::NonFinite {
-            what: "bone matrix",
-            count: 1
-        })
-    );
+    assert_eq!(lbs(&v, &idx, &w, 2, &[m]), Err(Error::NonFinite { what: "bone matrix", count: 1 }));
     let mut wneg = w.clone();
     wneg[0] = -0.1;
-    assert!(matches!(
-        lbs(&v, &idx, &wneg, 2, &[IDENTITY]),
-        Err(Error::InvalidArgument(_))
-    ));
+    assert!(matches!(lbs(&v, &idx, &wneg, 2, &[IDENTITY]), Err(Error::InvalidArgument(_))));
 }
 
 #[test]
 fn empty_inputs() {
-    assert_eq!(
-        lbs(&[], &[], &[], 4, &[IDENTITY]).unwrap(),
-        Vec::<[f32; 3]>::new()
-    );
+    assert_eq!(lbs(&[], &[], &[], 4, &[IDENTITY]).unwrap(), Vec::<[f32; 3]>::new());
     // k = 0: nothing influences anything, vertices stay at rest.
     let v = vec![[1.0f32, 2.0, 3.0]];
     assert_eq!(lbs(&v, &[], &[], 0, &[]).unwrap(), v);

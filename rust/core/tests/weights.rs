@@ -64,10 +64,7 @@ fn idw_power_and_errors() {
     assert!(mean_top(&p6) > mean_top(&p2) + 0.05);
     let mut bad = v.clone();
     bad[3][1] = f32::NAN;
-    assert_eq!(
-        idw_weights(&bad, &h, &t, &IdwOptions::default()),
-        Err(Error::NonFinite { what: "vertex", count: 1 })
-    );
+    assert_eq!(idw_weights(&bad, &h, &t, &IdwOptions::default()), Err(Error::NonFinite { what: "vertex", count: 1 }));
     assert!(matches!(idw_weights(&[], &h, &t, &IdwOptions::default()), Err(Error::EmptyMesh(_))));
     assert!(matches!(idw_weights(&v, &[], &[], &IdwOptions::default()), Err(Error::NoBones(_))));
     assert!(idw_weights(&v, &h, &t, &IdwOptions { power: -1.0, ..Default::default() }).is_err());
@@ -98,12 +95,7 @@ fn bilinear_is_continuous_across_a_joint() {
     let (h, t, parents) = bone_chain(2.0, 4);
     let joint = t[1][2]; // bone 1 tail = bone 2 head
     let eps = 1e-4f32;
-    let verts = [
-        [0.2, 0.0, joint - eps],
-        [0.2, 0.0, joint + eps],
-        [0.0, -0.2, joint - eps],
-        [0.0, -0.2, joint + eps],
-    ];
+    let verts = [[0.2, 0.0, joint - eps], [0.2, 0.0, joint + eps], [0.0, -0.2, joint - eps], [0.0, -0.2, joint + eps]];
     let inf = bilinear_weights(&verts, &h, &t, &parents, &BilinearOptions::default()).unwrap();
     let d = inf.to_dense(4);
     for pair in [(0, 1), (2, 3)] {

@@ -13,9 +13,7 @@ pub fn rows<T: numpy::Element + Copy + Default, const C: usize>(
     let view = arr.as_array();
     let (n, c) = view.dim();
     if c != C && n != 0 {
-        return Err(PyValueError::new_err(format!(
-            "{name} must have shape (n, {C}), got ({n}, {c})"
-        )));
+        return Err(PyValueError::new_err(format!("{name} must have shape (n, {C}), got ({n}, {c})")));
     }
     let mut out = vec![[T::default(); C]; n];
     for (i, row) in view.outer_iter().enumerate() {
@@ -38,9 +36,7 @@ pub fn matrix<'py, T: numpy::Element>(
     n: usize,
     k: usize,
 ) -> PyResult<Bound<'py, PyArray2<T>>> {
-    Array2::from_shape_vec((n, k), data)
-        .map(|a| a.into_pyarray(py))
-        .map_err(|e| PyValueError::new_err(e.to_string()))
+    Array2::from_shape_vec((n, k), data).map(|a| a.into_pyarray(py)).map_err(|e| PyValueError::new_err(e.to_string()))
 }
 
 /// `Vec<[T; C]>` as an (n, C) numpy array.

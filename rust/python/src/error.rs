@@ -24,10 +24,7 @@ pub fn to_py(err: Error) -> PyErr {
 /// Run `f` without the GIL and turn a Rust panic into `RuntimeError` instead of letting it
 /// unwind into Python (pyo3's own `PanicException` is a `BaseException`, which Blender
 /// operators would not catch).
-pub fn guarded<T: Send>(
-    py: Python<'_>,
-    f: impl FnOnce() -> Result<T, Error> + Send,
-) -> PyResult<T> {
+pub fn guarded<T: Send>(py: Python<'_>, f: impl FnOnce() -> Result<T, Error> + Send) -> PyResult<T> {
     let out = py.detach(|| catch_unwind(AssertUnwindSafe(f)));
     match out {
         Ok(Ok(v)) => Ok(v),
@@ -38,9 +35,7 @@ pub fn guarded<T: Send>(
                 .map(|s| s.to_string())
                 .or_else(|| panic.downcast_ref::<String>().cloned())
                 .unwrap_or_else(|| "unknown panic".into());
-            Err(PyRuntimeError::new_err(format!(
-                "internal error in miniskeleton_core (please report): {msg}"
-            )))
+            Err(PyRuntimeError::new_err(format!("internal error in miniskeleton_core (please report): {msg}")))
         }
     }
 }

@@ -123,9 +123,7 @@ pub fn make_motion<'py>(
         "WALK" => Motion::Walk,
         "RUN" => Motion::Run,
         other => {
-            return Err(PyValueError::new_err(format!(
-                "motion must be 'HEAD_SHAKE', 'WALK' or 'RUN', got {other:?}"
-            )))
+            return Err(PyValueError::new_err(format!("motion must be 'HEAD_SHAKE', 'WALK' or 'RUN', got {other:?}")))
         }
     };
     let view = rest_matrices.as_array();

@@ -22,7 +22,9 @@ pub fn lbs<'py>(
     if idx.dim() != w.dim() || idx.dim().0 != v.len() {
         return Err(PyValueError::new_err(format!(
             "indices {:?} and weights {:?} must both be (n, k) with n = {} vertices",
-            idx.dim(), w.dim(), v.len()
+            idx.dim(),
+            w.dim(),
+            v.len()
         )));
     }
     let k = idx.dim().1;
@@ -32,10 +34,8 @@ pub fn lbs<'py>(
     if m.dim().1 != 4 || m.dim().2 != 4 {
         return Err(PyValueError::new_err(format!("bone_matrices must be (b, 4, 4), got {:?}", m.dim())));
     }
-    let mats: Vec<[[f32; 4]; 4]> = m
-        .outer_iter()
-        .map(|mm| std::array::from_fn(|r| std::array::from_fn(|c| mm[[r, c]])))
-        .collect();
+    let mats: Vec<[[f32; 4]; 4]> =
+        m.outer_iter().map(|mm| std::array::from_fn(|r| std::array::from_fn(|c| mm[[r, c]]))).collect();
     let out = guarded(py, || miniskeleton_core::lbs::lbs(&v, &idx, &w, k, &mats))?;
     from_rows(py, &out)
 }

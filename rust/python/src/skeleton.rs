@@ -48,7 +48,8 @@ pub fn fit_joints<'py>(
         (Some(axis), Some(m)) => Some(Symmetry { axis, plane: symmetry_plane, mirror: vector(&m) }),
         _ => return Err(PyValueError::new_err("symmetry_axis and joint_mirror go together")),
     };
-    let opts = FitOptions { symmetry, rays, samples, rounds, tolerance, stiffness, tip, max_move, stub_ratio, min_sections };
+    let opts =
+        FitOptions { symmetry, rays, samples, rounds, tolerance, stiffness, tip, max_move, stub_ratio, min_sections };
     let (out, rep) = guarded(py, move || fit::fit_joints(&v, &t, &j, &b, &mv, &opts))?;
     let d = PyDict::new(py);
     d.set_item("outside_before", rep.count_outside_before())?;

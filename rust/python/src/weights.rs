@@ -74,9 +74,7 @@ pub fn bilinear_weights<'py>(
         "gaussian" => Falloff::Gaussian { sigma },
         "inverse_power" | "power" => Falloff::InversePower { power },
         other => {
-            return Err(PyValueError::new_err(format!(
-                "falloff must be 'gaussian' or 'inverse_power', got {other:?}"
-            )))
+            return Err(PyValueError::new_err(format!("falloff must be 'gaussian' or 'inverse_power', got {other:?}")))
         }
     };
     let opts = BilinearOptions { nearest: nearest.max(1), falloff, max_influences: positive_k(max_influences)? };
@@ -128,11 +126,8 @@ fn heat_impl<'py>(
     if symmetry_axis > 2 {
         return Err(PyValueError::new_err("symmetry_axis must be 0, 1 or 2"));
     }
-    let symmetry = bone_mirror.map(|m| Symmetry {
-        axis: symmetry_axis,
-        bone_mirror: vector(&m),
-        tolerance: symmetry_tolerance,
-    });
+    let symmetry =
+        bone_mirror.map(|m| Symmetry { axis: symmetry_axis, bone_mirror: vector(&m), tolerance: symmetry_tolerance });
     let opts = HeatOptions {
         max_influences: positive_k(max_influences)?,
         min_weight,
@@ -182,8 +177,21 @@ pub fn heat_weights<'py>(
     progress: Option<Py<PyAny>>,
 ) -> PyResult<Pair<'py>> {
     let (pair, _) = heat_impl(
-        py, vertices, triangles, bone_heads, bone_tails, max_influences, min_weight, visibility,
-        weld_tolerance, heat_constant, bone_mirror, symmetry_axis, symmetry_tolerance, parents, progress,
+        py,
+        vertices,
+        triangles,
+        bone_heads,
+        bone_tails,
+        max_influences,
+        min_weight,
+        visibility,
+        weld_tolerance,
+        heat_constant,
+        bone_mirror,
+        symmetry_axis,
+        symmetry_tolerance,
+        parents,
+        progress,
     )?;
     Ok(pair)
 }
@@ -212,8 +220,21 @@ pub fn heat_weights_report<'py>(
     progress: Option<Py<PyAny>>,
 ) -> PyResult<(Bound<'py, PyArray2<i32>>, Bound<'py, PyArray2<f32>>, Bound<'py, PyDict>)> {
     let ((i, w), report) = heat_impl(
-        py, vertices, triangles, bone_heads, bone_tails, max_influences, min_weight, visibility,
-        weld_tolerance, heat_constant, bone_mirror, symmetry_axis, symmetry_tolerance, parents, progress,
+        py,
+        vertices,
+        triangles,
+        bone_heads,
+        bone_tails,
+        max_influences,
+        min_weight,
+        visibility,
+        weld_tolerance,
+        heat_constant,
+        bone_mirror,
+        symmetry_axis,
+        symmetry_tolerance,
+        parents,
+        progress,
     )?;
     Ok((i, w, report))
 }
