@@ -177,6 +177,27 @@ def test_fit_symmetry_x():
             assert abs(b.head_local.x) < 1e-6 and (abs(b.tail_local.x) < 1e-6 or b.name.startswith("ear")), b.name
 
 
+def test_fit_symmetry_across_a_plane_the_rig_is_not_mirrored_in_is_refused():
+    """A creature facing +X fitted with X symmetry would fold its left and right legs onto each
+    other and its spine onto x = 0: a clear error, nothing changed; without symmetry it fits."""
+    from mathutils import Matrix
+
+    body, arm, ends, orig, moved, diag = creature_setup(seed=3)
+    assert np.allclose(np.array(arm.matrix_world), np.eye(4))  # armature space = world
+    turn = Matrix.Rotation(np.pi / 2, 4, "Z")
+    body.matrix_world = turn @ body.matrix_world
+    set_joints(arm, moved @ np.array(turn.to_3x3()).T, ends)
+    builders.select_for_parenting([body], arm)
+    before = edit_state(arm)
+    builders.select_for_parenting([body], arm)
+    with pytest.raises(RuntimeError, match="mirror plane"):
+        bpy.ops.armature.miniskeleton_fit_skeleton(symmetry="X")
+    assert edit_state(arm) == before
+    builders.select_for_parenting([body], arm)
+    assert bpy.ops.armature.miniskeleton_fit_skeleton(symmetry="NONE") == {"FINISHED"}
+    assert edit_state(arm) != before
+
+
 def test_mirror_pairs_by_name():
     mesh_io = importlib.import_module("bl_ext.user_default.miniskeleton.mesh_io")
     names = ["spine", "arm.L", "arm.R", "b_LeftUpperArm_09", "b_RightUpperArm_06", "leg_back_L_knee",

@@ -140,6 +140,10 @@ const PARITY_DIRS: [[f32; 3]; 7] = [
 const TIP_MARGIN: f64 = 0.3;
 /// Joints pulled inside go this far (unit frame) past the surface, at most half the chord.
 const PULL_DEPTH: f64 = 0.005;
+/// With symmetry, the joints may have to move at most this far on average (fraction of the
+/// diagonal) to meet their mirror images; farther, and the plane is not the rig's own (a
+/// character facing +X, an armature origin off the body), so the fit refuses.
+const MIRROR_MISMATCH: f64 = 0.1;
 /// Hits closer than this (unit frame) along one ray count once (shared edges report twice).
 const DEDUP: f32 = 1e-6;
 /// Rays never need to be longer than this in the unit frame (the mesh fits in diagonal 1).
@@ -509,6 +513,24 @@ pub fn fit_joints(
     }
 
     let mut p: Vec<DVec3> = joints.iter().map(|j| frame.to_unit(*j)).collect();
+    if let Some((axis, plane, mirror)) = &sym {
+        // Half the distance to the mirror image's partner: how far symmetrizing moves a joint.
+        let moves: Vec<f64> = (0..nj)
+            .filter_map(|i| mirror[i].map(|m| 0.5 * (p[i] - mirror_point(p[m], *axis, *plane)).length()))
+            .collect();
+        let mean = moves.iter().sum::<f64>() / moves.len().max(1) as f64;
+        if mean > MIRROR_MISMATCH {
+            let s = opts.symmetry.as_ref().map_or(0.0, |s| s.plane);
+            return Err(Error::InvalidArgument(format!(
+                "symmetry: the joints are far from mirror images across {} = {s}: each would move {:.0} % of \
+                 the mesh size on average to meet its mirror (at most {:.0} % expected). Is that the \
+                 character's mirror plane? Fit without symmetry",
+                ["x", "y", "z"][*axis],
+                100.0 * mean,
+                100.0 * MIRROR_MISMATCH
+            )));
+        }
+    }
     let outside_before: Vec<bool> = p.par_iter().map(|q| !inside(&rm, *q)).collect();
     let start = p.clone();
     let mut incident: Vec<Vec<usize>> = vec![Vec::new(); nj];

@@ -269,6 +269,30 @@ fn symmetry_exact() {
     assert!(dist(out[1], [1.0, 0.0, 2.0]) < 0.15, "{:?}", out[1]);
 }
 
+/// Symmetry across a plane the rig is not mirrored in (a character facing +X fitted with X
+/// symmetry) would fold left and right onto each other: a clear error, not a collapsed rig.
+#[test]
+fn symmetry_on_the_wrong_plane_is_an_error() {
+    let (l, lt) = tube(&[[1.0, 0.0, 0.0], [1.0, 0.0, 2.0], [2.0, 0.0, 3.0]], 0.3, 12, 20);
+    let mut v = l.clone();
+    let mut t = lt.clone();
+    let base = v.len() as u32;
+    v.extend(l.iter().map(|p| [-p[0], p[1], p[2]]));
+    t.extend(lt.iter().map(|tr| [tr[0] + base, tr[2] + base, tr[1] + base]));
+    let start = vec![[1.0, 0.0, 0.3], [1.0, 0.0, 2.0], [-1.0, 0.0, 0.3], [-1.0, 0.0, 2.0]];
+    let bones = vec![[0, 1], [2, 3]];
+    let mirrored = |axis| FitOptions {
+        symmetry: Some(Symmetry { axis, plane: 0.0, mirror: vec![2, 3, 0, 1] }),
+        ..FitOptions::default()
+    };
+    // Mirrored in x: fine. In y each joint is 2 from its partner's image: 17 % of the diagonal each.
+    assert!(fit_joints(&v, &t, &start, &bones, &[true; 4], &mirrored(0)).is_ok());
+    match fit_joints(&v, &t, &start, &bones, &[true; 4], &mirrored(1)) {
+        Err(Error::InvalidArgument(msg)) => assert!(msg.contains("mirror plane"), "{msg}"),
+        other => panic!("expected a clear error, got {other:?}"),
+    }
+}
+
 /// The result scales with the input (scale-free), at 1e-3 and 1e3.
 #[test]
 fn scale_free() {
