@@ -101,7 +101,9 @@ def fit_joints(vertices: ArrayLike, triangles: ArrayLike, joints: ArrayLike, bon
     """Fit joints (j,3) into the mesh (same space): each goes to the nearest point of its bones'
     centre lines (cross-section centres); joints left outside are pulled in. bones (b,2) joint
     indices; movable (j,) bool; with symmetry_axis, joint_mirror (j,) pairs end exactly mirrored,
-    centre joints (mirror = itself) on the plane, joints with mirror -1 are free. max_move caps a
+    centre joints (mirror = itself) on the plane, joints with mirror -1 are free (ValueError when
+    the joints would move more than 10 % of the diagonal on average to meet their mirror images:
+    not the rig's mirror plane). max_move caps a
     joint's fitting move (fraction of the bbox diagonal). A bone leaving a junction (a joint of 3+ bones)
     whose thinnest section's radius exceeds stub_ratio times its length (pelvis to hip) gives no
     centre line; 0 disables. A bone with fewer than min_sections usable sections (one pins a point,
