@@ -1,8 +1,12 @@
 """Speed: MiniSkeleton's Auto Weights (Heat) operator vs Blender's own
-``parent_set(type='ARMATURE_AUTO')`` on the same capped cylinder + bone chain, in one process.
+``parent_set(type='ARMATURE_AUTO')`` on the same mesh and bones, in one process: generated
+capped cylinders with a bone chain, and the unrigged scans of ../shared/models/ (cow, horse;
+skipped when absent) with scan_rig's rough quadruped skeleton, fitted first.
 
     .venv/bin/python bench/bench_weights.py [--sizes 6.5k:10,26k:20,103k:40,206k:40]
-                                            [--shapes issue,thin] [--repeats 3] [--no-blender]
+                                            [--shapes issue,thin] [--scans cow.obj,horse.ply]
+                                            [--scan-scales 1,10]
+                                            [--repeats 3] [--no-blender]
 
 Two cylinder shapes per size. Blender's time depends strongly on the proportions (at 103k
 vertices: 5.6 s with 128 segments around, 8.7 s with 256, 18 s with 512), ours hardly:
@@ -21,6 +25,7 @@ BILINEAR. Nothing is asserted: tests check correctness, this measures speed.
 from __future__ import annotations
 
 import argparse
+import importlib
 import sys
 import time
 from pathlib import Path
@@ -29,6 +34,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "scripts"))
 import blender_session  # noqa: E402
+import scan_rig  # noqa: E402
 
 # (rings, segments) per size and shape.
 SHAPES = {
@@ -96,10 +102,47 @@ def timed(fn):
     return time.perf_counter() - t, out
 
 
+def measure(bpy, core, label, mesh, rig, v, t, heads, tails, args):
+    """Time Blender's ARMATURE_AUTO (once) and our operator (median of repeats) on `mesh` + `rig`,
+    the core alone on (v, t, heads, tails) (best of repeats), and our BILINEAR and IDW: a row."""
+    n = len(mesh.data.vertices)
+    blender_s = blender_missing = None
+    if not args.no_blender:
+        select(bpy, mesh, rig)
+        blender_s, _ = timed(lambda: bpy.ops.object.parent_set(type="ARMATURE_AUTO"))
+        blender_missing = unweighted(mesh)
+        unbind(mesh)
+    runs = []
+    for _ in range(max(args.repeats, 1)):
+        unbind(mesh)
+        select(bpy, mesh, rig)
+        secs, res = timed(lambda: bpy.ops.object.miniskeleton_auto_weights(method="HEAT"))
+        assert res == {"FINISHED"}
+        runs.append(secs)
+    ours_s = float(np.median(runs))
+    ours_missing = unweighted(mesh)
+    core_s, report = min((timed(lambda: core.heat_weights_report(v, t, heads, tails)[2])
+                          for _ in range(max(args.repeats, 1))), key=lambda r: r[0])
+    fs = sum(s for k, s in report["timings"].items() if k in ("factor", "solve"))
+    sfs = fs + report["timings"].get("symbolic", 0.0)
+    extra = {}
+    for method in ("BILINEAR", "IDW"):
+        unbind(mesh)
+        select(bpy, mesh, rig)
+        extra[method], _ = timed(lambda: bpy.ops.object.miniskeleton_auto_weights(method=method))
+    print(f"done {label} {n} vertices", flush=True)
+    return (label, n, len(heads), blender_s, blender_missing, ours_s, ours_missing, core_s, fs, sfs,
+            extra["BILINEAR"], extra["IDW"], report["timings"])
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser()
     ap.add_argument("--sizes", default="6.5k:10,26k:20,103k:40,206k:40")
     ap.add_argument("--shapes", default="issue,thin", help="cylinder proportions: issue, thin")
+    ap.add_argument("--scans", default=",".join(scan_rig.SCANS),
+                    help="unrigged scans from ../shared/models with scan_rig's fitted rough skeleton")
+    ap.add_argument("--scan-scales", default="1,10",
+                    help="each scan at these scales (the horse is 0.2 units across as shipped)")
     ap.add_argument("--repeats", type=int, default=3, help="runs of our operator (median) and core (best)")
     ap.add_argument("--no-blender", action="store_true", help="skip Blender's own operator")
     args = ap.parse_args(argv)
@@ -107,7 +150,7 @@ def main(argv=None):
     import miniskeleton_core as core
 
     rows = []
-    specs = [(shape, spec) for shape in args.shapes.split(",") for spec in args.sizes.split(",")]
+    specs = [(shape, spec) for shape in args.shapes.split(",") if shape for spec in args.sizes.split(",")]
     for shape, spec in specs:
         size, bones = spec.split(":")
         rings, segments = SHAPES[shape][size]
@@ -115,36 +158,24 @@ def main(argv=None):
         height = 8.0
         mesh, v, t = cylinder_object(bpy, core, rings, segments, height)
         rig, heads, tails = chain_object(bpy, core, height, int(bones))
-        n = len(mesh.data.vertices)
-
-        blender_s = blender_missing = None
-        if not args.no_blender:
-            select(bpy, mesh, rig)
-            blender_s, _ = timed(lambda: bpy.ops.object.parent_set(type="ARMATURE_AUTO"))
-            blender_missing = unweighted(mesh)
-            unbind(mesh)
-
-        runs = []
-        for _ in range(max(args.repeats, 1)):
-            unbind(mesh)
-            select(bpy, mesh, rig)
-            secs, res = timed(lambda: bpy.ops.object.miniskeleton_auto_weights(method="HEAT"))
-            assert res == {"FINISHED"}
-            runs.append(secs)
-        ours_s = float(np.median(runs))
-        ours_missing = unweighted(mesh)
-        core_s, report = min((timed(lambda: core.heat_weights_report(v, t, heads, tails)[2])
-                              for _ in range(max(args.repeats, 1))), key=lambda r: r[0])
-        fs = sum(s for k, s in report["timings"].items() if k in ("factor", "solve"))
-        sfs = fs + report["timings"].get("symbolic", 0.0)
-        extra = {}
-        for method in ("BILINEAR", "IDW"):
-            unbind(mesh)
-            select(bpy, mesh, rig)
-            extra[method], _ = timed(lambda: bpy.ops.object.miniskeleton_auto_weights(method=method))
-        rows.append((f"{shape} {rings}x{segments}", n, int(bones), blender_s, blender_missing, ours_s, ours_missing, core_s, fs, sfs,
-                     extra["BILINEAR"], extra["IDW"], report["timings"]))
-        print(f"done {shape} {n} vertices", flush=True)
+        rows.append(measure(bpy, core, f"{shape} {rings}x{segments}", mesh, rig, v, t, heads, tails, args))
+    scans = [(n, float(x)) for n in args.scans.split(",") if n for x in args.scan_scales.split(",")]
+    for name, scale in scans:
+        path = scan_rig.MODELS_DIR / name
+        if not path.exists():
+            print(f"skipped {name}: not in {scan_rig.MODELS_DIR}")
+            continue
+        blender_session.reset_scene()
+        mesh = scan_rig.load_scan(bpy, path, scale)
+        mesh_io = importlib.import_module(blender_session.ADDON_MODULE + ".mesh_io")
+        v = mesh_io.mesh_world_vertices(mesh)
+        t = mesh_io.mesh_triangles(mesh).astype(np.uint32)
+        rig, _ = scan_rig.armature(bpy, v)
+        select(bpy, mesh, rig)  # the rough rig fitted first, as a rigger would
+        assert bpy.ops.armature.miniskeleton_fit_skeleton(tails="AUTO", symmetry="NONE") == {"FINISHED"}
+        heads = np.array([b.head_local for b in rig.data.bones], dtype=np.float32)
+        tails = np.array([b.tail_local for b in rig.data.bones], dtype=np.float32)
+        rows.append(measure(bpy, core, f"scan {name} x{scale:g}", mesh, rig, v, t, heads, tails, args))
 
     print()
     print("| shape rings x segments | vertices | bones | Blender ARMATURE_AUTO s | unweighted | ours HEAT s "

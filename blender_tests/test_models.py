@@ -1,7 +1,7 @@
 """Real rigged models from ../shared/models/ (skipped, and reported as skipped, when the folder
 or a file is absent; never copied here): Auto Weights (Heat) leaves no vertex unweighted, and
-Fit Skeleton leaves no real joint outside the mesh and lowers the error of a displaced skeleton.
-The quality and fitting *scores* are measured by bench/eval_weights.py and bench/bench_fit.py,
+Fit Skeleton leaves no real joint outside the mesh and lowers the error of a displaced skeleton;
+the unrigged scans (cow, horse) get a rough skeleton that is fitted and bound. The quality and fitting *scores* are measured by bench/eval_weights.py and bench/bench_fit.py,
 whose scene helpers these tests reuse."""
 
 import importlib
@@ -17,6 +17,7 @@ import blender_session
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "bench"))
 import bench_fit  # noqa: E402
 import eval_weights  # noqa: E402
+import scan_rig  # noqa: E402
 
 MODELS = eval_weights.MODELS_DIR
 
@@ -78,3 +79,35 @@ def test_fit_leaves_fox_front_legs_where_the_artist_put_them():
     for n in legs:
         j = ends[names.index(n), 0]
         assert moved[j] < 0.01, f"{n} moved {moved[j]:.3f} of the diagonal"
+
+
+@pytest.mark.parametrize("name", scan_rig.SCANS)
+def test_rough_rig_on_unrigged_scans_fits_inside_and_binds_each_hoof_to_its_leg(name):
+    """The scans (the horse is 0.2 units across, 97k triangles) with the rough quadruped a
+    rigger blocks in (scan_rig: joints at fixed fractions of the height, some outside): Fit puts
+    every joint inside, then Heat weights every vertex and each hoof goes to its own shin."""
+    path = need(name)
+    mesh_io = importlib.import_module(blender_session.ADDON_MODULE + ".mesh_io")
+    import miniskeleton_core as core
+
+    ob = scan_rig.load_scan(bpy, path)
+    verts = mesh_io.mesh_world_vertices(ob)
+    tris = mesh_io.mesh_triangles(ob).astype(np.uint32)
+    arm, foot_of = scan_rig.armature(bpy, verts)
+
+    def joints():
+        return np.array([p for b in arm.data.bones for p in (b.head_local, b.tail_local)], dtype=np.float32)
+
+    assert not core.points_inside(verts, tris, joints()).all()  # the rough rig sticks out ...
+    assert bench_fit.fit(bpy, arm, [ob], tails="AUTO", symmetry="NONE")[0]
+    assert core.points_inside(verts, tris, joints()).all()  # ... the fitted one does not
+    bones = [b.name for b in arm.data.bones]
+    assert eval_weights.bind(bpy, arm, [ob], ours=True)[1] == {"FINISHED"}
+    w = eval_weights.read_weights(ob, bones)
+    assert (w.max(axis=1) > 0).all()
+    np.testing.assert_allclose(w.sum(axis=1), 1.0, atol=1e-4)
+    for k, leg in enumerate(scan_rig.LEGS):
+        hoof = foot_of == k
+        assert hoof.sum() > 20, (leg, hoof.sum())
+        shin = w[hoof, bones.index(f"shin.{leg}")]
+        assert shin.min() > 0.9, f"{leg}: hoof vertices' shin weight {shin.min():.3f} .. {shin.max():.3f}"
