@@ -54,7 +54,8 @@ def heat_weights_report(
     progress: Optional[Callable[[float], Optional[bool]]] = None,
 ) -> Tuple[npt.NDArray[np.int32], npt.NDArray[np.float32], dict]:
     """As heat_weights, plus a report: pieces, fallback_pieces (saw no bone), rigid_pieces, boneless_pieces,
-    welded_vertices, isolated_vertices, regularized, factorization_failed, timings (stage -> seconds)."""
+    welded_vertices, isolated_vertices, mirrored_vertices (with bone_mirror: vertices with a mirror twin
+    or on the plane, the only ones averaged), regularized, factorization_failed, timings (stage -> seconds)."""
 
 def capped_cylinder(radius: float = 0.5, height: float = 4.0, rings: int = 32, segments: int = 32
                     ) -> Tuple[npt.NDArray[np.float32], npt.NDArray[np.uint32]]:

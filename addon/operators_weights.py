@@ -9,6 +9,8 @@ while a modal loop shows progress; Esc cancels it and nothing is written.
 
 from __future__ import annotations
 
+import dataclasses
+
 import time
 
 import bpy
@@ -159,11 +161,17 @@ class MINISKELETON_OT_auto_weights(bpy.types.Operator):
 
     def _prepare(self, context):
         """Validate and read every input: (armature, bones, inputs [(mesh, name, world vertices,
-        triangles)], linked [(duplicate, mesh it shares data with)]) or None (reported)."""
+        triangles)], linked [(duplicate, mesh it shares data with)]) or None (reported). With
+        Heat's X symmetry, vertices and bones are in the armature's space instead of world."""
         checked = self._validate(context)
         if checked is None:
             return None
         arm, meshes, bones = checked
+        # X symmetry is about the armature's x = 0 (as for Fit), so Heat works in its space.
+        mirror_space = self.method == "HEAT" and self.symmetry == "X"
+        if mirror_space:
+            bones = dataclasses.replace(bones, heads=mesh_io.to_armature_space(arm, bones.heads),
+                                        tails=mesh_io.to_armature_space(arm, bones.tails))
         inputs = []
         # Linked duplicates (Alt+D) share one mesh, and Blender keeps vertex weights in the
         # mesh: compute them once, on the first of those objects; the others get the modifier.
@@ -182,6 +190,8 @@ class MINISKELETON_OT_auto_weights(bpy.types.Operator):
             if len(verts) == 0:
                 self.report({"ERROR"}, f"Mesh '{ob.name}' has no vertices; nothing was changed")
                 return None
+            if mirror_space:
+                verts = mesh_io.to_armature_space(arm, verts)
             tris = mesh_io.mesh_triangles(ob) if self.method == "HEAT" else None
             inputs.append((ob, ob.name, verts, tris))
         return arm, bones, inputs, linked
@@ -337,6 +347,10 @@ def compute_weights(core, settings: dict, bones, inputs, progress):
             notes.append(f"{name}: of {report['pieces']} pieces, "
                          f"{report['fallback_pieces']} saw no bone (nearest bone used), "
                          f"{report['rigid_pieces']} bound rigidly (no bone inside)")
+        if report and settings["mirror"] is not None and report["mirrored_vertices"] < 0.9 * len(verts):
+            notes.append(f"{name}: Symmetry X: only {report['mirrored_vertices'] / max(len(verts), 1):.0%} of "
+                         "the vertices have a mirror twin across the armature's X = 0 plane; the others "
+                         "keep their own weights")
         if report and report.get("factorization_failed"):
             notes.append(f"{name}: heat solve failed, nearest-bone weights used")
         results.append((ob, i, w))

@@ -45,6 +45,29 @@ def test_symmetry_x_gives_exactly_mirrored_weights():
     np.testing.assert_allclose(left[:, 1], right[:, 3], atol=1e-4)
 
 
+def test_symmetry_x_is_the_armatures_x_wherever_the_rig_stands(capfd):
+    """X symmetry mirrors across the armature's own x = 0, as Fit does, so a character moved and
+    turned in the scene together with its armature keeps exactly mirrored weights; a mesh moved
+    off that plane has no mirror twins, and the report says so."""
+    from mathutils import Matrix
+
+    ob, arm, half = legs()
+    place = Matrix.Translation((2.0, 1.0, 0.5)) @ Matrix.Rotation(0.5, 4, "Z")
+    ob.matrix_world = place @ ob.matrix_world
+    arm.matrix_world = place @ arm.matrix_world
+    names = ["thigh.L", "shin.L", "thigh.R", "shin.R"]
+    capfd.readouterr()
+    assert bind([ob], arm, symmetry="X") == {"FINISHED"}
+    assert "mirror twin" not in "".join(capfd.readouterr())
+    w = B.weights_matrix(ob, names)
+    left, right = w[:half], w[half:]
+    np.testing.assert_allclose(left[:, :2], right[:, 2:], atol=1e-4)
+    ob.location.x += 0.31  # the mesh alone leaves the armature's mirror plane
+    bpy.context.view_layer.update()
+    assert bind([ob], arm, symmetry="X") == {"FINISHED"}
+    assert "have a mirror twin across the armature's X = 0 plane" in "".join(capfd.readouterr())
+
+
 def test_locked_group_is_not_changed():
     ob = B.cylinder()
     arm = B.chain()

@@ -123,6 +123,10 @@ pub struct HeatReport {
     pub welded_vertices: usize,
     /// Vertices in no usable triangle (bound 100% to their nearest bone).
     pub isolated_vertices: usize,
+    /// With symmetry: input vertices whose (welded) position has a mirror twin, or lies on the
+    /// plane; only these are averaged. Far below `n` means the mesh is not symmetric across
+    /// the plane (or the plane is not the character's). 0 without symmetry.
+    pub mirrored_vertices: usize,
     /// The first Cholesky attempt failed and a larger regularization was needed.
     pub regularized: bool,
     /// Every Cholesky attempt failed: nearest-bone weights were returned instead.
@@ -528,6 +532,7 @@ pub fn heat_weights(
         let plane = -frame.centre[s.axis] / frame.diagonal;
         let vm = mirror_map(&wpos, s.axis, plane, s.tolerance as f64)?;
         symmetrize_columns(&mut x, nw, &vm, &s.bone_mirror);
+        report.mirrored_vertices = map.iter().filter(|&&w| vm[w as usize] >= 0).count();
     }
 
     // 11. Top-k per welded vertex, then copy to every input vertex.

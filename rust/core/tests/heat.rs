@@ -103,9 +103,16 @@ fn symmetric_mesh_and_skeleton_give_symmetric_weights() {
         symmetry: Some(Symmetry { axis: 0, bone_mirror: vec![3, 2, 1, 0], tolerance: 1e-4 }),
         ..Default::default()
     };
-    let (avg, _) = heat(&m, &b, &sym);
+    let (avg, rep) = heat(&m, &b, &sym);
     assert_rows_sum_to_one(&avg);
     check(&avg, 1e-5);
+    assert_eq!(rep.mirrored_vertices, m.0.len(), "every vertex has its twin");
+    // The same mesh and bones moved off the plane: no twin, nothing averaged, and the report says so.
+    let shift = |p: &[f32; 3]| [p[0] + 0.31, p[1], p[2]]; // not a multiple of the ring spacing
+    let (vs, hs, ts): (Vec<_>, Vec<_>, Vec<_>) =
+        (m.0.iter().map(shift).collect(), b.0.iter().map(shift).collect(), b.1.iter().map(shift).collect());
+    let (_, rep) = heat_weights(&vs, &m.1, &hs, &ts, &sym, None).unwrap();
+    assert!(rep.mirrored_vertices < m.0.len() / 10, "{} twins", rep.mirrored_vertices);
     // A bad mirror map is an error.
     let bad = HeatOptions {
         symmetry: Some(Symmetry { axis: 0, bone_mirror: vec![3, 2, 2, 0], tolerance: 1e-4 }),
