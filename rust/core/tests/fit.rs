@@ -235,15 +235,21 @@ fn outside_pulled_in_and_fixed_stay() {
     assert_eq!(out[1], start[1]);
 }
 
-/// Two mirrored limbs: pairs end exactly mirrored, a centre joint on the plane.
-#[test]
-fn symmetry_exact() {
+/// Two bent limbs mirrored across x = 0 (two pieces).
+fn mirrored_limbs() -> (Vec<[f32; 3]>, Vec<[u32; 3]>) {
     let (l, lt) = tube(&[[1.0, 0.0, 0.0], [1.0, 0.0, 2.0], [2.0, 0.0, 3.0]], 0.3, 12, 20);
     let mut v = l.clone();
     let mut t = lt.clone();
     let base = v.len() as u32;
     v.extend(l.iter().map(|p| [-p[0], p[1], p[2]]));
     t.extend(lt.iter().map(|tr| [tr[0] + base, tr[2] + base, tr[1] + base]));
+    (v, t)
+}
+
+/// Two mirrored limbs: pairs end exactly mirrored, a centre joint on the plane.
+#[test]
+fn symmetry_exact() {
+    let (v, t) = mirrored_limbs();
     // joints 0..3 left, 3..6 right (deliberately not mirrored), 6 a centre joint (outside).
     let start = vec![
         [1.1, 0.05, 0.3],
@@ -273,12 +279,7 @@ fn symmetry_exact() {
 /// symmetry) would fold left and right onto each other: a clear error, not a collapsed rig.
 #[test]
 fn symmetry_on_the_wrong_plane_is_an_error() {
-    let (l, lt) = tube(&[[1.0, 0.0, 0.0], [1.0, 0.0, 2.0], [2.0, 0.0, 3.0]], 0.3, 12, 20);
-    let mut v = l.clone();
-    let mut t = lt.clone();
-    let base = v.len() as u32;
-    v.extend(l.iter().map(|p| [-p[0], p[1], p[2]]));
-    t.extend(lt.iter().map(|tr| [tr[0] + base, tr[2] + base, tr[1] + base]));
+    let (v, t) = mirrored_limbs();
     let start = vec![[1.0, 0.0, 0.3], [1.0, 0.0, 2.0], [-1.0, 0.0, 0.3], [-1.0, 0.0, 2.0]];
     let bones = vec![[0, 1], [2, 3]];
     let mirrored = |axis| FitOptions {
