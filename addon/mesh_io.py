@@ -48,7 +48,7 @@ def to_armature_space(arm_ob: bpy.types.Object, points: np.ndarray) -> np.ndarra
     """World points (n, 3) in ``arm_ob``'s own space, float32: where X symmetry means the
     armature's x = 0, for Auto Weights as for Fit (a rig moved or turned in the scene stays
     symmetric)."""
-    inv = np.array(arm_ob.matrix_world.inverted_safe(), dtype=np.float64)
+    inv = np.linalg.inv(np.array(arm_ob.matrix_world, dtype=np.float64))
     return (points.astype(np.float64) @ inv[:3, :3].T + inv[:3, 3]).astype(np.float32)
 
 

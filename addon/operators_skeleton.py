@@ -121,7 +121,6 @@ class MINISKELETON_OT_fit_skeleton(bpy.types.Operator):
         if not meshes:
             self.report({"ERROR"}, "No mesh selected: select the mesh(es), then the armature (active)")
             return None
-        inv = np.linalg.inv(np.array(arm.matrix_world, dtype=np.float64))
         verts, tris, base = [], [], 0
         for ob in meshes:
             if ob.mode == "EDIT":
@@ -136,7 +135,7 @@ class MINISKELETON_OT_fit_skeleton(bpy.types.Operator):
             if bad:
                 self.report({"ERROR"}, f"Mesh '{ob.name}' has {bad} vertices with NaN or infinite coordinates")
                 return None
-            verts.append((v @ inv[:3, :3].T + inv[:3, 3]).astype(np.float32))
+            verts.append(mesh_io.to_armature_space(arm, v))
             tris.append(t.astype(np.int64) + base)
             base += len(v)
         return np.concatenate(verts), np.concatenate(tris).astype(np.uint32)

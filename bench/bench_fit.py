@@ -101,11 +101,10 @@ def set_joints(bpy, arm, joints, ends, rig_io):
 def armature_space_mesh(arm, meshes, mesh_io):
     """The meshes in the armature's space, where edit bones live: (vertices (n,3) float32,
     triangles (m,3) uint32, bounding-box diagonal)."""
-    inv = np.linalg.inv(np.array(arm.matrix_world))
     verts, tris, base = [], [], 0
     for ob in meshes:
-        v = mesh_io.mesh_world_vertices(ob).astype(np.float64)
-        verts.append((v @ inv[:3, :3].T + inv[:3, 3]).astype(np.float32))
+        v = mesh_io.mesh_world_vertices(ob)
+        verts.append(mesh_io.to_armature_space(arm, v))
         tris.append(mesh_io.mesh_triangles(ob).astype(np.int64) + base)
         base += len(v)
     verts = np.concatenate(verts)
