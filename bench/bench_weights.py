@@ -60,19 +60,8 @@ def cylinder_object(bpy, core, rings, segments, height):
 
 def chain_object(bpy, core, height, bones):
     heads, tails, parents = core.bone_chain(height, bones)
-    arm = bpy.data.armatures.new("BenchRig")
-    ob = bpy.data.objects.new("BenchRig", arm)
-    bpy.context.scene.collection.objects.link(ob)
-    bpy.context.view_layer.objects.active = ob
-    bpy.ops.object.mode_set(mode="EDIT")
-    prev = None
-    for i, (h, t) in enumerate(zip(heads, tails)):
-        eb = arm.edit_bones.new(f"Bone{i:02d}")
-        eb.head, eb.tail = h.tolist(), t.tolist()
-        if prev is not None:
-            eb.parent, eb.use_connect = prev, True
-        prev = eb
-    bpy.ops.object.mode_set(mode="OBJECT")
+    names = [f"Bone{i:02d}" for i in range(len(heads))]
+    ob = scan_rig.armature_object(bpy, "BenchRig", names, heads, tails, parents, parents >= 0)
     return ob, heads, tails
 
 
@@ -148,6 +137,7 @@ def main(argv=None):
     args = ap.parse_args(argv)
     bpy = blender_session.start()
     import miniskeleton_core as core
+    mesh_io = importlib.import_module(blender_session.ADDON_MODULE + ".mesh_io")
 
     rows = []
     specs = [(shape, spec) for shape in args.shapes.split(",") if shape for spec in args.sizes.split(",")]
@@ -167,7 +157,6 @@ def main(argv=None):
             continue
         blender_session.reset_scene()
         mesh = scan_rig.load_scan(bpy, path, scale)
-        mesh_io = importlib.import_module(blender_session.ADDON_MODULE + ".mesh_io")
         v = mesh_io.mesh_world_vertices(mesh)
         t = mesh_io.mesh_triangles(mesh).astype(np.uint32)
         rig, _ = scan_rig.armature(bpy, v)

@@ -2,8 +2,8 @@
 blocks in by eye before fitting: a spine at 58 % of the height from the back feet to the front
 feet, a neck and head toward the end that sticks out further (the head), and a two-bone leg
 above each of the four feet (the clusters of the lowest vertices). Joints are rough on purpose:
-Fit Skeleton centres them. Shared by bench_weights.py (speed on real meshes) and
-blender_tests/test_models.py (fit and bind on real scans).
+Fit Skeleton centres them. Shared by bench_weights.py (speed on real meshes; its cylinder
+rigs also use `armature_object`) and blender_tests/test_models.py (fit and bind on real scans).
 """
 
 from __future__ import annotations
@@ -103,9 +103,9 @@ def rough_quadruped(verts: np.ndarray):
     return names, np.array(heads), np.array(tails), np.array(parents), np.array(connected), foot_of
 
 
-def armature(bpy, verts: np.ndarray, name: str = "RoughRig"):
-    """A new armature object (at the origin) with `rough_quadruped(verts)`; (object, foot labels)."""
-    names, heads, tails, parents, connected, foot_of = rough_quadruped(verts)
+def armature_object(bpy, name, names, heads, tails, parents, connected):
+    """A new armature object (at the origin, linked to the scene) with these bones: heads and
+    tails (b, 3) in its space, parents (b,) earlier indices or -1, connected (b,) bools."""
     data = bpy.data.armatures.new(name)
     ob = bpy.data.objects.new(name, data)
     bpy.context.scene.collection.objects.link(ob)
@@ -114,9 +114,15 @@ def armature(bpy, verts: np.ndarray, name: str = "RoughRig"):
     ebs = []
     for i, n in enumerate(names):
         eb = data.edit_bones.new(n)
-        eb.head, eb.tail = heads[i].tolist(), tails[i].tolist()
+        eb.head, eb.tail = np.asarray(heads[i]).tolist(), np.asarray(tails[i]).tolist()
         if parents[i] >= 0:
             eb.parent, eb.use_connect = ebs[parents[i]], bool(connected[i])
         ebs.append(eb)
     bpy.ops.object.mode_set(mode="OBJECT")
-    return ob, foot_of
+    return ob
+
+
+def armature(bpy, verts: np.ndarray, name: str = "RoughRig"):
+    """A new armature object (at the origin) with `rough_quadruped(verts)`; (object, foot labels)."""
+    names, heads, tails, parents, connected, foot_of = rough_quadruped(verts)
+    return armature_object(bpy, name, names, heads, tails, parents, connected), foot_of
