@@ -10,7 +10,6 @@ while a modal loop shows progress; Esc cancels it and nothing is written.
 from __future__ import annotations
 
 import dataclasses
-
 import time
 
 import bpy

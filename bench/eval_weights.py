@@ -501,7 +501,7 @@ def main(argv=None):
     ap.add_argument("--models-dir", default=str(MODELS_DIR))
     ap.add_argument("--no-blender", action="store_true", help="skip Blender's own operator")
     ap.add_argument("--symmetry", default="NONE", choices=["NONE", "X"],
-                    help="our operator's Symmetry (world x = 0 mirror plane, bones paired by name)")
+                    help="our operator's Symmetry (the armature's x = 0 mirror plane, bones paired by name)")
     ap.add_argument("--bone-extent", default="AUTO", choices=["AUTO", "TAIL", "CHILDREN"],
                     help="our operator's Bone Extent (AUTO: imported rigs reach their children)")
     ap.add_argument("--clips", type=int, default=3,
