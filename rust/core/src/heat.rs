@@ -206,8 +206,9 @@ struct Source {
 /// Steps: validate; normalize to the unit bbox frame; weld within `weld_tolerance`; drop
 /// degenerate faces; pieces; cotangent `L` and lumped `M` (f64); the segments standing for
 /// the bones (head -> tail, or with `opts.parents` the spans of [`HeatOptions::parents`]);
-/// per vertex the nearest visible bone (the bone of the nearest visible segment) among its [`MAX_VISIBILITY_TESTS`] nearest (the segment from the bone's
-/// closest point to the vertex, stopped just short of the vertex, crosses no triangle;
+/// per vertex the nearest visible bone (the bone of the nearest visible segment) among its
+/// [`MAX_VISIBILITY_TESTS`] nearest (the segment from the bone's closest point to the
+/// vertex, stopped just short of the vertex, crosses no triangle;
 /// ties within [`TIE_RATIO`] share); fallback pieces and isolated vertices use the nearest
 /// bone; factor `L + M H` once and solve all bones; clip to `[0, 1]`; rigid pieces;
 /// symmetry; small-weight ramp ([`weight_limit`]), top-k and normalization per vertex; copy
