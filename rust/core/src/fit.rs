@@ -504,14 +504,6 @@ pub fn fit_joints(
         }
     };
 
-    let unit_v = frame.normalize(vertices);
-    let (open_edges, nonmanifold_edges, pieces) = topology(&unit_v, triangles);
-    let unit: Vec<[f32; 3]> = unit_v.iter().map(|p| p.as_vec3().to_array()).collect();
-    let rm = RayMesh::new(&unit, triangles);
-    if rm.triangle_count() == 0 {
-        return Err(Error::EmptyMesh("every triangle of the mesh is degenerate".into()));
-    }
-
     let mut p: Vec<DVec3> = joints.iter().map(|j| frame.to_unit(*j)).collect();
     if let Some((axis, plane, mirror)) = &sym {
         // Half the distance to the mirror image's partner: how far symmetrizing moves a joint.
@@ -531,6 +523,15 @@ pub fn fit_joints(
             )));
         }
     }
+
+    let unit_v = frame.normalize(vertices);
+    let (open_edges, nonmanifold_edges, pieces) = topology(&unit_v, triangles);
+    let unit: Vec<[f32; 3]> = unit_v.iter().map(|p| p.as_vec3().to_array()).collect();
+    let rm = RayMesh::new(&unit, triangles);
+    if rm.triangle_count() == 0 {
+        return Err(Error::EmptyMesh("every triangle of the mesh is degenerate".into()));
+    }
+
     let outside_before: Vec<bool> = p.par_iter().map(|q| !inside(&rm, *q)).collect();
     let start = p.clone();
     let mut incident: Vec<Vec<usize>> = vec![Vec::new(); nj];
