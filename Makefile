@@ -60,6 +60,7 @@ test: test-rust test-python test-blender
 
 test-rust:
 	cargo fmt --all -- --check  # rustfmt.toml: 120 columns, as the code was written
+	cargo clippy --all-targets --release -- -D warnings
 	cargo test -p miniskeleton-core --release
 
 test-python: $(WHEEL)

@@ -152,7 +152,7 @@ const FAR: f32 = 4.0;
 fn dedup(hits: Vec<f32>) -> Vec<f32> {
     let mut out: Vec<f32> = Vec::with_capacity(hits.len());
     for t in hits {
-        if out.last().map_or(true, |&l| t - l > DEDUP) {
+        if out.last().is_none_or(|&l| t - l > DEDUP) {
             out.push(t);
         }
     }
@@ -194,16 +194,14 @@ fn sym_eigen(m: DMat3) -> ([f64; 3], [DVec3; 3]) {
             let t = theta.signum() / (theta.abs() + (theta * theta + 1.0).sqrt());
             let t = if theta == 0.0 { 1.0 } else { t };
             let (c, s) = (1.0 / (t * t + 1.0).sqrt(), t / (t * t + 1.0).sqrt());
-            for k in 0..3 {
-                let (akp, akq) = (a[k][p], a[k][q]);
-                a[k][p] = c * akp - s * akq;
-                a[k][q] = s * akp + c * akq;
+            for row in a.iter_mut() {
+                let (akp, akq) = (row[p], row[q]);
+                row[p] = c * akp - s * akq;
+                row[q] = s * akp + c * akq;
             }
-            for k in 0..3 {
-                let (apk, aqk) = (a[p][k], a[q][k]);
-                a[p][k] = c * apk - s * aqk;
-                a[q][k] = s * apk + c * aqk;
-            }
+            let (ap, aq) = (a[p], a[q]);
+            a[p] = std::array::from_fn(|k| c * ap[k] - s * aq[k]);
+            a[q] = std::array::from_fn(|k| s * ap[k] + c * aq[k]);
             for row in v.iter_mut() {
                 let (vp, vq) = (row[p], row[q]);
                 row[p] = c * vp - s * vq;
@@ -353,7 +351,7 @@ fn pull_inside(rm: &RayMesh, p: DVec3, plane: Option<usize>, toward: &[DVec3]) -
         // Pairs (entry, exit) along the ray; the first whose middle tests inside.
         while k + 1 < h.len() {
             let (t0, t1) = (h[k] as f64, h[k + 1] as f64);
-            if best.as_ref().map_or(true, |b| t0 < b.0) {
+            if best.as_ref().is_none_or(|b| t0 < b.0) {
                 // Just past the entry (a long chord may run through a whole body part).
                 let c = p + w * (t0 + (0.5 * (t1 - t0)).min(PULL_DEPTH));
                 if inside(rm, c) {

@@ -193,7 +193,7 @@ impl Poser {
     /// Rotate bone `b` by `angle` about the world `axis` (expressed in its rest frame).
     fn rotate(&mut self, b: usize, axis: Vec3, angle: f32) {
         let local = self.rest[b].inverse() * axis;
-        self.q[b] = self.q[b] * Quat::from_axis_angle(local.normalize(), angle);
+        self.q[b] *= Quat::from_axis_angle(local.normalize(), angle);
         self.touched[b] = true;
     }
     fn touch(&mut self, b: usize) {
@@ -304,7 +304,7 @@ fn check(
     if !(p.cycles > 0.0 && p.cycles.is_finite()) {
         return Err(Error::InvalidArgument(format!("cycles must be positive, got {}", p.cycles)));
     }
-    if !(p.speed > 0.0 && p.speed.is_finite()) || !(p.stride >= 0.0 && p.stride.is_finite()) {
+    if !(p.speed > 0.0 && p.speed.is_finite() && p.stride >= 0.0 && p.stride.is_finite()) {
         return Err(Error::InvalidArgument("speed must be positive and stride not negative".into()));
     }
     if p.motion == Motion::HeadShake && !(p.duration > 0.0 && p.duration.is_finite()) {
@@ -420,6 +420,8 @@ fn gait(
         knee: Option<(usize, f32)>,
         ankle: Option<(usize, f32)>,
     }
+    /// An arm: its swinging bone, its elbow (bone, flex sign) if any, and its side.
+    type ArmJoints = (usize, Option<(usize, f32)>, Side);
     let legs: Vec<LegJoints> = roles
         .legs
         .iter()
@@ -431,7 +433,7 @@ fn gait(
             LegJoints { hip: bones[0], knee, ankle }
         })
         .collect();
-    let arms: Vec<(usize, Option<(usize, f32)>, Side)> = roles
+    let arms: Vec<ArmJoints> = roles
         .arms
         .iter()
         .map(|a| {
@@ -545,7 +547,10 @@ fn gait(
 mod tests {
     use super::*;
     use crate::roles::detect_roles;
-    use crate::roles::tests::{biped, creature, spot};
+    use crate::roles::tests::{biped, creature, spot, Skeleton};
+
+    /// A test rig run through a motion: names, heads, tails, parents, rest matrices, roles, clip.
+    type Animated = (Vec<String>, Vec<[f32; 3]>, Vec<[f32; 3]>, Vec<i32>, Vec<[f32; 9]>, Roles, Clip);
 
     /// Rest matrices with Y along the bone (roll arbitrary but fixed), row-major.
     fn q(r: [f32; 4]) -> Quat {
@@ -564,10 +569,7 @@ mod tests {
             .collect()
     }
 
-    fn run(
-        skel: (Vec<String>, Vec<[f32; 3]>, Vec<[f32; 3]>, Vec<i32>),
-        motion: Motion,
-    ) -> (Vec<String>, Vec<[f32; 3]>, Vec<[f32; 3]>, Vec<i32>, Vec<[f32; 9]>, Roles, Clip) {
+    fn run(skel: Skeleton, motion: Motion) -> Animated {
         let (names, h, t, p) = skel;
         let rest = rest_of(&h, &t);
         let roles = detect_roles(&h, &t, &p, &names).unwrap();
@@ -607,7 +609,7 @@ mod tests {
         d.min(1.0 - d)
     }
 
-    fn check_walk(skel: (Vec<String>, Vec<[f32; 3]>, Vec<[f32; 3]>, Vec<i32>), motion: Motion) {
+    fn check_walk(skel: Skeleton, motion: Motion) {
         let (_, h, t, p, rest, roles, clip) = run(skel, motion);
         let fpc = clip.frames_per_cycle as usize;
         assert_eq!(clip.frames, 2 * fpc + 1);

@@ -910,6 +910,9 @@ fn symbolic_factor(a: SymbolicSparseColMatRef<'_, usize>) -> Option<SymbolicChol
 }
 
 /// Numeric factorization; `None` on a non-positive pivot or allocation failure.
+// The Err hands the symbolic factorization back for a retry; boxing it would allocate on the
+// out-of-memory path (and `Factor`, the Ok side, is as large anyway).
+#[allow(clippy::result_large_err)]
 fn numeric_factor(
     symbolic: SymbolicCholesky<usize>,
     a: SparseColMatRef<'_, usize, f64>,
@@ -1018,7 +1021,7 @@ fn is_visible(x: DVec3, bone: (DVec3, DVec3), d: f64, rays: Option<&RayMesh>) ->
     let (t, _) = closest_point_on_segment(x, bone.0, bone.1);
     let from = bone.0 + (bone.1 - bone.0) * t;
     let to = from + (x - from) * stop;
-    !rays.segment_blocked(Vec3::from(from.as_vec3()), Vec3::from(to.as_vec3()))
+    !rays.segment_blocked(from.as_vec3(), to.as_vec3())
 }
 
 #[cfg(test)]

@@ -19,11 +19,7 @@ pub struct Influences {
 impl Influences {
     /// Number of vertices (rows).
     pub fn n(&self) -> usize {
-        if self.k == 0 {
-            0
-        } else {
-            self.indices.len() / self.k
-        }
+        self.indices.len().checked_div(self.k).unwrap_or(0)
     }
 
     /// `n` empty rows of `k` slots (`k` clamped to >= 1).
@@ -97,14 +93,7 @@ pub fn top_k_row(
         return 0;
     }
     let sum: f32 = out_w[..used].iter().sum();
-    let mut keep = 1;
-    for s in 1..used {
-        if out_w[s] / sum >= min_weight {
-            keep = s + 1;
-        } else {
-            break;
-        }
-    }
+    let keep = 1 + out_w[1..used].iter().take_while(|&&w| w / sum >= min_weight).count();
     for s in keep..used {
         out_w[s] = 0.0;
         out_idx[s] = -1;

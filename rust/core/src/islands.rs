@@ -37,13 +37,13 @@ pub fn connected_components(n: usize, triangles: &[[u32; 3]]) -> (Vec<u32>, usiz
     let mut label_of_root = vec![u32::MAX; n];
     let mut labels = vec![0u32; n];
     let mut count = 0usize;
-    for v in 0..n {
+    for (v, label) in labels.iter_mut().enumerate() {
         let r = find(&mut parent, v as u32) as usize;
         if label_of_root[r] == u32::MAX {
             label_of_root[r] = count as u32;
             count += 1;
         }
-        labels[v] = label_of_root[r];
+        *label = label_of_root[r];
     }
     (labels, count)
 }

@@ -698,8 +698,13 @@ pub fn detect_roles(heads: &[[f32; 3]], tails: &[[f32; 3]], parents: &[i32], nam
 pub(crate) mod tests {
     use super::*;
 
+    /// A test rig: bone names, heads, tails, parent indices (-1: root).
+    pub type Skeleton = (Vec<String>, Vec<[f32; 3]>, Vec<[f32; 3]>, Vec<i32>);
+    /// One bone of a hand-written rig: name, head, tail, parent's name (`None`: root).
+    type BoneSpec = (String, [f32; 3], [f32; 3], Option<String>);
+
     /// The add-on's generated quadruped (scripts/creature.py), faces -Y.
-    pub fn creature() -> (Vec<String>, Vec<[f32; 3]>, Vec<[f32; 3]>, Vec<i32>) {
+    pub fn creature() -> Skeleton {
         let mut joints: Vec<(&str, [f32; 3])> = vec![
             ("hips", [0.0, 0.55, 1.00]),
             ("spine", [0.0, 0.05, 1.05]),
@@ -766,8 +771,8 @@ pub(crate) mod tests {
 
     /// A simple human, facing -Y, arms down: hips root, 3 spine bones, neck, head,
     /// clavicle/upper arm/forearm/hand, thigh/shin/foot/toe.
-    pub fn biped() -> (Vec<String>, Vec<[f32; 3]>, Vec<[f32; 3]>, Vec<i32>) {
-        let mut b: Vec<(String, [f32; 3], [f32; 3], Option<String>)> = vec![
+    pub fn biped() -> Skeleton {
+        let mut b: Vec<BoneSpec> = vec![
             ("hips".into(), [0.0, 0.0, 1.0], [0.0, 0.0, 1.1], None),
             ("spine".into(), [0.0, 0.0, 1.1], [0.0, 0.0, 1.3], Some("hips".into())),
             ("chest".into(), [0.0, 0.0, 1.3], [0.0, 0.0, 1.5], Some("spine".into())),
@@ -796,7 +801,7 @@ pub(crate) mod tests {
     /// A generated rig with the structure of Spot the cow's hand-made one (not its data): seven
     /// separate root trees meeting at shared joints (chest, hips, skull), glTF-style "_leaf"
     /// bones pointing straight down, legs about 40 units long, facing +Y, Z up.
-    pub fn spot() -> (Vec<String>, Vec<[f32; 3]>, Vec<[f32; 3]>, Vec<i32>) {
+    pub fn spot() -> Skeleton {
         let chest = [0.0, 0.0, -2.0];
         let hips = [0.0, -20.0, 0.0];
         let skull = [0.0, 19.0, 10.0];

@@ -148,7 +148,7 @@ fn max_move_caps_the_fit() {
 fn bent_tube_corner() {
     let path = [[0.0, 0.0, 0.0], [0.0, 0.0, 2.0], [2.0, 0.0, 2.0]];
     let (v, t) = tube(&path, 0.25, 24, 24);
-    let truth = vec![[0.0, 0.0, 0.3], [0.0, 0.0, 2.0], [1.7, 0.0, 2.0]];
+    let truth = [[0.0, 0.0, 0.3], [0.0, 0.0, 2.0], [1.7, 0.0, 2.0]];
     let bones = chain_bones(3);
     let diag = (4.5f32 * 4.5 + 2.5 * 2.5 + 0.25).sqrt().min(3.5);
     let mut before = 0.0;

@@ -167,8 +167,8 @@ fn flat_shaded_split_mesh_matches_welded_twin() {
     let sd = sinf.to_dense(4);
     let mut worst = 0.0f32;
     for (ti, tri) in m.1.iter().enumerate() {
-        for k in 0..3 {
-            let (v, sv) = (tri[k] as usize, 3 * ti + k);
+        for (k, &v) in tri.iter().enumerate() {
+            let (v, sv) = (v as usize, 3 * ti + k);
             worst = worst.max(max_abs_diff(&d[v * 4..v * 4 + 4], &sd[sv * 4..sv * 4 + 4]));
         }
     }

@@ -4,6 +4,11 @@ use crate::convert::from_rows;
 use numpy::{PyArray1, PyArray2};
 use pyo3::prelude::*;
 
+/// A triangle mesh for Python: vertices float32 (n,3), triangles uint32 (m,3).
+type MeshArrays<'py> = (Bound<'py, PyArray2<f32>>, Bound<'py, PyArray2<u32>>);
+/// A bone chain for Python: heads float32 (b,3), tails float32 (b,3), parents int32 (b,).
+type ChainArrays<'py> = (Bound<'py, PyArray2<f32>>, Bound<'py, PyArray2<f32>>, Bound<'py, PyArray1<i32>>);
+
 /// Closed capped cylinder along +Z: (vertices float32 (n,3), triangles uint32 (m,3)).
 #[pyfunction]
 #[pyo3(signature = (radius=0.5, height=4.0, rings=32, segments=32))]
@@ -13,7 +18,7 @@ pub fn capped_cylinder<'py>(
     height: f32,
     rings: usize,
     segments: usize,
-) -> PyResult<(Bound<'py, PyArray2<f32>>, Bound<'py, PyArray2<u32>>)> {
+) -> PyResult<MeshArrays<'py>> {
     let (v, t) = miniskeleton_core::primitives::capped_cylinder(radius, height, rings.max(1), segments.max(3));
     Ok((from_rows(py, &v)?, from_rows(py, &t)?))
 }
@@ -21,11 +26,7 @@ pub fn capped_cylinder<'py>(
 /// Straight chain of equal bones along +Z: (heads (b,3), tails (b,3), parents int32 (b,)).
 #[pyfunction]
 #[pyo3(signature = (height=4.0, bones=4))]
-pub fn bone_chain<'py>(
-    py: Python<'py>,
-    height: f32,
-    bones: usize,
-) -> PyResult<(Bound<'py, PyArray2<f32>>, Bound<'py, PyArray2<f32>>, Bound<'py, PyArray1<i32>>)> {
+pub fn bone_chain<'py>(py: Python<'py>, height: f32, bones: usize) -> PyResult<ChainArrays<'py>> {
     let (h, t, p) = miniskeleton_core::primitives::bone_chain(height, bones.max(1));
     Ok((from_rows(py, &h)?, from_rows(py, &t)?, PyArray1::from_vec(py, p)))
 }
@@ -36,7 +37,7 @@ pub fn split_flat<'py>(
     py: Python<'py>,
     vertices: numpy::PyArrayLike2<'py, f32, numpy::AllowTypeChange>,
     triangles: numpy::PyArrayLike2<'py, u32, numpy::AllowTypeChange>,
-) -> PyResult<(Bound<'py, PyArray2<f32>>, Bound<'py, PyArray2<u32>>)> {
+) -> PyResult<MeshArrays<'py>> {
     let v = crate::convert::rows::<f32, 3>(&vertices, "vertices")?;
     let t = crate::convert::rows::<u32, 3>(&triangles, "triangles")?;
     let (sv, st) = miniskeleton_core::primitives::split_flat(&v, &t);

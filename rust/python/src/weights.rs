@@ -13,6 +13,8 @@ use pyo3::types::PyDict;
 
 type F32Rows<'py> = PyArrayLike2<'py, f32, AllowTypeChange>;
 type Pair<'py> = (Bound<'py, PyArray2<i32>>, Bound<'py, PyArray2<f32>>);
+/// Top-k weights with their report: bone indices int32 (n,k), weights float32 (n,k), report dict.
+type PairAndReport<'py> = (Bound<'py, PyArray2<i32>>, Bound<'py, PyArray2<f32>>, Bound<'py, PyDict>);
 
 fn to_pair<'py>(py: Python<'py>, inf: Influences) -> PyResult<Pair<'py>> {
     let n = inf.n();
@@ -219,7 +221,7 @@ pub fn heat_weights_report<'py>(
     symmetry_tolerance: f32,
     parents: Option<PyArrayLike1<'py, i32, AllowTypeChange>>,
     progress: Option<Py<PyAny>>,
-) -> PyResult<(Bound<'py, PyArray2<i32>>, Bound<'py, PyArray2<f32>>, Bound<'py, PyDict>)> {
+) -> PyResult<PairAndReport<'py>> {
     let ((i, w), report) = heat_impl(
         py,
         vertices,
