@@ -109,7 +109,8 @@ def fit_joints(vertices: ArrayLike, triangles: ArrayLike, joints: ArrayLike, bon
     whose thinnest section's radius exceeds stub_ratio times its length (pelvis to hip) gives no
     centre line; 0 disables. A bone with fewer than min_sections usable sections (one pins a point,
     not a direction) gives no centre line either. Report: outside_before/after (+ _mask), rounds, max_move,
-    open_edges, nonmanifold_edges, pieces."""
+    open_edges, nonmanifold_edges, pieces, mirrored_surface (with symmetry: share of the vertices whose
+    mirror image lies within 1 % of the diagonal of the surface, else None)."""
 
 def points_inside(vertices: ArrayLike, triangles: ArrayLike, points: ArrayLike) -> npt.NDArray[np.bool_]:
     """(p,) bool: points inside the closed mesh by ray parity (majority of 7 directions)."""

@@ -221,6 +221,12 @@ class MINISKELETON_OT_fit_skeleton(bpy.types.Operator):
         if rep["pieces"] > 1:
             self.report({"WARNING"}, f"The mesh has {rep['pieces']} separate pieces: each joint was "
                         "fitted into the piece around it")
+        mirrored = rep.get("mirrored_surface")
+        if rep["outside_after"] and mirrored is not None and mirrored < 0.9:
+            self.report({"WARNING"}, f"Symmetry X: only {mirrored:.0%} of the mesh's surface has a mirror "
+                        "image across the armature's X = 0 plane (a posed scan, or the armature's origin off "
+                        "the mesh's middle), so mirrored joints can end outside; fit without Symmetry, or put "
+                        "the armature's origin on the mesh's mirror plane")
         level = {"WARNING"} if rep["outside_after"] else {"INFO"}
         extra = f" ({nj - len(fit_j)} invented tails followed their bones)" if len(fit_j) < nj else ""
         self.report(level, f"Fitted {int(movable[fit_j].sum())} of {len(fit_j)} joints{extra}: outside the mesh "

@@ -198,6 +198,29 @@ def test_fit_symmetry_across_a_plane_the_rig_is_not_mirrored_in_is_refused():
     assert edit_state(arm) != before
 
 
+def test_fit_symmetry_on_a_mesh_off_the_plane_says_why_joints_end_outside(capfd):
+    """The creature moved 4 % of its size off the armature's x = 0: X symmetry keeps centre
+    joints on x = 0 and pairs mirrored there, so some end outside its thin limbs and tail. The
+    report says the mesh has little mirror image across that plane and what to do; without
+    symmetry every joint fits inside, and the unmoved creature gives no such warning."""
+    warning = "of the mesh's surface has a mirror image across the armature's X = 0 plane"
+    for shift, symmetry in [(0.0, "X"), (0.04, "X"), (0.04, "NONE")]:
+        body, arm, ends, orig, moved, diag = creature_setup(seed=3)
+        set_joints(arm, orig, ends)
+        body.location.x += shift * diag
+        bpy.context.view_layer.update()
+        builders.select_for_parenting([body], arm)
+        capfd.readouterr()
+        assert bpy.ops.armature.miniskeleton_fit_skeleton(symmetry=symmetry) == {"FINISHED"}
+        out = "".join(capfd.readouterr())
+        verts, tris = mesh_arrays(body)
+        inside = core.points_inside(verts, tris, joints_of(arm, ends).astype(np.float32))
+        if shift and symmetry == "X":
+            assert warning in out and not inside.all(), out
+        else:
+            assert warning not in out and inside.all(), (shift, symmetry, out)
+
+
 def test_mirror_pairs_by_name():
     mesh_io = importlib.import_module("bl_ext.user_default.miniskeleton.mesh_io")
     names = ["spine", "arm.L", "arm.R", "b_LeftUpperArm_09", "b_RightUpperArm_06", "leg_back_L_knee",

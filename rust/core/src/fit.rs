@@ -114,6 +114,11 @@ pub struct FitReport {
     pub open_edges: usize,
     pub nonmanifold_edges: usize,
     pub pieces: usize,
+    /// With symmetry: the share of the mesh's vertices (at most [`MIRROR_SAMPLES`], evenly
+    /// spread) whose mirror image across the plane lies within [`MIRROR_NEAR`] of the surface;
+    /// 1 for a mirror-symmetric mesh, low for a posed scan or a mesh off the plane, where
+    /// mirrored joints can end outside. `None` without symmetry.
+    pub mirrored_surface: Option<f64>,
 }
 
 impl FitReport {
@@ -144,6 +149,10 @@ const PULL_DEPTH: f64 = 0.005;
 /// diagonal) to meet their mirror images; farther, and the plane is not the rig's own (a
 /// character facing +X, an armature origin off the body), so the fit refuses.
 const MIRROR_MISMATCH: f64 = 0.1;
+/// Vertices sampled for [`FitReport::mirrored_surface`].
+pub const MIRROR_SAMPLES: usize = 4096;
+/// A mirrored vertex this close to the surface (fraction of the diagonal) has a mirror image.
+pub const MIRROR_NEAR: f64 = 0.01;
 /// Hits closer than this (unit frame) along one ray count once (shared edges report twice).
 const DEDUP: f32 = 1e-6;
 /// Rays never need to be longer than this in the unit frame (the mesh fits in diagonal 1).
@@ -530,6 +539,7 @@ pub fn fit_joints(
         return Err(Error::EmptyMesh("every triangle of the mesh is degenerate".into()));
     }
 
+    let mirrored_surface = sym.as_ref().map(|(axis, plane, _)| mirrored_share(&rm, &unit, *axis, *plane));
     let outside_before: Vec<bool> = p.par_iter().map(|q| !inside(&rm, *q)).collect();
     let start = p.clone();
     let mut incident: Vec<Vec<usize>> = vec![Vec::new(); nj];
@@ -765,9 +775,25 @@ pub fn fit_joints(
                 }
             }
         }
-        return finish(out, joints, outside_before, outside_after, rounds, (open_edges, nonmanifold_edges, pieces));
+        return finish(
+            out,
+            joints,
+            outside_before,
+            outside_after,
+            rounds,
+            (open_edges, nonmanifold_edges, pieces),
+            mirrored_surface,
+        );
     }
-    finish(out, joints, outside_before, outside_after, rounds, (open_edges, nonmanifold_edges, pieces))
+    finish(
+        out,
+        joints,
+        outside_before,
+        outside_after,
+        rounds,
+        (open_edges, nonmanifold_edges, pieces),
+        mirrored_surface,
+    )
 }
 
 fn finish(
@@ -777,9 +803,31 @@ fn finish(
     outside_after: Vec<bool>,
     rounds: usize,
     (open_edges, nonmanifold_edges, pieces): (usize, usize, usize),
+    mirrored_surface: Option<f64>,
 ) -> Result<(Vec<[f32; 3]>, FitReport)> {
     let max_move = out.iter().zip(joints).map(|(a, b)| (to_dvec(*a) - to_dvec(*b)).length()).fold(0.0, f64::max);
-    Ok((out, FitReport { outside_before, outside_after, rounds, max_move, open_edges, nonmanifold_edges, pieces }))
+    let report = FitReport {
+        outside_before,
+        outside_after,
+        rounds,
+        max_move,
+        open_edges,
+        nonmanifold_edges,
+        pieces,
+        mirrored_surface,
+    };
+    Ok((out, report))
+}
+
+/// Share of the (unit-frame) vertices, at most [`MIRROR_SAMPLES`] evenly strided, whose mirror
+/// image across `plane` on `axis` lies within [`MIRROR_NEAR`] of the surface.
+fn mirrored_share(rm: &RayMesh, unit: &[[f32; 3]], axis: usize, plane: f64) -> f64 {
+    let picks: Vec<&[f32; 3]> = unit.iter().step_by(unit.len().div_ceil(MIRROR_SAMPLES).max(1)).collect();
+    let near = picks
+        .par_iter()
+        .filter(|q| rm.near_surface(mirror_point(to_dvec(***q), axis, plane).as_vec3(), MIRROR_NEAR as f32))
+        .count();
+    near as f64 / picks.len().max(1) as f64
 }
 
 #[cfg(test)]

@@ -21,7 +21,8 @@ use glam::Vec3;
 use parry3d::bounding_volume::Aabb;
 use parry3d::partitioning::{Bvh, BvhBuildStrategy, BvhNode, TraversalAction};
 use parry3d::query::details::local_ray_intersection_with_triangle;
-use parry3d::query::Ray;
+use parry3d::query::{PointQuery, Ray};
+use parry3d::shape::Triangle;
 use rayon::prelude::*;
 
 /// Relative growth of every triangle about its centroid (and padding of the BVH boxes,
@@ -174,6 +175,31 @@ impl RayMesh {
             .count()
     }
 
+    /// `true` if some kept triangle comes within `tol` (mesh unit) of `p`. A nearest-surface
+    /// test pruned by the BVH boxes (parry's point/triangle distance), stopping at the first
+    /// triangle close enough. A non-finite `p` or negative `tol` is never near.
+    pub fn near_surface(&self, p: Vec3, tol: f32) -> bool {
+        if self.tris.is_empty() || !p.is_finite() || !(tol >= 0.0) {
+            return false;
+        }
+        let mut near = false;
+        self.bvh.traverse(|node| {
+            let gap = (node.mins() - p).max(p - node.maxs()).max(Vec3::ZERO);
+            if gap.length_squared() > tol * tol {
+                return TraversalAction::Prune;
+            }
+            if let Some(i) = node.leaf_data() {
+                let [a, b, c] = self.tris[i as usize];
+                if Triangle::new(a, b, c).distance_to_local_point(p, true) <= tol {
+                    near = true;
+                    return TraversalAction::EarlyExit;
+                }
+            }
+            TraversalAction::Continue
+        });
+        near
+    }
+
     /// parry's two-sided ray/triangle test on kept triangle `i`, `t in [0, tmax]` (units of
     /// `ray.dir`).
     #[inline]
@@ -310,6 +336,35 @@ mod tests {
             let to = from + (p - from) * 3.0;
             assert!(rm.segment_blocked(from, to), "leak through {p}");
         }
+    }
+
+    /// Distance to the surface against a brute-force minimum over the cube's faces.
+    #[test]
+    fn near_surface_matches_the_distance_to_the_cube() {
+        let (v, t) = unit_cube();
+        let rm = RayMesh::new(&v, &t);
+        let dist = |p: Vec3| {
+            let outside = (-p).max(p - Vec3::ONE).max(Vec3::ZERO).length();
+            let inside = p.min(Vec3::ONE - p).min_element();
+            if outside > 0.0 {
+                outside
+            } else {
+                inside
+            }
+        };
+        for p in [
+            Vec3::splat(0.5),
+            Vec3::new(0.5, 0.5, 1.05),
+            Vec3::new(0.1, 0.5, 0.5),
+            Vec3::splat(1.2),
+            Vec3::splat(-0.01),
+        ] {
+            let d = dist(p);
+            assert!(rm.near_surface(p, d + 1e-3), "{p}: {d}");
+            assert!(!rm.near_surface(p, d - 1e-3), "{p}: {d}");
+        }
+        assert!(!rm.near_surface(Vec3::splat(f32::NAN), 1.0));
+        assert!(!RayMesh::new(&v, &[[0, 0, 0]]).near_surface(Vec3::ZERO, 1.0));
     }
 
     /// Parity inside test and hits restricted to some triangles.

@@ -294,6 +294,29 @@ fn symmetry_on_the_wrong_plane_is_an_error() {
     }
 }
 
+/// The report says how much of the mesh has a mirror image across the symmetry plane: all of
+/// two mirrored limbs, little of the same limbs moved off the plane (where mirrored joints
+/// can end outside); nothing is measured without symmetry.
+#[test]
+fn mirrored_surface_share_is_reported() {
+    let (v, t) = mirrored_limbs();
+    let start = [[1.0, 0.0, 0.3], [1.0, 0.0, 2.0], [-1.0, 0.0, 0.3], [-1.0, 0.0, 2.0]];
+    let bones = [[0, 1], [2, 3]];
+    let sym = FitOptions {
+        symmetry: Some(Symmetry { axis: 0, plane: 0.0, mirror: vec![2, 3, 0, 1] }),
+        ..FitOptions::default()
+    };
+    let (_, rep) = fit_joints(&v, &t, &start, &bones, &[true; 4], &sym).unwrap();
+    let share = rep.mirrored_surface.unwrap();
+    assert!(share > 0.99, "{share}");
+    let shifted: Vec<[f32; 3]> = v.iter().map(|p| [p[0] + 0.3, p[1], p[2]]).collect();
+    let (_, rep) = fit_joints(&shifted, &t, &start, &bones, &[true; 4], &sym).unwrap();
+    let share = rep.mirrored_surface.unwrap();
+    assert!(share < 0.5, "{share}");
+    let (_, rep) = fit_joints(&v, &t, &start, &bones, &[true; 4], &FitOptions::default()).unwrap();
+    assert_eq!(rep.mirrored_surface, None);
+}
+
 /// The result scales with the input (scale-free), at 1e-3 and 1e3.
 #[test]
 fn scale_free() {

@@ -61,6 +61,7 @@ pub fn fit_joints<'py>(
     d.set_item("open_edges", rep.open_edges)?;
     d.set_item("nonmanifold_edges", rep.nonmanifold_edges)?;
     d.set_item("pieces", rep.pieces)?;
+    d.set_item("mirrored_surface", rep.mirrored_surface)?;
     Ok((from_rows(py, &out)?, d))
 }
 
