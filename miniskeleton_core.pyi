@@ -57,6 +57,13 @@ def heat_weights_report(
     welded_vertices, isolated_vertices, mirrored_vertices (with bone_mirror: vertices with a mirror twin
     or on the plane, the only ones averaged), regularized, factorization_failed, timings (stage -> seconds)."""
 
+def touching_meshes(vertices: ArrayLike, mesh_of: ArrayLike, meshes: int, *, tolerance: float = 1e-5,
+                    min_shared: int = 3) -> npt.NDArray[np.int32]:
+    """(meshes,) group of each mesh: meshes sharing at least min_shared vertex positions (welded within
+    tolerance of the overall bbox diagonal, as heat welds), transitively, are one group (a head and a
+    body split at the neck), numbered in order of each group's first mesh. vertices (n,3) of all meshes
+    stacked, mesh_of (n,) the mesh of each vertex."""
+
 def capped_cylinder(radius: float = 0.5, height: float = 4.0, rings: int = 32, segments: int = 32
                     ) -> Tuple[npt.NDArray[np.float32], npt.NDArray[np.uint32]]:
     """Closed capped cylinder along +Z from z=0 to z=height."""

@@ -335,9 +335,17 @@ def compute_weights(core, settings: dict, bones, inputs, progress):
     ``progress(f)`` gets the overall fraction and returns False to cancel (the core then
     raises ``Cancelled``). Other errors are raised as ``WeightsError`` for the status bar."""
     results, notes = [], []
-    for m, (ob, name, verts, tris) in enumerate(inputs):
-        def step(f, m=m):
-            return progress((m + f) / len(inputs))
+    groups = seam_groups(core, inputs) if settings["method"] == "HEAT" else [[m] for m in range(len(inputs))]
+    for g, members in enumerate(groups):
+        def step(f, g=g):
+            return progress((g + f) / len(groups))
+        name = " + ".join(inputs[m][1] for m in members)
+        counts = [len(inputs[m][2]) for m in members]
+        verts = np.concatenate([inputs[m][2] for m in members])
+        tris = None
+        if settings["method"] == "HEAT":
+            base = np.cumsum([0] + counts[:-1])
+            tris = np.concatenate([inputs[m][3].astype(np.int64) + b for m, b in zip(members, base)]).astype(np.uint32)
         try:
             i, w, report = mesh_weights(core, settings, verts, tris, bones, step)
         except (ValueError, RuntimeError) as err:
@@ -352,8 +360,25 @@ def compute_weights(core, settings: dict, bones, inputs, progress):
                          "keep their own weights")
         if report and report.get("factorization_failed"):
             notes.append(f"{name}: heat solve failed, nearest-bone weights used")
-        results.append((ob, i, w))
+        ends = np.cumsum(counts)
+        for m, end, n in zip(members, ends, counts):
+            results.append((inputs[m][0], i[end - n:end], w[end - n:end]))
     return results, notes
+
+
+def seam_groups(core, inputs) -> list[list[int]]:
+    """Indices of ``inputs`` grouped by the meshes that meet along a seam (shared vertex
+    positions, ``core.touching_meshes``): Heat solves each group as one surface, so a head and
+    a body split at the neck give their shared vertices one weight and do not crack when posed."""
+    if len(inputs) < 2:
+        return [[m] for m in range(len(inputs))]
+    sizes = [len(v) for _, _, v, _ in inputs]
+    mesh_of = np.repeat(np.arange(len(inputs), dtype=np.uint32), sizes)
+    ids = core.touching_meshes(np.concatenate([v for _, _, v, _ in inputs]), mesh_of, len(inputs))
+    groups: dict[int, list[int]] = {}
+    for m, g in enumerate(ids.tolist()):
+        groups.setdefault(g, []).append(m)
+    return list(groups.values())
 
 
 # Meshes with at least this many vertices in total are computed on a worker thread when the

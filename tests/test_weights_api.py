@@ -185,3 +185,20 @@ def test_heat_parents_make_imported_bones_reach_their_children():
     for bad, what in (([-1], "parents for 2 bones"), ([-1, 1], "parent of bone 1"), ([-1, 5], "parent of bone 1")):
         with pytest.raises(ValueError, match=what):
             msc.heat_weights(v, t, heads, tails, parents=bad)
+
+
+def test_touching_meshes_groups_objects_that_share_a_seam(cyl):
+    v = cyl[0]
+    ring = v[np.isclose(v[:, 2], v[np.argmin(np.abs(v[:, 2] - 2.0)), 2])]
+    low = np.vstack([v[v[:, 2] < ring[0, 2]], ring])
+    high = np.vstack([ring, v[v[:, 2] > ring[0, 2]]])
+    apart = high + np.float32([5, 0, 0])
+    parts = [low, apart, high]
+    mesh_of = np.repeat(np.arange(3), [len(p) for p in parts])
+    g = msc.touching_meshes(np.vstack(parts), mesh_of, 3)
+    assert g.dtype == np.int32 and g.tolist() == [0, 1, 0]
+    assert msc.touching_meshes(np.vstack(parts), mesh_of, 3, min_shared=len(ring) + 1).tolist() == [0, 1, 2]
+    with pytest.raises(ValueError, match="mesh index"):
+        msc.touching_meshes(np.vstack(parts), mesh_of, 2)
+    with pytest.raises(ValueError):
+        msc.touching_meshes(np.vstack(parts), mesh_of[1:], 3)

@@ -12,6 +12,7 @@ pub mod cotan;
 pub mod islands;
 pub mod mesh;
 pub mod primitives;
+pub mod seams;
 pub mod segment;
 pub mod visibility;
 pub mod weld;

@@ -241,3 +241,23 @@ pub fn heat_weights_report<'py>(
     )?;
     Ok((i, w, report))
 }
+
+/// Which meshes meet along a seam: `vertices` (n,3) of all meshes stacked, `mesh_of` (n,) the
+/// mesh of each vertex; meshes sharing at least `min_shared` welded positions (within
+/// `tolerance` of the overall bbox diagonal), transitively, get one group. Returns (meshes,)
+/// int32 group ids, numbered in order of each group's first mesh.
+#[pyfunction]
+#[pyo3(signature = (vertices, mesh_of, meshes, *, tolerance=1e-5, min_shared=3))]
+pub fn touching_meshes<'py>(
+    py: Python<'py>,
+    vertices: F32Rows<'py>,
+    mesh_of: PyArrayLike1<'py, u32, AllowTypeChange>,
+    meshes: usize,
+    tolerance: f64,
+    min_shared: usize,
+) -> PyResult<Bound<'py, numpy::PyArray1<i32>>> {
+    let v = rows::<f32, 3>(&vertices, "vertices")?;
+    let m = vector(&mesh_of);
+    let groups = guarded(py, move || miniskeleton_core::seams::touching_meshes(&v, &m, meshes, tolerance, min_shared))?;
+    Ok(numpy::PyArray1::from_vec(py, groups.into_iter().map(|g| g as i32).collect()))
+}
