@@ -749,7 +749,7 @@ pub fn fit_joints(
     }
     let outside_after: Vec<bool> = p.par_iter().map(|q| !inside(&rm, *q)).collect();
 
-    let out: Vec<[f32; 3]> = p
+    let mut out: Vec<[f32; 3]> = p
         .iter()
         .zip(joints)
         .zip(movable)
@@ -757,7 +757,6 @@ pub fn fit_joints(
         .collect();
     // Exact mirror images in input units (the unit frame round trip is not exact).
     if let (Some(s), Some((_, _, mirror))) = (&opts.symmetry, &sym) {
-        let mut out = out;
         for j in 0..nj {
             let Some(m) = mirror[j] else { continue };
             if !movable[j] {
@@ -775,15 +774,6 @@ pub fn fit_joints(
                 }
             }
         }
-        return finish(
-            out,
-            joints,
-            outside_before,
-            outside_after,
-            rounds,
-            (open_edges, nonmanifold_edges, pieces),
-            mirrored_surface,
-        );
     }
     finish(
         out,
