@@ -103,9 +103,13 @@ fn report_dict<'py>(py: Python<'py>, r: &HeatReport) -> PyResult<Bound<'py, PyDi
     Ok(d)
 }
 
-/// Shared body of `heat_weights` and `heat_weights_report`.
+/// Bone-heat weights (Baran & Popovic 2007) on the welded surface; returns (indices, weights).
+#[pyfunction]
+#[pyo3(signature = (vertices, triangles, bone_heads, bone_tails, *, max_influences=4, min_weight=1e-3,
+                    visibility=true, weld_tolerance=1e-5, heat_constant=1.0, bone_mirror=None,
+                    symmetry_axis=0, symmetry_tolerance=1e-3, parents=None, progress=None))]
 #[allow(clippy::too_many_arguments)]
-fn heat_impl<'py>(
+pub fn heat_weights<'py>(
     py: Python<'py>,
     vertices: F32Rows<'py>,
     triangles: PyArrayLike2<'py, u32, AllowTypeChange>,
@@ -121,7 +125,50 @@ fn heat_impl<'py>(
     symmetry_tolerance: f32,
     parents: Option<PyArrayLike1<'py, i32, AllowTypeChange>>,
     progress: Option<Py<PyAny>>,
-) -> PyResult<(Pair<'py>, Bound<'py, PyDict>)> {
+) -> PyResult<Pair<'py>> {
+    let (i, w, _) = heat_weights_report(
+        py,
+        vertices,
+        triangles,
+        bone_heads,
+        bone_tails,
+        max_influences,
+        min_weight,
+        visibility,
+        weld_tolerance,
+        heat_constant,
+        bone_mirror,
+        symmetry_axis,
+        symmetry_tolerance,
+        parents,
+        progress,
+    )?;
+    Ok((i, w))
+}
+
+/// As `heat_weights`, plus a report dict (pieces, fallback_pieces, rigid_pieces, timings, ...).
+#[pyfunction]
+#[pyo3(signature = (vertices, triangles, bone_heads, bone_tails, *, max_influences=4, min_weight=1e-3,
+                    visibility=true, weld_tolerance=1e-5, heat_constant=1.0, bone_mirror=None,
+                    symmetry_axis=0, symmetry_tolerance=1e-3, parents=None, progress=None))]
+#[allow(clippy::too_many_arguments)]
+pub fn heat_weights_report<'py>(
+    py: Python<'py>,
+    vertices: F32Rows<'py>,
+    triangles: PyArrayLike2<'py, u32, AllowTypeChange>,
+    bone_heads: F32Rows<'py>,
+    bone_tails: F32Rows<'py>,
+    max_influences: usize,
+    min_weight: f32,
+    visibility: bool,
+    weld_tolerance: f32,
+    heat_constant: f32,
+    bone_mirror: Option<PyArrayLike1<'py, i32, AllowTypeChange>>,
+    symmetry_axis: usize,
+    symmetry_tolerance: f32,
+    parents: Option<PyArrayLike1<'py, i32, AllowTypeChange>>,
+    progress: Option<Py<PyAny>>,
+) -> PyResult<PairAndReport<'py>> {
     let v = rows::<f32, 3>(&vertices, "vertices")?;
     let tri = rows::<u32, 3>(&triangles, "triangles")?;
     let h = rows::<f32, 3>(&bone_heads, "bone_heads")?;
@@ -153,93 +200,8 @@ fn heat_impl<'py>(
     let (inf, report) = guarded(py, || {
         core_heat(&v, &tri, &h, &t, &opts, callback.as_ref().map(|c| c as &(dyn Fn(f32) -> bool + Sync)))
     })?;
-    Ok((to_pair(py, inf)?, report_dict(py, &report)?))
-}
-
-/// Bone-heat weights (Baran & Popovic 2007) on the welded surface; returns (indices, weights).
-#[pyfunction]
-#[pyo3(signature = (vertices, triangles, bone_heads, bone_tails, *, max_influences=4, min_weight=1e-3,
-                    visibility=true, weld_tolerance=1e-5, heat_constant=1.0, bone_mirror=None,
-                    symmetry_axis=0, symmetry_tolerance=1e-3, parents=None, progress=None))]
-#[allow(clippy::too_many_arguments)]
-pub fn heat_weights<'py>(
-    py: Python<'py>,
-    vertices: F32Rows<'py>,
-    triangles: PyArrayLike2<'py, u32, AllowTypeChange>,
-    bone_heads: F32Rows<'py>,
-    bone_tails: F32Rows<'py>,
-    max_influences: usize,
-    min_weight: f32,
-    visibility: bool,
-    weld_tolerance: f32,
-    heat_constant: f32,
-    bone_mirror: Option<PyArrayLike1<'py, i32, AllowTypeChange>>,
-    symmetry_axis: usize,
-    symmetry_tolerance: f32,
-    parents: Option<PyArrayLike1<'py, i32, AllowTypeChange>>,
-    progress: Option<Py<PyAny>>,
-) -> PyResult<Pair<'py>> {
-    let (pair, _) = heat_impl(
-        py,
-        vertices,
-        triangles,
-        bone_heads,
-        bone_tails,
-        max_influences,
-        min_weight,
-        visibility,
-        weld_tolerance,
-        heat_constant,
-        bone_mirror,
-        symmetry_axis,
-        symmetry_tolerance,
-        parents,
-        progress,
-    )?;
-    Ok(pair)
-}
-
-/// As `heat_weights`, plus a report dict (pieces, fallback_pieces, rigid_pieces, timings, ...).
-#[pyfunction]
-#[pyo3(signature = (vertices, triangles, bone_heads, bone_tails, *, max_influences=4, min_weight=1e-3,
-                    visibility=true, weld_tolerance=1e-5, heat_constant=1.0, bone_mirror=None,
-                    symmetry_axis=0, symmetry_tolerance=1e-3, parents=None, progress=None))]
-#[allow(clippy::too_many_arguments)]
-pub fn heat_weights_report<'py>(
-    py: Python<'py>,
-    vertices: F32Rows<'py>,
-    triangles: PyArrayLike2<'py, u32, AllowTypeChange>,
-    bone_heads: F32Rows<'py>,
-    bone_tails: F32Rows<'py>,
-    max_influences: usize,
-    min_weight: f32,
-    visibility: bool,
-    weld_tolerance: f32,
-    heat_constant: f32,
-    bone_mirror: Option<PyArrayLike1<'py, i32, AllowTypeChange>>,
-    symmetry_axis: usize,
-    symmetry_tolerance: f32,
-    parents: Option<PyArrayLike1<'py, i32, AllowTypeChange>>,
-    progress: Option<Py<PyAny>>,
-) -> PyResult<PairAndReport<'py>> {
-    let ((i, w), report) = heat_impl(
-        py,
-        vertices,
-        triangles,
-        bone_heads,
-        bone_tails,
-        max_influences,
-        min_weight,
-        visibility,
-        weld_tolerance,
-        heat_constant,
-        bone_mirror,
-        symmetry_axis,
-        symmetry_tolerance,
-        parents,
-        progress,
-    )?;
-    Ok((i, w, report))
+    let (i, w) = to_pair(py, inf)?;
+    Ok((i, w, report_dict(py, &report)?))
 }
 
 /// Which meshes meet along a seam: `vertices` (n,3) of all meshes stacked, `mesh_of` (n,) the
