@@ -52,6 +52,16 @@ def to_armature_space(arm_ob: bpy.types.Object, points: np.ndarray) -> np.ndarra
     return (points.astype(np.float64) @ inv[:3, :3].T + inv[:3, 3]).astype(np.float32)
 
 
+def stack_meshes(parts) -> tuple[np.ndarray, np.ndarray]:
+    """Several meshes as one: ``parts`` (non-empty) of (vertices (n, 3), triangles (m, 3)) pairs
+    -> (vertices stacked in order, triangles (m, 3) uint32 re-indexed into them)."""
+    parts = list(parts)
+    base = np.cumsum([0] + [len(v) for v, _ in parts[:-1]])
+    verts = np.concatenate([v for v, _ in parts])
+    tris = np.concatenate([np.asarray(t, np.int64).reshape(-1, 3) + b for (_, t), b in zip(parts, base)])
+    return verts, tris.astype(np.uint32)
+
+
 def mesh_triangles(ob: bpy.types.Object) -> np.ndarray:
     """Triangulation of ``ob``'s faces, (m, 3) uint32 vertex indices (Blender's loop triangles)."""
     me = ob.data

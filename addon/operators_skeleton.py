@@ -121,7 +121,7 @@ class MINISKELETON_OT_fit_skeleton(bpy.types.Operator):
         if not meshes:
             self.report({"ERROR"}, "No mesh selected: select the mesh(es), then the armature (active)")
             return None
-        verts, tris, base = [], [], 0
+        parts = []
         for ob in meshes:
             if ob.mode == "EDIT":
                 self.report({"ERROR"}, f"Mesh '{ob.name}' is in Edit Mode; leave Edit Mode first")
@@ -135,10 +135,8 @@ class MINISKELETON_OT_fit_skeleton(bpy.types.Operator):
             if bad:
                 self.report({"ERROR"}, f"Mesh '{ob.name}' has {bad} vertices with NaN or infinite coordinates")
                 return None
-            verts.append(mesh_io.to_armature_space(arm, v))
-            tris.append(t.astype(np.int64) + base)
-            base += len(v)
-        return np.concatenate(verts), np.concatenate(tris).astype(np.uint32)
+            parts.append((mesh_io.to_armature_space(arm, v), t))
+        return mesh_io.stack_meshes(parts)
 
     def execute(self, context):
         import miniskeleton_core as core

@@ -341,11 +341,10 @@ def compute_weights(core, settings: dict, bones, inputs, progress):
             return progress((g + f) / len(groups))
         name = " + ".join(inputs[m][1] for m in members)
         counts = [len(inputs[m][2]) for m in members]
-        verts = np.concatenate([inputs[m][2] for m in members])
-        tris = None
         if settings["method"] == "HEAT":
-            base = np.cumsum([0] + counts[:-1])
-            tris = np.concatenate([inputs[m][3].astype(np.int64) + b for m, b in zip(members, base)]).astype(np.uint32)
+            verts, tris = mesh_io.stack_meshes((inputs[m][2], inputs[m][3]) for m in members)
+        else:
+            verts, tris = np.concatenate([inputs[m][2] for m in members]), None
         try:
             i, w, report = mesh_weights(core, settings, verts, tris, bones, step)
         except (ValueError, RuntimeError) as err:

@@ -263,20 +263,15 @@ def collect_rig(arm_ob, meshes, max_influences: int = 0) -> dict:
     if len(arm_ob.data.bones) == 0:
         raise RigError(f"armature '{arm_ob.name}' has no bones")
     names, h, t, parents, _ = world_bones(arm_ob)
-    verts, tris, rows, counts = [], [], [], []
-    base = 0
-    for ob in meshes:
-        v = mesh_io.mesh_world_vertices(ob)
-        verts.append(v)
-        tris.append(mesh_io.mesh_triangles(ob).astype(np.int64) + base)
-        rows += read_weights(ob, names)
-        counts.append(len(v))
-        base += len(v)
+    verts, tris = mesh_io.stack_meshes((mesh_io.mesh_world_vertices(ob), mesh_io.mesh_triangles(ob))
+                                       for ob in meshes)
+    rows = [row for ob in meshes for row in read_weights(ob, names)]
+    counts = [len(ob.data.vertices) for ob in meshes]
     idx, w = top_k(rows, max_influences)
     return {
         "format_version": np.int32(FORMAT_VERSION),
-        "vertices": np.concatenate(verts).astype(np.float32),
-        "triangles": np.concatenate(tris).astype(np.int32).reshape(-1, 3),
+        "vertices": verts.astype(np.float32),
+        "triangles": tris.astype(np.int32),
         "mesh_names": np.array([ob.name for ob in meshes], dtype=str),
         "mesh_vertex_counts": np.array(counts, dtype=np.int32),
         "armature_name": np.array(arm_ob.name, dtype=str),

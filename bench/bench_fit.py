@@ -101,14 +101,8 @@ def set_joints(bpy, arm, joints, ends, rig_io):
 def armature_space_mesh(arm, meshes, mesh_io):
     """The meshes in the armature's space, where edit bones live: (vertices (n,3) float32,
     triangles (m,3) uint32, bounding-box diagonal)."""
-    verts, tris, base = [], [], 0
-    for ob in meshes:
-        v = mesh_io.mesh_world_vertices(ob)
-        verts.append(mesh_io.to_armature_space(arm, v))
-        tris.append(mesh_io.mesh_triangles(ob).astype(np.int64) + base)
-        base += len(v)
-    verts = np.concatenate(verts)
-    tris = np.concatenate(tris).astype(np.uint32)
+    verts, tris = mesh_io.stack_meshes((mesh_io.to_armature_space(arm, mesh_io.mesh_world_vertices(ob)),
+                                        mesh_io.mesh_triangles(ob)) for ob in meshes)
     return verts, tris, float(np.linalg.norm(verts.max(0) - verts.min(0)))
 
 
