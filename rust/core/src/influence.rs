@@ -131,27 +131,12 @@ mod tests {
 
     #[test]
     fn keeps_largest_and_normalizes() {
+        #[rustfmt::skip]
         let dense = [
-            0.1,
-            0.5,
-            0.0,
-            0.3,
-            0.2, // -> 1, 3, 4 (top 3)
-            0.0,
-            0.0,
-            0.0,
-            0.0,
-            0.0, // empty
-            f32::NAN,
-            -1.0,
-            2.0,
-            0.0,
-            1e-6, // -> 2 only after pruning
-            0.25,
-            0.25,
-            0.25,
-            0.25,
-            0.0, // ties -> lowest indices
+            0.1, 0.5, 0.0, 0.3, 0.2, // -> 1, 3, 4 (top 3)
+            0.0, 0.0, 0.0, 0.0, 0.0, // empty
+            f32::NAN, -1.0, 2.0, 0.0, 1e-6, // -> 2 only after pruning
+            0.25, 0.25, 0.25, 0.25, 0.0, // ties -> lowest indices
         ];
         let inf = top_k_normalized(&dense, 4, 5, 3, 1e-3);
         assert_eq!(inf.n(), 4);
