@@ -55,7 +55,9 @@ def heat_weights_report(
 ) -> Tuple[npt.NDArray[np.int32], npt.NDArray[np.float32], dict]:
     """As heat_weights, plus a report: pieces, fallback_pieces (saw no bone), rigid_pieces, boneless_pieces,
     welded_vertices, isolated_vertices, mirrored_vertices (with bone_mirror: vertices with a mirror twin
-    or on the plane, the only ones averaged), regularized, factorization_failed, timings (stage -> seconds)."""
+    or on the plane, the only ones averaged), regularized, factorization_failed, timings (stage -> seconds).
+    weld_tolerance and every other length are relative to the bounding box of the vertices that
+    faces use (a stray loose vertex does not change them)."""
 
 def touching_meshes(vertices: ArrayLike, mesh_of: ArrayLike, meshes: int, *, tolerance: float = 1e-5,
                     min_shared: int = 3) -> npt.NDArray[np.int32]:

@@ -163,7 +163,9 @@ class MINISKELETON_OT_fit_skeleton(bpy.types.Operator):
             parents = [index[eb.parent.name] if eb.parent else -1 for eb in bones]
             connected = [bool(eb.use_connect) for eb in bones]
             zaxes = [eb.z_axis.copy() for eb in bones]
-            size = float(np.linalg.norm(np.ptp(np.concatenate([heads, tails, verts]), axis=0)))
+            # Joints coincide relative to the skeleton's size (a stray mesh vertex far away
+            # must not merge distinct joints).
+            size = float(np.linalg.norm(np.ptp(np.concatenate([heads, tails]), axis=0)))
             joints, ends = rig_io.joint_graph(heads, tails, parents, connected, 1e-6 * max(size, 1e-30))
             nj = len(joints)
 

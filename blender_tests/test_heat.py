@@ -96,6 +96,22 @@ def test_scene_scale_does_not_change_weights(scale):
     np.testing.assert_allclose(B.weights_matrix(ob, NAMES), reference, atol=1e-4)
 
 
+def test_a_stray_vertex_far_away_changes_no_weight():
+    """A loose vertex left 1e5 away (no face uses it) gets its nearest bone, and the surface's
+    weights are those without it: tolerances follow the surface's size, not every vertex's."""
+    ob = B.cylinder()
+    arm = B.chain()
+    bind([ob], arm)
+    reference = B.weights_matrix(ob, NAMES)
+    n = len(ob.data.vertices)
+    ob.data.vertices.add(1)
+    ob.data.vertices[n].co = (1e5, 0.0, 0.0)
+    assert bind([ob], arm) == {"FINISHED"}
+    w = B.weights_matrix(ob, NAMES)
+    np.testing.assert_allclose(w[:n], reference, atol=1e-5)
+    assert w[n].sum() == pytest.approx(1.0, abs=1e-6)
+
+
 def test_split_seams_weighted_like_welded_twin():
     welded = B.cylinder("Welded")
     arm = B.chain()

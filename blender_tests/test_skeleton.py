@@ -108,6 +108,21 @@ def test_fit_creature_halves_error_and_leaves_none_outside():
             assert np.allclose(b.head_local, b.parent.tail_local, atol=1e-6)
 
 
+def test_fit_ignores_a_stray_vertex_far_away():
+    """A loose vertex 1000 diagonals away neither widens Max Move (a fraction of the mesh's
+    diagonal) nor merges distinct joints: the fit is the same as without it."""
+    body, arm, ends, orig, moved, diag = creature_setup(seed=2)
+    assert bpy.ops.armature.miniskeleton_fit_skeleton() == {"FINISHED"}
+    reference = joints_of(arm, ends)
+    set_joints(arm, moved, ends)
+    n = len(body.data.vertices)
+    body.data.vertices.add(1)
+    body.data.vertices[n].co = (1000 * diag, 0.0, 0.0)
+    builders.select_for_parenting([body], arm)
+    assert bpy.ops.armature.miniskeleton_fit_skeleton() == {"FINISHED"}
+    np.testing.assert_allclose(joints_of(arm, ends), reference, atol=1e-5 * diag)
+
+
 def test_fit_imported_rig_invented_tails_follow_their_bones():
     """No bone connected (as after a glTF/FBX import): tails that are no bone's head are invented,
     keep their bone's vector from the fitted head; the real joints (heads) still go inside."""

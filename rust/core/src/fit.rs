@@ -424,7 +424,7 @@ fn topology(unit: &[DVec3], triangles: &[[u32; 3]]) -> (usize, usize, usize) {
 /// Errors as [`validate_mesh`] with faces required.
 pub fn points_inside(vertices: &[[f32; 3]], triangles: &[[u32; 3]], points: &[[f32; 3]]) -> Result<Vec<bool>> {
     validate_mesh(vertices, triangles, true)?;
-    let frame = Frame::of_points(vertices);
+    let frame = Frame::of_mesh(vertices, triangles);
     let unit: Vec<[f32; 3]> = frame.normalize(vertices).iter().map(|p| p.as_vec3().to_array()).collect();
     let rm = RayMesh::new(&unit, triangles);
     Ok(points.par_iter().map(|p| p.iter().all(|c| c.is_finite()) && inside(&rm, frame.to_unit(*p))).collect())
@@ -489,7 +489,7 @@ pub fn fit_joints(
                 .into(),
         ));
     }
-    let frame = Frame::of_points(vertices);
+    let frame = Frame::of_mesh(vertices, triangles);
     let sym = match &opts.symmetry {
         None => None,
         Some(s) => {

@@ -203,8 +203,9 @@ struct Source {
 /// Output: `(influences, report)`: [`Influences`] with `n` rows, every row non-empty and
 /// summing to 1, and a [`HeatReport`].
 ///
-/// Steps: validate; normalize to the unit bbox frame; weld within `weld_tolerance`; drop
-/// degenerate faces; pieces; cotangent `L` and lumped `M` (f64); the segments standing for
+/// Steps: validate; normalize to the unit frame ([`Frame::of_mesh`]: a stray loose vertex
+/// sets no tolerance); weld within `weld_tolerance`; drop degenerate faces; pieces;
+/// cotangent `L` and lumped `M` (f64); the segments standing for
 /// the bones (head -> tail, or with `opts.parents` the spans of [`HeatOptions::parents`]);
 /// per vertex the nearest visible bone (the bone of the nearest visible segment) among its
 /// [`MAX_VISIBILITY_TESTS`] nearest (the segment from the bone's closest point to the
@@ -294,7 +295,7 @@ pub fn heat_weights(
     tick(0.0)?;
 
     // 2. Normalize, weld, clean faces.
-    let frame = Frame::of_points(vertices);
+    let frame = Frame::of_mesh(vertices, triangles);
     let pos = frame.normalize(vertices);
     let bones = bones_in_frame(&frame, heads, tails);
     let (map, wpos) = weld(&pos, opts.weld_tolerance as f64);

@@ -99,6 +99,26 @@ impl Frame {
         Frame { centre: (lo + hi) * 0.5, diagonal: if d.is_finite() && d > 0.0 { d } else { 1.0 } }
     }
 
+    /// Frame of the vertices the `triangles` use (indices already validated), so that loose
+    /// vertices -- a stray point left far from the model -- do not set the scale of every
+    /// tolerance (weld distance, max move). All vertices when no triangle has any extent.
+    pub fn of_mesh(vertices: &[[f32; 3]], triangles: &[[u32; 3]]) -> Frame {
+        let mut used = vec![false; vertices.len()];
+        for t in triangles {
+            for &i in t {
+                used[i as usize] = true;
+            }
+        }
+        let on_faces: Vec<[f32; 3]> = vertices.iter().zip(&used).filter(|(_, &u)| u).map(|(p, _)| *p).collect();
+        let (lo, hi) = bounding_box(&on_faces);
+        let d = (hi - lo).length();
+        if d.is_finite() && d > 0.0 {
+            Frame { centre: (lo + hi) * 0.5, diagonal: d }
+        } else {
+            Frame::of_points(vertices)
+        }
+    }
+
     /// Input units -> unit frame.
     #[inline]
     pub fn to_unit(&self, p: [f32; 3]) -> DVec3 {
@@ -149,5 +169,15 @@ mod tests {
         assert!(((u[1] - u[0]).length() - 1.0).abs() < 1e-12);
         assert!((f.from_unit(u[1]) - to_dvec(v[1])).length() < 1e-9);
         assert_eq!(Frame::of_points(&[[1.0, 1.0, 1.0]]).diagonal, 1.0);
+    }
+
+    #[test]
+    fn mesh_frame_ignores_loose_vertices() {
+        let v = [[0.0, 0.0, 0.0], [3.0, 0.0, 0.0], [0.0, 4.0, 0.0], [1e6, 0.0, 0.0]];
+        let f = Frame::of_mesh(&v, &[[0, 1, 2]]);
+        assert!((f.diagonal - 5.0).abs() < 1e-12 && (f.centre - DVec3::new(1.5, 2.0, 0.0)).length() < 1e-12);
+        // No faces, or faces without extent: every vertex counts.
+        assert_eq!(Frame::of_mesh(&v, &[]), Frame::of_points(&v));
+        assert_eq!(Frame::of_mesh(&v, &[[0, 0, 0]]), Frame::of_points(&v));
     }
 }

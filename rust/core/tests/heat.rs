@@ -191,6 +191,22 @@ fn scale_invariance() {
 }
 
 #[test]
+fn a_stray_vertex_far_away_does_not_change_weights() {
+    // Tolerances are relative to the surface's size, not to that of every vertex: a loose
+    // point 1e5 away would otherwise make the weld distance 1 and merge the whole cylinder.
+    let (m, b) = cylinder();
+    let (base, _) = heat(&m, &b, &HeatOptions::default());
+    let mut stray = m.clone();
+    stray.0.push([1e5, 0.0, 0.0]);
+    let (inf, rep) = heat(&stray, &b, &HeatOptions::default());
+    assert_eq!((rep.isolated_vertices, rep.welded_vertices), (1, 0));
+    assert_rows_sum_to_one(&inf);
+    let nb = m.0.len() * 4;
+    let diff = max_abs_diff(&base.to_dense(4), &inf.to_dense(4)[..nb]);
+    assert!(diff < 1e-5, "{diff}");
+}
+
+#[test]
 fn degenerate_and_duplicate_faces_do_not_change_weights() {
     let (m, b) = cylinder();
     let (base, _) = heat(&m, &b, &HeatOptions::default());
