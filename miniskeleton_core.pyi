@@ -54,8 +54,9 @@ def heat_weights_report(
     progress: Optional[Callable[[float], Optional[bool]]] = None,
 ) -> Tuple[npt.NDArray[np.int32], npt.NDArray[np.float32], dict]:
     """As heat_weights, plus a report: pieces, fallback_pieces (saw no bone), rigid_pieces, boneless_pieces,
-    welded_vertices, isolated_vertices, mirrored_vertices (with bone_mirror: vertices with a mirror twin
-    or on the plane, the only ones averaged), regularized, factorization_failed, timings (stage -> seconds).
+    welded_vertices, flipped_faces (wound against their neighbours; turned for the normals only),
+    isolated_vertices, mirrored_vertices (with bone_mirror: vertices with a mirror twin or on the plane,
+    the only ones averaged), regularized, factorization_failed, timings (stage -> seconds).
     weld_tolerance and every other length are relative to the bounding box of the vertices that
     faces use (a stray loose vertex does not change them)."""
 

@@ -353,6 +353,10 @@ def compute_weights(core, settings: dict, bones, inputs, progress):
             notes.append(f"{name}: of {report['pieces']} pieces, "
                          f"{report['fallback_pieces']} saw no bone (nearest bone used), "
                          f"{report['rigid_pieces']} bound rigidly (no bone inside)")
+        if report and report.get("flipped_faces"):
+            notes.append(f"{name}: {report['flipped_faces']} triangles are wound against their neighbours "
+                         "(flipped normals); the weights ignore that, the mesh is unchanged (Mesh > Normals "
+                         "> Recalculate Outside fixes them)")
         if report and settings["mirror"] is not None and report["mirrored_vertices"] < 0.9 * len(verts):
             notes.append(f"{name}: Symmetry X: only {report['mirrored_vertices'] / max(len(verts), 1):.0%} of "
                          "the vertices have a mirror twin across the armature's X = 0 plane; the others "

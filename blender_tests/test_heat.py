@@ -112,6 +112,27 @@ def test_a_stray_vertex_far_away_changes_no_weight():
     assert w[n].sum() == pytest.approx(1.0, abs=1e-6)
 
 
+def test_flipped_faces_change_no_weight_and_are_reported(capfd):
+    """Faces of the upper half turned inside out (flipped normals, as after joining a mirrored
+    part): the weights are those of the clean mesh, the report says how many triangles were wound
+    against their neighbours, and the mesh itself keeps its (flipped) faces."""
+    ob = B.cylinder()
+    arm = B.chain()
+    bind([ob], arm)
+    reference = B.weights_matrix(ob, NAMES)
+    flipped = [p for p in ob.data.polygons if p.center.z > 2.0]
+    for p in flipped:
+        p.flip()
+    before = [tuple(p.vertices) for p in ob.data.polygons]
+    ob.data.calc_loop_triangles()
+    tris = sum(len(p.vertices) - 2 for p in flipped)
+    capfd.readouterr()
+    assert bind([ob], arm) == {"FINISHED"}
+    np.testing.assert_allclose(B.weights_matrix(ob, NAMES), reference, atol=1e-5)
+    assert f"{tris} triangles are wound against their neighbours" in "".join(capfd.readouterr())
+    assert [tuple(p.vertices) for p in ob.data.polygons] == before
+
+
 def test_split_seams_weighted_like_welded_twin():
     welded = B.cylinder("Welded")
     arm = B.chain()

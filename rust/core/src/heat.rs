@@ -10,7 +10,8 @@
 //! solved against the same factor.
 //!
 //! Robustness on top of the paper: coordinates are normalized (scale-free), coincident
-//! vertices are welded (split seams), degenerate faces dropped, pieces that see no bone use
+//! vertices are welded (split seams), degenerate faces dropped, flipped faces turned for the
+//! normals (consistent winding per piece), pieces that see no bone use
 //! the nearest bone by distance, pieces with no bone inside them (eyes, buttons, a held
 //! prop) become rigid accessories, isolated vertices take their nearest bone, and the
 //! factorization retries with more regularization and finally falls back to nearest-bone
@@ -21,6 +22,7 @@ use crate::idw::bones_in_frame;
 use crate::influence::{top_k_row, Influences};
 use crate::islands::connected_components;
 use crate::mesh::{validate_bones, validate_mesh, Frame};
+use crate::orient::orient_faces;
 use crate::segment::closest_point_on_segment;
 use crate::symmetry::{mirror_map, symmetrize_columns, validate_bone_mirror};
 use crate::visibility::RayMesh;
@@ -121,6 +123,9 @@ pub struct HeatReport {
     pub boneless_pieces: usize,
     /// Input vertices merged into another one by welding (`n - welded count`).
     pub welded_vertices: usize,
+    /// Triangles wound against their neighbours (flipped normals), turned for the normals and
+    /// volumes only ([`orient_faces`]); the input is not changed.
+    pub flipped_faces: usize,
     /// Vertices in no usable triangle (bound 100% to their nearest bone).
     pub isolated_vertices: usize,
     /// With symmetry: input vertices whose (welded) position has a mirror twin, or lies on the
@@ -205,7 +210,8 @@ struct Source {
 ///
 /// Steps: validate; normalize to the unit frame ([`Frame::of_mesh`]: a stray loose vertex
 /// sets no tolerance); weld within `weld_tolerance`; drop degenerate faces; pieces;
-/// cotangent `L` and lumped `M` (f64); the segments standing for
+/// cotangent `L` and lumped `M` (f64); vertex normals from consistently wound faces
+/// ([`orient_faces`], outward by the sign of each piece's volume); the segments standing for
 /// the bones (head -> tail, or with `opts.parents` the spans of [`HeatOptions::parents`]);
 /// per vertex the nearest visible bone (the bone of the nearest visible segment) among its
 /// [`MAX_VISIBILITY_TESTS`] nearest (the segment from the bone's closest point to the
@@ -322,7 +328,7 @@ pub fn heat_weights(
     //      and its symbolic Cholesky analysis (AMD ordering + supernodes); then every vertex
     //      looks for its nearest visible bone on all threads.
     let need_rays = opts.visibility || opts.rigid_accessories || opts.parents.is_some();
-    let ((ray_mesh, t_bvh), ((labels, npieces), cot, normals, csc, mut symbolic, t_lap, t_sym)) = rayon::join(
+    let ((ray_mesh, t_bvh), ((labels, npieces), oriented, cot, normals, csc, mut symbolic, t_lap, t_sym)) = rayon::join(
         || {
             let s = Instant::now();
             let ray_mesh = need_rays.then(|| {
@@ -335,8 +341,9 @@ pub fn heat_weights(
             let s = Instant::now();
             let pieces = connected_components(nw, &tris);
             let cot = cotan_laplacian(&wpos, &tris);
+            let oriented = orient_faces(nw, &tris);
             let normals = if opts.normal_distance {
-                vertex_normals(&wpos, &tris, &pieces.0, pieces.1)
+                vertex_normals(&wpos, &oriented.0, &pieces.0, pieces.1)
             } else {
                 vec![DVec3::ZERO; nw]
             };
@@ -345,14 +352,16 @@ pub fn heat_weights(
             let s = Instant::now();
             let pattern = SymbolicSparseColMatRef::new_checked(nw, nw, &csc.col_ptr, None, &csc.row_idx);
             let symbolic = symbolic_factor(pattern);
-            (pieces, cot, normals, csc, symbolic, t_lap, s.elapsed().as_secs_f64())
+            (pieces, oriented, cot, normals, csc, symbolic, t_lap, s.elapsed().as_secs_f64())
         },
     );
     let symbolic_mat = SymbolicSparseColMatRef::new_checked(nw, nw, &csc.col_ptr, None, &csc.row_idx);
     lap(&mut report, "bvh|laplacian+symbolic");
     report.timings.extend([("bvh", t_bvh), ("laplacian", t_lap), ("symbolic", t_sym)]);
     let mass = &cot.mass;
-    let mut pieces = piece_stats(&labels, npieces, &wpos, &tris, mass);
+    report.flipped_faces = oriented.1;
+    let mut pieces = piece_stats(&labels, npieces, &wpos, &oriented.0, mass);
+    drop(oriented);
     // The segments standing for the bones (several per bone on imported rigs), and each
     // segment's bone; sources below are in bones.
     let (segs, owner) = match (&opts.parents, ray_mesh.as_ref()) {

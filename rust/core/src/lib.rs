@@ -11,6 +11,7 @@ pub use error::{Error, Result};
 pub mod cotan;
 pub mod islands;
 pub mod mesh;
+pub mod orient;
 pub mod primitives;
 pub mod seams;
 pub mod segment;

@@ -207,6 +207,27 @@ fn a_stray_vertex_far_away_does_not_change_weights() {
 }
 
 #[test]
+fn flipped_faces_do_not_change_weights() {
+    // Half the tube wound inside out (as after joining a mirrored part without recalculating
+    // normals), and scattered single faces: its normals would point inward and hide the bones.
+    let (m, b) = cylinder();
+    let (base, _) = heat(&m, &b, &HeatOptions::default());
+    let d0 = base.to_dense(4);
+    let flip = |t: &[u32; 3]| [t[0], t[2], t[1]];
+    let upper = |t: &[u32; 3]| t.iter().map(|&i| m.0[i as usize][2]).sum::<f32>() > 3.0;
+    let half: Vec<[u32; 3]> = m.1.iter().map(|t| if upper(t) { flip(t) } else { *t }).collect();
+    let scattered: Vec<[u32; 3]> = m.1.iter().enumerate().map(|(i, t)| if i % 7 == 0 { flip(t) } else { *t }).collect();
+    for (name, tris, flipped) in
+        [("upper half", half, m.1.iter().filter(|t| upper(t)).count()), ("every 7th", scattered, m.1.len().div_ceil(7))]
+    {
+        let (inf, rep) = heat(&(m.0.clone(), tris), &b, &HeatOptions::default());
+        assert_eq!(rep.flipped_faces, flipped, "{name}");
+        let diff = max_abs_diff(&d0, &inf.to_dense(4));
+        assert!(diff < 1e-5, "{name}: {diff}");
+    }
+}
+
+#[test]
 fn degenerate_and_duplicate_faces_do_not_change_weights() {
     let (m, b) = cylinder();
     let (base, _) = heat(&m, &b, &HeatOptions::default());

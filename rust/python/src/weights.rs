@@ -92,6 +92,7 @@ fn report_dict<'py>(py: Python<'py>, r: &HeatReport) -> PyResult<Bound<'py, PyDi
     d.set_item("boneless_pieces", r.boneless_pieces)?;
     d.set_item("isolated_vertices", r.isolated_vertices)?;
     d.set_item("welded_vertices", r.welded_vertices)?;
+    d.set_item("flipped_faces", r.flipped_faces)?;
     d.set_item("mirrored_vertices", r.mirrored_vertices)?;
     d.set_item("regularized", r.regularized)?;
     d.set_item("factorization_failed", r.factorization_failed)?;
