@@ -234,6 +234,13 @@ def ensure_armature_modifier(ob: bpy.types.Object, arm_ob: bpy.types.Object) -> 
     return True
 
 
+def other_armature_modifiers(ob: bpy.types.Object, arm_ob: bpy.types.Object) -> list[str]:
+    """Names of ``ob``'s enabled Armature modifiers that deform it by another armature: left in
+    place, but they deform the mesh as well as ``arm_ob`` does."""
+    return [m.name for m in ob.modifiers if m.type == "ARMATURE" and m.object is not None
+            and m.object != arm_ob and (m.show_viewport or m.show_render)]
+
+
 def parent_keep_transform(ob: bpy.types.Object, arm_ob: bpy.types.Object) -> None:
     """Parent ``ob`` to ``arm_ob`` (object parenting) without moving it in world space."""
     if ob.parent == arm_ob and ob.parent_type == "OBJECT":

@@ -219,6 +219,12 @@ class MINISKELETON_OT_auto_weights(bpy.types.Operator):
             kept_locked.update(mesh_io.write_vertex_groups(ob, bones.names, dense, write))
             mesh_io.ensure_armature_modifier(ob, arm)
             mesh_io.parent_keep_transform(ob, arm)
+        for ob in [r[0] for r in results] + [ob for ob, _ in linked]:
+            others = mesh_io.other_armature_modifiers(ob, arm)
+            if others:
+                notes.append(f"'{ob.name}' also has Armature modifier(s) {', '.join(others)} for another "
+                             "armature, left as they were: they deform it too (remove or disable them "
+                             "if the mesh moves twice)")
         for ob, first in linked:
             mesh_io.ensure_armature_modifier(ob, arm)
             mesh_io.parent_keep_transform(ob, arm)

@@ -93,6 +93,23 @@ def test_heat_is_default_and_rebinding_does_not_duplicate_modifier():
     assert op.method == "HEAT"
 
 
+def test_another_armatures_modifier_is_kept_and_named_in_a_warning(capfd):
+    """Rebinding to a new rig keeps the old rig's Armature modifier (the user's), but says it
+    still deforms the mesh; a disabled one or one with no armature is not mentioned."""
+    ob = B.cylinder()
+    old, new = B.chain("OldRig"), B.chain("NewRig")
+    bind([ob], old)
+    capfd.readouterr()
+    assert bind([ob], new) == {"FINISHED"}
+    assert [(m.type, m.object) for m in ob.modifiers] == [("ARMATURE", new), ("ARMATURE", old)]
+    out = "".join(capfd.readouterr())
+    assert f"'{ob.name}' also has Armature modifier(s) OldRig for another armature" in out
+    ob.modifiers["OldRig"].show_viewport = ob.modifiers["OldRig"].show_render = False
+    ob.modifiers.new("Empty", "ARMATURE")
+    assert bind([ob], new) == {"FINISHED"}
+    assert "also has Armature modifier" not in "".join(capfd.readouterr())
+
+
 def test_foreign_groups_untouched_bone_groups_replaced():
     ob = B.cylinder()
     arm = B.chain()
