@@ -13,12 +13,14 @@
 //! and a stub bone leaving a junction (shorter than its sections are wide: pelvis to hip, chest
 //! to shoulder) has no centre line at all, since its sections are slices of the body it lies in.
 //!
-//! Inside/outside is decided by ray parity (hit counts along several fixed directions,
-//! majority vote), so it is reliable on closed meshes and approximate on open ones. Joints
-//! still outside at the end are pulled to the middle of the nearest chord of the mesh.
+//! Inside/outside is decided by ray parity (crossings of the union of the pieces along
+//! several fixed directions, majority vote), so it is reliable on closed pieces and
+//! approximate on open ones. Joints still outside at the end are pulled to the middle of the
+//! nearest chord of the mesh.
 //!
 //! Everything runs in the unit frame of the mesh (bounding-box diagonal 1, see
-//! [`crate::mesh::Frame`]), so tolerances are scale-free. Rays: [`RayMesh::ray_hits`].
+//! [`crate::mesh::Frame`]), so tolerances are scale-free. Rays: [`Solid::hits`], which reads
+//! a mesh of parts pushed into each other (kit-built and game models) as their union.
 //!
 //! See also: `symmetry.rs` (mirror maps), Baran & Popovic 2007 (Pinocchio's embedding also
 //! centres joints in the medial surface; this is a much simpler local version).
@@ -26,10 +28,10 @@
 //! unreliable on meshes with large holes.
 
 use crate::mesh::{to_dvec, validate_mesh, Frame};
+use crate::solid::Solid;
 use crate::symmetry::mirror_point;
-use crate::visibility::RayMesh;
 use crate::{Error, Result};
-use glam::{DMat3, DVec3, Vec3};
+use glam::{DMat3, DVec3};
 use rayon::prelude::*;
 
 /// Left/right symmetry of the joints.
@@ -130,17 +132,6 @@ impl FitReport {
     }
 }
 
-/// Fixed, irrational directions for the parity test.
-#[allow(clippy::approx_constant)] // rounded unit vectors, not the constant 1/sqrt(2)
-const PARITY_DIRS: [[f32; 3]; 7] = [
-    [0.5773, 0.6123, 0.5402],
-    [-0.7071, 0.3162, 0.6325],
-    [0.1313, -0.9121, 0.3884],
-    [0.8017, -0.2672, -0.5345],
-    [-0.3015, -0.4264, -0.8528],
-    [-0.6547, 0.7276, -0.2041],
-    [0.2182, 0.1091, -0.9698],
-];
 /// A free limb end goes this many local radii short of the tip of the mesh beyond it.
 const TIP_MARGIN: f64 = 0.3;
 /// Joints pulled inside go this far (unit frame) past the surface, at most half the chord.
@@ -155,30 +146,19 @@ pub const MIRROR_SAMPLES: usize = 4096;
 pub const MIRROR_NEAR: f64 = 0.01;
 /// Hits closer than this (unit frame) along one ray count once (shared edges report twice).
 const DEDUP: f32 = 1e-6;
+/// Vertices this close (unit frame) are one: pieces and mesh checks are taken after welding.
+const WELD: f64 = 1e-6;
 /// Rays never need to be longer than this in the unit frame (the mesh fits in diagonal 1).
 const FAR: f32 = 4.0;
 
-fn dedup(hits: Vec<f32>) -> Vec<f32> {
-    let mut out: Vec<f32> = Vec::with_capacity(hits.len());
-    for t in hits {
-        if out.last().is_none_or(|&l| t - l > DEDUP) {
-            out.push(t);
-        }
-    }
-    out
+/// Where the ray from `p` along `dir` enters or leaves the mesh (the union of its pieces).
+fn hits(solid: &Solid, p: DVec3, dir: DVec3) -> Vec<f32> {
+    solid.hits(p.as_vec3(), dir.as_vec3(), FAR)
 }
 
-fn hits(rm: &RayMesh, p: DVec3, dir: DVec3) -> Vec<f32> {
-    dedup(rm.ray_hits(p.as_vec3(), dir.as_vec3(), FAR))
-}
-
-/// Ray-parity inside test in the unit frame: odd hit counts along a majority of 7 directions.
-pub fn inside(rm: &RayMesh, p: DVec3) -> bool {
-    let odd = PARITY_DIRS
-        .iter()
-        .filter(|d| dedup(rm.ray_hits(p.as_vec3(), Vec3::from_array(**d), FAR)).len() % 2 == 1)
-        .count();
-    2 * odd > PARITY_DIRS.len()
+/// Ray-parity inside test in the unit frame ([`Solid::inside`]: inside some piece).
+pub fn inside(solid: &Solid, p: DVec3) -> bool {
+    solid.inside(p, FAR)
 }
 
 /// Eigenvalues and unit eigenvectors of a symmetric 3x3 matrix (cyclic Jacobi rotations).
@@ -237,7 +217,7 @@ fn basis(d: DVec3) -> (DVec3, DVec3) {
 
 /// Move `q` (unit frame) to the centre of the mesh cross-section by the plane through `q` with
 /// normal `d` (unit). `None` when the point is outside and no chord in the plane reaches in.
-fn centre_in_plane(rm: &RayMesh, q0: DVec3, d: DVec3, lines: usize, reach: f64) -> Option<(DVec3, f64)> {
+fn centre_in_plane(rm: &Solid, q0: DVec3, d: DVec3, lines: usize, reach: f64) -> Option<(DVec3, f64)> {
     let (u, v) = basis(d);
     let dirs: Vec<DVec3> = (0..lines)
         .map(|k| {
@@ -317,7 +297,7 @@ fn centre_in_plane(rm: &RayMesh, q0: DVec3, d: DVec3, lines: usize, reach: f64) 
 
 /// Nearest point inside the mesh: middle of the nearest chord along rays over the sphere (or,
 /// with `plane = Some(axis)`, over the circle of directions with no `axis` component).
-fn pull_inside(rm: &RayMesh, p: DVec3, plane: Option<usize>, toward: &[DVec3]) -> Option<DVec3> {
+fn pull_inside(rm: &Solid, p: DVec3, plane: Option<usize>, toward: &[DVec3]) -> Option<DVec3> {
     let n = 96;
     let mut best: Option<(f64, DVec3)> = None;
     // Rays toward the nearest surface points first (thin parts slip between sphere directions),
@@ -376,7 +356,7 @@ fn pull_inside(rm: &RayMesh, p: DVec3, plane: Option<usize>, toward: &[DVec3]) -
 
 /// Mesh checks in the unit frame: (open edges, non-manifold edges, pieces) after welding.
 fn topology(unit: &[DVec3], triangles: &[[u32; 3]]) -> (usize, usize, usize) {
-    let (map, welded) = crate::weld::weld(unit, 1e-6);
+    let (map, welded) = crate::weld::weld(unit, WELD);
     let tris: Vec<[u32; 3]> = triangles
         .iter()
         .map(|t| t.map(|i| map[i as usize]))
@@ -426,7 +406,7 @@ pub fn points_inside(vertices: &[[f32; 3]], triangles: &[[u32; 3]], points: &[[f
     validate_mesh(vertices, triangles, true)?;
     let frame = Frame::of_mesh(vertices, triangles);
     let unit: Vec<[f32; 3]> = frame.normalize(vertices).iter().map(|p| p.as_vec3().to_array()).collect();
-    let rm = RayMesh::new(&unit, triangles);
+    let rm = Solid::new(&unit, triangles, WELD, DEDUP);
     Ok(points.par_iter().map(|p| p.iter().all(|c| c.is_finite()) && inside(&rm, frame.to_unit(*p))).collect())
 }
 
@@ -534,12 +514,12 @@ pub fn fit_joints(
     let unit_v = frame.normalize(vertices);
     let (open_edges, nonmanifold_edges, pieces) = topology(&unit_v, triangles);
     let unit: Vec<[f32; 3]> = unit_v.iter().map(|p| p.as_vec3().to_array()).collect();
-    let rm = RayMesh::new(&unit, triangles);
-    if rm.triangle_count() == 0 {
+    let rm = Solid::new(&unit, triangles, WELD, DEDUP);
+    if rm.rays.triangle_count() == 0 {
         return Err(Error::EmptyMesh("every triangle of the mesh is degenerate".into()));
     }
 
-    let mirrored_surface = sym.as_ref().map(|(axis, plane, _)| mirrored_share(&rm, &unit, *axis, *plane));
+    let mirrored_surface = sym.as_ref().map(|(axis, plane, _)| mirrored_share(&rm.rays, &unit, *axis, *plane));
     let outside_before: Vec<bool> = p.par_iter().map(|q| !inside(&rm, *q)).collect();
     let start = p.clone();
     let mut incident: Vec<Vec<usize>> = vec![Vec::new(); nj];
@@ -811,7 +791,7 @@ fn finish(
 
 /// Share of the (unit-frame) vertices, at most [`MIRROR_SAMPLES`] evenly strided, whose mirror
 /// image across `plane` on `axis` lies within [`MIRROR_NEAR`] of the surface.
-fn mirrored_share(rm: &RayMesh, unit: &[[f32; 3]], axis: usize, plane: f64) -> f64 {
+fn mirrored_share(rm: &crate::visibility::RayMesh, unit: &[[f32; 3]], axis: usize, plane: f64) -> f64 {
     let picks: Vec<&[f32; 3]> = unit.iter().step_by(unit.len().div_ceil(MIRROR_SAMPLES).max(1)).collect();
     let near = picks
         .par_iter()

@@ -15,6 +15,7 @@ pub mod orient;
 pub mod primitives;
 pub mod seams;
 pub mod segment;
+pub mod solid;
 pub mod visibility;
 pub mod weld;
 

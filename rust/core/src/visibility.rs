@@ -127,6 +127,18 @@ impl RayMesh {
     /// [`ray_hits`](Self::ray_hits) restricted to the input triangles `t` with `keep(t)`
     /// (`t` indexes the `triangles` given to [`RayMesh::new`]).
     pub fn ray_hits_where(&self, origin: Vec3, dir: Vec3, max_dist: f32, keep: impl Fn(u32) -> bool) -> Vec<f32> {
+        self.ray_hits_tagged(origin, dir, max_dist, keep).into_iter().map(|h| h.0).collect()
+    }
+
+    /// [`ray_hits_where`](Self::ray_hits_where) with the input triangle of every hit:
+    /// `(distance, triangle)` pairs sorted by distance.
+    pub fn ray_hits_tagged(
+        &self,
+        origin: Vec3,
+        dir: Vec3,
+        max_dist: f32,
+        keep: impl Fn(u32) -> bool,
+    ) -> Vec<(f32, u32)> {
         let len = dir.length();
         let mut hits = Vec::new();
         if self.tris.is_empty() || !(len > 0.0) || !len.is_finite() || !origin.is_finite() || !(max_dist >= 0.0) {
@@ -139,15 +151,16 @@ impl RayMesh {
                 return TraversalAction::Prune;
             }
             if let Some(i) = node.leaf_data() {
-                if keep(self.orig[i as usize]) {
+                let k = self.orig[i as usize];
+                if keep(k) {
                     if let Some(t) = self.triangle_hit(i, &ray, tmax) {
-                        hits.push(t);
+                        hits.push((t, k));
                     }
                 }
             }
             TraversalAction::Continue
         });
-        hits.sort_by(|a, b| a.total_cmp(b));
+        hits.sort_by(|a, b| a.0.total_cmp(&b.0));
         hits
     }
 

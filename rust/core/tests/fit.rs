@@ -227,6 +227,28 @@ fn idempotent() {
     }
 }
 
+/// A limb made of two parts pushed into each other (kit-built and game models): the overlap is
+/// inside, and a joint there is centred like any other, not pulled out of the buried faces.
+#[test]
+fn parts_pushed_into_each_other_are_one_solid() {
+    let (mut v, mut t) = capped_cylinder(0.5, 2.0, 20, 32);
+    let (v2, t2) = capped_cylinder(0.45, 2.0, 20, 32);
+    let n = v.len() as u32;
+    v.extend(v2.iter().map(|p| [p[0], p[1], p[2] + 1.5]));
+    t.extend(t2.iter().map(|tri| tri.map(|i| i + n)));
+    let in_overlap = [0.0, 0.0, 1.75];
+    assert!(points_inside(&v, &t, &[in_overlap]).unwrap()[0]);
+    let start = vec![[0.2, 0.1, 0.5], [0.15, -0.2, 1.75], [-0.1, 0.2, 3.0]];
+    let opts = FitOptions { tip: false, ..FitOptions::default() };
+    let (out, rep) = fit_joints(&v, &t, &start, &chain_bones(3), &[true; 3], &opts).unwrap();
+    assert_eq!(rep.pieces, 2);
+    assert_eq!((rep.count_outside_before(), rep.count_outside_after()), (0, 0));
+    for (o, s) in out.iter().zip(&start) {
+        assert!(o[0].abs() < 0.02 && o[1].abs() < 0.02, "not centred: {o:?}");
+        assert!((o[2] - s[2]).abs() < 0.05, "moved along the limb: {o:?} from {s:?}");
+    }
+}
+
 /// Joints far outside come back inside; fixed joints never move.
 #[test]
 fn outside_pulled_in_and_fixed_stay() {
