@@ -8,6 +8,7 @@ faster than a bmesh loop and never stores zero weights.
 from __future__ import annotations
 
 import re
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 
 import bpy
@@ -42,6 +43,25 @@ def mesh_world_vertices(ob: bpy.types.Object) -> np.ndarray:
     co = co.reshape(-1, 3).astype(np.float64)
     m = np.array(ob.matrix_world, dtype=np.float64)
     return (co @ m[:3, :3].T + m[:3, 3]).astype(np.float32)
+
+
+@contextmanager
+def rest_pose(arm_ob: bpy.types.Object, meshes):
+    """For the duration, ``arm_ob`` in its rest position when some of ``meshes`` follow one of
+    its bones (Bone parenting: their world position depends on the pose), so they are read where
+    they are in the rest pose, as the bones are; then the armature as it was."""
+    data = arm_ob.data
+    follows = any(ob.parent == arm_ob and ob.parent_type == "BONE" for ob in meshes)
+    if not follows or data.pose_position == "REST":
+        yield
+        return
+    data.pose_position = "REST"
+    bpy.context.view_layer.update()
+    try:
+        yield
+    finally:
+        data.pose_position = "POSE"
+        bpy.context.view_layer.update()
 
 
 def to_armature_space(arm_ob: bpy.types.Object, points: np.ndarray) -> np.ndarray:

@@ -122,20 +122,22 @@ class MINISKELETON_OT_fit_skeleton(bpy.types.Operator):
             self.report({"ERROR"}, "No mesh selected: select the mesh(es), then the armature (active)")
             return None
         parts = []
-        for ob in meshes:
-            if ob.mode == "EDIT":
-                self.report({"ERROR"}, f"Mesh '{ob.name}' is in Edit Mode; leave Edit Mode first")
-                return None
-            v = mesh_io.mesh_world_vertices(ob).astype(np.float64)
-            t = mesh_io.mesh_triangles(ob)
-            if len(v) == 0 or len(t) == 0:
-                self.report({"ERROR"}, f"Mesh '{ob.name}' has no faces: fitting needs a closed surface")
-                return None
-            bad = int((~np.isfinite(v)).any(axis=1).sum())
-            if bad:
-                self.report({"ERROR"}, f"Mesh '{ob.name}' has {bad} vertices with NaN or infinite coordinates")
-                return None
-            parts.append((mesh_io.to_armature_space(arm, v), t))
+        # Bone-parented parts are read where they are in the rest pose, as the bones are.
+        with mesh_io.rest_pose(arm, meshes):
+            for ob in meshes:
+                if ob.mode == "EDIT":
+                    self.report({"ERROR"}, f"Mesh '{ob.name}' is in Edit Mode; leave Edit Mode first")
+                    return None
+                v = mesh_io.mesh_world_vertices(ob).astype(np.float64)
+                t = mesh_io.mesh_triangles(ob)
+                if len(v) == 0 or len(t) == 0:
+                    self.report({"ERROR"}, f"Mesh '{ob.name}' has no faces: fitting needs a closed surface")
+                    return None
+                bad = int((~np.isfinite(v)).any(axis=1).sum())
+                if bad:
+                    self.report({"ERROR"}, f"Mesh '{ob.name}' has {bad} vertices with NaN or infinite coordinates")
+                    return None
+                parts.append((mesh_io.to_armature_space(arm, v), t))
         return mesh_io.stack_meshes(parts)
 
     def execute(self, context):
@@ -151,7 +153,7 @@ class MINISKELETON_OT_fit_skeleton(bpy.types.Operator):
         mode = arm.mode
         pose_sel = {b.name: _pose_selected(arm, b.name) for b in arm.data.bones} if mode == "POSE" else {}
 
-        with rig_io.armature_edit(context, arm) as ebs:
+        with rig_io.bone_children_stay(arm), rig_io.armature_edit(context, arm) as ebs:
             bones = list(ebs)
             if not bones:
                 self.report({"ERROR"}, f"Armature '{arm.name}' has no bones")
@@ -251,7 +253,7 @@ class MINISKELETON_OT_restore_skeleton(bpy.types.Operator):
             self.report({"ERROR"}, f"Armature '{arm.name}' has no stored original skeleton "
                         "(MiniSkeleton has not changed it)")
             return {"CANCELLED"}
-        with rig_io.armature_edit(context, arm) as ebs:
+        with rig_io.bone_children_stay(arm), rig_io.armature_edit(context, arm) as ebs:
             rig_io.apply_rest_pose(ebs, snap)
         self.report({"INFO"}, f"Restored the original skeleton of '{arm.name}' ({len(snap['names'])} bones)")
         return {"FINISHED"}

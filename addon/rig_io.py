@@ -58,6 +58,30 @@ def armature_edit(context, arm_ob):
             view_layer.objects.active = prev_active
 
 
+@contextmanager
+def bone_children_stay(arm_ob):
+    """Objects parented to bones of ``arm_ob`` (Bone parenting: a robot's rigid parts, a
+    prop in a hand) keep their rest-pose place while the block moves bones: Blender would carry
+    them along with their bone, so fitting a skeleton would move the very mesh it is fitted to.
+    Their parent inverse is solved again afterwards; the pose is left as it was."""
+    children = [o for o in bpy.data.objects if o.parent == arm_ob and o.parent_type == "BONE"]
+    if not children:
+        yield
+        return
+    with mesh_io.rest_pose(arm_ob, children):
+        before = [o.matrix_world.copy() for o in children]
+    try:
+        yield
+    finally:
+        with mesh_io.rest_pose(arm_ob, children):
+            for o, w0 in zip(children, before):
+                basis = o.matrix_basis.copy()
+                # world = parent @ parent_inverse @ basis: keep world, solve parent_inverse.
+                o.matrix_parent_inverse = (o.matrix_parent_inverse @ basis @ o.matrix_world.inverted_safe()
+                                           @ w0 @ basis.inverted_safe())
+            bpy.context.view_layer.update()
+
+
 # ---------------------------------------------------------------------------- snapshot
 
 def read_edit_rest_pose(edit_bones) -> dict:

@@ -123,6 +123,54 @@ def test_fit_ignores_a_stray_vertex_far_away():
     np.testing.assert_allclose(joints_of(arm, ends), reference, atol=1e-5 * diag)
 
 
+def test_fit_reads_bone_parented_parts_in_the_rest_pose():
+    """A mesh part that follows a bone (Bone parenting, as glTF imports rigid parts) sits
+    elsewhere when the armature is posed; Fit works on rest bones, so it reads the part where it
+    is in the rest pose, leaves the pose as it was, and the part stays where it was although its
+    bone moved (Blender would carry it along); Restore Original Skeleton keeps it there too."""
+    from mathutils import Euler
+
+    ob = builders.cylinder("Body", radius=0.5, height=4.0, rings=24, segments=16)
+    arm = builders.chain("Rig", count=4)
+    names, h, t, parents, conn = bone_arrays(arm)
+    joints, ends = rig_io.joint_graph(h, t, parents, conn, 1e-6)
+    moved = joints + np.array([0.2, -0.15, 0.0])
+    set_joints(arm, moved, ends)
+    builders.select_for_parenting([ob], arm)
+    assert bpy.ops.armature.miniskeleton_fit_skeleton() == {"FINISHED"}
+    reference = joints_of(arm, ends)
+    set_joints(arm, moved, ends)
+    # Bone-parent the body to Bone0 where it stands, then pose Bone0 a quarter turn.
+    arm.data.bones.active = arm.data.bones["Bone0"]
+    builders.select_for_parenting([ob], arm)
+    assert bpy.ops.object.parent_set(type="BONE", keep_transform=True) == {"FINISHED"}
+    arm.pose.bones["Bone0"].rotation_mode = "XYZ"
+    arm.pose.bones["Bone0"].rotation_euler = Euler((1.5708, 0.0, 0.0))
+    bpy.context.view_layer.update()
+    assert np.abs(builders.world_vertices(ob)[:, 1]).max() > 1.0  # it follows the pose: along y
+
+    def rest_vertices():
+        arm.data.pose_position = "REST"
+        bpy.context.view_layer.update()
+        v = builders.world_vertices(ob)
+        arm.data.pose_position = "POSE"
+        bpy.context.view_layer.update()
+        return v
+
+    rest = rest_vertices()
+    builders.select_for_parenting([ob], arm)
+    assert bpy.ops.armature.miniskeleton_fit_skeleton() == {"FINISHED"}
+    np.testing.assert_allclose(joints_of(arm, ends), reference, atol=1e-4)
+    assert arm.data.pose_position == "POSE"
+    assert tuple(arm.pose.bones["Bone0"].rotation_euler) == pytest.approx((1.5708, 0.0, 0.0))
+    assert np.abs(joints_of(arm, ends) - moved).max() > 0.1  # Bone0 did move ...
+    np.testing.assert_allclose(rest_vertices(), rest, atol=1e-5)  # ... the body did not
+    builders.set_active(arm)
+    assert bpy.ops.armature.miniskeleton_restore_skeleton() == {"FINISHED"}
+    np.testing.assert_allclose(joints_of(arm, ends), moved, atol=1e-5)
+    np.testing.assert_allclose(rest_vertices(), rest, atol=1e-5)
+
+
 def test_fit_imported_rig_invented_tails_follow_their_bones():
     """No bone connected (as after a glTF/FBX import): tails that are no bone's head are invented,
     keep their bone's vector from the fitted head; the real joints (heads) still go inside."""
