@@ -45,14 +45,19 @@ def mesh_world_vertices(ob: bpy.types.Object) -> np.ndarray:
     return (co @ m[:3, :3].T + m[:3, 3]).astype(np.float32)
 
 
+def follows_bone(ob: bpy.types.Object, arm_ob: bpy.types.Object) -> bool:
+    """``ob`` is parented to one of ``arm_ob``'s bones (Bone parenting): its world position
+    depends on the pose, and on its bone's rest position."""
+    return ob.parent == arm_ob and ob.parent_type == "BONE"
+
+
 @contextmanager
 def rest_pose(arm_ob: bpy.types.Object, meshes):
     """For the duration, ``arm_ob`` in its rest position when some of ``meshes`` follow one of
-    its bones (Bone parenting: their world position depends on the pose), so they are read where
-    they are in the rest pose, as the bones are; then the armature as it was."""
+    its bones (``follows_bone``), so they are read where they are in the rest pose, as the bones
+    are; then the armature as it was."""
     data = arm_ob.data
-    follows = any(ob.parent == arm_ob and ob.parent_type == "BONE" for ob in meshes)
-    if not follows or data.pose_position == "REST":
+    if not any(follows_bone(ob, arm_ob) for ob in meshes) or data.pose_position == "REST":
         yield
         return
     data.pose_position = "REST"

@@ -63,17 +63,18 @@ def bone_children_stay(arm_ob):
     """Objects parented to bones of ``arm_ob`` (Bone parenting: a robot's rigid parts, a
     prop in a hand) keep their rest-pose place while the block moves bones: Blender would carry
     them along with their bone, so fitting a skeleton would move the very mesh it is fitted to.
-    Their parent inverse is solved again afterwards; the pose is left as it was."""
-    children = [o for o in bpy.data.objects if o.parent == arm_ob and o.parent_type == "BONE"]
+    Their parent inverse is solved again afterwards; the armature stays in its rest position for
+    the block, and its pose is left as it was."""
+    children = [o for o in bpy.data.objects if mesh_io.follows_bone(o, arm_ob)]
     if not children:
         yield
         return
     with mesh_io.rest_pose(arm_ob, children):
         before = [o.matrix_world.copy() for o in children]
-    try:
-        yield
-    finally:
-        with mesh_io.rest_pose(arm_ob, children):
+        try:
+            yield
+        finally:
+            bpy.context.view_layer.update()  # the children where their moved bones took them
             for o, w0 in zip(children, before):
                 basis = o.matrix_basis.copy()
                 # world = parent @ parent_inverse @ basis: keep world, solve parent_inverse.
