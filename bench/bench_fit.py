@@ -94,8 +94,11 @@ def joints_now(bpy, arm, ends):
 
 
 def set_joints(bpy, arm, joints, ends, rig_io):
-    rig_io.place_bone_ends(edit_bones(bpy, arm), joints[ends[:, 0]], joints[ends[:, 1]])
-    bpy.ops.object.mode_set(mode="OBJECT")
+    """Move the joints; parts parented to bones stay where they are (the mesh is fixed, only the
+    skeleton is rough), as they do while the operator fits."""
+    with rig_io.bone_children_stay(arm):
+        rig_io.place_bone_ends(edit_bones(bpy, arm), joints[ends[:, 0]], joints[ends[:, 1]])
+        bpy.ops.object.mode_set(mode="OBJECT")
 
 
 def armature_space_mesh(arm, meshes, mesh_io):
