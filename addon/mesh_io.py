@@ -45,6 +45,18 @@ def mesh_world_vertices(ob: bpy.types.Object) -> np.ndarray:
     return (co @ m[:3, :3].T + m[:3, 3]).astype(np.float32)
 
 
+def read_only(*blocks) -> str | None:
+    """Why one of these data-blocks cannot be changed, or None. Data linked from another .blend
+    file is read-only (``ID.is_editable``): writing groups, modifiers, bones or keys to it raises,
+    so operators check before they change anything."""
+    for block in blocks:
+        if block is not None and not block.is_editable:
+            where = bpy.path.basename(block.library.filepath) if block.library else "a library"
+            return (f"{block.id_type.title()} '{block.name}' is linked from {where} and is read-only "
+                    "here: make it local (Object > Relations > Make Local) to change it")
+    return None
+
+
 def follows_bone(ob: bpy.types.Object, arm_ob: bpy.types.Object) -> bool:
     """``ob`` is parented to one of ``arm_ob``'s bones (Bone parenting): its world position
     depends on the pose, and on its bone's rest position."""

@@ -175,6 +175,10 @@ class MINISKELETON_OT_add_motion(bpy.types.Operator):
         if arm.mode == "EDIT":
             self.report({"ERROR"}, f"Armature '{arm.name}' is in Edit Mode: switch to Object or Pose Mode")
             return {"CANCELLED"}
+        locked = mesh_io.read_only(arm)
+        if locked:
+            self.report({"ERROR"}, locked)
+            return {"CANCELLED"}
         scale = max(arm.dimensions.length, 1e-30)
         bones = mesh_io.armature_bones(arm, min_length=1e-6 * scale)
         if len(bones.names) < 3:

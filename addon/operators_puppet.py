@@ -21,7 +21,7 @@ from bpy.props import BoolProperty, EnumProperty, FloatProperty, StringProperty
 from bpy_extras.io_utils import ImportHelper
 from mathutils import Euler, Matrix, Vector
 
-from . import puppet
+from . import mesh_io, puppet
 
 KIND_KEY = "miniskeleton_puppet"      # on the armature object (and its data): the template kind
 LIVE_KEY = "miniskeleton_live"        # on the armature object: solve live from the rods
@@ -522,6 +522,10 @@ class MINISKELETON_OT_bake_puppet(bpy.types.Operator):
 
     def execute(self, context):
         rig = puppet_rig(context.active_object)
+        locked = mesh_io.read_only(rig)
+        if locked:
+            self.report({"ERROR"}, locked)
+            return {"CANCELLED"}
         scene = context.scene
         n = bake_puppet(scene, rig)
         if self.stop_live:

@@ -53,6 +53,17 @@ def _armature_check(op, arm):
     return True
 
 
+def _editable_armature(op, arm):
+    """``_armature_check``, and the armature can be changed (not linked from a library)."""
+    if not _armature_check(op, arm):
+        return False
+    locked = mesh_io.read_only(arm, arm.data)
+    if locked:
+        op.report({"ERROR"}, locked)
+        return False
+    return True
+
+
 def _fit_graph(ends, real, parents, follow, names):
     """The joints and bones the fit sees: (joint indices (k,), bones (e,2) uint32 into them,
     mirror (k,) int32). Without ``follow`` every bone end is a joint and every bone an edge. With
@@ -144,7 +155,7 @@ class MINISKELETON_OT_fit_skeleton(bpy.types.Operator):
         import miniskeleton_core as core
 
         arm = find_armature(context)
-        if not _armature_check(self, arm):
+        if not _editable_armature(self, arm):
             return {"CANCELLED"}
         inputs = self._inputs(context, arm)
         if inputs is None:
@@ -248,6 +259,10 @@ class MINISKELETON_OT_restore_skeleton(bpy.types.Operator):
         if arm is None:
             self.report({"ERROR"}, "No armature: make the armature the active object")
             return {"CANCELLED"}
+        locked = mesh_io.read_only(arm, arm.data)
+        if locked:
+            self.report({"ERROR"}, locked)
+            return {"CANCELLED"}
         snap = rig_io.load_snapshot(arm.data)
         if snap is None:
             self.report({"ERROR"}, f"Armature '{arm.name}' has no stored original skeleton "
@@ -268,7 +283,7 @@ class MINISKELETON_OT_snapshot_skeleton(bpy.types.Operator):
 
     def execute(self, context):
         arm = find_armature(context)
-        if not _armature_check(self, arm):
+        if not _editable_armature(self, arm):
             return {"CANCELLED"}
         with rig_io.armature_edit(context, arm) as ebs:
             rig_io.store_snapshot(arm.data, rig_io.read_edit_rest_pose(ebs))
@@ -332,6 +347,10 @@ class MINISKELETON_OT_import_npz(bpy.types.Operator, ImportHelper):
         meshes = [ob for ob in context.selected_objects if ob.type == "MESH"]
         if not meshes and context.active_object is not None and context.active_object.type == "MESH":
             meshes = [context.active_object]
+        locked = mesh_io.read_only(*[ob.data for ob in meshes])
+        if locked:
+            self.report({"ERROR"}, locked)
+            return {"CANCELLED"}
         try:
             rig = rig_io.load_npz(self.filepath)
             n = rig_io.apply_weights(rig, meshes)

@@ -138,6 +138,10 @@ class MINISKELETON_OT_auto_weights(bpy.types.Operator):
         if arm.mode == "EDIT":
             self.report({"ERROR"}, f"Armature '{arm.name}' is in Edit Mode: switch to Object or Pose Mode")
             return None
+        locked = mesh_io.read_only(*[b for ob in meshes for b in (ob, ob.data)])
+        if locked:
+            self.report({"ERROR"}, locked + "; nothing was changed")
+            return None
         editing = [ob.name for ob in meshes if ob.mode == "EDIT"]
         if editing:
             self.report({"ERROR"}, f"Mesh in Edit Mode: {', '.join(editing)}; leave Edit Mode first")

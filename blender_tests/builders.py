@@ -128,3 +128,15 @@ def bone_segments_world(arm_ob, names):
     h = np.array([arm_ob.data.bones[n].head_local for n in names]) @ m[:3, :3].T + m[:3, 3]
     t = np.array([arm_ob.data.bones[n].tail_local for n in names]) @ m[:3, :3].T + m[:3, 3]
     return h, t
+
+
+def link_from_library(block, path):
+    """``block`` written to the .blend file ``path`` and linked back from it: a read-only copy,
+    as a character linked from another file. Returns the linked data-block."""
+    collection = {"MESH": "meshes", "ARMATURE": "armatures", "OBJECT": "objects"}[block.id_type]
+    bpy.data.libraries.write(str(path), {block})
+    with bpy.data.libraries.load(str(path), link=True) as (_, linked):
+        setattr(linked, collection, [block.name])
+    out = getattr(linked, collection)[0]
+    assert out.library is not None and not out.is_editable
+    return out

@@ -40,6 +40,21 @@ def test_menus_offer_the_operator():
     assert bpy.types.MINISKELETON_PT_weights.bl_category == "MiniSkeleton"
 
 
+def test_mesh_linked_from_a_library_is_refused_and_left_alone(tmp_path):
+    """A mesh linked from another .blend is read-only. Auto Weights names it and the way out and
+    changes nothing (Blender's Ctrl+P writes no weights there and says nothing); made local, it binds."""
+    ob, arm = B.cylinder(), B.chain()
+    ob.data = B.link_from_library(ob.data, tmp_path / "character.blend")
+    for method in METHODS:
+        with pytest.raises(RuntimeError, match=r"Mesh '.*' is linked from character.blend .*Make Local"):
+            bind([ob], arm, method=method)
+    assert len(ob.vertex_groups) == 0 and len(ob.modifiers) == 0 and ob.parent is None
+    ob.data = ob.data.make_local()
+    assert bind([ob], arm, method="HEAT") == {"FINISHED"}
+    assert B.weights_matrix(ob, NAMES).sum(1) == pytest.approx(1.0, abs=1e-5)
+
+
+
 # ---------------------------------------------------------------- per method
 
 

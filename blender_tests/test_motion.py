@@ -121,6 +121,17 @@ def test_no_legs_or_no_head_is_refused_clearly():
         add_motion(legs_only, motion="HEAD_SHAKE")
 
 
+
+def test_armature_linked_from_a_library_gets_no_keys_and_a_clear_error(tmp_path):
+    """Keys go to the armature object's action; an object linked from another .blend is
+    read-only, so the motion is refused with the reason before any key is written."""
+    local = biped_rig()
+    linked = B.link_from_library(local, tmp_path / "rig.blend")
+    bpy.context.collection.objects.link(linked)
+    with pytest.raises(RuntimeError, match=r"Object '.*' is linked from rig.blend .*Make Local"):
+        add_motion(linked, motion="WALK")
+    assert linked.animation_data is None
+
 # ---------------------------------------------------------------- motions
 
 

@@ -322,6 +322,19 @@ def test_bake_keys_reproduce_the_live_pose_without_the_addon():
         bpy.ops.preferences.addon_enable(module=blender_session.ADDON_MODULE)
 
 
+
+def test_bake_refuses_a_puppet_linked_from_a_library(tmp_path):
+    """A puppet linked from another .blend cannot take keys: Bake says so and writes none."""
+    import builders
+
+    rig, _ = add("THREE_ROD")
+    linked = builders.link_from_library(rig, tmp_path / "puppet.blend")
+    bpy.context.collection.objects.link(linked)
+    bpy.context.view_layer.objects.active = linked
+    with pytest.raises(RuntimeError, match=r"Object '.*' is linked from puppet.blend .*Make Local"):
+        bpy.ops.object.miniskeleton_bake_puppet()
+    assert linked.animation_data is None
+
 # ---------------------------------------------------------------------------- parts, theatre
 
 

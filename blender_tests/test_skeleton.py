@@ -386,6 +386,27 @@ def test_restore_without_snapshot_is_an_error():
         bpy.ops.armature.miniskeleton_restore_skeleton()
 
 
+
+def test_linked_armature_is_refused_and_a_linked_mesh_is_only_read(tmp_path):
+    """Fit only reads the mesh, so a mesh linked from a library is fine; an armature whose data
+    is linked cannot take new bone positions, and Fit, Restore and Keep say so up front."""
+    body, arm, ends, orig, moved, diag = creature_setup(seed=3)
+    body.data = builders.link_from_library(body.data, tmp_path / "body.blend")
+    builders.select_for_parenting([body], arm)
+    assert bpy.ops.armature.miniskeleton_fit_skeleton() == {"FINISHED"}
+    assert np.linalg.norm(joints_of(arm, ends) - orig, axis=1).mean() <= 0.5 * np.linalg.norm(
+        moved - orig, axis=1).mean()
+    rig = builders.chain("Rig", count=3)
+    rig.data = builders.link_from_library(rig.data, tmp_path / "rig.blend")
+    before = [(tuple(b.head_local), tuple(b.tail_local)) for b in rig.data.bones]
+    builders.select_for_parenting([body], rig)
+    for op in (bpy.ops.armature.miniskeleton_fit_skeleton, bpy.ops.armature.miniskeleton_restore_skeleton,
+               bpy.ops.armature.miniskeleton_snapshot_skeleton):
+        with pytest.raises(RuntimeError, match=r"Armature '.*' is linked from rig.blend .*Make Local"):
+            op()
+    assert [(tuple(b.head_local), tuple(b.tail_local)) for b in rig.data.bones] == before
+    assert rig.mode == "OBJECT"
+
 # ---------------------------------------------------------------------------- exchange
 
 def test_npz_round_trip_and_mismatch(tmp_path):
