@@ -5,7 +5,7 @@ skipped when absent) with scan_rig's rough quadruped skeleton, fitted first.
 
     .venv/bin/python bench/bench_weights.py [--sizes 6.5k:10,26k:20,103k:40,206k:40]
                                             [--shapes issue,thin] [--scans cow.obj,horse.ply]
-                                            [--scan-scales 1,10]
+                                            [--scan-scales 1,10] [--parts 100,400]
                                             [--repeats 3] [--no-blender]
 
 Two cylinder shapes per size. Blender's time depends strongly on the proportions (at 103k
@@ -19,7 +19,9 @@ repeats): total against factor+solve, the latter both as numeric factor + solves
 with the symbolic analysis (AMD ordering, elimination tree, supernodes) that is part of any
 sparse factorization, as in SciPy's SuperLU figure the issue compares with ("sym+f+s"; our
 symbolic step runs while the BVH is built, so it is not on the critical path). Also IDW and
-BILINEAR. Nothing is asserted: tests check correctness, this measures speed.
+BILINEAR. ``--parts``: a figure kit-built of that many small separate objects (86-vertex
+capped cylinders along a 20-bone chain), where the cost is in writing groups to many objects,
+not in the solve. Nothing is asserted: tests check correctness, this measures speed.
 """
 
 from __future__ import annotations
@@ -66,16 +68,18 @@ def chain_object(bpy, core, height, bones):
 
 
 def select(bpy, mesh, rig):
+    meshes = mesh if isinstance(mesh, list) else [mesh]
     for ob in bpy.context.view_layer.objects:
-        ob.select_set(ob in (mesh, rig))
+        ob.select_set(ob in meshes or ob == rig)
     bpy.context.view_layer.objects.active = rig
 
 
 def unbind(mesh):
-    mesh.vertex_groups.clear()
-    for m in list(mesh.modifiers):
-        mesh.modifiers.remove(m)
-    mesh.parent = None
+    for ob in mesh if isinstance(mesh, list) else [mesh]:
+        ob.vertex_groups.clear()
+        for m in list(ob.modifiers):
+            ob.modifiers.remove(m)
+        ob.parent = None
 
 
 def unweighted(mesh):
@@ -124,6 +128,32 @@ def measure(bpy, core, label, mesh, rig, v, t, heads, tails, args):
             extra["BILINEAR"], extra["IDW"], report["timings"])
 
 
+def measure_parts(bpy, core, count, args):
+    """Blender's ARMATURE_AUTO (once) and our Heat (median of repeats) on ``count`` separate
+    small objects stacked along a 20-bone chain: (count, vertices, Blender s, ours s)."""
+    blender_session.reset_scene()
+    height = 8.0
+    parts = []
+    for i in range(count):
+        ob, _, _ = cylinder_object(bpy, core, 6, 12, 0.8)
+        ob.location = (0.05 * (i % 7), 0.0, (height - 0.8) * i / max(count - 1, 1))
+        parts.append(ob)
+    rig, _, _ = chain_object(bpy, core, height, 20)
+    blender_s = None
+    if not args.no_blender:
+        select(bpy, parts, rig)
+        blender_s, _ = timed(lambda: bpy.ops.object.parent_set(type="ARMATURE_AUTO"))
+    runs = []
+    for _ in range(max(args.repeats, 1)):
+        unbind(parts)
+        select(bpy, parts, rig)
+        secs, res = timed(lambda: bpy.ops.object.miniskeleton_auto_weights(method="HEAT"))
+        assert res == {"FINISHED"}
+        runs.append(secs)
+    print(f"done {count} parts", flush=True)
+    return count, sum(len(ob.data.vertices) for ob in parts), blender_s, float(np.median(runs))
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser()
     ap.add_argument("--sizes", default="6.5k:10,26k:20,103k:40,206k:40")
@@ -132,6 +162,7 @@ def main(argv=None):
                     help="unrigged scans from ../shared/models with scan_rig's fitted rough skeleton")
     ap.add_argument("--scan-scales", default="1,10",
                     help="each scan at these scales (the horse is 0.2 units across as shipped)")
+    ap.add_argument("--parts", default="100,400", help="figures built of this many separate small objects")
     ap.add_argument("--repeats", type=int, default=3, help="runs of our operator (median) and core (best)")
     ap.add_argument("--no-blender", action="store_true", help="skip Blender's own operator")
     args = ap.parse_args(argv)
@@ -180,6 +211,14 @@ def main(argv=None):
     print()
     for shape, n, *_, timings in rows:
         print(f"core stages, {shape}, {n}: " + ", ".join(f"{k} {s:.3f}" for k, s in timings.items()))
+    parts = [measure_parts(bpy, core, int(c), args) for c in args.parts.split(",") if c]
+    if parts:
+        print()
+        print("| separate objects | vertices | bones | Blender ARMATURE_AUTO s | ours HEAT s | speed-up |")
+        print("|---:|---:|---:|---:|---:|---:|")
+        for count, n, bs, os_ in parts:
+            ratio = f"{bs / os_:.2f}x" if bs else "-"
+            print(f"| {count} | {n} | 20 | {bs if bs is None else f'{bs:.2f}'} | {os_:.3f} | {ratio} |")
 
 
 if __name__ == "__main__":

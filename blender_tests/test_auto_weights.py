@@ -147,16 +147,35 @@ def test_foreign_groups_untouched_bone_groups_replaced():
     assert not ob.hide_viewport  # hidden only while the groups are written
 
 
-def test_group_writer_keeps_viewport_visibility():
+@pytest.mark.parametrize("way", ["convert", "add"])
+def test_group_writer_ways_write_the_same_groups(way, monkeypatch):
+    """Both ways of writing groups (attribute conversion for big meshes, VertexGroup.add for
+    small ones in busy scenes) replace a bone's group, keep locked and foreign groups, store no
+    zero weight, write exact values, and keep the viewport visibility."""
     mesh_io = importlib.import_module("bl_ext.user_default.miniskeleton.mesh_io")
+    monkeypatch.setattr(mesh_io, "_ADD_CALL_S", 0.0 if way == "add" else math.inf)
     ob = B.cylinder()
     n = len(ob.data.vertices)
-    dense = np.stack([np.linspace(0, 1, n), np.linspace(1, 0, n)]).astype(np.float32)
+    ob.vertex_groups.new(name="Mine").add([0, 1], 0.25, "REPLACE")
+    ob.vertex_groups.new(name="B").add([2], 0.5, "REPLACE")
+    ob.vertex_groups.new(name="Held").add([3], 0.75, "REPLACE")
+    ob.vertex_groups["Held"].lock_weight = True
+    ramp = np.linspace(0, 1, n)
+    dense = np.stack([ramp, 1 - ramp, np.ones(n), np.where(ramp > 0.5, 1.0, 0.0),
+                      np.zeros(n)]).astype(np.float32)
+    names = ["A", "B", "Held", "Rigid", "Unused"]
     for hidden in (True, False):
         ob.hide_viewport = hidden
-        mesh_io.write_vertex_groups(ob, ["A", "B"], dense, np.ones(2, bool))
-        assert ob.hide_viewport == hidden
-        assert B.weights_matrix(ob, ["A", "B"]) == pytest.approx(dense.T, abs=1e-7)
+        kept = mesh_io.write_vertex_groups(ob, names, dense, np.ones(5, bool))
+        assert kept == ["Held"] and ob.hide_viewport == hidden
+        assert "Unused" in ob.vertex_groups  # an empty group, as Blender's Ctrl+P writes
+        got = B.weights_matrix(ob, ["A", "B", "Rigid", "Unused"])
+        assert np.array_equal(got, dense[[0, 1, 3, 4]].T.astype(got.dtype))
+        assert all(g.weight > 0 for v in ob.data.vertices for g in v.groups)
+        assert B.weights_matrix(ob, ["Mine"])[:3, 0].tolist() == [0.25, 0.25, 0.0]
+        held = B.weights_matrix(ob, ["Held"])[:, 0]
+        assert held[3] == 0.75 and np.count_nonzero(held) == 1
+    assert "__miniskeleton_weights_tmp" not in ob.data.attributes
 
 
 def test_selected_bones_only_writes_only_those():
