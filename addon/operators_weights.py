@@ -138,6 +138,10 @@ class MINISKELETON_OT_auto_weights(bpy.types.Operator):
         if arm.mode == "EDIT":
             self.report({"ERROR"}, f"Armature '{arm.name}' is in Edit Mode: switch to Object or Pose Mode")
             return None
+        others = [ob.name for ob in context.selected_objects if ob.type != "MESH" and ob != arm]
+        if others:
+            self.report({"WARNING"}, f"Skipped {len(others)} selected object(s) that are not meshes: "
+                        f"{', '.join(sorted(others)[:5])} (Object > Convert > Mesh to weight them)")
         locked = mesh_io.read_only(*[b for ob in meshes for b in (ob, ob.data)])
         if locked:
             self.report({"ERROR"}, locked + "; nothing was changed")

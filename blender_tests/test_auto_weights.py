@@ -40,6 +40,19 @@ def test_menus_offer_the_operator():
     assert bpy.types.MINISKELETON_PT_weights.bl_category == "MiniSkeleton"
 
 
+def test_selected_objects_that_are_not_meshes_are_named_and_left_alone(capfd):
+    """A curve (or text, or another armature) selected with the mesh gets no weights, modifier
+    or parent, and the warning names it; the mesh is bound as usual."""
+    ob, arm = B.cylinder(), B.chain()
+    curve = bpy.data.objects.new("Rope", bpy.data.curves.new("Rope", "CURVE"))
+    bpy.context.collection.objects.link(curve)
+    capfd.readouterr()
+    assert bind([ob, curve], arm) == {"FINISHED"}
+    assert "Skipped 1 selected object(s) that are not meshes: Rope" in "".join(capfd.readouterr())
+    assert curve.parent is None and len(curve.modifiers) == 0
+    assert B.weights_matrix(ob, NAMES).sum(1) == pytest.approx(1.0, abs=1e-5)
+
+
 def test_mesh_linked_from_a_library_is_refused_and_left_alone(tmp_path):
     """A mesh linked from another .blend is read-only. Auto Weights names it and the way out and
     changes nothing (Blender's Ctrl+P writes no weights there and says nothing); made local, it binds."""
