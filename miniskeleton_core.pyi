@@ -60,12 +60,14 @@ def heat_weights_report(
     weld_tolerance and every other length are relative to the bounding box of the vertices that
     faces use (a stray loose vertex does not change them)."""
 
-def touching_meshes(vertices: ArrayLike, mesh_of: ArrayLike, meshes: int, *, tolerance: float = 1e-5,
+def touching_meshes(vertices: ArrayLike, mesh_of: ArrayLike, meshes: int, *,
+                    triangles: Optional[ArrayLike] = None, tolerance: float = 1e-5,
                     min_shared: int = 3) -> npt.NDArray[np.int32]:
     """(meshes,) group of each mesh: meshes sharing at least min_shared vertex positions (welded within
-    tolerance of the overall bbox diagonal, as heat welds), transitively, are one group (a head and a
-    body split at the neck), numbered in order of each group's first mesh. vertices (n,3) of all meshes
-    stacked, mesh_of (n,) the mesh of each vertex."""
+    tolerance of the bbox diagonal, as heat welds), transitively, are one group (a head and a body
+    split at the neck), numbered in order of each group's first mesh. vertices (n,3) of all meshes
+    stacked, mesh_of (n,) the mesh of each vertex, triangles (m,3) of all meshes stacked: the bbox of
+    the vertices they use sets the scale (a stray loose vertex does not); without them, all vertices."""
 
 def capped_cylinder(radius: float = 0.5, height: float = 4.0, rings: int = 32, segments: int = 32
                     ) -> Tuple[npt.NDArray[np.float32], npt.NDArray[np.uint32]]:

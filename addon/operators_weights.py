@@ -391,7 +391,8 @@ def seam_groups(core, inputs) -> list[list[int]]:
         return [[m] for m in range(len(inputs))]
     sizes = [len(v) for _, _, v, _ in inputs]
     mesh_of = np.repeat(np.arange(len(inputs), dtype=np.uint32), sizes)
-    ids = core.touching_meshes(np.concatenate([v for _, _, v, _ in inputs]), mesh_of, len(inputs))
+    verts, tris = mesh_io.stack_meshes((v, t) for _, _, v, t in inputs)
+    ids = core.touching_meshes(verts, mesh_of, len(inputs), triangles=tris)
     groups: dict[int, list[int]] = {}
     for m, g in enumerate(ids.tolist()):
         groups.setdefault(g, []).append(m)

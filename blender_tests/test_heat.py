@@ -112,6 +112,23 @@ def test_a_stray_vertex_far_away_changes_no_weight():
     assert w[n].sum() == pytest.approx(1.0, abs=1e-6)
 
 
+def test_a_stray_vertex_does_not_join_a_sleeve_to_the_body():
+    """A sleeve just outside the body (another object) is solved on its own, as clothes are; a
+    loose vertex left far away in the body must not widen the seam test until the sleeve
+    counts as touching the body (it then was solved with the body in the way of its rays)."""
+    body = B.cylinder("Body")
+    sleeve = B.cylinder("Sleeve", radius=0.51, height=2.0, rings=20)
+    arm = B.chain()
+    bind([body, sleeve], arm)
+    reference = [B.weights_matrix(ob, NAMES) for ob in (body, sleeve)]
+    n = len(body.data.vertices)
+    body.data.vertices.add(1)
+    body.data.vertices[n].co = (1e5, 0.0, 0.0)
+    assert bind([body, sleeve], arm) == {"FINISHED"}
+    np.testing.assert_allclose(B.weights_matrix(body, NAMES)[:n], reference[0], atol=1e-5)
+    np.testing.assert_allclose(B.weights_matrix(sleeve, NAMES), reference[1], atol=1e-5)
+
+
 def test_flipped_faces_change_no_weight_and_are_reported(capfd):
     """Faces of the upper half turned inside out (flipped normals, as after joining a mirrored
     part): the weights are those of the clean mesh, the report says how many triangles were wound

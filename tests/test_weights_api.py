@@ -198,6 +198,16 @@ def test_touching_meshes_groups_objects_that_share_a_seam(cyl):
     g = msc.touching_meshes(np.vstack(parts), mesh_of, 3)
     assert g.dtype == np.int32 and g.tolist() == [0, 1, 0]
     assert msc.touching_meshes(np.vstack(parts), mesh_of, 3, min_shared=len(ring) + 1).tolist() == [0, 1, 2]
+    # A sleeve 1 % outside the lower half and a stray vertex far away in it: with the
+    # triangles, the stray vertex sets no scale and the sleeve stays apart.
+    sleeve = (low * np.float32([1.01, 1.01, 1])).astype(np.float32)
+    body = np.vstack([low, np.float32([[1e5, 0, 0]])])
+    both, two = np.vstack([sleeve, body]), np.repeat(np.arange(2), [len(sleeve), len(body)])
+    tris = np.array([[0, i, i + 1] for i in range(1, len(both) - 2)], dtype=np.uint32)
+    assert msc.touching_meshes(both, two, 2).tolist() == [0, 0]
+    assert msc.touching_meshes(both, two, 2, triangles=tris).tolist() == [0, 1]
+    with pytest.raises(ValueError, match="triangle"):
+        msc.touching_meshes(both, two, 2, triangles=np.array([[0, 1, len(both)]], dtype=np.uint32))
     with pytest.raises(ValueError, match="mesh index"):
         msc.touching_meshes(np.vstack(parts), mesh_of, 2)
     with pytest.raises(ValueError):

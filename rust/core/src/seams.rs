@@ -3,7 +3,7 @@
 //! the split seams of one mesh ([`crate::weld`]); solved apart, the two copies of a seam
 //! vertex get unrelated weights and the surface cracks open when posed.
 
-use crate::mesh::{count_non_finite, Frame};
+use crate::mesh::{validate_mesh, Frame};
 use crate::weld::weld;
 use crate::{Error, Result};
 
@@ -12,17 +12,21 @@ use crate::{Error, Result};
 /// transitively. Clothes over a body or a prop in a hand share no vertex and stay apart.
 ///
 /// Inputs: `vertices` `(n, 3)` of all meshes stacked, `mesh_of` `(n,)` the mesh of each
-/// vertex (`< meshes`), `tolerance` (relative, >= 0), `min_shared` (>= 1; a few, so that two
-/// objects that happen to touch at a point are not merged).
+/// vertex (`< meshes`), `triangles` `(m, 3)` of all meshes stacked (indices into `vertices`;
+/// they set the diagonal, [`Frame::of_mesh`], so a stray loose vertex far away does not widen
+/// the weld until clothes "touch" the body; empty: all vertices set it), `tolerance`
+/// (relative, >= 0), `min_shared` (>= 1; a few, so that two objects that happen to touch at a
+/// point are not merged).
 /// Output: `(meshes,)` group of each mesh, numbered `0..` in order of each group's first mesh;
 /// a mesh with no vertices is its own group.
 ///
 /// Errors: `Shape` (lengths differ), `InvalidArgument` (mesh index, tolerance, min_shared),
-/// `NonFinite`.
+/// `NonFinite`, `BadIndex` (a triangle past the end of `vertices`).
 pub fn touching_meshes(
     vertices: &[[f32; 3]],
     mesh_of: &[u32],
     meshes: usize,
+    triangles: &[[u32; 3]],
     tolerance: f64,
     min_shared: usize,
 ) -> Result<Vec<u32>> {
@@ -37,11 +41,11 @@ pub fn touching_meshes(
             "tolerance must be >= 0 and min_shared >= 1, got {tolerance} and {min_shared}"
         )));
     }
-    let bad = count_non_finite(vertices);
-    if bad > 0 {
-        return Err(Error::NonFinite { what: "vertex", count: bad });
+    if vertices.is_empty() {
+        return Ok((0..meshes as u32).collect());
     }
-    let (map, _) = weld(&Frame::of_points(vertices).normalize(vertices), tolerance);
+    validate_mesh(vertices, triangles, false)?;
+    let (map, _) = weld(&Frame::of_mesh(vertices, triangles).normalize(vertices), tolerance);
     // (welded vertex, mesh), once each: which meshes reach each welded position.
     let mut at: Vec<(u32, u32)> = map.iter().copied().zip(mesh_of.iter().copied()).collect();
     at.sort_unstable();
@@ -110,29 +114,49 @@ mod tests {
         // One shared point only: below min_shared.
         let point = vec![high[high.len() - 1], [9.0, 9.0, 9.0], [9.0, 9.5, 9.0]];
         let (v, m) = stack(&[low.clone(), apart, high.clone(), sleeve, point]);
-        let g = touching_meshes(&v, &m, 6, 1e-5, 3).unwrap();
+        let g = touching_meshes(&v, &m, 6, &[], 1e-5, 3).unwrap();
         assert_eq!(g, vec![0, 1, 0, 2, 3, 4]); // mesh 5 has no vertex: its own group
                                                // Transitive: low - high - (a third part sharing the top cap's ring with high).
         let top: Vec<[f32; 3]> = high.iter().copied().filter(|p| p[2] >= 4.0 - 1e-6).collect();
         let (v, m) = stack(&[top, low.clone(), high]);
-        assert_eq!(touching_meshes(&v, &m, 3, 1e-5, 3).unwrap(), vec![0, 0, 0]);
+        assert_eq!(touching_meshes(&v, &m, 3, &[], 1e-5, 3).unwrap(), vec![0, 0, 0]);
         // Split seams inside one mesh count once: a mesh repeating its own vertices shares
         // nothing with itself.
         let (v, m) = stack(&[[low.clone(), low.clone()].concat()]);
-        assert_eq!(touching_meshes(&v, &m, 1, 1e-5, 3).unwrap(), vec![0]);
+        assert_eq!(touching_meshes(&v, &m, 1, &[], 1e-5, 3).unwrap(), vec![0]);
+    }
+
+    /// Triangles over every vertex but the last (only which vertices faces use matters here).
+    fn fan(n: usize) -> Vec<[u32; 3]> {
+        (1..n as u32 - 2).map(|i| [0, i, i + 1]).collect()
+    }
+
+    /// A stray loose vertex far away sets no scale when the triangles are given: the sleeve
+    /// 1 % outside the body stays apart (without them the weld tolerance grows with the box
+    /// and the sleeve is "touching").
+    #[test]
+    fn stray_vertex_does_not_merge_clothes_with_the_body() {
+        let (low, _) = halves(2.0);
+        let sleeve: Vec<[f32; 3]> = low.iter().map(|p| [p[0] * 1.01, p[1] * 1.01, p[2]]).collect();
+        let body = [low.clone(), vec![[1e5, 0.0, 0.0]]].concat();
+        let (v, m) = stack(&[sleeve, body]); // the stray vertex is the last
+        assert_eq!(touching_meshes(&v, &m, 2, &[], 1e-5, 3).unwrap(), vec![0, 0]);
+        assert_eq!(touching_meshes(&v, &m, 2, &fan(v.len()), 1e-5, 3).unwrap(), vec![0, 1]);
+        let bad = [[0, 1, v.len() as u32]];
+        assert!(matches!(touching_meshes(&v, &m, 2, &bad, 1e-5, 3), Err(Error::BadIndex { .. })));
     }
 
     #[test]
     fn bad_input_is_an_error() {
         let (low, _) = halves(2.0);
         let m = vec![0u32; low.len()];
-        assert!(matches!(touching_meshes(&low, &m[1..], 1, 1e-5, 3), Err(Error::Shape(_))));
-        assert!(matches!(touching_meshes(&low, &m, 0, 1e-5, 3), Err(Error::InvalidArgument(_))));
-        assert!(matches!(touching_meshes(&low, &m, 1, -1.0, 3), Err(Error::InvalidArgument(_))));
-        assert!(matches!(touching_meshes(&low, &m, 1, 1e-5, 0), Err(Error::InvalidArgument(_))));
+        assert!(matches!(touching_meshes(&low, &m[1..], 1, &[], 1e-5, 3), Err(Error::Shape(_))));
+        assert!(matches!(touching_meshes(&low, &m, 0, &[], 1e-5, 3), Err(Error::InvalidArgument(_))));
+        assert!(matches!(touching_meshes(&low, &m, 1, &[], -1.0, 3), Err(Error::InvalidArgument(_))));
+        assert!(matches!(touching_meshes(&low, &m, 1, &[], 1e-5, 0), Err(Error::InvalidArgument(_))));
         let mut nan = low.clone();
         nan[2][0] = f32::NAN;
-        assert!(matches!(touching_meshes(&nan, &m, 1, 1e-5, 3), Err(Error::NonFinite { .. })));
-        assert_eq!(touching_meshes(&[], &[], 2, 1e-5, 3).unwrap(), vec![0, 1]);
+        assert!(matches!(touching_meshes(&nan, &m, 1, &[], 1e-5, 3), Err(Error::NonFinite { .. })));
+        assert_eq!(touching_meshes(&[], &[], 2, &[], 1e-5, 3).unwrap(), vec![0, 1]);
     }
 }

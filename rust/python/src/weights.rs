@@ -206,21 +206,29 @@ pub fn heat_weights_report<'py>(
 }
 
 /// Which meshes meet along a seam: `vertices` (n,3) of all meshes stacked, `mesh_of` (n,) the
-/// mesh of each vertex; meshes sharing at least `min_shared` welded positions (within
-/// `tolerance` of the overall bbox diagonal), transitively, get one group. Returns (meshes,)
-/// int32 group ids, numbered in order of each group's first mesh.
+/// mesh of each vertex, `triangles` (m,3) of all meshes stacked (optional: the bbox of the
+/// vertices they use is the scale, so a stray loose vertex does not widen the weld); meshes
+/// sharing at least `min_shared` welded positions (within `tolerance` of that bbox diagonal),
+/// transitively, get one group. Returns (meshes,) int32 group ids, numbered in order of each
+/// group's first mesh.
 #[pyfunction]
-#[pyo3(signature = (vertices, mesh_of, meshes, *, tolerance=1e-5, min_shared=3))]
+#[pyo3(signature = (vertices, mesh_of, meshes, *, triangles=None, tolerance=1e-5, min_shared=3))]
 pub fn touching_meshes<'py>(
     py: Python<'py>,
     vertices: F32Rows<'py>,
     mesh_of: PyArrayLike1<'py, u32, AllowTypeChange>,
     meshes: usize,
+    triangles: Option<PyArrayLike2<'py, u32, AllowTypeChange>>,
     tolerance: f64,
     min_shared: usize,
 ) -> PyResult<Bound<'py, numpy::PyArray1<i32>>> {
     let v = rows::<f32, 3>(&vertices, "vertices")?;
     let m = vector(&mesh_of);
-    let groups = guarded(py, move || miniskeleton_core::seams::touching_meshes(&v, &m, meshes, tolerance, min_shared))?;
+    let tri = match &triangles {
+        Some(t) => rows::<u32, 3>(t, "triangles")?,
+        None => Vec::new(),
+    };
+    let groups =
+        guarded(py, move || miniskeleton_core::seams::touching_meshes(&v, &m, meshes, &tri, tolerance, min_shared))?;
     Ok(numpy::PyArray1::from_vec(py, groups.into_iter().map(|g| g as i32).collect()))
 }
