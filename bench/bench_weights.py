@@ -95,6 +95,18 @@ def timed(fn):
     return time.perf_counter() - t, out
 
 
+def ours_heat(bpy, mesh, rig, repeats):
+    """Median seconds of our Heat operator over ``repeats`` runs, each from unbound mesh(es)."""
+    runs = []
+    for _ in range(max(repeats, 1)):
+        unbind(mesh)
+        select(bpy, mesh, rig)
+        secs, res = timed(lambda: bpy.ops.object.miniskeleton_auto_weights(method="HEAT"))
+        assert res == {"FINISHED"}
+        runs.append(secs)
+    return float(np.median(runs))
+
+
 def measure(bpy, core, label, mesh, rig, v, t, heads, tails, args):
     """Time Blender's ARMATURE_AUTO (once) and our operator (median of repeats) on `mesh` + `rig`,
     the core alone on (v, t, heads, tails) (best of repeats), and our BILINEAR and IDW: a row."""
@@ -105,14 +117,7 @@ def measure(bpy, core, label, mesh, rig, v, t, heads, tails, args):
         blender_s, _ = timed(lambda: bpy.ops.object.parent_set(type="ARMATURE_AUTO"))
         blender_missing = unweighted(mesh)
         unbind(mesh)
-    runs = []
-    for _ in range(max(args.repeats, 1)):
-        unbind(mesh)
-        select(bpy, mesh, rig)
-        secs, res = timed(lambda: bpy.ops.object.miniskeleton_auto_weights(method="HEAT"))
-        assert res == {"FINISHED"}
-        runs.append(secs)
-    ours_s = float(np.median(runs))
+    ours_s = ours_heat(bpy, mesh, rig, args.repeats)
     ours_missing = unweighted(mesh)
     core_s, report = min((timed(lambda: core.heat_weights_report(v, t, heads, tails)[2])
                           for _ in range(max(args.repeats, 1))), key=lambda r: r[0])
@@ -143,15 +148,9 @@ def measure_parts(bpy, core, count, args):
     if not args.no_blender:
         select(bpy, parts, rig)
         blender_s, _ = timed(lambda: bpy.ops.object.parent_set(type="ARMATURE_AUTO"))
-    runs = []
-    for _ in range(max(args.repeats, 1)):
-        unbind(parts)
-        select(bpy, parts, rig)
-        secs, res = timed(lambda: bpy.ops.object.miniskeleton_auto_weights(method="HEAT"))
-        assert res == {"FINISHED"}
-        runs.append(secs)
+    ours_s = ours_heat(bpy, parts, rig, args.repeats)
     print(f"done {count} parts", flush=True)
-    return count, sum(len(ob.data.vertices) for ob in parts), blender_s, float(np.median(runs))
+    return count, sum(len(ob.data.vertices) for ob in parts), blender_s, ours_s
 
 
 def main(argv=None):
