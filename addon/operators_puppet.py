@@ -573,6 +573,11 @@ class MINISKELETON_OT_set_part_image(bpy.types.Operator, ImportHelper):
         if name not in rig.data.bones:
             self.report({"ERROR"}, "Select a bone of the puppet (Pose Mode) first")
             return {"CANCELLED"}
+        part = next((ob for ob in rig.children if ob.get(PART_KEY) == name), None)
+        locked = mesh_io.read_only(part)
+        if locked:
+            self.report({"ERROR"}, locked)
+            return {"CANCELLED"}
         try:
             image = bpy.data.images.load(self.filepath, check_existing=True)
         except RuntimeError as exc:

@@ -323,23 +323,33 @@ def test_bake_keys_reproduce_the_live_pose_without_the_addon():
 
 
 
-def test_bake_refuses_a_puppet_linked_from_a_library(tmp_path):
-    """A puppet linked from another .blend cannot take keys: Bake says so and writes none."""
-    import builders
-
+def test_a_puppet_linked_from_a_library_is_refused_clearly(tmp_path):
+    """A puppet linked from another .blend with its parts cannot take keys or new part images:
+    Bake and Set Part Image say so and change nothing."""
     rig, _ = add("THREE_ROD")
-    linked = builders.link_from_library(rig, tmp_path / "puppet.blend")
-    bpy.context.collection.objects.link(linked)
-    bpy.context.view_layer.objects.active = linked
+    head = next(ob for ob in rig.children if ob.get(P.PART_KEY) == "head")
+    library = str(tmp_path / "puppet.blend")
+    bpy.data.libraries.write(library, {rig, head})
+    with bpy.data.libraries.load(library, link=True) as (_, linked):
+        linked.objects = [rig.name, head.name]
+    linked_rig, linked_head = linked.objects
+    for ob in linked.objects:
+        bpy.context.collection.objects.link(ob)
+    assert linked_head.parent == linked_rig and not linked_rig.is_editable
+    bpy.context.view_layer.objects.active = linked_rig
     with pytest.raises(RuntimeError, match=r"Object '.*' is linked from puppet.blend .*Make Local"):
         bpy.ops.object.miniskeleton_bake_puppet()
-    assert linked.animation_data is None
+    assert linked_rig.animation_data is None
+    mesh = linked_head.data
+    with pytest.raises(RuntimeError, match=rf"Object '{linked_head.name}' is linked from puppet.blend"):
+        bpy.ops.object.miniskeleton_set_part_image(filepath=face_png(tmp_path), bone="head")
+    assert linked_head.data == mesh
 
 # ---------------------------------------------------------------------------- parts, theatre
 
 
-def test_set_part_image(tmp_path):
-    rig, rods = add("THREE_ROD")
+def face_png(tmp_path) -> str:
+    """An 8 x 16 PNG with alpha (a face cut-out) saved in ``tmp_path``; its path."""
     img = bpy.data.images.new("face", 8, 16, alpha=True)
     px = np.zeros((16, 8, 4), dtype=np.float32)
     px[4:12, 2:6] = (0.8, 0.2, 0.1, 1.0)
@@ -348,6 +358,12 @@ def test_set_part_image(tmp_path):
     img.filepath_raw = path
     img.file_format = "PNG"
     img.save()
+    return path
+
+
+def test_set_part_image(tmp_path):
+    rig, rods = add("THREE_ROD")
+    path = face_png(tmp_path)
     bpy.context.view_layer.objects.active = rig
     assert bpy.ops.object.miniskeleton_set_part_image(filepath=path, bone="head") == {"FINISHED"}
     part = next(ob for ob in rig.children if ob.get(P.PART_KEY) == "head")
