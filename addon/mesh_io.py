@@ -320,6 +320,14 @@ def other_armature_modifiers(ob: bpy.types.Object, arm_ob: bpy.types.Object) -> 
             and m.object != arm_ob and (m.show_viewport or m.show_render)]
 
 
+def idle_armature_modifiers(ob: bpy.types.Object, arm_ob: bpy.types.Object) -> list[str]:
+    """Names of ``ob``'s Armature modifiers for ``arm_ob`` that do not apply its vertex groups:
+    Vertex Groups off (envelopes only), or disabled in both viewport and render. They are the
+    user's and kept (as Blender's Ctrl+P keeps them), but new weights do not deform through them."""
+    return [m.name for m in ob.modifiers if m.type == "ARMATURE" and m.object == arm_ob
+            and not (m.use_vertex_groups and (m.show_viewport or m.show_render))]
+
+
 def parent_keep_transform(ob: bpy.types.Object, arm_ob: bpy.types.Object) -> None:
     """Parent ``ob`` to ``arm_ob`` (object parenting) without moving it in world space."""
     if ob.parent == arm_ob and ob.parent_type == "OBJECT":

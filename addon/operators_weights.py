@@ -228,6 +228,11 @@ class MINISKELETON_OT_auto_weights(bpy.types.Operator):
             mesh_io.ensure_armature_modifier(ob, arm)
             mesh_io.parent_keep_transform(ob, arm)
         for ob in [r[0] for r in results] + [ob for ob, _ in linked]:
+            idle = mesh_io.idle_armature_modifiers(ob, arm)
+            if idle:
+                notes.append(f"'{ob.name}': its Armature modifier {', '.join(idle)} for '{arm.name}' has Vertex "
+                             "Groups off or is disabled, so the new weights do not deform it (turn them on in "
+                             "the Modifier Properties)")
             others = mesh_io.other_armature_modifiers(ob, arm)
             if others:
                 notes.append(f"'{ob.name}' also has Armature modifier(s) {', '.join(others)} for another "

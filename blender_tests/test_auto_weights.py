@@ -121,6 +121,25 @@ def test_heat_is_default_and_rebinding_does_not_duplicate_modifier():
     assert op.method == "HEAT"
 
 
+def test_own_modifier_that_ignores_the_weights_is_kept_and_named(capfd):
+    """The mesh already has an Armature modifier for this rig with Vertex Groups off (envelopes
+    only) or disabled: it is the user's and kept as it is, but the warning says the new weights
+    do not deform through it."""
+    ob, arm = B.cylinder(), B.chain()
+    bind([ob], arm)
+    mod = next(m for m in ob.modifiers if m.type == "ARMATURE")
+    capfd.readouterr()
+    assert bind([ob], arm) == {"FINISHED"}
+    assert "do not deform it" not in "".join(capfd.readouterr())
+    for setting, value in (("use_vertex_groups", False), ("show_viewport", False)):
+        mod.use_vertex_groups = True
+        mod.show_viewport = mod.show_render = setting != "show_viewport"
+        setattr(mod, setting, value)
+        assert bind([ob], arm) == {"FINISHED"}
+        assert f"its Armature modifier {mod.name} for '{arm.name}'" in "".join(capfd.readouterr())
+        assert [m.type for m in ob.modifiers] == ["ARMATURE"] and getattr(mod, setting) == value
+
+
 def test_another_armatures_modifier_is_kept_and_named_in_a_warning(capfd):
     """Rebinding to a new rig keeps the old rig's Armature modifier (the user's), but says it
     still deforms the mesh; a disabled one or one with no armature is not mentioned."""
