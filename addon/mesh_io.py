@@ -42,9 +42,13 @@ def mesh_world_vertices(ob: bpy.types.Object) -> np.ndarray:
     me = ob.data
     co = np.empty(len(me.vertices) * 3, dtype=np.float32)
     me.vertices.foreach_get("co", co)
-    co = co.reshape(-1, 3).astype(np.float64)
+    return _world(ob, co)
+
+
+def _world(ob: bpy.types.Object, co: np.ndarray) -> np.ndarray:
+    """Object-space coordinates (flat or (n, 3)) in world space by ``ob.matrix_world``, (n, 3) float32."""
     m = np.array(ob.matrix_world, dtype=np.float64)
-    return (co @ m[:3, :3].T + m[:3, 3]).astype(np.float32)
+    return (co.reshape(-1, 3).astype(np.float64) @ m[:3, :3].T + m[:3, 3]).astype(np.float32)
 
 
 def read_only(*blocks) -> str | None:
@@ -57,6 +61,35 @@ def read_only(*blocks) -> str | None:
             return (f"{block.id_type.title()} '{block.name}' is linked from {where} and is read-only "
                     "here: make it local (Object > Relations > Make Local) to change it")
     return None
+
+
+def shaped_world_mesh(ob: bpy.types.Object) -> tuple[np.ndarray, np.ndarray]:
+    """World vertices (n, 3) float32 and triangles (m, 3) uint32 of ``ob`` as the rigger sees it
+    undeformed: its modifier stack (Mirror, Subdivision, Solidify, ...) evaluated with its
+    Armature modifiers off. Its own mesh when it has no other enabled modifier, or when it is
+    linked (read-only: its modifiers cannot be switched). For reading only (Fit); weights are
+    written to the mesh's own vertices, so Heat reads those, as Blender's Ctrl+P does."""
+    shaping = any(m.show_viewport and m.type != "ARMATURE" for m in ob.modifiers)
+    if not shaping or not ob.is_editable:
+        return mesh_world_vertices(ob), mesh_triangles(ob)
+    deforming = [m for m in ob.modifiers if m.type == "ARMATURE" and m.show_viewport]
+    for m in deforming:
+        m.show_viewport = False
+    try:
+        evaluated = ob.evaluated_get(bpy.context.evaluated_depsgraph_get())
+        me = evaluated.to_mesh()
+        try:
+            co = np.empty(len(me.vertices) * 3, dtype=np.float32)
+            me.vertices.foreach_get("co", co)
+            me.calc_loop_triangles()
+            tris = np.empty(len(me.loop_triangles) * 3, dtype=np.uint32)
+            me.loop_triangles.foreach_get("vertices", tris)
+        finally:
+            evaluated.to_mesh_clear()
+    finally:
+        for m in deforming:
+            m.show_viewport = True
+    return _world(ob, co), tris.reshape(-1, 3)
 
 
 def follows_bone(ob: bpy.types.Object, arm_ob: bpy.types.Object) -> bool:

@@ -139,8 +139,8 @@ class MINISKELETON_OT_fit_skeleton(bpy.types.Operator):
                 if ob.mode == "EDIT":
                     self.report({"ERROR"}, f"Mesh '{ob.name}' is in Edit Mode; leave Edit Mode first")
                     return None
-                v = mesh_io.mesh_world_vertices(ob).astype(np.float64)
-                t = mesh_io.mesh_triangles(ob)
+                v, t = mesh_io.shaped_world_mesh(ob)
+                v = v.astype(np.float64)
                 if len(v) == 0 or len(t) == 0:
                     self.report({"ERROR"}, f"Mesh '{ob.name}' has no faces: fitting needs a closed surface")
                     return None

@@ -123,6 +123,38 @@ def test_fit_ignores_a_stray_vertex_far_away():
     np.testing.assert_allclose(joints_of(arm, ends), reference, atol=1e-5 * diag)
 
 
+def test_fit_reads_a_half_modelled_with_a_mirror_modifier_as_the_whole_body():
+    """Characters are often modelled as one half with a Mirror modifier. Fit reads the body the
+    viewport shows (the half read alone is open and misses a side: 5.4 % error instead of 1.0 %),
+    with the mesh's own Armature modifier off (the rest shape, even when posed); the modifiers
+    and the mesh are left as they were."""
+    import bmesh
+
+    body, arm, ends, orig, moved, diag = creature_setup(seed=1)
+    assert bpy.ops.armature.miniskeleton_fit_skeleton() == {"FINISHED"}
+    whole = joints_of(arm, ends)
+    set_joints(arm, moved, ends)
+    bm = bmesh.new()
+    bm.from_mesh(body.data)
+    bmesh.ops.bisect_plane(bm, geom=bm.verts[:] + bm.edges[:] + bm.faces[:], plane_co=(0, 0, 0),
+                           plane_no=(1, 0, 0), clear_inner=True)
+    bm.to_mesh(body.data)
+    bm.free()
+    half = len(body.data.vertices)
+    mirror = body.modifiers.new("Mirror", "MIRROR")
+    mirror.use_clip = True
+    builders.select_for_parenting([body], arm)
+    assert bpy.ops.object.miniskeleton_auto_weights() == {"FINISHED"}
+    arm.pose.bones["upper_arm.L"].rotation_mode = "XYZ"
+    arm.pose.bones["upper_arm.L"].rotation_euler = (0.0, 0.0, 1.2)
+    builders.select_for_parenting([body], arm)
+    assert bpy.ops.armature.miniskeleton_fit_skeleton() == {"FINISHED"}
+    assert np.linalg.norm(joints_of(arm, ends) - whole, axis=1).mean() < 1e-3 * diag
+    assert [(m.type, m.show_viewport) for m in body.modifiers] == [("ARMATURE", True), ("MIRROR", True)]
+    assert len(body.data.vertices) == half
+    assert tuple(arm.pose.bones["upper_arm.L"].rotation_euler) == pytest.approx((0.0, 0.0, 1.2))
+
+
 def test_fit_reads_bone_parented_parts_in_the_rest_pose():
     """A mesh part that follows a bone (Bone parenting, as glTF imports rigid parts) sits
     elsewhere when the armature is posed; Fit works on rest bones, so it reads the part where it
