@@ -115,8 +115,9 @@ mod tests {
         let point = vec![high[high.len() - 1], [9.0, 9.0, 9.0], [9.0, 9.5, 9.0]];
         let (v, m) = stack(&[low.clone(), apart, high.clone(), sleeve, point]);
         let g = touching_meshes(&v, &m, 6, &[], 1e-5, 3).unwrap();
-        assert_eq!(g, vec![0, 1, 0, 2, 3, 4]); // mesh 5 has no vertex: its own group
-                                               // Transitive: low - high - (a third part sharing the top cap's ring with high).
+        // Mesh 5 has no vertex: its own group.
+        assert_eq!(g, vec![0, 1, 0, 2, 3, 4]);
+        // Transitive: low - high - (a third part sharing the top cap's ring with high).
         let top: Vec<[f32; 3]> = high.iter().copied().filter(|p| p[2] >= 4.0 - 1e-6).collect();
         let (v, m) = stack(&[top, low.clone(), high]);
         assert_eq!(touching_meshes(&v, &m, 3, &[], 1e-5, 3).unwrap(), vec![0, 0, 0]);
