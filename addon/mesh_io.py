@@ -39,10 +39,14 @@ class Bones:
 
 def mesh_world_vertices(ob: bpy.types.Object) -> np.ndarray:
     """Rest-pose vertex positions of ``ob`` (its own mesh, no modifiers) in world space, (n, 3) float32."""
-    me = ob.data
+    return _world(ob, _positions(ob.data))
+
+
+def _positions(me: bpy.types.Mesh) -> np.ndarray:
+    """``me``'s vertex positions, flat float32 (3n,)."""
     co = np.empty(len(me.vertices) * 3, dtype=np.float32)
     me.vertices.foreach_get("co", co)
-    return _world(ob, co)
+    return co
 
 
 def _world(ob: bpy.types.Object, co: np.ndarray) -> np.ndarray:
@@ -79,17 +83,13 @@ def shaped_world_mesh(ob: bpy.types.Object) -> tuple[np.ndarray, np.ndarray]:
         evaluated = ob.evaluated_get(bpy.context.evaluated_depsgraph_get())
         me = evaluated.to_mesh()
         try:
-            co = np.empty(len(me.vertices) * 3, dtype=np.float32)
-            me.vertices.foreach_get("co", co)
-            me.calc_loop_triangles()
-            tris = np.empty(len(me.loop_triangles) * 3, dtype=np.uint32)
-            me.loop_triangles.foreach_get("vertices", tris)
+            co, tris = _positions(me), _loop_triangles(me)
         finally:
             evaluated.to_mesh_clear()
     finally:
         for m in deforming:
             m.show_viewport = True
-    return _world(ob, co), tris.reshape(-1, 3)
+    return _world(ob, co), tris
 
 
 def follows_bone(ob: bpy.types.Object, arm_ob: bpy.types.Object) -> bool:
@@ -136,7 +136,10 @@ def stack_meshes(parts) -> tuple[np.ndarray, np.ndarray]:
 
 def mesh_triangles(ob: bpy.types.Object) -> np.ndarray:
     """Triangulation of ``ob``'s faces, (m, 3) uint32 vertex indices (Blender's loop triangles)."""
-    me = ob.data
+    return _loop_triangles(ob.data)
+
+
+def _loop_triangles(me: bpy.types.Mesh) -> np.ndarray:
     me.calc_loop_triangles()
     tris = np.empty(len(me.loop_triangles) * 3, dtype=np.uint32)
     me.loop_triangles.foreach_get("vertices", tris)
@@ -272,7 +275,7 @@ def write_vertex_groups(ob: bpy.types.Object, names: list[str], dense: np.ndarra
     held = {b: _locked(ob, names[b]) for b in np.flatnonzero(write)}
     groups = [b for b, is_locked in held.items() if not is_locked]
     locked = [names[b] for b, is_locked in held.items() if is_locked]
-    calls = int(np.count_nonzero(dense[groups])) if groups else 0
+    calls = sum(int(np.count_nonzero(dense[b])) for b in groups)  # no copy of the rows
     per_op = _OP_CALL_S + _OP_PER_OBJECT_S * len(bpy.context.view_layer.objects) \
         + _OP_PER_VERTEX_S * dense.shape[1]
     if calls * _ADD_CALL_S < len(groups) * per_op:
@@ -284,7 +287,7 @@ def write_vertex_groups(ob: bpy.types.Object, names: list[str], dense: np.ndarra
     hidden = ob.hide_viewport
     ob.hide_viewport = True
     try:
-        _convert_groups(ob, ob.data, names, dense, groups)
+        _convert_groups(ob, names, dense, groups)
     finally:
         ob.hide_viewport = hidden
     return locked
@@ -321,7 +324,8 @@ def _add_groups(ob, names, dense, groups):
         made[g].add(verts[start:end], w, "REPLACE")
 
 
-def _convert_groups(ob, me, names, dense, groups):
+def _convert_groups(ob, names, dense, groups):
+    me = ob.data
     with bpy.context.temp_override(object=ob, active_object=ob):
         for b in groups:
             _replace_group(ob, names[b])
