@@ -104,9 +104,11 @@ def set_joints(bpy, arm, joints, ends, rig_io):
 def armature_space_mesh(arm, meshes, mesh_io):
     """The meshes in the armature's space, where edit bones live: (vertices (n,3) float32,
     triangles (m,3) uint32, bounding-box diagonal)."""
-    with mesh_io.rest_pose(arm, meshes):  # bone-parented parts where the rest bones are
-        verts, tris = mesh_io.stack_meshes([(mesh_io.to_armature_space(arm, mesh_io.mesh_world_vertices(ob)),
-                                             mesh_io.mesh_triangles(ob)) for ob in meshes])
+    # As the operator reads them: bone-parented parts where the rest bones are, modifiers
+    # (a Mirror, say) applied with the Armature modifiers off.
+    with mesh_io.rest_pose(arm, meshes):
+        parts = [mesh_io.shaped_world_mesh(ob) for ob in meshes]
+    verts, tris = mesh_io.stack_meshes((mesh_io.to_armature_space(arm, v), t) for v, t in parts)
     return verts, tris, float(np.linalg.norm(verts.max(0) - verts.min(0)))
 
 
