@@ -196,6 +196,7 @@ def test_group_writer_ways_write_the_same_groups(way, monkeypatch):
     dense = np.stack([ramp, 1 - ramp, np.ones(n), np.where(ramp > 0.5, 1.0, 0.0),
                       np.zeros(n)]).astype(np.float32)
     names = ["A", "B", "Held", "Rigid", "Unused"]
+    ob.data.attributes.active = ob.data.attributes.new("mine", "FLOAT", "POINT")
     for hidden in (True, False):
         ob.hide_viewport = hidden
         kept = mesh_io.write_vertex_groups(ob, names, dense, np.ones(5, bool))
@@ -207,6 +208,9 @@ def test_group_writer_ways_write_the_same_groups(way, monkeypatch):
         assert B.weights_matrix(ob, ["Mine"])[:3, 0].tolist() == [0.25, 0.25, 0.0]
         held = B.weights_matrix(ob, ["Held"])[:, 0]
         assert held[3] == 0.75 and np.count_nonzero(held) == 1
+        # As after Blender's Ctrl+P: the last group written is active, the attribute kept.
+        assert ob.vertex_groups.active.name == "Unused"
+        assert ob.data.attributes.active.name == "mine"
     assert "__miniskeleton_weights_tmp" not in ob.data.attributes
 
 
