@@ -58,13 +58,20 @@ def _world(ob: bpy.types.Object, co: np.ndarray) -> np.ndarray:
 def read_only(*blocks) -> str | None:
     """Why one of these data-blocks cannot be changed, or None. Data linked from another .blend
     file is read-only (``ID.is_editable``): writing groups, modifiers, bones or keys to it raises,
-    so operators check before they change anything."""
+    so operators check before they change anything (keys: the object and its action)."""
     for block in blocks:
         if block is not None and not block.is_editable:
             where = bpy.path.basename(block.library.filepath) if block.library else "a library"
+            how = ("the link icon beside its name in the Action Editor" if block.id_type == "ACTION"
+                   else "Object > Relations > Make Local")
             return (f"{block.id_type.title()} '{block.name}' is linked from {where} and is read-only "
-                    "here: make it local (Object > Relations > Make Local) to change it")
+                    f"here: make it local ({how}) to change it")
     return None
+
+
+def keyed_action(ob: bpy.types.Object) -> bpy.types.Action | None:
+    """The action new keys on ``ob`` go to (the tweaked strip's in NLA tweak mode), or None."""
+    return ob.animation_data.action if ob.animation_data is not None else None
 
 
 def shaped_world_mesh(ob: bpy.types.Object) -> tuple[np.ndarray, np.ndarray]:

@@ -75,8 +75,18 @@ def last_key_frame(ob: bpy.types.Object) -> float | None:
 
 def keyed_rotation_bones(ob: bpy.types.Object) -> set[str]:
     """Names of pose bones that have rotation keys."""
+    return rotation_bones(action_fcurves(ob))
+
+
+def driven_rotation_bones(ob: bpy.types.Object) -> set[str]:
+    """Names of pose bones whose rotation has a driver (it overrides their keys)."""
+    return rotation_bones(ob.animation_data.drivers if ob.animation_data is not None else [])
+
+
+def rotation_bones(fcurves) -> set[str]:
+    """Names of the pose bones whose rotation one of ``fcurves`` animates."""
     out = set()
-    for fc in action_fcurves(ob):
+    for fc in fcurves:
         path = fc.data_path
         if path.startswith('pose.bones["') and path.rsplit(".", 1)[-1] in ROT_PATHS:
             out.add(bpy.utils.unescape_identifier(path[len('pose.bones["'):path.rindex('"]')]))
@@ -175,7 +185,7 @@ class MINISKELETON_OT_add_motion(bpy.types.Operator):
         if arm.mode == "EDIT":
             self.report({"ERROR"}, f"Armature '{arm.name}' is in Edit Mode: switch to Object or Pose Mode")
             return {"CANCELLED"}
-        locked = mesh_io.read_only(arm)
+        locked = mesh_io.read_only(arm, mesh_io.keyed_action(arm))
         if locked:
             self.report({"ERROR"}, locked)
             return {"CANCELLED"}
@@ -216,6 +226,10 @@ class MINISKELETON_OT_add_motion(bpy.types.Operator):
         self.report({"INFO"}, f"{label} ({roles['plan']}): frames {start}-{end}; head "
                     f"{bones.names[roles['head']]}, legs {legs}; spine "
                     f"{', '.join(bones.names[i] for i in roles['spine'])} (full list in the console)")
+        driven = sorted(driven_rotation_bones(arm) & {bones.names[int(b)] for b in out["animated"]})
+        if driven:
+            self.report({"WARNING"}, f"{len(driven)} keyed bone(s) have rotation drivers, which "
+                        f"override their keys: {', '.join(driven[:6])}{' ...' if len(driven) > 6 else ''}")
         return {"FINISHED"}
 
     def write_keys(self, context, arm, names, out, start) -> int:

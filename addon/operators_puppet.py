@@ -522,7 +522,7 @@ class MINISKELETON_OT_bake_puppet(bpy.types.Operator):
 
     def execute(self, context):
         rig = puppet_rig(context.active_object)
-        locked = mesh_io.read_only(rig)
+        locked = mesh_io.read_only(rig, mesh_io.keyed_action(rig))
         if locked:
             self.report({"ERROR"}, locked)
             return {"CANCELLED"}

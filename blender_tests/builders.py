@@ -133,7 +133,8 @@ def bone_segments_world(arm_ob, names):
 def link_from_library(block, path):
     """``block`` written to the .blend file ``path`` and linked back from it: a read-only copy,
     as a character linked from another file. Returns the linked data-block."""
-    collection = {"MESH": "meshes", "ARMATURE": "armatures", "OBJECT": "objects"}[block.id_type]
+    collection = {"MESH": "meshes", "ARMATURE": "armatures", "OBJECT": "objects",
+                  "ACTION": "actions"}[block.id_type]
     bpy.data.libraries.write(str(path), {block})
     with bpy.data.libraries.load(str(path), link=True) as (_, linked):
         setattr(linked, collection, [block.name])

@@ -7,7 +7,7 @@ import subprocess
 import bpy
 import numpy as np
 import pytest
-from mathutils import Vector
+from mathutils import Matrix, Vector
 
 import builders as B
 import creature
@@ -132,6 +132,30 @@ def test_armature_linked_from_a_library_gets_no_keys_and_a_clear_error(tmp_path)
         add_motion(linked, motion="WALK")
     assert linked.animation_data is None
 
+
+def test_action_linked_from_a_library_gets_no_keys_and_a_clear_error(tmp_path):
+    """A local armature playing an action linked from another .blend: its keys cannot change
+    (Blender skips them with a console warning), so the motion is refused before the pose or
+    the timeline is touched."""
+    arm = biped_rig()
+    action = bpy.data.actions.new("Library walk")
+    arm.animation_data_create()
+    arm.animation_data.action = B.link_from_library(action, tmp_path / "actions.blend")
+    frame_end = bpy.context.scene.frame_end
+    with pytest.raises(RuntimeError, match=r"Action 'Library walk' is linked from actions.blend .*Action Editor"):
+        add_motion(arm, motion="WALK")
+    assert motion_module().last_key_frame(arm) is None and bpy.context.scene.frame_end == frame_end
+    assert all(pb.matrix_basis == Matrix() for pb in arm.pose.bones)
+
+
+def test_driven_bones_are_named_in_a_warning(capfd):
+    """A driver overrides its bone's keys, so the motion would not show there: say which."""
+    arm = biped_rig()
+    driver = arm.pose.bones["shin.L"].driver_add("rotation_quaternion", 1).driver
+    driver.expression = "0.2"
+    assert add_motion(arm, motion="WALK") == {"FINISHED"}
+    assert "1 keyed bone(s) have rotation drivers, which override their keys: shin.L" in capfd.readouterr().out
+
 # ---------------------------------------------------------------- motions
 
 
@@ -198,7 +222,6 @@ def test_run_is_faster_and_keeps_going_after_walk():
     walk_end = mm.last_key_frame(arm)
     assert add_motion(arm, motion="RUN", cycles=2) == {"FINISHED"}
     assert mm.last_key_frame(arm) > walk_end
-    scene = bpy.context.scene
     hips = tails_over_frames(arm, ["hips"], [int(walk_end), int(mm.last_key_frame(arm))])["hips"]
     assert hips[1][1] < hips[0][1] - 0.5   # continued forward from where the walk ended
 
@@ -244,7 +267,7 @@ def test_video_is_a_valid_mp4(tmp_path):
 
 def test_video_with_the_scenes_own_engine_and_camera(tmp_path):
     # As a Shadow Theatre preset is rendered: its engine, shading and camera are kept.
-    body, arm = creature.build_body(subdivisions=0), creature.build_armature()
+    creature.build_body(subdivisions=0), creature.build_armature()  # something to render
     scene = bpy.context.scene
     scene.render.engine = "BLENDER_WORKBENCH"
     scene.display.shading.light = "FLAT"

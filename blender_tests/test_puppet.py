@@ -12,6 +12,7 @@ import pytest
 from mathutils import Vector
 
 import blender_session
+import builders as B
 
 P = importlib.import_module("bl_ext.user_default.miniskeleton.operators_puppet")
 T = importlib.import_module("bl_ext.user_default.miniskeleton.puppet")
@@ -344,6 +345,18 @@ def test_a_puppet_linked_from_a_library_is_refused_clearly(tmp_path):
     with pytest.raises(RuntimeError, match=rf"Object '{linked_head.name}' is linked from puppet.blend"):
         bpy.ops.object.miniskeleton_set_part_image(filepath=face_png(tmp_path), bone="head")
     assert linked_head.data == mesh
+
+
+def test_a_puppet_playing_a_linked_action_is_not_baked(tmp_path):
+    """Bake keys the rig's action: one linked from another .blend is refused by name."""
+    rig, _ = add("THREE_ROD")
+    rig.animation_data_create()
+    rig.animation_data.action = B.link_from_library(bpy.data.actions.new("Show"), tmp_path / "a.blend")
+    bpy.context.view_layer.objects.active = rig
+    with pytest.raises(RuntimeError, match=r"Action 'Show' is linked from a.blend"):
+        bpy.ops.object.miniskeleton_bake_puppet()
+    # refused before baking: live solving (switched off by a bake) is still on
+    assert rig.animation_data.action.name == "Show" and rig.get(P.LIVE_KEY, True)
 
 # ---------------------------------------------------------------------------- parts, theatre
 
