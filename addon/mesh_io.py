@@ -290,8 +290,9 @@ def write_vertex_groups(ob: bpy.types.Object, names: list[str], dense: np.ndarra
         _add_groups(ob, names, dense, groups)
     else:
         _convert_hidden(ob, names, dense, groups)
-    if groups:
-        ob.vertex_groups.active_index = ob.vertex_groups[names[groups[-1]]].index
+    last = ob.vertex_groups.get(names[groups[-1]]) if groups else None
+    if last is not None:
+        ob.vertex_groups.active_index = last.index
     return locked
 
 

@@ -314,24 +314,61 @@ def save_npz(path: str, rig: dict) -> None:
 
 
 def load_npz(path: str) -> dict:
-    """Read and check a bundle; raises RigError with the reason."""
+    """Read and check a bundle (shapes, types, weights finite in [0, 1], bone names usable as
+    vertex groups); raises RigError with the reason. Byte-string names are decoded as UTF-8."""
     try:
         with np.load(path, allow_pickle=False) as f:
             rig = {k: f[k] for k in f.files}
-    except (OSError, ValueError) as err:
+    except (OSError, ValueError, EOFError) as err:
         raise RigError(f"cannot read '{path}': {err}") from err
     missing = [k for k in ("format_version", "vertices", "bone_names", "indices", "weights") if k not in rig]
     if missing:
         raise RigError(f"'{path}' is not a MiniSkeleton rig bundle (missing {', '.join(missing)})")
-    if int(rig["format_version"]) > FORMAT_VERSION:
-        raise RigError(f"rig bundle format {int(rig['format_version'])} is newer than this add-on ({FORMAT_VERSION})")
+    version = rig["format_version"]
+    if version.shape != () or version.dtype.kind not in "iu":
+        raise RigError(f"format_version must be one integer, got {version.dtype} {version.shape}")
+    if int(version) > FORMAT_VERSION:
+        raise RigError(f"rig bundle format {int(version)} is newer than this add-on ({FORMAT_VERSION})")
+    for key in ("bone_names", "mesh_names"):
+        if key in rig:
+            rig[key] = _names(rig[key], key)
     n = len(rig["vertices"])
-    if rig["indices"].shape != rig["weights"].shape or rig["indices"].ndim != 2 or len(rig["indices"]) != n:
-        raise RigError(f"indices {rig['indices'].shape} / weights {rig['weights'].shape} do not match {n} vertices")
+    idx, w = rig["indices"], rig["weights"]
+    if idx.shape != w.shape or idx.ndim != 2 or len(idx) != n:
+        raise RigError(f"indices {idx.shape} / weights {w.shape} do not match {n} vertices")
+    if idx.dtype.kind not in "iu" or w.dtype.kind != "f":
+        raise RigError(f"indices must be integers and weights floats, got {idx.dtype} / {w.dtype}")
     b = len(rig["bone_names"])
-    if rig["indices"].size and (rig["indices"].max() >= b or rig["indices"].min() < -1):
-        raise RigError("indices refer to bones that are not in bone_names")
+    if idx.size and (idx.max() >= b or idx.min() < -1):
+        raise RigError(f"indices refer to bones that are not in bone_names (0..{b - 1}, -1 = unused)")
+    bad = int(np.count_nonzero(~((w >= 0) & (w <= 1))))   # NaN fails both
+    if bad:
+        raise RigError(f"{bad} weights are not numbers in [0, 1]; nothing was changed")
+    names = [str(s) for s in rig["bone_names"]]
+    unusable = [s for s in names if not s or len(s.encode("utf-8")) > 63]
+    if unusable:
+        raise RigError(f"bone names must be 1 to 63 bytes (Blender's limit): {unusable[0][:70]!r}")
+    twice = sorted({s for s in names if names.count(s) > 1})
+    if twice:
+        raise RigError(f"bone names appear twice: {', '.join(twice[:5])}")
+    if "mesh_names" in rig or "mesh_vertex_counts" in rig:
+        counts = rig.get("mesh_vertex_counts", np.zeros(0, np.int32))
+        if (len(rig.get("mesh_names", ())) != len(counts) or counts.dtype.kind not in "iu"
+                or (counts < 0).any() or int(counts.sum()) != n):
+            raise RigError(f"mesh_names / mesh_vertex_counts do not split the {n} vertices")
     return rig
+
+
+def _names(arr: np.ndarray, key: str) -> np.ndarray:
+    """A 1-D array of names as str (bytes decoded as UTF-8)."""
+    if arr.ndim != 1 or arr.dtype.kind not in "US":
+        raise RigError(f"{key} must be a 1-D array of strings, got {arr.dtype} {arr.shape}")
+    if arr.dtype.kind == "S":
+        try:
+            return np.array([s.decode("utf-8") for s in arr.tolist()], dtype=str)
+        except UnicodeDecodeError as err:
+            raise RigError(f"{key} are not UTF-8: {err}") from err
+    return arr
 
 
 def apply_weights(rig: dict, meshes) -> int:
@@ -360,8 +397,10 @@ def apply_weights(rig: dict, meshes) -> int:
         idx = rig["indices"][start:start + count]
         w = rig["weights"][start:start + count]
         dense = mesh_io.dense_weights(idx, w, len(names))
-        used = dense.any(axis=1)
-        mesh_io.write_vertex_groups(ob, names, dense, used)
+        # The bundle's bones with weights here, and the mesh's groups of its other bones (emptied,
+        # so the weights are the bundle's exactly; no empty group is added for the rest).
+        write = dense.any(axis=1) | np.array([ob.vertex_groups.get(s) is not None for s in names])
+        mesh_io.write_vertex_groups(ob, names, dense, write)
     return sum(t[2] for t in targets)
 
 

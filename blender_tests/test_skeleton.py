@@ -467,6 +467,67 @@ def test_npz_round_trip_and_mismatch(tmp_path):
     assert len(other.vertex_groups) == 0
 
 
+def _bundle(n, **over):
+    """A two-bone bundle for ``n`` vertices (A 0.75, B 0.25 everywhere), with ``over`` replaced."""
+    rig = dict(format_version=np.int32(1), vertices=np.zeros((n, 3), np.float32),
+               bone_names=np.array(["A", "B"]), indices=np.tile(np.int32([[0, 1]]), (n, 1)),
+               weights=np.tile(np.float32([[0.75, 0.25]]), (n, 1)))
+    return {**rig, **over}
+
+
+NPZ_BAD = {  # case: (replaced arrays for n vertices, error)
+    "NaN weights": (lambda n: dict(weights=np.full((n, 2), np.nan, np.float32)),
+                    r"\d+ weights are not numbers in \[0, 1\]"),
+    "weight above 1": (lambda n: dict(weights=np.full((n, 2), 1.5, np.float32)),
+                       r"weights are not numbers in \[0, 1\]"),
+    "float indices": (lambda n: dict(indices=np.tile([[0.0, 1.0]], (n, 1))), "indices must be integers"),
+    "duplicate names": (lambda n: dict(bone_names=np.array(["A", "A"])), "bone names appear twice: A"),
+    "name too long": (lambda n: dict(bone_names=np.array(["A" * 64, "B"])), "1 to 63 bytes"),
+    "empty name": (lambda n: dict(bone_names=np.array(["", "B"])), "1 to 63 bytes"),
+    "version not a scalar": (lambda n: dict(format_version=np.int32([1, 1])), "format_version must be one integer"),
+    "names not 1-D": (lambda n: dict(bone_names=np.array([["A", "B"]])), "bone_names must be a 1-D array"),
+    "counts do not add up": (lambda n: dict(mesh_names=np.array(["Cylinder"]), mesh_vertex_counts=np.int32([5])),
+                             "do not split the"),
+}
+
+
+@pytest.mark.parametrize("case", NPZ_BAD)
+def test_npz_bad_bundle_is_refused_by_reason_and_changes_nothing(tmp_path, case):
+    """Bundles from other pipelines: every malformed one is a clear error, not a traceback or
+    silently wrong groups (NaN weights wrote nothing, duplicate names merged, long names were
+    cut to 63 bytes), and the mesh keeps its groups."""
+    ob = builders.cylinder()
+    n = len(ob.data.vertices)
+    ob.vertex_groups.new(name="A").add([0], 0.5, "REPLACE")
+    over, message = NPZ_BAD[case]
+    path = str(tmp_path / "bad.npz")
+    np.savez(path, **_bundle(n, **over(n)))
+    builders.set_active(ob)
+    with pytest.raises(RuntimeError, match=message):
+        bpy.ops.import_scene.miniskeleton_npz(filepath=path)
+    assert [g.name for g in ob.vertex_groups] == ["A"]
+    assert builders.weights_matrix(ob, ["A"])[:2, 0].tolist() == [0.5, 0.0]
+
+
+def test_npz_import_restores_exactly_byte_names_and_stale_groups(tmp_path):
+    """Names stored as bytes (np.bytes_) are decoded; a bone of the bundle with no weight on the
+    mesh has its old group emptied, so the mesh ends with the bundle's weights exactly; other
+    groups are kept and no empty group is added."""
+    ob = builders.cylinder()
+    n = len(ob.data.vertices)
+    ob.vertex_groups.new(name="B").add(list(range(n)), 0.9, "REPLACE")
+    ob.vertex_groups.new(name="Mine").add([0], 0.5, "REPLACE")
+    rig = _bundle(n, bone_names=np.array([b"A", b"B", b"C"]),
+                  indices=np.tile(np.int32([[0, -1]]), (n, 1)), weights=np.tile(np.float32([[1, 0]]), (n, 1)))
+    path = str(tmp_path / "rig.npz")
+    np.savez(path, **rig)
+    builders.set_active(ob)
+    assert bpy.ops.import_scene.miniskeleton_npz(filepath=path) == {"FINISHED"}
+    assert sorted(g.name for g in ob.vertex_groups) == ["A", "B", "Mine"]
+    w = builders.weights_matrix(ob, ["A", "B", "Mine"])
+    assert (w[:, 0] == 1).all() and (w[:, 1] == 0).all() and w[0, 2] == 0.5
+
+
 def test_json_debug_export(tmp_path):
     ob, arm = bound_cylinder("IDW")
     path = tmp_path / "rig.json"
