@@ -9,7 +9,9 @@ Blender's renderer.
 from __future__ import annotations
 
 import math
+import os
 import time
+from contextlib import contextmanager
 from pathlib import Path
 
 import bpy
@@ -509,6 +511,38 @@ def set_mp4(scene, path: Path) -> None:
     scene.render.filepath = str(path)
 
 
+# What Make Video sets on the scene for its render, put back afterwards (in this order: 5.0's
+# media_type before file_format), as Blender's own Render Animation leaves the settings alone.
+_VIDEO_SETTINGS = (
+    ("render", ("engine", "resolution_x", "resolution_y", "resolution_percentage", "fps", "fps_base",
+                "filepath", "use_file_extension")),
+    ("render.image_settings", ("media_type", "file_format")),
+    ("render.ffmpeg", ("format", "codec", "constant_rate_factor", "ffmpeg_preset", "gopsize", "audio_codec")),
+    ("display.shading", ("light", "color_type", "show_shadows", "show_cavity")),
+    ("cycles", ("device", "samples")),
+)
+
+
+@contextmanager
+def kept_render_settings(scene):
+    """The scene's render settings (``_VIDEO_SETTINGS``) as they were when the block ends."""
+    saved = []
+    for path, names in _VIDEO_SETTINGS:
+        try:
+            owner = scene.path_resolve(path)
+        except ValueError:   # e.g. no Cycles settings without the Cycles add-on
+            continue
+        saved += [(owner, n, getattr(owner, n)) for n in names if hasattr(owner, n)]
+    try:
+        yield
+    finally:
+        for owner, name, value in saved:
+            try:
+                setattr(owner, name, value)
+            except (TypeError, ValueError, AttributeError):
+                pass   # a value this build no longer offers: leave the video's
+
+
 def default_video_path(scene) -> Path:
     if bpy.data.filepath:
         blend = Path(bpy.data.filepath)
@@ -541,6 +575,16 @@ class MINISKELETON_OT_make_video(bpy.types.Operator):
     def execute(self, context):
         scene = context.scene
         start_t = time.perf_counter()
+        path = Path(bpy.path.abspath(self.filepath)) if self.filepath else default_video_path(scene)
+        if path.suffix.lower() != ".mp4":
+            path = path.with_suffix(".mp4")
+        try:
+            path.parent.mkdir(parents=True, exist_ok=True)
+            if path.is_dir() or not os.access(path.parent, os.W_OK):
+                raise PermissionError(13, "not a writable file")
+        except OSError as err:
+            self.report({"ERROR"}, f"Cannot write the video to {path}: {err.strerror or err}")
+            return {"CANCELLED"}
         if scene.camera is None or self.camera in ("NEW", "FOLLOW"):
             if self.camera == "SCENE":
                 self.report({"ERROR"}, "The scene has no camera")
@@ -557,6 +601,20 @@ class MINISKELETON_OT_make_video(bpy.types.Operator):
                 add_camera(scene, *union_box(boxes), aspect)
             if not any(ob.type == "LIGHT" for ob in scene.objects):
                 add_light(scene)
+        with kept_render_settings(scene):
+            total = self.render(context, path)
+        if not path.exists() or path.stat().st_size == 0:
+            self.report({"ERROR"}, f"Rendering did not write {path}")
+            return {"CANCELLED"}
+        secs = time.perf_counter() - start_t
+        w, h = self.resolution_x + self.resolution_x % 2, self.resolution_y + self.resolution_y % 2
+        self.report({"INFO"}, f"Wrote {path} ({total} frames, {w}x{h}, "
+                    f"{path.stat().st_size // 1024} KiB) in {secs:.1f} s")
+        return {"FINISHED"}
+
+    def render(self, context, path: Path) -> int:
+        """Set the scene up for the MP4 and render its frame range with progress; frames rendered."""
+        scene = context.scene
         render = scene.render
         # H.264 wants even dimensions
         render.resolution_x = self.resolution_x + self.resolution_x % 2
@@ -565,13 +623,8 @@ class MINISKELETON_OT_make_video(bpy.types.Operator):
         if self.fps:
             render.fps, render.fps_base = self.fps, 1.0
         set_engine(scene, self.engine)
-        path = Path(bpy.path.abspath(self.filepath)) if self.filepath else default_video_path(scene)
-        if path.suffix.lower() != ".mp4":
-            path = path.with_suffix(".mp4")
-        path.parent.mkdir(parents=True, exist_ok=True)
-        if path.exists():
-            path.unlink()
         set_mp4(scene, path)
+        path.unlink(missing_ok=True)   # so a failed render cannot pass for this one
 
         total = scene.frame_end - scene.frame_start + 1
         wm = context.window_manager
@@ -590,13 +643,7 @@ class MINISKELETON_OT_make_video(bpy.types.Operator):
         finally:
             bpy.app.handlers.render_post.remove(progress)
             wm.progress_end()
-        if not path.exists() or path.stat().st_size == 0:
-            self.report({"ERROR"}, f"Rendering did not write {path}")
-            return {"CANCELLED"}
-        secs = time.perf_counter() - start_t
-        self.report({"INFO"}, f"Wrote {path} ({total} frames, {render.resolution_x}x"
-                    f"{render.resolution_y}, {path.stat().st_size // 1024} KiB) in {secs:.1f} s")
-        return {"FINISHED"}
+        return total
 
 
 classes = (MINISKELETON_OT_add_motion, MINISKELETON_OT_make_video)

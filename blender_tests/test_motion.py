@@ -252,12 +252,20 @@ def test_video_is_a_valid_mp4(tmp_path):
     scene.frame_start, scene.frame_end = 1, 5
     out = tmp_path / "clip.mp4"
     assert scene.camera is None
+    render = scene.render
+    before = (render.engine, render.resolution_x, render.resolution_y, render.filepath,
+              render.image_settings.file_format, scene.display.shading.light)
     assert bpy.ops.render.miniskeleton_make_video(filepath=str(out), resolution_x=64,
                                                   resolution_y=48) == {"FINISHED"}
-    assert scene.camera is not None and scene.render.engine == "BLENDER_WORKBENCH"
+    # rendered with Workbench at 64 x 48, then the user's render settings are back
+    assert (render.engine, render.resolution_x, render.resolution_y, render.filepath,
+            render.image_settings.file_format, scene.display.shading.light) == before
+    assert render.engine != "BLENDER_WORKBENCH" and render.image_settings.file_format != "FFMPEG"
+    assert scene.camera is not None
     assert out.read_bytes()[4:8] == b"ftyp"
     assert probe(out) == (5, 64, 48)
-    # the camera sees the whole character: its bounding box projects inside the frame
+    # the camera sees the whole character: its bounding box projects inside the video's frame
+    render.resolution_x, render.resolution_y = 64, 48
     from bpy_extras.object_utils import world_to_camera_view
 
     for c in body.bound_box:
@@ -278,6 +286,7 @@ def test_video_with_the_scenes_own_engine_and_camera(tmp_path):
     cam.rotation_euler = (1.5708, 0, 0)
     scene.camera = cam
     scene.frame_start, scene.frame_end = 1, 3
+    scene.render.fps = 30
     out = tmp_path / "theatre.mp4"
     assert bpy.ops.render.miniskeleton_make_video(
         filepath=str(out), engine="SCENE", camera="SCENE", resolution_x=64, resolution_y=48,
@@ -285,7 +294,16 @@ def test_video_with_the_scenes_own_engine_and_camera(tmp_path):
     assert probe(out) == (3, 64, 48)
     assert scene.camera == cam and len([o for o in scene.objects if o.type == "CAMERA"]) == 1
     assert scene.display.shading.light == "FLAT" and not scene.display.shading.show_cavity
-    assert scene.render.fps == 24
+    assert scene.render.fps == 30   # the video's 24 fps was for the video only
+
+
+def test_video_path_that_cannot_be_written_is_an_error_and_adds_nothing(tmp_path):
+    creature.build_body(subdivisions=0)
+    blocker = tmp_path / "file"
+    blocker.write_text("a file, not a folder")
+    with pytest.raises(RuntimeError, match="Cannot write the video to .*clip.mp4"):
+        bpy.ops.render.miniskeleton_make_video(filepath=str(blocker / "clip.mp4"))
+    assert bpy.context.scene.camera is None and not any(o.type == "LIGHT" for o in bpy.data.objects)
 
 
 def test_menus_and_panel():
