@@ -142,6 +142,14 @@ class MINISKELETON_OT_auto_weights(bpy.types.Operator):
         if others:
             self.report({"WARNING"}, f"Skipped {len(others)} selected object(s) that are not meshes: "
                         f"{', '.join(sorted(others)[:5])} (Object > Convert > Mesh to weight them)")
+        empty = [ob for ob in meshes if len(ob.data.vertices) == 0]
+        if len(empty) == len(meshes):
+            self.report({"ERROR"}, f"Mesh '{empty[0].name}' has no vertices; nothing was changed")
+            return None
+        if empty:
+            self.report({"WARNING"}, f"Skipped {len(empty)} selected mesh(es) without vertices: "
+                        f"{', '.join(sorted(ob.name for ob in empty)[:5])}")
+            meshes = [ob for ob in meshes if ob not in empty]
         locked = mesh_io.read_only(*[b for ob in meshes for b in (ob, ob.data)])
         if locked:
             self.report({"ERROR"}, locked + "; nothing was changed")
@@ -193,9 +201,6 @@ class MINISKELETON_OT_auto_weights(bpy.types.Operator):
             if bad:
                 self.report({"ERROR"}, f"Mesh '{ob.name}' has {bad} vertices with NaN or infinite "
                             "coordinates; nothing was changed")
-                return None
-            if len(verts) == 0:
-                self.report({"ERROR"}, f"Mesh '{ob.name}' has no vertices; nothing was changed")
                 return None
             if mirror_space:
                 verts = mesh_io.to_armature_space(arm, verts)

@@ -345,6 +345,19 @@ def test_nan_coordinates_report_count_and_leave_mesh_untouched():
     assert _untouched(ob)
 
 
+def test_an_empty_mesh_is_skipped_with_a_warning_and_alone_is_an_error(capfd):
+    """A placeholder mesh with no vertices among the selection no longer stops the others."""
+    empty = bpy.data.objects.new("Placeholder", bpy.data.meshes.new("Placeholder"))
+    bpy.context.collection.objects.link(empty)
+    ob, arm = B.cylinder(), B.chain()
+    assert bind([empty, ob], arm) == {"FINISHED"}
+    assert "Skipped 1 selected mesh(es) without vertices: Placeholder" in capfd.readouterr().out
+    assert sorted(g.name for g in ob.vertex_groups) == NAMES and ob.parent == arm
+    assert len(empty.vertex_groups) == 0 and empty.parent is None and not empty.modifiers
+    with pytest.raises(RuntimeError, match="Mesh 'Placeholder' has no vertices; nothing was changed"):
+        bind([empty], arm)
+
+
 def test_armature_in_edit_mode_reports_error():
     ob = B.cylinder()
     arm = B.chain()
