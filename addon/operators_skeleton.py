@@ -132,7 +132,7 @@ class MINISKELETON_OT_fit_skeleton(bpy.types.Operator):
         if not meshes:
             self.report({"ERROR"}, "No mesh selected: select the mesh(es), then the armature (active)")
             return None
-        parts = []
+        parts, faceless = [], []
         # Bone-parented parts are read where they are in the rest pose, as the bones are.
         with mesh_io.rest_pose(arm, meshes):
             for ob in meshes:
@@ -142,13 +142,19 @@ class MINISKELETON_OT_fit_skeleton(bpy.types.Operator):
                 v, t = mesh_io.shaped_world_mesh(ob)
                 v = v.astype(np.float64)
                 if len(v) == 0 or len(t) == 0:
-                    self.report({"ERROR"}, f"Mesh '{ob.name}' has no faces: fitting needs a closed surface")
-                    return None
+                    faceless.append(ob.name)
+                    continue
                 bad = int((~np.isfinite(v)).any(axis=1).sum())
                 if bad:
                     self.report({"ERROR"}, f"Mesh '{ob.name}' has {bad} vertices with NaN or infinite coordinates")
                     return None
                 parts.append((mesh_io.to_armature_space(arm, v), t))
+        if not parts:
+            self.report({"ERROR"}, f"Mesh '{faceless[0]}' has no faces: fitting needs a closed surface")
+            return None
+        if faceless:
+            self.report({"WARNING"}, f"Skipped {len(faceless)} mesh(es) without faces: "
+                        f"{', '.join(sorted(faceless)[:5])}")
         return mesh_io.stack_meshes(parts)
 
     def execute(self, context):

@@ -617,6 +617,12 @@ def test_bad_inputs_are_reported(capfd):
     builders.select_for_parenting([flat], arm)
     with pytest.raises(RuntimeError, match="no faces"):
         bpy.ops.armature.miniskeleton_fit_skeleton()
+    # beside a real body, a mesh without faces is skipped with a warning
+    body = builders.cylinder("Body2")
+    builders.select_for_parenting([flat, body], arm)
+    capfd.readouterr()
+    assert bpy.ops.armature.miniskeleton_fit_skeleton() == {"FINISHED"}
+    assert "Skipped 1 mesh(es) without faces: Points" in capfd.readouterr().out
     nan = builders.cylinder("Nan")
     nan.data.vertices[0].co = (float("nan"), 0, 0)
     builders.select_for_parenting([nan], arm)
