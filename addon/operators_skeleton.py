@@ -275,8 +275,16 @@ class MINISKELETON_OT_restore_skeleton(bpy.types.Operator):
                         "(MiniSkeleton has not changed it)")
             return {"CANCELLED"}
         with rig_io.bone_children_stay(arm), rig_io.armature_edit(context, arm) as ebs:
-            rig_io.apply_rest_pose(ebs, snap)
-        self.report({"INFO"}, f"Restored the original skeleton of '{arm.name}' ({len(snap['names'])} bones)")
+            removed, made = rig_io.apply_rest_pose(ebs, snap)
+        done = f"Restored the original skeleton of '{arm.name}' ({len(snap['names'])} bones)"
+        if removed or made:
+            # Bones added or renamed since lose their pose-bone settings: say which (Ctrl+Z undoes).
+            listed = lambda ns: ", ".join(ns[:5]) + (" ..." if len(ns) > 5 else "")  # noqa: E731
+            changes = ([f"removed {len(removed)} bone(s) added or renamed since: {listed(removed)}"] if removed else []) \
+                + ([f"made again {len(made)} deleted or renamed: {listed(made)}"] if made else [])
+            self.report({"WARNING"}, f"{done}; {'; '.join(changes)} (Ctrl+Z to undo)")
+        else:
+            self.report({"INFO"}, done)
         return {"FINISHED"}
 
 

@@ -129,17 +129,18 @@ def ensure_snapshot(arm_ob, edit_bones) -> bool:
     return True
 
 
-def apply_rest_pose(edit_bones, snap: dict) -> None:
-    """Put the rest pose ``snap`` back exactly: bones not in it are removed, missing ones made."""
+def apply_rest_pose(edit_bones, snap: dict) -> tuple[list[str], list[str]]:
+    """Put the rest pose ``snap`` back exactly: bones not in it are removed, missing ones made.
+    Returns the names of the bones (removed, made), for the report."""
     names = snap["names"]
     wanted = set(names)
-    for eb in list(edit_bones):
-        if eb.name not in wanted:
-            edit_bones.remove(eb)
-    for n in names:
-        if edit_bones.get(n) is None:
-            eb = edit_bones.new(n)
-            eb.tail = (0.0, 0.0, 1.0)
+    removed = [eb.name for eb in edit_bones if eb.name not in wanted]
+    for n in removed:
+        edit_bones.remove(edit_bones[n])
+    made = [n for n in names if edit_bones.get(n) is None]
+    for n in made:
+        eb = edit_bones.new(n)
+        eb.tail = (0.0, 0.0, 1.0)
     ebs = [edit_bones[n] for n in names]
     for eb in ebs:
         eb.use_connect = False
@@ -153,6 +154,7 @@ def apply_rest_pose(edit_bones, snap: dict) -> None:
             eb.parent = edit_bones[p]
     for eb, c in zip(ebs, snap["connect"]):
         eb.use_connect = bool(c)
+    return removed, made
 
 
 def place_bone_ends(edit_bones, heads, tails, z_axes=None) -> None:

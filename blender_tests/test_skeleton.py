@@ -411,6 +411,27 @@ def test_restore_undo_both_ways():
     assert edit_state(bpy.data.objects["CreatureRig"]) == original
 
 
+def test_restore_names_the_bones_it_removes_or_makes_again(capfd):
+    """Restore is exact, so bones added since are removed and deleted ones made again; a rename
+    is both. The report says which (their pose settings are gone), at warning level."""
+    arm = builders.chain("Rig", count=3)
+    builders.set_active(arm)
+    assert bpy.ops.armature.miniskeleton_snapshot_skeleton() == {"FINISHED"}
+    original = sorted(b.name for b in arm.data.bones)
+    bpy.ops.object.mode_set(mode="EDIT")
+    arm.data.edit_bones.new("Extra").tail = (0, 1, 0)
+    arm.data.edit_bones["Bone2"].name = "Hand"
+    bpy.ops.object.mode_set(mode="OBJECT")
+    capfd.readouterr()
+    assert bpy.ops.armature.miniskeleton_restore_skeleton() == {"FINISHED"}
+    assert sorted(b.name for b in arm.data.bones) == original
+    out = capfd.readouterr().out
+    assert "Warning: Restored the original skeleton of 'Rig' (3 bones); removed 2 bone(s) added or " \
+        "renamed since: Hand, Extra; made again 1 deleted or renamed: Bone2 (Ctrl+Z to undo)" in out
+    assert bpy.ops.armature.miniskeleton_restore_skeleton() == {"FINISHED"}
+    assert "Info: Restored the original skeleton of 'Rig' (3 bones)" in capfd.readouterr().out
+
+
 def test_restore_without_snapshot_is_an_error():
     arm = builders.chain("Rig", count=2)
     builders.set_active(arm)
