@@ -583,6 +583,12 @@ class MINISKELETON_OT_set_part_image(bpy.types.Operator, ImportHelper):
         except RuntimeError as exc:
             self.report({"ERROR"}, f"Cannot load image: {exc}")
             return {"CANCELLED"}
+        if not (image.size[0] and image.size[1]):   # Blender "loads" any file; the pixels tell
+            if image.users == 0:
+                bpy.data.images.remove(image)
+            self.report({"ERROR"}, f"Cannot load image: {os.path.basename(self.filepath)} is not an "
+                        "image Blender can read (PNG, TGA, TIFF, WebP, EXR)")
+            return {"CANCELLED"}
         set_part_image(rig, name, image)
         self.report({"INFO"}, f"{os.path.basename(self.filepath)} on {name}")
         return {"FINISHED"}

@@ -389,6 +389,19 @@ def test_set_part_image(tmp_path):
     assert tex and tex[0].image.filepath.endswith("face.png")
 
 
+def test_set_part_image_of_a_file_that_is_not_an_image_is_an_error(tmp_path):
+    """Blender "loads" any file as an image of size 0 x 0 (a pink texture): refuse it instead."""
+    rig, _ = add("THREE_ROD")
+    part = next(ob for ob in rig.children if ob.get(P.PART_KEY) == "head")
+    mesh, images = part.data, len(bpy.data.images)
+    bad = tmp_path / "face.png"
+    bad.write_text("not a PNG")
+    bpy.context.view_layer.objects.active = rig
+    with pytest.raises(RuntimeError, match="face.png is not an image Blender can read"):
+        bpy.ops.object.miniskeleton_set_part_image(filepath=str(bad), bone="head")
+    assert part.data == mesh and len(bpy.data.images) == images
+
+
 def test_shadow_theatre_preset():
     rig, rods = add("FIVE_ROD")
     assert bpy.ops.scene.miniskeleton_shadow_theatre() == {"FINISHED"}
