@@ -607,18 +607,20 @@ class MINISKELETON_OT_make_video(bpy.types.Operator):
             self.report({"ERROR"}, f"Rendering did not write {path}")
             return {"CANCELLED"}
         secs = time.perf_counter() - start_t
-        w, h = self.resolution_x + self.resolution_x % 2, self.resolution_y + self.resolution_y % 2
+        w, h = self.video_size()
         self.report({"INFO"}, f"Wrote {path} ({total} frames, {w}x{h}, "
                     f"{path.stat().st_size // 1024} KiB) in {secs:.1f} s")
         return {"FINISHED"}
+
+    def video_size(self) -> tuple[int, int]:
+        """The requested width and height rounded up to even numbers (H.264 wants them even)."""
+        return self.resolution_x + self.resolution_x % 2, self.resolution_y + self.resolution_y % 2
 
     def render(self, context, path: Path) -> int:
         """Set the scene up for the MP4 and render its frame range with progress; frames rendered."""
         scene = context.scene
         render = scene.render
-        # H.264 wants even dimensions
-        render.resolution_x = self.resolution_x + self.resolution_x % 2
-        render.resolution_y = self.resolution_y + self.resolution_y % 2
+        render.resolution_x, render.resolution_y = self.video_size()
         render.resolution_percentage = 100
         if self.fps:
             render.fps, render.fps_base = self.fps, 1.0

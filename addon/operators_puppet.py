@@ -596,10 +596,10 @@ class MINISKELETON_OT_set_part_image(bpy.types.Operator, ImportHelper):
 
 def set_part_image(rig, bone_name, image):
     """Give the bone's part a plane with ``image`` (its aspect kept, alpha cut out), sized to
-    the bone's length and centred on it."""
+    the bone's length and centred on it. ``image`` has pixels (the operator refuses 0 x 0)."""
     part = next((ob for ob in rig.children if ob.get(PART_KEY) == bone_name), None)
     bone = rig.data.bones[bone_name]
-    w, h = image.size if image.size[0] and image.size[1] else (1, 1)
+    w, h = image.size
     height = bone.length * 1.3
     half_w = 0.5 * height * w / h
     depth = part.data.vertices[0].co.z if part is not None and len(part.data.vertices) else 0.0
