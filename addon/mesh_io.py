@@ -69,6 +69,11 @@ def read_only(*blocks) -> str | None:
     return None
 
 
+def name_list(names: list[str], most: int = 5) -> str:
+    """The first ``most`` names for a report, comma-separated, with " ..." when there are more."""
+    return ", ".join(names[:most]) + (" ..." if len(names) > most else "")
+
+
 def keyed_action(ob: bpy.types.Object) -> bpy.types.Action | None:
     """The action new keys on ``ob`` go to (the tweaked strip's in NLA tweak mode), or None."""
     return ob.animation_data.action if ob.animation_data is not None else None

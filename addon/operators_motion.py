@@ -231,7 +231,7 @@ class MINISKELETON_OT_add_motion(bpy.types.Operator):
         driven = sorted(driven_rotation_bones(arm) & {bones.names[int(b)] for b in out["animated"]})
         if driven:
             self.report({"WARNING"}, f"{len(driven)} keyed bone(s) have rotation drivers, which "
-                        f"override their keys: {', '.join(driven[:6])}{' ...' if len(driven) > 6 else ''}")
+                        f"override their keys: {mesh_io.name_list(driven, 6)}")
         return {"FINISHED"}
 
     def write_keys(self, context, arm, names, out, start) -> int:

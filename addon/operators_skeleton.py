@@ -277,11 +277,13 @@ class MINISKELETON_OT_restore_skeleton(bpy.types.Operator):
         with rig_io.bone_children_stay(arm), rig_io.armature_edit(context, arm) as ebs:
             removed, made = rig_io.apply_rest_pose(ebs, snap)
         done = f"Restored the original skeleton of '{arm.name}' ({len(snap['names'])} bones)"
-        if removed or made:
-            # Bones added or renamed since lose their pose-bone settings: say which (Ctrl+Z undoes).
-            listed = lambda ns: ", ".join(ns[:5]) + (" ..." if len(ns) > 5 else "")  # noqa: E731
-            changes = ([f"removed {len(removed)} bone(s) added or renamed since: {listed(removed)}"] if removed else []) \
-                + ([f"made again {len(made)} deleted or renamed: {listed(made)}"] if made else [])
+        # Bones added or renamed since lose their pose-bone settings: say which (Ctrl+Z undoes).
+        changes = []
+        if removed:
+            changes.append(f"removed {len(removed)} bone(s) added or renamed since: {mesh_io.name_list(removed)}")
+        if made:
+            changes.append(f"made again {len(made)} deleted or renamed: {mesh_io.name_list(made)}")
+        if changes:
             self.report({"WARNING"}, f"{done}; {'; '.join(changes)} (Ctrl+Z to undo)")
         else:
             self.report({"INFO"}, done)
