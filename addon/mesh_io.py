@@ -128,12 +128,22 @@ def rest_pose(arm_ob: bpy.types.Object, meshes):
         bpy.context.view_layer.update()
 
 
-def to_armature_space(arm_ob: bpy.types.Object, points: np.ndarray) -> np.ndarray:
-    """World points (n, 3) in ``arm_ob``'s own space, float32: where X symmetry means the
-    armature's x = 0, for Auto Weights as for Fit (a rig moved or turned in the scene stays
-    symmetric)."""
-    inv = np.linalg.inv(np.array(arm_ob.matrix_world, dtype=np.float64))
-    return (points.astype(np.float64) @ inv[:3, :3].T + inv[:3, 3]).astype(np.float32)
+def armature_frame(arm_ob: bpy.types.Object) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``arm_ob``'s world matrix split by polar decomposition, M = [R S | t]: the rotation R
+    (orthogonal; a reflection for a negative scale), the stretch S (symmetric) and location t.
+    Fit and X symmetry work in the frame (R, t): the armature's axes and origin, at world
+    size, so a scaled armature (even unevenly) does not stretch the mesh's cross-sections."""
+    m = np.array(arm_ob.matrix_world, dtype=np.float64)
+    u, sigma, vt = np.linalg.svd(m[:3, :3])
+    return u @ vt, vt.T @ np.diag(sigma) @ vt, m[:3, 3]
+
+
+def to_armature_frame(arm_ob: bpy.types.Object, points: np.ndarray) -> np.ndarray:
+    """World points (n, 3) in ``arm_ob``'s frame (``armature_frame``: its axes and origin, no
+    scale), float32: where X symmetry means the armature's x = 0, for Auto Weights as for Fit
+    (a rig moved, turned or scaled in the scene stays symmetric)."""
+    r, _, t = armature_frame(arm_ob)
+    return ((points.astype(np.float64) - t) @ r).astype(np.float32)
 
 
 def stack_meshes(parts) -> tuple[np.ndarray, np.ndarray]:

@@ -1,8 +1,9 @@
 """Skeleton operators: Fit Skeleton to Mesh, Restore Original Skeleton / Keep Current as Original,
 and rig exchange (NPZ bundle export/import, debug JSON export).
 
-Fitting is computed by ``miniskeleton_core.fit_joints`` in armature space (so X symmetry is the
-armature's x = 0); rest-pose snapshots and file formats live in rig_io.py.
+Fitting is computed by ``miniskeleton_core.fit_joints`` in the armature's frame (its axes and
+origin at world size, ``mesh_io.armature_frame``: X symmetry is the armature's x = 0, and a scaled
+armature does not stretch the mesh's cross-sections); rest-pose snapshots and file formats live in rig_io.py.
 """
 
 from __future__ import annotations
@@ -127,7 +128,7 @@ class MINISKELETON_OT_fit_skeleton(bpy.types.Operator):
                 "bone's direction and length from the fitted head; bones are fitted from parent to child heads")])
 
     def _inputs(self, context, arm):
-        """(vertices (n,3) in armature space, triangles) of the selected meshes, or None (reported)."""
+        """(vertices (n,3) in the armature's frame, triangles) of the selected meshes, or None (reported)."""
         meshes = _selected_meshes(context, arm)
         if not meshes:
             self.report({"ERROR"}, "No mesh selected: select the mesh(es), then the armature (active)")
@@ -148,7 +149,7 @@ class MINISKELETON_OT_fit_skeleton(bpy.types.Operator):
                 if bad:
                     self.report({"ERROR"}, f"Mesh '{ob.name}' has {bad} vertices with NaN or infinite coordinates")
                     return None
-                parts.append((mesh_io.to_armature_space(arm, v), t))
+                parts.append((mesh_io.to_armature_frame(arm, v), t))
         if not parts:
             self.report({"ERROR"}, f"Mesh '{faceless[0]}' has no faces: fitting needs a closed surface")
             return None
@@ -167,6 +168,14 @@ class MINISKELETON_OT_fit_skeleton(bpy.types.Operator):
         if inputs is None:
             return {"CANCELLED"}
         verts, tris = inputs
+        # Bones are stored in armature space, the mesh is read in the armature's frame: the
+        # stretch S (the armature's scale) maps one to the other, p_frame = S p_armature.
+        _, stretch, _ = mesh_io.armature_frame(arm)
+        sv = np.linalg.svd(stretch, compute_uv=False)
+        if not sv.min() > 1e-9 * sv.max():
+            self.report({"ERROR"}, f"Armature '{arm.name}' has a zero scale: set its Scale (Object "
+                        "Properties > Transform) before fitting; nothing was changed")
+            return {"CANCELLED"}
         mode = arm.mode
         pose_sel = {b.name: _pose_selected(arm, b.name) for b in arm.data.bones} if mode == "POSE" else {}
 
@@ -199,7 +208,8 @@ class MINISKELETON_OT_fit_skeleton(bpy.types.Operator):
                         sel[ends[i]] = True
             movable = sel if sel.any() else np.ones(nj, dtype=bool)
 
-            inside = core.points_inside(verts, tris, joints.astype(np.float32))
+            joints_f = joints @ stretch  # S is symmetric
+            inside = core.points_inside(verts, tris, joints_f.astype(np.float32))
             if not inside.any():
                 self.report({"ERROR"}, f"All {nj} joints of '{arm.name}' are outside the selected mesh(es): "
                             "is this the right mesh, and are both objects placed over each other?")
@@ -212,14 +222,14 @@ class MINISKELETON_OT_fit_skeleton(bpy.types.Operator):
             if self.symmetry == "X":
                 kw = dict(symmetry_axis=0, symmetry_plane=0.0, joint_mirror=mirror)
             try:
-                sub, rep = core.fit_joints(verts, tris, joints[fit_j].astype(np.float32), fit_bones,
+                sub, rep = core.fit_joints(verts, tris, joints_f[fit_j].astype(np.float32), fit_bones,
                                            movable[fit_j], rounds=self.rounds, tip=not follow,
                                            max_move=self.max_move / 100.0, **kw)
             except (ValueError, RuntimeError) as err:
                 self.report({"ERROR"}, f"Fit failed: {err}; nothing was changed")
                 return {"CANCELLED"}
             new = joints.copy()
-            new[fit_j] = sub
+            new[fit_j] = np.linalg.solve(stretch, np.asarray(sub, dtype=np.float64).T).T
             fitted = np.zeros(nj, dtype=bool)
             fitted[fit_j] = True
 

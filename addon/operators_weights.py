@@ -185,8 +185,8 @@ class MINISKELETON_OT_auto_weights(bpy.types.Operator):
         # X symmetry is about the armature's x = 0 (as for Fit), so Heat works in its space.
         mirror_space = self.method == "HEAT" and self.symmetry == "X"
         if mirror_space:
-            bones = dataclasses.replace(bones, heads=mesh_io.to_armature_space(arm, bones.heads),
-                                        tails=mesh_io.to_armature_space(arm, bones.tails))
+            bones = dataclasses.replace(bones, heads=mesh_io.to_armature_frame(arm, bones.heads),
+                                        tails=mesh_io.to_armature_frame(arm, bones.tails))
         inputs = []
         # Linked duplicates (Alt+D) share one mesh, and Blender keeps vertex weights in the
         # mesh: compute them once, on the first of those objects; the others get the modifier.
@@ -203,7 +203,7 @@ class MINISKELETON_OT_auto_weights(bpy.types.Operator):
                             "coordinates; nothing was changed")
                 return None
             if mirror_space:
-                verts = mesh_io.to_armature_space(arm, verts)
+                verts = mesh_io.to_armature_frame(arm, verts)
             tris = mesh_io.mesh_triangles(ob) if self.method == "HEAT" else None
             inputs.append((ob, ob.name, verts, tris))
         return arm, bones, inputs, linked

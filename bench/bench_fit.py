@@ -108,7 +108,8 @@ def armature_space_mesh(arm, meshes, mesh_io):
     # (a Mirror, say) applied with the Armature modifiers off.
     with mesh_io.rest_pose(arm, meshes):
         parts = [mesh_io.shaped_world_mesh(ob) for ob in meshes]
-    verts, tris = mesh_io.stack_meshes((mesh_io.to_armature_space(arm, v), t) for v, t in parts)
+    inv = np.linalg.inv(np.array(arm.matrix_world, dtype=np.float64))
+    verts, tris = mesh_io.stack_meshes(((v @ inv[:3, :3].T + inv[:3, 3]).astype(np.float32), t) for v, t in parts)
     return verts, tris, float(np.linalg.norm(verts.max(0) - verts.min(0)))
 
 

@@ -64,6 +64,23 @@ def armature(name="Armature", bones=(), location=(0, 0, 0), rotation=(0, 0, 0), 
     return ob
 
 
+def place_armature_keep_bones(arm_ob, matrix):
+    """Give the armature object the world matrix ``matrix`` (a mathutils Matrix) with its bones
+    kept where they are in world space (its data transformed by the inverse), and its child
+    objects where they are too."""
+    old = arm_ob.matrix_world.copy()
+    children = [(ob, ob.matrix_world.copy()) for ob in arm_ob.children]
+    set_active(arm_ob)
+    bpy.ops.object.mode_set(mode="EDIT")
+    arm_ob.data.transform(matrix.inverted() @ old)
+    bpy.ops.object.mode_set(mode="OBJECT")
+    arm_ob.matrix_world = matrix
+    bpy.context.view_layer.update()
+    for ob, world in children:
+        ob.matrix_world = world
+    bpy.context.view_layer.update()
+
+
 def chain(name="Armature", count=4, height=4.0, margin=0.2, **kw):
     """A straight connected chain Bone0..Bone{count-1} along +Z from margin to height-margin."""
     zs = np.linspace(margin, height - margin, count + 1)

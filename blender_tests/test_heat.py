@@ -68,6 +68,22 @@ def test_symmetry_x_is_the_armatures_x_wherever_the_rig_stands(capfd):
     assert "have a mirror twin across the armature's X = 0 plane" in "".join(capfd.readouterr())
 
 
+def test_symmetry_x_weights_do_not_depend_on_the_armatures_scale():
+    """X symmetry works in the armature's frame (its axes and origin), not in its scaled space:
+    an armature object scaled unevenly, or mirrored by a negative scale, with its bones where
+    they were in the scene, gives the same weights (in armature space the legs were squashed)."""
+    from mathutils import Matrix
+
+    ob, arm, half = legs()
+    names = ["thigh.L", "shin.L", "thigh.R", "shin.R"]
+    assert bind([ob], arm, symmetry="X") == {"FINISHED"}
+    reference = B.weights_matrix(ob, names)
+    for scale in ((2.0, 1.0, 0.5), (-1.0, 1.0, 1.0)):
+        B.place_armature_keep_bones(arm, Matrix.Diagonal((*scale, 1.0)))
+        assert bind([ob], arm, symmetry="X") == {"FINISHED"}
+        np.testing.assert_allclose(B.weights_matrix(ob, names), reference, atol=1e-4, err_msg=str(scale))
+
+
 def test_locked_group_is_not_changed():
     ob = B.cylinder()
     arm = B.chain()

@@ -50,6 +50,12 @@ def joints_of(arm, ends):
     return j
 
 
+def world_joints(arm, ends):
+    """``joints_of`` in world space."""
+    m = np.array(arm.matrix_world)
+    return joints_of(arm, ends) @ m[:3, :3].T + m[:3, 3]
+
+
 def set_joints(arm, joints, ends):
     """Move every bone end to its joint (Edit Mode), keeping connections."""
     builders.set_active(arm)
@@ -106,6 +112,29 @@ def test_fit_creature_halves_error_and_leaves_none_outside():
     for b in arm.data.bones:
         if b.use_connect:
             assert np.allclose(b.head_local, b.parent.tail_local, atol=1e-6)
+
+
+def test_fit_does_not_depend_on_the_armatures_scale():
+    """The fit works in the armature's frame at world size: an armature object scaled unevenly
+    (an imported rig), with its bones where they were in the scene, is fitted to the same world
+    joints (read in its scaled space the creature's cross-sections were stretched: 6 % of the
+    diagonal off). A zero scale is a clear error that changes nothing."""
+    from mathutils import Matrix
+
+    body, arm, ends, orig, moved, diag = creature_setup(seed=1)
+    assert bpy.ops.armature.miniskeleton_fit_skeleton() == {"FINISHED"}
+    reference = world_joints(arm, ends)
+    set_joints(arm, moved, ends)
+    builders.place_armature_keep_bones(arm, Matrix.Diagonal((1.0, 2.0, 0.5, 1.0)))
+    builders.select_for_parenting([body], arm)
+    assert bpy.ops.armature.miniskeleton_fit_skeleton() == {"FINISHED"}
+    np.testing.assert_allclose(world_joints(arm, ends), reference, atol=1e-5 * diag)
+    arm.scale.y = 0.0
+    before = edit_state(arm)
+    builders.select_for_parenting([body], arm)
+    with pytest.raises(RuntimeError, match="has a zero scale"):
+        bpy.ops.armature.miniskeleton_fit_skeleton()
+    assert edit_state(arm) == before
 
 
 def test_fit_ignores_a_stray_vertex_far_away():
