@@ -53,6 +53,20 @@ def rest_matrices(arm: bpy.types.Object, names: list[str]) -> np.ndarray:
                     dtype=np.float32).reshape(-1, 3, 3)
 
 
+def motion_skeleton(arm: bpy.types.Object, bones) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """World heads, tails and rest orientations (``rest_matrices``) of ``bones`` for the core.
+    An armature mirrored by a negative scale is given as its mirror image across world x = 0:
+    there its rest frames are rotations again, and the local rotations that make that image walk
+    make the armature itself walk (its mirror image's motion, mirrored back)."""
+    heads, tails = bones.heads.copy(), bones.tails.copy()
+    rest = rest_matrices(arm, bones.names)
+    if arm.matrix_world.to_3x3().determinant() < 0:
+        heads[:, 0] *= -1
+        tails[:, 0] *= -1
+        rest[:, 0, :] *= -1
+    return heads, tails, rest
+
+
 def action_fcurves(ob: bpy.types.Object) -> list:
     """F-curves of ``ob``'s action for its own slot (Blender 4.4+ channelbags, else legacy)."""
     ad = ob.animation_data
@@ -198,9 +212,10 @@ class MINISKELETON_OT_add_motion(bpy.types.Operator):
             return {"CANCELLED"}
         scene = context.scene
         fps = scene.render.fps / scene.render.fps_base
+        heads, tails, rest = motion_skeleton(arm, bones)
         try:
             out = core.make_motion(
-                bones.heads, bones.tails, bones.parents, rest_matrices(arm, bones.names), self.motion,
+                heads, tails, bones.parents, rest, self.motion,
                 names=bones.names, fps=fps, cycles=self.cycles, duration=self.duration,
                 amplitude=self.amplitude, stride=self.stride, speed=self.speed,
                 root_motion=self.root_motion)
@@ -228,6 +243,11 @@ class MINISKELETON_OT_add_motion(bpy.types.Operator):
         self.report({"INFO"}, f"{label} ({roles['plan']}): frames {start}-{end}; head "
                     f"{bones.names[roles['head']]}, legs {legs}; spine "
                     f"{', '.join(bones.names[i] for i in roles['spine'])} (full list in the console)")
+        scale = arm.matrix_world.to_scale()
+        if max(scale) > 1.001 * min(scale):
+            self.report({"WARNING"}, f"Armature '{arm.name}' is scaled unevenly ({scale.x:.3g}, {scale.y:.3g}, "
+                        f"{scale.z:.3g}): its bones shear as they turn, so the motion looks stretched; "
+                        "apply the scale first (Ctrl+A > Scale)")
         driven = sorted(driven_rotation_bones(arm) & {bones.names[int(b)] for b in out["animated"]})
         if driven:
             self.report({"WARNING"}, f"{len(driven)} keyed bone(s) have rotation drivers, which "

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 from mathutils import Matrix, Vector
 
+import blender_session
 import builders as B
 import creature
 
@@ -183,6 +184,31 @@ def test_walk_feet_alternate_in_phase():
     # the root moved forward (-Y) over the walk
     travelled = tails_over_frames(arm, ["spine"], [start, start + 2 * fpc])["spine"]
     assert travelled[1][1] < travelled[0][1] - 0.5
+
+
+def test_mirrored_armature_walks_as_the_mirror_image_of_its_twin(capfd):
+    """An armature mirrored by a negative scale (its bones where its unmirrored twin's are) walks
+    as the mirror image of the twin's walk, left and right swapped: its rest frames are not
+    rotations, and read as they are they made a different, wrong motion. An unevenly scaled
+    armature gets a warning (its bones shear as they turn)."""
+    def walk(matrix):
+        blender_session.reset_scene()
+        arm = creature.build_armature()
+        if matrix is not None:
+            B.place_armature_keep_bones(arm, matrix)
+        assert add_motion(arm, motion="WALK", cycles=1) == {"FINISHED"}
+        scene = bpy.context.scene
+        names = [b.name for b in arm.data.bones]
+        return names, tails_over_frames(arm, names, range(scene.frame_start, scene.frame_end + 1, 2))
+
+    names, twin = walk(None)
+    _, mirrored = walk(Matrix.Diagonal((-1.0, 1.0, 1.0, 1.0)))
+    swap = {n: n[:-2] + {".L": ".R", ".R": ".L"}.get(n[-2:], n[-2:]) for n in names}
+    for n in names:
+        np.testing.assert_allclose(mirrored[n], twin[swap[n]] * [-1, 1, 1], atol=1e-4, err_msg=n)
+    capfd.readouterr()
+    walk(Matrix.Diagonal((1.0, 2.0, 0.5, 1.0)))
+    assert "is scaled unevenly (1, 2, 0.5)" in "".join(capfd.readouterr())
 
 
 def test_head_shake_moves_head_not_feet_and_walk_appends():
