@@ -266,6 +266,15 @@ def _angle(v) -> float:
     return math.atan2(v[2], v[0])
 
 
+def _plane_turn(m: Matrix) -> float:
+    """The in-plane angle that undoes the figure's tilt in armature space: the world matrix in
+    the picture plane is a rotation by the tilt t, after a mirror for a puppet turned round by a
+    scale of -1 (f = -1), M = R(t) diag(f, 1); a level bone keeps its rest look when it turns by
+    -f t in armature space (R(t) diag(f, 1) R(-f t) = diag(f, 1))."""
+    flip = -1.0 if m[0][0] * m[2][2] - m[0][2] * m[2][0] < 0 else 1.0
+    return flip * _angle(flip * m.col[0])
+
+
 def _limits(pb, axis="z"):
     if getattr(pb, f"use_ik_limit_{axis}"):
         return getattr(pb, f"ik_min_{axis}"), getattr(pb, f"ik_max_{axis}")
@@ -351,7 +360,7 @@ def solve_puppet(rig: bpy.types.Object) -> dict:
     rods = puppet_rods(rig)
     pose = _Pose(rig)
     inv = rig.matrix_world.inverted()
-    arm_angle = _angle(rig.matrix_world.col[0])       # the figure's in-plane tilt in the world
+    turn = _plane_turn(rig.matrix_world)
     pbones = rig.pose.bones
     reports = {}
     driven = set(puppet.driven_bones(tpl))
@@ -399,7 +408,7 @@ def solve_puppet(rig: bpy.types.Object) -> dict:
             name = drv[1]
             rest = _angle(pose.bones[name].matrix_local.col[1])
             zero = _angle(pose.rest_frame(name).col[1])
-            z = puppet.clamp(puppet.wrap(rest - arm_angle - zero), *_limits(pbones[name]))
+            z = puppet.clamp(puppet.wrap(rest - turn - zero), *_limits(pbones[name]))
             pose.set_z(name, z)
         elif kind == "turn" and drv[1] in pbones and drv[2] in rods:
             name = drv[1]

@@ -209,6 +209,32 @@ def test_three_rod_legs_hang_down_when_the_figure_tilts():
         assert d.normalized().dot(Vector((0, 0, -1))) > 1 - 1e-6
 
 
+@pytest.mark.parametrize("kind", ["THREE_ROD", "FIVE_ROD"])
+def test_a_puppet_turned_round_by_a_scale_of_minus_one_keeps_its_feet_level(kind):
+    """Shadow puppets turn round by flipping over; here the main rod scaled by -1 on X (its
+    rotations are locked to the plane). The feet keep the mirror image of their rest look at any
+    tilt (they were 17 to 43 degrees off: the mirror was read as a half turn), and the rods
+    are still reached."""
+    def foot_angle(rig):
+        d = tip_world(rig, "foot.L") - head_world(rig, "foot.L")
+        return math.atan2(d.z, d.x)
+
+    rig, rods = add(kind)
+    rest = foot_angle(rig)
+    main = rig.parent
+    main.scale.x = -1.0
+    for tilt in (0.0, 15.0, -20.0):
+        main.rotation_euler.y = math.radians(tilt)
+        settle()
+        assert abs(T.wrap(foot_angle(rig) - (math.pi - rest))) < 1e-4, (tilt, math.degrees(foot_angle(rig)))
+        base, tip = head_world(rig, ARM[0]), tip_world(rig, ARM[-1])
+        target = base + 0.7 * (tip - base) + Vector((0.05, 0.0, 0.05))
+        rods["hand.R"].matrix_world.translation = target
+        settle()
+        assert (tip_world(rig, ARM[-1]) - target).length < 2e-3 * reach(rig, ARM), tilt
+        assert_within_limits(rig)
+
+
 def test_live_update_on_frame_change_with_animated_rods():
     rig, rods = add("FIVE_ROD")
     hand = rods["hand.R"]
