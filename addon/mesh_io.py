@@ -69,6 +69,15 @@ def read_only(*blocks) -> str | None:
     return None
 
 
+def in_edit_mode(meshes) -> str | None:
+    """Why ``meshes`` cannot be written now, or None: in Edit Mode a mesh's edits live apart
+    from its data until Edit Mode ends, which then overwrites what an operator wrote."""
+    editing = [ob.name for ob in meshes if ob.mode == "EDIT"]
+    if editing:
+        return f"Mesh in Edit Mode: {name_list(editing)}; leave Edit Mode first"
+    return None
+
+
 def name_list(names: list[str], most: int = 5) -> str:
     """The first ``most`` names for a report, comma-separated, with " ..." when there are more."""
     return ", ".join(names[:most]) + (" ..." if len(names) > most else "")

@@ -133,13 +133,14 @@ class MINISKELETON_OT_fit_skeleton(bpy.types.Operator):
         if not meshes:
             self.report({"ERROR"}, "No mesh selected: select the mesh(es), then the armature (active)")
             return None
+        editing = mesh_io.in_edit_mode(meshes)
+        if editing:
+            self.report({"ERROR"}, editing)
+            return None
         parts, faceless = [], []
         # Bone-parented parts are read where they are in the rest pose, as the bones are.
         with mesh_io.rest_pose(arm, meshes):
             for ob in meshes:
-                if ob.mode == "EDIT":
-                    self.report({"ERROR"}, f"Mesh '{ob.name}' is in Edit Mode; leave Edit Mode first")
-                    return None
                 v, t = mesh_io.shaped_world_mesh(ob)
                 v = v.astype(np.float64)
                 if len(v) == 0 or len(t) == 0:
@@ -328,6 +329,9 @@ def _rig_context(op, context):
     if not meshes:
         op.report({"ERROR"}, "No mesh: select the skinned mesh(es) or bind a mesh to the armature")
         return None
+    for ob in meshes:  # export what the rigger sees, edits made in Edit Mode included
+        if ob.mode == "EDIT":
+            ob.update_from_editmode()
     return arm, meshes
 
 
@@ -373,9 +377,9 @@ class MINISKELETON_OT_import_npz(bpy.types.Operator, ImportHelper):
         meshes = [ob for ob in context.selected_objects if ob.type == "MESH"]
         if not meshes and context.active_object is not None and context.active_object.type == "MESH":
             meshes = [context.active_object]
-        locked = mesh_io.read_only(*[ob.data for ob in meshes])
+        locked = mesh_io.read_only(*[ob.data for ob in meshes]) or mesh_io.in_edit_mode(meshes)
         if locked:
-            self.report({"ERROR"}, locked)
+            self.report({"ERROR"}, locked + "; nothing was changed")
             return {"CANCELLED"}
         try:
             rig = rig_io.load_npz(self.filepath)

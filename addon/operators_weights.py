@@ -154,9 +154,9 @@ class MINISKELETON_OT_auto_weights(bpy.types.Operator):
         if locked:
             self.report({"ERROR"}, locked + "; nothing was changed")
             return None
-        editing = [ob.name for ob in meshes if ob.mode == "EDIT"]
+        editing = mesh_io.in_edit_mode(meshes)
         if editing:
-            self.report({"ERROR"}, f"Mesh in Edit Mode: {', '.join(editing)}; leave Edit Mode first")
+            self.report({"ERROR"}, editing)
             return None
         scale = max(arm.dimensions.length, 1e-30)
         bones = mesh_io.armature_bones(arm, min_length=1e-6 * scale)

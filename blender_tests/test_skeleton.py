@@ -517,6 +517,38 @@ def test_npz_round_trip_and_mismatch(tmp_path):
     assert len(other.vertex_groups) == 0
 
 
+def test_npz_and_edit_mode(tmp_path):
+    """Import onto a mesh in Edit Mode is refused up front (it was a traceback after removing
+    some of the mesh's groups: Edit Mode keeps the mesh's data apart until it ends); export
+    reads what the rigger sees, a vertex added in Edit Mode included (it exported the mesh
+    as it was when Edit Mode began)."""
+    import bmesh
+
+    ob, arm = bound_cylinder("IDW")
+    names = [b.name for b in arm.data.bones]
+    path = str(tmp_path / "rig.npz")
+    builders.set_active(arm, selected=[ob])
+    assert bpy.ops.export_scene.miniskeleton_npz(filepath=path) == {"FINISHED"}
+    before = builders.weights_matrix(ob, names)
+    builders.set_active(ob)
+    bpy.ops.object.mode_set(mode="EDIT")
+    with pytest.raises(RuntimeError, match="Mesh in Edit Mode: Body; leave Edit Mode first; nothing was changed"):
+        bpy.ops.import_scene.miniskeleton_npz(filepath=path)
+    bm = bmesh.from_edit_mesh(ob.data)
+    bm.verts.new((0.0, 0.0, 10.0))
+    bmesh.update_edit_mesh(ob.data)
+    builders.set_active(arm, selected=[ob])
+    assert ob.mode == "EDIT"
+    assert bpy.ops.export_scene.miniskeleton_npz(filepath=path) == {"FINISHED"}
+    with np.load(path) as f:
+        assert f["vertices"].shape == (len(before) + 1, 3)
+        assert np.allclose(f["vertices"][-1], (0.0, 0.0, 10.0))
+    builders.set_active(ob)
+    bpy.ops.object.mode_set(mode="OBJECT")
+    assert [g.name for g in ob.vertex_groups] == names
+    assert np.array_equal(builders.weights_matrix(ob, names)[:-1], before)
+
+
 def _bundle(n, **over):
     """A two-bone bundle for ``n`` vertices (A 0.75, B 0.25 everywhere), with ``over`` replaced."""
     rig = dict(format_version=np.int32(1), vertices=np.zeros((n, 3), np.float32),
