@@ -583,7 +583,7 @@ class MINISKELETON_OT_set_part_image(bpy.types.Operator, ImportHelper):
             self.report({"ERROR"}, "Select a bone of the puppet (Pose Mode) first")
             return {"CANCELLED"}
         part = next((ob for ob in rig.children if ob.get(PART_KEY) == name), None)
-        locked = mesh_io.read_only(part)
+        locked = mesh_io.read_only(part) or (part is not None and mesh_io.in_edit_mode([part]))
         if locked:
             self.report({"ERROR"}, locked)
             return {"CANCELLED"}

@@ -415,6 +415,20 @@ def test_set_part_image(tmp_path):
     assert tex and tex[0].image.filepath.endswith("face.png")
 
 
+def test_set_part_image_on_a_part_in_edit_mode_is_an_error(tmp_path):
+    """A part in Edit Mode cannot take a new mesh: the operator reported success and the part
+    kept its cut-out. Now a clear error, and nothing changes."""
+    rig, _ = add("THREE_ROD")
+    part = next(ob for ob in rig.children if ob.get(P.PART_KEY) == "head")
+    mesh, meshes = part.data, len(bpy.data.meshes)
+    B.set_active(part)
+    bpy.ops.object.mode_set(mode="EDIT")
+    with pytest.raises(RuntimeError, match=f"Mesh in Edit Mode: {part.name}; leave Edit Mode first"):
+        bpy.ops.object.miniskeleton_set_part_image(filepath=face_png(tmp_path), bone="head")
+    bpy.ops.object.mode_set(mode="OBJECT")
+    assert part.data == mesh and len(bpy.data.meshes) == meshes
+
+
 def test_set_part_image_of_a_file_that_is_not_an_image_is_an_error(tmp_path):
     """Blender "loads" any file as an image of size 0 x 0 (a pink texture): refuse it instead."""
     rig, _ = add("THREE_ROD")
