@@ -243,10 +243,10 @@ class MINISKELETON_OT_add_motion(bpy.types.Operator):
         self.report({"INFO"}, f"{label} ({roles['plan']}): frames {start}-{end}; head "
                     f"{bones.names[roles['head']]}, legs {legs}; spine "
                     f"{', '.join(bones.names[i] for i in roles['spine'])} (full list in the console)")
-        scale = arm.matrix_world.to_scale()
+        scale = [abs(s) for s in arm.matrix_world.to_scale()]  # negative for a mirror: even
         if max(scale) > 1.001 * min(scale):
-            self.report({"WARNING"}, f"Armature '{arm.name}' is scaled unevenly ({scale.x:.3g}, {scale.y:.3g}, "
-                        f"{scale.z:.3g}): its bones shear as they turn, so the motion looks stretched; "
+            self.report({"WARNING"}, f"Armature '{arm.name}' is scaled unevenly ({scale[0]:.3g}, {scale[1]:.3g}, "
+                        f"{scale[2]:.3g}): its bones shear as they turn, so the motion looks stretched; "
                         "apply the scale first (Ctrl+A > Scale)")
         driven = sorted(driven_rotation_bones(arm) & {bones.names[int(b)] for b in out["animated"]})
         if driven:

@@ -202,7 +202,9 @@ def test_mirrored_armature_walks_as_the_mirror_image_of_its_twin(capfd):
         return names, tails_over_frames(arm, names, range(scene.frame_start, scene.frame_end + 1, 2))
 
     names, twin = walk(None)
+    capfd.readouterr()
     _, mirrored = walk(Matrix.Diagonal((-1.0, 1.0, 1.0, 1.0)))
+    assert "scaled unevenly" not in "".join(capfd.readouterr())
     swap = {n: n[:-2] + {".L": ".R", ".R": ".L"}.get(n[-2:], n[-2:]) for n in names}
     for n in names:
         np.testing.assert_allclose(mirrored[n], twin[swap[n]] * [-1, 1, 1], atol=1e-4, err_msg=n)
