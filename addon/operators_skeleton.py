@@ -156,7 +156,7 @@ class MINISKELETON_OT_fit_skeleton(bpy.types.Operator):
             return None
         if faceless:
             self.report({"WARNING"}, f"Skipped {len(faceless)} mesh(es) without faces: "
-                        f"{', '.join(sorted(faceless)[:5])}")
+                        f"{mesh_io.name_list(sorted(faceless))}")
         return mesh_io.stack_meshes(parts)
 
     def execute(self, context):

@@ -141,14 +141,14 @@ class MINISKELETON_OT_auto_weights(bpy.types.Operator):
         others = [ob.name for ob in context.selected_objects if ob.type != "MESH" and ob != arm]
         if others:
             self.report({"WARNING"}, f"Skipped {len(others)} selected object(s) that are not meshes: "
-                        f"{', '.join(sorted(others)[:5])} (Object > Convert > Mesh to weight them)")
+                        f"{mesh_io.name_list(sorted(others))} (Object > Convert > Mesh to weight them)")
         empty = [ob for ob in meshes if len(ob.data.vertices) == 0]
         if len(empty) == len(meshes):
             self.report({"ERROR"}, f"Mesh '{empty[0].name}' has no vertices; nothing was changed")
             return None
         if empty:
             self.report({"WARNING"}, f"Skipped {len(empty)} selected mesh(es) without vertices: "
-                        f"{', '.join(sorted(ob.name for ob in empty)[:5])}")
+                        f"{mesh_io.name_list(sorted(ob.name for ob in empty))}")
             meshes = [ob for ob in meshes if ob not in empty]
         locked = mesh_io.read_only(*[b for ob in meshes for b in (ob, ob.data)])
         if locked:
@@ -166,7 +166,7 @@ class MINISKELETON_OT_auto_weights(bpy.types.Operator):
             return None
         if bones.skipped:
             self.report({"WARNING"}, f"Skipped {len(bones.skipped)} zero-length bone(s): "
-                        + ", ".join(bones.skipped[:5]))
+                        + mesh_io.name_list(bones.skipped))
         if self.selected_bones_only and not bones.selected.any():
             self.report({"ERROR"}, "Selected Bones Only is on, but no deform bone is selected")
             return None

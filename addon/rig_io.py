@@ -17,6 +17,7 @@ NPZ bundle (``FORMAT_VERSION`` 1), what RigNet-style learning pipelines read:
 from __future__ import annotations
 
 import json
+from collections import Counter
 from contextlib import contextmanager
 
 import bpy
@@ -350,7 +351,7 @@ def load_npz(path: str) -> dict:
     unusable = [s for s in names if not s or len(s.encode("utf-8")) > 63]
     if unusable:
         raise RigError(f"bone names must be 1 to 63 bytes (Blender's limit): {unusable[0][:70]!r}")
-    twice = sorted({s for s in names if names.count(s) > 1})
+    twice = sorted(s for s, count in Counter(names).items() if count > 1)
     if twice:
         raise RigError(f"bone names appear twice: {', '.join(twice[:5])}")
     if "mesh_names" in rig or "mesh_vertex_counts" in rig:
