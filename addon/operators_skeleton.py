@@ -165,10 +165,6 @@ class MINISKELETON_OT_fit_skeleton(bpy.types.Operator):
         arm = find_armature(context)
         if not _editable_armature(self, arm):
             return {"CANCELLED"}
-        inputs = self._inputs(context, arm)
-        if inputs is None:
-            return {"CANCELLED"}
-        verts, tris = inputs
         # Bones are stored in armature space, the mesh is read in the armature's frame: the
         # stretch S (the armature's scale) maps one to the other, p_frame = S p_armature.
         _, stretch, _ = mesh_io.armature_frame(arm)
@@ -177,6 +173,10 @@ class MINISKELETON_OT_fit_skeleton(bpy.types.Operator):
             self.report({"ERROR"}, f"Armature '{arm.name}' has a zero scale: set its Scale (Object "
                         "Properties > Transform) before fitting; nothing was changed")
             return {"CANCELLED"}
+        inputs = self._inputs(context, arm)
+        if inputs is None:
+            return {"CANCELLED"}
+        verts, tris = inputs
         mode = arm.mode
         pose_sel = {b.name: _pose_selected(arm, b.name) for b in arm.data.bones} if mode == "POSE" else {}
 
