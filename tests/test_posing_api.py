@@ -57,3 +57,31 @@ def test_ik2d_multi_head_and_tail():
     angles, rep = msc.ik2d_solve_multi(lengths, eff)
     pts = msc.ik2d_forward(lengths, angles)
     assert math.dist(pts[8], (2.5, 1.0)) < 4e-3 and math.dist(pts[4], (1.5, 0.6)) < 4e-3
+
+
+def biped():
+    """Hips, spine, neck, head, two two-bone legs and two arms, +Z up, metres."""
+    heads = [[0, 0, 1], [0, 0, 1.2], [0, 0, 1.5], [0, 0, 1.6], [0.1, 0, 1], [0.1, 0, 0.5],
+             [-0.1, 0, 1], [-0.1, 0, 0.5], [0.2, 0, 1.45], [-0.2, 0, 1.45]]
+    tails = [[0, 0, 1.2], [0, 0, 1.5], [0, 0, 1.6], [0, 0, 1.8], [0.1, 0, 0.5], [0.1, 0, 0],
+             [-0.1, 0, 0.5], [-0.1, 0, 0], [0.5, 0, 1.45], [-0.5, 0, 1.45]]
+    names = ["hips", "spine", "neck", "head", "thigh.L", "shin.L", "thigh.R", "shin.R", "arm.L", "arm.R"]
+    return (np.array(heads, np.float32), np.array(tails, np.float32), np.array([-1, 0, 1, 2, 0, 4, 0, 6, 1, 1]),
+            np.tile(np.eye(3, dtype=np.float32), (10, 1, 1)), names)
+
+
+def test_make_motion_frames_and_a_clip_too_long_for_blender():
+    h, t, p, rest, names = biped()
+    shake = msc.make_motion(h, t, p, rest, "HEAD_SHAKE", names=names, fps=24, duration=2)
+    assert shake["frames"] == 49 and shake["rotations"].shape == (49, 10, 4)
+    assert np.isfinite(shake["rotations"]).all() and not shake["moves_root"]
+    walk = msc.make_motion(h, t, p, rest, "WALK", names=names, cycles=2)
+    assert walk["frames"] == 2 * walk["frames_per_cycle"] + 1 and walk["moves_root"]
+    # Clips past Blender's last frame (1048574) are refused before anything is allocated,
+    # where fps 1e9 x 1e9 s used to abort the process on a failed allocation.
+    for kw in (dict(fps=1e9, duration=1e9), dict(fps=1e30, duration=1e30)):
+        with pytest.raises(ValueError, match="frames"):
+            msc.make_motion(h, t, p, rest, "HEAD_SHAKE", names=names, **kw)
+    for kw in (dict(cycles=1e12), dict(speed=1e-30)):
+        with pytest.raises(ValueError, match="frames"):
+            msc.make_motion(h, t, p, rest, "WALK", names=names, **kw)

@@ -34,7 +34,8 @@ def test_fixed_joints_stay_and_options_are_checked(tube):
     out, _ = msc.fit_joints(v, t, start, chain(3), movable=np.array([True, False, True]))
     np.testing.assert_array_equal(out[1], start[1])
     assert abs(out[0, 0]) < 0.3 - 0.01
-    for bad in (dict(stub_ratio=-1.0), dict(max_move=0.0), dict(rays=2)):
+    # rays / samples past 1024 would be allocated before any work (10^12 aborted the process)
+    for bad in (dict(stub_ratio=-1.0), dict(max_move=0.0), dict(rays=2), dict(rays=10**12), dict(samples=10**12)):
         with pytest.raises(ValueError):
             msc.fit_joints(v, t, start, chain(3), **bad)
     with pytest.raises(ValueError):

@@ -136,6 +136,35 @@ def test_progress_callback_and_cancel(cyl):
         msc.heat_weights(v, t, h, tl, progress=lambda f: False)
 
 
+def test_a_failing_progress_callback_raises_its_own_error(cyl):
+    """A bug in the caller's callback stops the solve and surfaces as itself (with its
+    traceback), not as a cancel; a callback that cannot be called is a TypeError up front."""
+    v, t, h, tl, p = cyl
+
+    def broken(f):
+        raise KeyError("from the callback")
+
+    with pytest.raises(KeyError, match="from the callback"):
+        msc.heat_weights(v, t, h, tl, progress=broken)
+    with pytest.raises(TypeError, match="callable"):
+        msc.heat_weights(v, t, h, tl, progress=3)
+
+
+@pytest.mark.parametrize("fn", ["idw", "bilinear", "heat"])
+def test_more_influences_than_bones_gives_one_column_per_bone(cyl, fn):
+    """k = min(max_influences, bones): an absurd max_influences is not an allocation of
+    n x 2^40 slots (which aborted the process), just every bone."""
+    v, t, h, tl, p = cyl
+    call = {"idw": lambda k: msc.idw_weights(v, h, tl, max_influences=k),
+            "bilinear": lambda k: msc.bilinear_weights(v, h, tl, p, max_influences=k),
+            "heat": lambda k: msc.heat_weights(v, t, h, tl, max_influences=k)}[fn]
+    idx, w = call(2**40)
+    check_influences(idx, w, len(v), len(h), len(h))
+    i4, w4 = call(len(h))
+    np.testing.assert_array_equal(idx, i4)
+    np.testing.assert_array_equal(w, w4)
+
+
 def test_bad_inputs_raise_clear_errors(cyl):
     v, t, h, tl, p = cyl
     bad = v.copy()
@@ -154,6 +183,13 @@ def test_bad_inputs_raise_clear_errors(cyl):
         msc.idw_weights(v, h, tl, max_influences=0)
     with pytest.raises(ValueError):
         msc.heat_weights(v[:0], t[:0], h, tl)  # empty mesh
+    # Sizes that would not fit in memory are refused before anything is allocated.
+    with pytest.raises(ValueError, match="rings must be at most"):
+        msc.capped_cylinder(rings=10**12)
+    with pytest.raises(ValueError, match="bones must be at most"):
+        msc.bone_chain(bones=10**12)
+    with pytest.raises(ValueError, match="meshes"):
+        msc.touching_meshes(v, np.zeros(len(v), np.uint32), 10**12)
 
 
 def test_symmetric_mesh_symmetric_weights():
@@ -178,7 +214,7 @@ def test_heat_parents_make_imported_bones_reach_their_children():
     mid = (v[:, 2] > 0.4) & (v[:, 2] < 0.7)
     plain = dense(*msc.heat_weights(v, t, heads, tails), 2)
     reach = dense(*msc.heat_weights(v, t, heads, tails, parents=[-1, 0]), 2)
-    check_influences(*msc.heat_weights(v, t, heads, tails, parents=np.array([-1, 0])), len(v), 4, 2)
+    check_influences(*msc.heat_weights(v, t, heads, tails, parents=np.array([-1, 0])), len(v), 2, 2)  # k = min(4, bones)
     assert reach[mid, 0].mean() > 0.9 > plain[mid, 0].mean()
     # Roots only (no child anywhere) change nothing.
     np.testing.assert_array_equal(dense(*msc.heat_weights(v, t, heads, tails, parents=[-1, -1]), 2), plain)

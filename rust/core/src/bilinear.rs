@@ -26,7 +26,7 @@ pub struct BilinearOptions {
     pub nearest: usize,
     /// Radial falloff. Default Gaussian with automatic sigma.
     pub falloff: Falloff,
-    /// Bones kept per vertex (>= 1). Default 4.
+    /// Bones kept per vertex (>= 1; the result has min(this, bones) columns). Default 4.
     pub max_influences: usize,
 }
 
@@ -131,7 +131,7 @@ pub fn bilinear_weights(
         .collect();
 
     let kn = opts.nearest.min(b);
-    let mut out = Influences::empty(vertices.len(), opts.max_influences);
+    let mut out = Influences::empty(vertices.len(), opts.max_influences.min(b));
     let k = out.k;
     out.indices
         .par_chunks_mut(k)

@@ -46,14 +46,19 @@ pub struct Symmetry {
     pub mirror: Vec<i32>,
 }
 
+/// Most chord directions per cross-section (far past any gain; bounds the work and memory).
+pub const MAX_RAYS: usize = 1024;
+/// Most cross-sections per bone.
+pub const MAX_SAMPLES: usize = 1024;
+
 /// Options of [`fit_joints`].
 #[derive(Debug, Clone, PartialEq)]
 pub struct FitOptions {
     /// Mirrored pairs end exactly mirrored, centre-line joints on the plane.
     pub symmetry: Option<Symmetry>,
-    /// Lines (chord directions) per cross-section, >= 3.
+    /// Lines (chord directions) per cross-section, 3 ..= [`MAX_RAYS`].
     pub rays: usize,
-    /// Cross-sections per bone, >= 1, evenly spread over the inner 60 % of the bone.
+    /// Cross-sections per bone, 1 ..= [`MAX_SAMPLES`], evenly spread over the inner 60 % of the bone.
     pub samples: usize,
     /// Maximum rounds (centre lines, then joints).
     pub rounds: usize,
@@ -457,17 +462,17 @@ pub fn fit_joints(
             )));
         }
     }
-    if opts.rays < 3
-        || opts.samples < 1
+    if !(3..=MAX_RAYS).contains(&opts.rays)
+        || !(1..=MAX_SAMPLES).contains(&opts.samples)
         || !(opts.stiffness > 0.0)
         || !(opts.tolerance > 0.0)
         || !(opts.max_move > 0.0)
         || !(opts.stub_ratio >= 0.0)
     {
-        return Err(Error::InvalidArgument(
-            "fit options: rays >= 3, samples >= 1, stiffness > 0, tolerance > 0, max_move > 0 and stub_ratio >= 0"
-                .into(),
-        ));
+        return Err(Error::InvalidArgument(format!(
+            "fit options: rays 3..={MAX_RAYS}, samples 1..={MAX_SAMPLES}, stiffness > 0, tolerance > 0, \
+                 max_move > 0 and stub_ratio >= 0"
+        )));
     }
     let frame = Frame::of_mesh(vertices, triangles);
     let sym = match &opts.symmetry {

@@ -327,8 +327,8 @@ pub fn motion_clip(
 ) -> Result<Clip> {
     check(heads, tails, parents, rest, roles, params)?;
     match params.motion {
-        Motion::HeadShake => Ok(head_shake(heads, tails, rest, roles, params)),
-        Motion::Walk | Motion::Run => Ok(gait(heads, tails, parents, rest, roles, params)),
+        Motion::HeadShake => head_shake(heads, tails, rest, roles, params),
+        Motion::Walk | Motion::Run => gait(heads, tails, parents, rest, roles, params),
     }
 }
 
@@ -338,9 +338,30 @@ fn new_poser(rest: &[[f32; 9]]) -> Poser {
     Poser { rest, q: vec![Quat::IDENTITY; n], touched: vec![false; n] }
 }
 
-fn head_shake(heads: &[[f32; 3]], tails: &[[f32; 3]], rest: &[[f32; 9]], roles: &Roles, p: &GaitParams) -> Clip {
+/// Most frames in a clip: Blender's last frame (`MAXFRAME`), so any clip fits a scene.
+pub const MAX_FRAMES: usize = 1_048_574;
+
+/// `count` frames (rounded, at least `min`) plus the closing frame; an error past [`MAX_FRAMES`]
+/// (a huge fps, duration or cycles, or a tiny speed), before anything is allocated.
+fn frame_count(count: f32, min: f32) -> Result<usize> {
+    let c = count.round().max(min);
+    if !(c < MAX_FRAMES as f32) {
+        return Err(Error::InvalidArgument(format!(
+            "the clip would have {c} frames; at most {MAX_FRAMES} (Blender's last frame): lower the fps, duration or cycles, or raise the speed"
+        )));
+    }
+    Ok(c as usize + 1)
+}
+
+fn head_shake(
+    heads: &[[f32; 3]],
+    tails: &[[f32; 3]],
+    rest: &[[f32; 9]],
+    roles: &Roles,
+    p: &GaitParams,
+) -> Result<Clip> {
     let n = heads.len();
-    let frames = ((p.duration * p.fps).round() as usize).max(2) + 1;
+    let frames = frame_count(p.duration * p.fps, 2.0)?;
     let up = Vec3::from(roles.up);
     let fwd = Vec3::from(roles.forward);
     let mut poser = new_poser(rest);
@@ -365,7 +386,7 @@ fn head_shake(heads: &[[f32; 3]], tails: &[[f32; 3]], rest: &[[f32; 9]], roles: 
         rotations.extend(poser.q.iter().map(|&q| to_wxyz(q)));
     }
     let animated = (0..n).filter(|&b| poser.touched[b]).collect();
-    Clip {
+    Ok(Clip {
         frames,
         bone_count: n,
         rotations,
@@ -373,7 +394,7 @@ fn head_shake(heads: &[[f32; 3]], tails: &[[f32; 3]], rest: &[[f32; 9]], roles: 
         animated,
         moves_root: false,
         frames_per_cycle: (frames - 1) as f32 / p.cycles,
-    }
+    })
 }
 
 fn gait(
@@ -383,7 +404,7 @@ fn gait(
     rest: &[[f32; 9]],
     roles: &Roles,
     p: &GaitParams,
-) -> Clip {
+) -> Result<Clip> {
     let n = heads.len();
     let run = p.motion == Motion::Run;
     let biped = roles.plan == BodyPlan::Biped;
@@ -400,7 +421,7 @@ fn gait(
     let pendulum = (l / 0.9).sqrt().clamp(0.6, 1.6);
     let period = if run { 0.6 } else { 1.05 } * pendulum / p.speed;
     let fpc = (period * p.fps).round().max(8.0);
-    let frames = (p.cycles * fpc).round().max(1.0) as usize + 1;
+    let frames = frame_count(p.cycles * fpc, 1.0)?;
     let duty = match (run, quad) {
         (false, true) => 0.65,
         (false, false) => 0.6,
@@ -540,7 +561,7 @@ fn gait(
         rotations.extend(local);
     }
     let animated = (0..n).filter(|&b| poser.touched[b]).collect();
-    Clip { frames, bone_count: n, rotations, root_offset, animated, moves_root: true, frames_per_cycle: fpc }
+    Ok(Clip { frames, bone_count: n, rotations, root_offset, animated, moves_root: true, frames_per_cycle: fpc })
 }
 
 #[cfg(test)]

@@ -52,7 +52,7 @@ pub struct Symmetry {
 /// Options of [`heat_weights`].
 #[derive(Debug, Clone, PartialEq)]
 pub struct HeatOptions {
-    /// Bones kept per vertex (>= 1). Default 4.
+    /// Bones kept per vertex (>= 1; the result has min(this, bones) columns). Default 4.
     pub max_influences: usize,
     /// Pruning threshold relative to the kept total, see
     /// [`top_k_normalized`](crate::influence::top_k_normalized). Default 1e-3.
@@ -547,7 +547,7 @@ pub fn heat_weights(
     }
 
     // 11. Top-k per welded vertex, then copy to every input vertex.
-    let mut welded = Influences::empty(nw, opts.max_influences);
+    let mut welded = Influences::empty(nw, opts.max_influences.min(b));
     let k = welded.k;
     welded.indices.par_chunks_mut(k).zip(welded.weights.par_chunks_mut(k)).enumerate().with_min_len(1024).for_each(
         |(v, (idx, w))| {

@@ -12,7 +12,7 @@ use rayon::prelude::*;
 pub struct IdwOptions {
     /// Exponent `p` of the inverse distance (>= 0; 0 gives uniform weights). Default 2.
     pub power: f32,
-    /// Bones kept per vertex (>= 1). Default 4.
+    /// Bones kept per vertex (>= 1; the result has min(this, bones) columns). Default 4.
     pub max_influences: usize,
     /// Distance offset `eps`, relative to the mesh bounding-box diagonal (>= 0); keeps vertices
     /// lying on a bone finite. Default 1e-4.
@@ -62,7 +62,7 @@ pub fn idw_weights(
     let b = bones.len();
     let eps = opts.epsilon as f64;
     let p = opts.power as f64;
-    let mut out = Influences::empty(vertices.len(), opts.max_influences);
+    let mut out = Influences::empty(vertices.len(), opts.max_influences.min(b));
     let k = out.k;
     out.indices
         .par_chunks_mut(k)

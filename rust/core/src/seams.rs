@@ -7,6 +7,9 @@ use crate::mesh::{validate_mesh, Frame};
 use crate::weld::weld;
 use crate::{Error, Result};
 
+/// Most meshes [`touching_meshes`] takes (far more objects than a scene holds; bounds the memory).
+pub const MAX_MESHES: usize = 1 << 24;
+
 /// Group meshes that share at least `min_shared` vertex positions (welded within `tolerance`
 /// of the bounding-box diagonal of all of them, as [`crate::heat::heat_weights`] welds),
 /// transitively. Clothes over a body or a prop in a hand share no vertex and stay apart.
@@ -20,7 +23,8 @@ use crate::{Error, Result};
 /// Output: `(meshes,)` group of each mesh, numbered `0..` in order of each group's first mesh;
 /// a mesh with no vertices is its own group.
 ///
-/// Errors: `Shape` (lengths differ), `InvalidArgument` (mesh index, tolerance, min_shared),
+/// Errors: `Shape` (lengths differ), `InvalidArgument` (more than [`MAX_MESHES`], mesh index,
+/// tolerance, min_shared),
 /// `NonFinite`, `BadIndex` (a triangle past the end of `vertices`).
 pub fn touching_meshes(
     vertices: &[[f32; 3]],
@@ -32,6 +36,9 @@ pub fn touching_meshes(
 ) -> Result<Vec<u32>> {
     if mesh_of.len() != vertices.len() {
         return Err(Error::Shape(format!("{} mesh indices for {} vertices", mesh_of.len(), vertices.len())));
+    }
+    if meshes > MAX_MESHES {
+        return Err(Error::InvalidArgument(format!("{meshes} meshes; at most {MAX_MESHES} are taken")));
     }
     if let Some(&m) = mesh_of.iter().find(|&&m| m as usize >= meshes) {
         return Err(Error::InvalidArgument(format!("mesh index {m}, but there are {meshes} meshes")));

@@ -2,7 +2,18 @@
 
 use crate::convert::from_rows;
 use numpy::{PyArray1, PyArray2};
+use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
+
+/// Most rings, segments or bones a generator makes (16M vertices at most; bounds the memory).
+const MAX_COUNT: usize = 4096;
+
+fn at_most(count: usize, name: &str) -> PyResult<usize> {
+    if count > MAX_COUNT {
+        return Err(PyValueError::new_err(format!("{name} must be at most {MAX_COUNT}, got {count}")));
+    }
+    Ok(count)
+}
 
 /// A triangle mesh for Python: vertices float32 (n,3), triangles uint32 (m,3).
 type MeshArrays<'py> = (Bound<'py, PyArray2<f32>>, Bound<'py, PyArray2<u32>>);
@@ -19,7 +30,8 @@ pub fn capped_cylinder<'py>(
     rings: usize,
     segments: usize,
 ) -> PyResult<MeshArrays<'py>> {
-    let (v, t) = miniskeleton_core::primitives::capped_cylinder(radius, height, rings.max(1), segments.max(3));
+    let (rings, segments) = (at_most(rings, "rings")?.max(1), at_most(segments, "segments")?.max(3));
+    let (v, t) = miniskeleton_core::primitives::capped_cylinder(radius, height, rings, segments);
     Ok((from_rows(py, &v)?, from_rows(py, &t)?))
 }
 
@@ -27,7 +39,7 @@ pub fn capped_cylinder<'py>(
 #[pyfunction]
 #[pyo3(signature = (height=4.0, bones=4))]
 pub fn bone_chain<'py>(py: Python<'py>, height: f32, bones: usize) -> PyResult<ChainArrays<'py>> {
-    let (h, t, p) = miniskeleton_core::primitives::bone_chain(height, bones.max(1));
+    let (h, t, p) = miniskeleton_core::primitives::bone_chain(height, at_most(bones, "bones")?.max(1));
     Ok((from_rows(py, &h)?, from_rows(py, &t)?, PyArray1::from_vec(py, p)))
 }
 

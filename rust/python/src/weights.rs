@@ -7,9 +7,10 @@ use miniskeleton_core::heat::{heat_weights as core_heat, HeatOptions, HeatReport
 use miniskeleton_core::idw::{idw_weights as core_idw, IdwOptions};
 use miniskeleton_core::influence::Influences;
 use numpy::{AllowTypeChange, PyArray2, PyArrayLike1, PyArrayLike2};
-use pyo3::exceptions::PyValueError;
+use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
+use std::sync::Mutex;
 
 type F32Rows<'py> = PyArrayLike2<'py, f32, AllowTypeChange>;
 type Pair<'py> = (Bound<'py, PyArray2<i32>>, Bound<'py, PyArray2<f32>>);
@@ -189,18 +190,33 @@ pub fn heat_weights_report<'py>(
         parents: parents.map(|p| vector(&p)),
         ..HeatOptions::default()
     };
+    if let Some(cb) = &progress {
+        if !cb.bind(py).is_callable() {
+            return Err(PyTypeError::new_err("progress must be a callable taking the fraction done"));
+        }
+    }
     // A Python progress callable is called with the GIL re-acquired; returning False cancels.
+    // An exception it raises stops the solve too and is re-raised as itself, not as Cancelled.
+    let raised: Mutex<Option<PyErr>> = Mutex::new(None);
     let callback = progress.map(|cb| {
+        let raised = &raised;
         move |f: f32| -> bool {
-            Python::attach(|py| match cb.call1(py, (f,)) {
-                Ok(r) => r.is_none(py) || r.is_truthy(py).unwrap_or(true),
-                Err(_) => false,
+            Python::attach(|py| match cb.call1(py, (f,)).and_then(|r| Ok(r.is_none(py) || r.is_truthy(py)?)) {
+                Ok(go_on) => go_on,
+                Err(e) => {
+                    raised.lock().unwrap_or_else(|p| p.into_inner()).get_or_insert(e);
+                    false
+                }
             })
         }
     });
-    let (inf, report) = guarded(py, || {
+    let solved = guarded(py, || {
         core_heat(&v, &tri, &h, &t, &opts, callback.as_ref().map(|c| c as &(dyn Fn(f32) -> bool + Sync)))
-    })?;
+    });
+    if let Some(e) = raised.into_inner().unwrap_or_else(|p| p.into_inner()) {
+        return Err(e);
+    }
+    let (inf, report) = solved?;
     let (i, w) = to_pair(py, inf)?;
     Ok((i, w, report_dict(py, &report)?))
 }
