@@ -575,7 +575,7 @@ class MINISKELETON_OT_make_video(bpy.types.Operator):
 
     bl_idname = "render.miniskeleton_make_video"
     bl_label = "Make Video (MP4)"
-    bl_options = {"REGISTER"}
+    bl_options = {"REGISTER", "UNDO"}
 
     filepath: StringProperty(name="File", subtype="FILE_PATH", default="",
                              description="Output .mp4; empty = next to the .blend, else out/")

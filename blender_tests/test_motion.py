@@ -334,6 +334,28 @@ def test_video_path_that_cannot_be_written_is_an_error_and_adds_nothing(tmp_path
     assert bpy.context.scene.camera is None and not any(o.type == "LIGHT" for o in bpy.data.objects)
 
 
+def test_undo_after_a_video_takes_back_its_camera_and_light_only(tmp_path):
+    """Make Video adds a camera and a light to a scene without them: one Ctrl+Z takes those
+    back and nothing else. Without its own undo step, Ctrl+Z went back past the user's last
+    step (here: adding a cube) and left the camera and light in the scene."""
+    creature.build_body(subdivisions=0)
+    scene = bpy.context.scene
+    scene.frame_start, scene.frame_end = 1, 2
+    bpy.ops.ed.undo_push(message="scene built")
+    bpy.ops.mesh.primitive_cube_add(location=(5, 0, 0))
+    bpy.ops.ed.undo_push(message="cube added")
+    before = sorted(o.name for o in bpy.data.objects)
+    # As from a menu: undo=True lets the operator's UNDO flag push its step, like the UI does.
+    assert bpy.ops.render.miniskeleton_make_video("EXEC_DEFAULT", True, filepath=str(tmp_path / "v.mp4"),
+                                                  resolution_x=32, resolution_y=32) == {"FINISHED"}
+    after = sorted(o.name for o in bpy.data.objects)
+    assert {o.type for o in bpy.data.objects if o.name not in before} == {"CAMERA", "LIGHT"}
+    bpy.ops.ed.undo()
+    assert sorted(o.name for o in bpy.data.objects) == before
+    bpy.ops.ed.redo()
+    assert sorted(o.name for o in bpy.data.objects) == after
+
+
 def test_menus_and_panel():
     assert hasattr(bpy.types, "MINISKELETON_PT_motion")
     for menu in ("VIEW3D_MT_pose", "TOPBAR_MT_render"):
