@@ -293,9 +293,31 @@ def dense_weights(indices: np.ndarray, weights: np.ndarray, bones: int) -> np.nd
 _OP_CALL_S, _OP_PER_OBJECT_S, _OP_PER_VERTEX_S, _ADD_CALL_S = 1e-4, 1.5e-5, 7.5e-9, 1e-6
 
 
+def paint_mask(ob: bpy.types.Object) -> tuple[np.ndarray | None, str]:
+    """The vertices to re-weight when ``ob`` is in Weight Paint mode with a selection mask on,
+    as Blender's Weights > Assign Automatic from Bones does: ((n,) bool, the mask's name), or
+    (None, "") when it is not in Weight Paint mode or no mask is on."""
+    me = ob.data
+    if ob.mode != "WEIGHT_PAINT" or not (me.use_paint_mask_vertex or me.use_paint_mask):
+        return None, ""
+    picked = np.zeros(len(me.vertices), dtype=bool)
+    if me.use_paint_mask_vertex:
+        me.vertices.foreach_get("select", picked)
+        return picked, "Vertex Selection"
+    faces = np.zeros(len(me.polygons), dtype=bool)
+    me.polygons.foreach_get("select", faces)
+    sizes = np.zeros(len(me.polygons), dtype=np.int32)
+    me.polygons.foreach_get("loop_total", sizes)
+    corners = np.zeros(len(me.loops), dtype=np.int32)
+    me.loops.foreach_get("vertex_index", corners)
+    picked[corners[np.repeat(faces, sizes)]] = True
+    return picked, "Face Selection"
+
+
 def write_vertex_groups(ob: bpy.types.Object, names: list[str], dense: np.ndarray,
-                        write: np.ndarray) -> list[str]:
-    """Replace the vertex groups named ``names[b]`` where ``write[b]`` with row ``dense[b]``.
+                        write: np.ndarray, only: np.ndarray | None = None) -> list[str]:
+    """Replace the vertex groups named ``names[b]`` where ``write[b]`` with row ``dense[b]``;
+    with ``only`` ((n,) bool, a Weight Paint mask), only those vertices' weights in them.
 
     Groups not named after a written bone are untouched; locked groups are left as they are.
     The last group written ends active, as after Blender's Ctrl+P; the mesh's active attribute
@@ -310,7 +332,9 @@ def write_vertex_groups(ob: bpy.types.Object, names: list[str], dense: np.ndarra
     calls = sum(int(np.count_nonzero(dense[b])) for b in groups)  # no copy of the rows
     per_op = _OP_CALL_S + _OP_PER_OBJECT_S * len(bpy.context.view_layer.objects) \
         + _OP_PER_VERTEX_S * dense.shape[1]
-    if calls * _ADD_CALL_S < len(groups) * per_op:
+    if only is not None:
+        _patch_groups(ob, names, dense, groups, only)
+    elif calls * _ADD_CALL_S < len(groups) * per_op:
         _add_groups(ob, names, dense, groups)
     else:
         _convert_hidden(ob, names, dense, groups)
@@ -364,6 +388,24 @@ def _add_groups(ob, names, dense, groups):
     starts, verts = [0] + cuts, verts.tolist()
     for start, end, g, w in zip(starts, cuts + [len(verts)], member[starts].tolist(), values[starts].tolist()):
         made[g].add(verts[start:end], w, "REPLACE")
+
+
+def _patch_groups(ob, names, dense, groups, only):
+    """Rewrite the masked vertices only: each group loses them, then gets their new weights
+    (one ``add`` per distinct weight); every other vertex keeps its weights exactly."""
+    picked = np.flatnonzero(only)
+    listed = picked.tolist()
+    for b in groups:
+        group = ob.vertex_groups.get(names[b]) or ob.vertex_groups.new(name=names[b])
+        group.remove(listed)
+        row = dense[b, picked]
+        order = np.argsort(row, kind="stable")
+        order = order[row[order] > 0]
+        verts, values = picked[order], row[order]
+        cuts = (np.flatnonzero(np.diff(values) != 0) + 1).tolist()
+        for start, end in zip([0] + cuts, cuts + [len(verts)]):
+            if end > start:
+                group.add(verts[start:end].tolist(), float(values[start]), "REPLACE")
 
 
 def _convert_groups(ob, names, dense, groups):

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import dataclasses
 import time
+from typing import NamedTuple
 
 import bpy
 import numpy as np
@@ -54,6 +55,17 @@ def find_meshes(context: bpy.types.Context) -> list[bpy.types.Object]:
         if context.mode == "PAINT_WEIGHT":
             meshes.append(active)
     return meshes
+
+
+class Prepared(NamedTuple):
+    """Everything read and checked before computing: the armature, its bones, the inputs
+    [(mesh, name, vertices, triangles)], linked duplicates [(mesh, the mesh it shares data
+    with)] and Weight Paint masks {mesh: ((n,) bool, mask name)}."""
+    arm: bpy.types.Object
+    bones: mesh_io.Bones
+    inputs: list
+    linked: list
+    masks: dict
 
 
 class MINISKELETON_OT_auto_weights(bpy.types.Operator):
@@ -175,9 +187,8 @@ class MINISKELETON_OT_auto_weights(bpy.types.Operator):
     # ------------------------------------------------------------------ run
 
     def _prepare(self, context):
-        """Validate and read every input: (armature, bones, inputs [(mesh, name, world vertices,
-        triangles)], linked [(duplicate, mesh it shares data with)]) or None (reported). With
-        Heat's X symmetry, vertices and bones are in the armature's space instead of world."""
+        """Validate and read every input (``Prepared``) or return None (reported). With Heat's X
+        symmetry, vertices and bones are in the armature's space instead of world."""
         checked = self._validate(context)
         if checked is None:
             return None
@@ -190,12 +201,22 @@ class MINISKELETON_OT_auto_weights(bpy.types.Operator):
         inputs = []
         # Linked duplicates (Alt+D) share one mesh, and Blender keeps vertex weights in the
         # mesh: compute them once, on the first of those objects; the others get the modifier.
-        owner, linked = {}, []
+        owner, linked, masks = {}, [], {}
         for ob in meshes:
             if ob.data in owner:
                 linked.append((ob, owner[ob.data]))
                 continue
             owner[ob.data] = ob
+            # Weight Paint with a selection mask re-weights the selected vertices only, as
+            # Blender's Assign Automatic from Bones does; the whole mesh is still solved.
+            picked, mask = mesh_io.paint_mask(ob)
+            if picked is not None:
+                if not picked.any():
+                    self.report({"ERROR"}, f"Weight Paint {mask} mask is on, but no vertex of '{ob.name}' "
+                                "is selected: select the vertices to re-weight, or turn the mask off; "
+                                "nothing was changed")
+                    return None
+                masks[ob] = (picked, mask)
             verts = mesh_io.mesh_world_vertices(ob)
             bad = int((~np.isfinite(verts)).any(axis=1).sum())
             if bad:
@@ -206,7 +227,7 @@ class MINISKELETON_OT_auto_weights(bpy.types.Operator):
                 verts = mesh_io.to_armature_frame(arm, verts)
             tris = mesh_io.mesh_triangles(ob) if self.method == "HEAT" else None
             inputs.append((ob, ob.name, verts, tris))
-        return arm, bones, inputs, linked
+        return Prepared(arm, bones, inputs, linked, masks)
 
     def _settings(self, bones) -> dict:
         """The options as plain values, safe to use from a worker thread."""
@@ -224,12 +245,16 @@ class MINISKELETON_OT_auto_weights(bpy.types.Operator):
 
     def _write(self, prepared, results, notes, secs):
         """Write groups, modifier and parent for every mesh (main thread), then report."""
-        arm, bones, inputs, linked = prepared
+        arm, bones, inputs, linked, masks = prepared
         write = bones.selected if self.selected_bones_only else np.ones(len(bones.names), bool)
-        kept_locked = set()
+        kept_locked, partial = set(), []
         for ob, i, w in results:
             dense = mesh_io.dense_weights(i, w, len(bones.names))
-            kept_locked.update(mesh_io.write_vertex_groups(ob, bones.names, dense, write))
+            picked, mask = masks.get(ob, (None, ""))
+            kept_locked.update(mesh_io.write_vertex_groups(ob, bones.names, dense, write, only=picked))
+            if picked is not None:
+                partial.append(f"only the {int(picked.sum())} of {len(picked)} vertices of '{ob.name}' "
+                               f"selected for the Weight Paint {mask} mask")
             mesh_io.ensure_armature_modifier(ob, arm)
             mesh_io.parent_keep_transform(ob, arm)
         for ob in [r[0] for r in results] + [ob for ob, _ in linked]:
@@ -254,6 +279,8 @@ class MINISKELETON_OT_auto_weights(bpy.types.Operator):
                f"{secs:.2f} s")
         if self.method == "HEAT" and self._reach_children(bones):
             msg += "; bones reach their children (imported rig, see Bone Extent)"
+        if partial:
+            msg += "; re-weighted " + ", ".join(partial)
         if kept_locked:
             notes.append(f"locked groups kept: {', '.join(sorted(kept_locked)[:5])}")
         for note in notes:
@@ -270,7 +297,7 @@ class MINISKELETON_OT_auto_weights(bpy.types.Operator):
         return self._run_blocking(context, core, prepared)
 
     def _run_blocking(self, context, core, prepared):
-        _, bones, inputs, _ = prepared
+        bones, inputs = prepared.bones, prepared.inputs
         wm = context.window_manager
         wm.progress_begin(0, 1000)
         start = time.perf_counter()
@@ -299,7 +326,7 @@ class MINISKELETON_OT_auto_weights(bpy.types.Operator):
         prepared = self._prepare(context)
         if prepared is None:
             return {"CANCELLED"}
-        _, bones, inputs, _ = prepared
+        bones, inputs = prepared.bones, prepared.inputs
         if sum(len(v) for _, _, v, _ in inputs) < BACKGROUND_VERTICES:
             return self._run_blocking(context, core, prepared)
         self._prepared = prepared
