@@ -40,6 +40,8 @@ def heat_weights(
     progress: Optional[Callable[[float], Optional[bool]]] = None,
 ) -> Influences:
     """Bone-heat weights (Baran & Popovic 2007) on the position-welded surface; never leaves a vertex unweighted.
+    progress(fraction) is called while solving: returning False cancels (Cancelled); an exception
+    it raises stops the solve and propagates as itself.
     bone_mirror (b,): mirror bone of each bone (itself for centre bones, -1 for a side bone with no
     partner); with it, mirrored vertices get mirrored weights (symmetry_axis, symmetry_tolerance).
     parents (b,): parent bone of each bone (-1 for roots), for imported (glTF/FBX) rigs whose tails
