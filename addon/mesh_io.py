@@ -449,12 +449,20 @@ def idle_armature_modifiers(ob: bpy.types.Object, arm_ob: bpy.types.Object) -> l
             and not (m.use_vertex_groups and (m.show_viewport or m.show_render))]
 
 
-def parent_keep_transform(ob: bpy.types.Object, arm_ob: bpy.types.Object) -> None:
-    """Parent ``ob`` to ``arm_ob`` (object parenting) without moving it in world space."""
+def parent_keep_transform(ob: bpy.types.Object, arm_ob: bpy.types.Object) -> bool:
+    """Parent ``ob`` to ``arm_ob`` (object parenting) without moving it in world space. False,
+    changing nothing, when ``ob`` is an ancestor of ``arm_ob`` (a loop, which Blender refuses:
+    its Armature modifier deforms it all the same)."""
     if ob.parent == arm_ob and ob.parent_type == "OBJECT":
-        return
+        return True
+    up = arm_ob
+    while up is not None:
+        if up == ob:
+            return False
+        up = up.parent
     world = ob.matrix_world.copy()
     ob.parent = arm_ob
     ob.parent_type = "OBJECT"
     ob.matrix_parent_inverse = arm_ob.matrix_world.inverted_safe()
     ob.matrix_basis = (arm_ob.matrix_world @ ob.matrix_parent_inverse).inverted_safe() @ world
+    return True

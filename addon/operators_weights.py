@@ -255,9 +255,16 @@ class MINISKELETON_OT_auto_weights(bpy.types.Operator):
             if picked is not None:
                 partial.append(f"only the {int(picked.sum())} of {len(picked)} vertices of '{ob.name}' "
                                f"selected for the Weight Paint {mask} mask")
+        written = [r[0] for r in results] + [ob for ob, _ in linked]
+        loops = []
+        for ob in written:
             mesh_io.ensure_armature_modifier(ob, arm)
-            mesh_io.parent_keep_transform(ob, arm)
-        for ob in [r[0] for r in results] + [ob for ob, _ in linked]:
+            if not mesh_io.parent_keep_transform(ob, arm):
+                loops.append(ob.name)
+        if loops:
+            notes.append(f"'{arm.name}' is a child of {mesh_io.name_list(loops)}, so they were not parented "
+                         "to it (a loop); their Armature modifier deforms them all the same")
+        for ob in written:
             idle = mesh_io.idle_armature_modifiers(ob, arm)
             if idle:
                 notes.append(f"'{ob.name}': its Armature modifier {', '.join(idle)} for '{arm.name}' has Vertex "
@@ -269,8 +276,6 @@ class MINISKELETON_OT_auto_weights(bpy.types.Operator):
                              "armature, left as they were: they deform it too (remove or disable them "
                              "if the mesh moves twice)")
         for ob, first in linked:
-            mesh_io.ensure_armature_modifier(ob, arm)
-            mesh_io.parent_keep_transform(ob, arm)
             notes.append(f"'{ob.name}' shares its mesh with '{first.name}': weights computed once, "
                          f"from '{first.name}'")
         nverts = sum(len(v) for _, _, v, _ in inputs)

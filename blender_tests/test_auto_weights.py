@@ -157,6 +157,38 @@ def test_another_armatures_modifier_is_kept_and_named_in_a_warning(capfd):
     assert "also has Armature modifier" not in "".join(capfd.readouterr())
 
 
+def test_a_mesh_that_carries_its_armature_is_weighted_and_not_parented_in_a_loop(capfd):
+    """A body that carries its own rig (the armature is the mesh's child, as for a vehicle) gets
+    its groups and modifier, is not parented to its own child (Blender refuses that loop: 'Loop
+    in parents') and stays where it was. Before, the refused parent left a stray parent inverse
+    matrix on the mesh, and nothing said why it was not parented."""
+    ob = B.cylinder()
+    ob.location = (2.0, 1.0, 0.5)
+    arm = B.chain()
+    arm.location = ob.location
+    bpy.context.view_layer.update()
+    arm.parent = ob
+    arm.matrix_parent_inverse = ob.matrix_world.inverted()
+    bpy.context.view_layer.update()
+    world = ob.matrix_world.copy()
+    capfd.readouterr()
+    assert bind([ob], arm, method="HEAT") == {"FINISHED"}
+    assert f"'{arm.name}' is a child of Cylinder, so they were not parented" in "".join(capfd.readouterr())
+    assert ob.parent is None and arm.parent is ob
+    np.testing.assert_array_equal(np.array(ob.matrix_parent_inverse), np.eye(4))
+    np.testing.assert_allclose(np.array(ob.matrix_world), np.array(world), atol=1e-6)
+    assert sorted(g.name for g in ob.vertex_groups) == NAMES
+    assert [m.object for m in ob.modifiers if m.type == "ARMATURE"] == [arm]
+    # The modifier deforms it: bending the top bone moves the top, not the bottom.
+    rest = B.evaluated_world_vertices(ob)
+    arm.pose.bones["Bone3"].rotation_mode = "XYZ"
+    arm.pose.bones["Bone3"].rotation_euler = (0.5, 0, 0)
+    bpy.context.view_layer.update()
+    moved = np.linalg.norm(B.evaluated_world_vertices(ob) - rest, axis=1)
+    z = B.world_vertices(ob)[:, 2] - ob.location.z
+    assert moved[z > 3.8].min() > 0.1 and moved[z < 2.0].max() < 1e-5
+
+
 def test_foreign_groups_untouched_bone_groups_replaced():
     ob = B.cylinder()
     arm = B.chain()
