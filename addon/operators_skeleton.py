@@ -354,12 +354,13 @@ class MINISKELETON_OT_export_npz(bpy.types.Operator, ExportHelper):
         arm, meshes = found
         try:
             rig = rig_io.collect_rig(arm, meshes, self.max_influences)
-            rig_io.save_npz(self.filepath, rig)
-        except (rig_io.RigError, OSError) as err:
-            self.report({"ERROR"}, str(err))
+            path = rig_io.output_path(self.filepath, self.filename_ext)
+            rig_io.save_npz(path, rig)
+        except rig_io.RigError as err:
+            self.report({"ERROR"}, f"Not exported: {err}")
             return {"CANCELLED"}
         self.report({"INFO"}, f"Exported {len(rig['vertices'])} vertices, {len(rig['bone_names'])} bones "
-                    f"(k = {rig['indices'].shape[1]}) to {self.filepath}")
+                    f"(k = {rig['indices'].shape[1]}) to {path}")
         return {"FINISHED"}
 
 
@@ -406,14 +407,18 @@ class MINISKELETON_OT_export_json(bpy.types.Operator, ExportHelper):
         if found is None:
             return {"CANCELLED"}
         arm, meshes = found
-        data = rig_io.rig_json(arm, meshes)
         try:
-            with open(self.filepath, "w", encoding="utf-8") as f:
+            data = rig_io.rig_json(arm, meshes)
+            path = rig_io.output_path(self.filepath, self.filename_ext)
+            with open(path, "w", encoding="utf-8") as f:
                 json.dump(data, f, indent=1)
-        except OSError as err:
-            self.report({"ERROR"}, str(err))
+        except rig_io.RigError as err:
+            self.report({"ERROR"}, f"Not exported: {err}")
             return {"CANCELLED"}
-        self.report({"INFO"}, f"Exported {len(data['joints'])} joints, {len(data['bones'])} bones to {self.filepath}")
+        except OSError as err:
+            self.report({"ERROR"}, f"Not exported: cannot write '{path}': {err.strerror or err}")
+            return {"CANCELLED"}
+        self.report({"INFO"}, f"Exported {len(data['joints'])} joints, {len(data['bones'])} bones to {path}")
         return {"FINISHED"}
 
 

@@ -17,8 +17,10 @@ NPZ bundle (``FORMAT_VERSION`` 1), what RigNet-style learning pipelines read:
 from __future__ import annotations
 
 import json
+import zipfile
 from collections import Counter
 from contextlib import contextmanager
+from pathlib import Path
 
 import bpy
 import numpy as np
@@ -312,17 +314,52 @@ def collect_rig(arm_ob, meshes, max_influences: int = 0) -> dict:
     }
 
 
-def save_npz(path: str, rig: dict) -> None:
-    np.savez_compressed(path, **rig)
+def output_path(filepath: str, ext: str) -> Path:
+    """Where an export writes: ``filepath`` made absolute (``//`` is the .blend's folder), with
+    ``ext`` added when it has another or none (as Blender's file browser does), its folder made.
+    RigError when no file name is given or the folder cannot be made."""
+    if not filepath.strip():
+        raise RigError("no file name given")
+    path = Path(bpy.path.abspath(filepath))
+    if path.is_dir() or filepath.endswith(("/", "\\")):
+        raise RigError(f"'{path}' is a folder: give a file name")
+    if path.suffix.lower() != ext:
+        path = path.with_name(path.name + ext)
+    blocker = next((p for p in path.parents if p.exists()), None)
+    if blocker is not None and not blocker.is_dir():
+        raise RigError(f"cannot write '{path}': '{blocker}' is a file, not a folder")
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as err:
+        raise RigError(f"cannot write '{path}': {err.strerror or err}") from err
+    return path
 
 
-def load_npz(path: str) -> dict:
+def save_npz(path: Path, rig: dict) -> None:
+    """Write the bundle (compressed); RigError when the file cannot be written."""
+    try:
+        np.savez_compressed(path, **rig)
+    except OSError as err:
+        raise RigError(f"cannot write '{path}': {err.strerror or err}") from err
+
+
+def load_npz(filepath: str) -> dict:
     """Read and check a bundle (shapes, types, weights finite in [0, 1], bone names usable as
     vertex groups); raises RigError with the reason. Byte-string names are decoded as UTF-8."""
+    if not filepath.strip():
+        raise RigError("no file given")
+    path = Path(bpy.path.abspath(filepath))
+    try:
+        with open(path, "rb"):
+            pass
+    except OSError as err:
+        raise RigError(f"cannot read '{path}': {err.strerror or err}") from err
+    if not zipfile.is_zipfile(path):
+        raise RigError(f"'{path}' is not an .npz rig bundle (not a zip of arrays)")
     try:
         with np.load(path, allow_pickle=False) as f:
             rig = {k: f[k] for k in f.files}
-    except (OSError, ValueError, EOFError) as err:
+    except (OSError, ValueError, EOFError, zipfile.BadZipFile) as err:
         raise RigError(f"cannot read '{path}': {err}") from err
     missing = [k for k in ("format_version", "vertices", "bone_names", "indices", "weights") if k not in rig]
     if missing:

@@ -517,6 +517,34 @@ def test_npz_round_trip_and_mismatch(tmp_path):
     assert len(other.vertex_groups) == 0
 
 
+def test_export_paths_like_blenders_exporters(tmp_path, monkeypatch):
+    """Export paths as from a script: the extension is added when missing, missing folders are
+    made, and a folder, a file in the way or no name at all is a clear error that writes
+    nothing. Before, an empty path wrote '.npz' into the working directory, a folder path wrote
+    '<folder>.npz' beside it, the JSON export wrote 'plain' without its extension and failed on
+    a missing folder, and a JSON file imported as a bundle said 'Cannot load file containing
+    pickled data'."""
+    ob, arm = bound_cylinder("IDW")
+    builders.set_active(arm, selected=[ob])
+    work = tmp_path / "cwd"
+    work.mkdir()
+    monkeypatch.chdir(work)
+    for op, ext in ((bpy.ops.export_scene.miniskeleton_npz, ".npz"),
+                    (bpy.ops.export_scene.miniskeleton_json, ".json")):
+        assert op(filepath=str(tmp_path / "plain")) == {"FINISHED"}
+        assert (tmp_path / f"plain{ext}").is_file() and not (tmp_path / "plain").exists()
+        assert op(filepath=str(tmp_path / "new" / "deeper" / f"rig{ext}")) == {"FINISHED"}
+        assert (tmp_path / "new" / "deeper" / f"rig{ext}").is_file()
+        for bad, why in (("", "no file name given"), (str(tmp_path), "is a folder"),
+                         (str(tmp_path / f"plain{ext}" / f"x{ext}"), "is a file, not a folder")):
+            with pytest.raises(RuntimeError, match=why):
+                op(filepath=bad)
+        assert not list(work.iterdir()) and not (tmp_path.parent / f"{tmp_path.name}{ext}").exists()
+    builders.set_active(ob)
+    with pytest.raises(RuntimeError, match="is not an .npz rig bundle"):
+        bpy.ops.import_scene.miniskeleton_npz(filepath=str(tmp_path / "plain.json"))
+
+
 def test_npz_and_edit_mode(tmp_path):
     """Import onto a mesh in Edit Mode is refused up front (it was a traceback after removing
     some of the mesh's groups: Edit Mode keeps the mesh's data apart until it ends); export
