@@ -729,6 +729,14 @@ mod tests {
         let bad = GaitParams { fps: 0.0, ..Default::default() };
         assert!(motion_clip(&h, &t, &p, &rest, &roles, &bad).is_err());
         assert!(motion_clip(&h, &t, &p, &rest[1..], &roles, &GaitParams::default()).is_err());
+        // Clips past Blender's last frame are refused before anything is allocated.
+        for (motion, fps, duration, cycles) in
+            [(Motion::HeadShake, 1e9, 1e9, 1.0), (Motion::HeadShake, 1e30, 1e30, 1.0), (Motion::Walk, 24.0, 2.0, 1e12)]
+        {
+            let long = GaitParams { motion, fps, duration, cycles, ..Default::default() };
+            let err = motion_clip(&h, &t, &p, &rest, &roles, &long).unwrap_err().to_string();
+            assert!(err.contains("frames"), "{err}");
+        }
     }
 
     #[test]

@@ -41,6 +41,9 @@ fn idw_rows_sum_to_one_and_strongest_is_nearest() {
     let inf = idw_weights(&v, &h, &t, &IdwOptions::default()).unwrap();
     assert_eq!(inf.n(), v.len());
     assert_eq!(inf.k, 4);
+    // More influences than bones: one column per bone (not n x max_influences slots).
+    let many = idw_weights(&v, &h, &t, &IdwOptions { max_influences: 1 << 40, ..Default::default() }).unwrap();
+    assert_eq!(many.k, h.len());
     assert_rows_sum_to_one(&inf);
     let mut checked = 0;
     for (i, p) in v.iter().enumerate() {
