@@ -12,6 +12,7 @@ from __future__ import annotations
 import re
 from contextlib import contextmanager
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import bpy
 import numpy as np
@@ -81,6 +82,21 @@ def in_edit_mode(meshes) -> str | None:
 def name_list(names: list[str], most: int = 5) -> str:
     """The first ``most`` names for a report, comma-separated, with " ..." when there are more."""
     return ", ".join(names[:most]) + (" ..." if len(names) > most else "")
+
+
+def make_folder(path: Path) -> str | None:
+    """Make the folder the file ``path`` goes in (and its parents): None, or why it cannot be
+    written there (for the exports' and Make Video's reports)."""
+    if path.is_dir():
+        return "it is a folder"
+    blocker = next((p for p in path.parents if p.exists()), None)
+    if blocker is not None and not blocker.is_dir():
+        return f"'{blocker}' is a file, not a folder"
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as err:
+        return err.strerror or str(err)
+    return None
 
 
 def keyed_action(ob: bpy.types.Object) -> bpy.types.Action | None:
@@ -373,21 +389,11 @@ def _replace_group(ob, name):
 
 def _add_groups(ob, names, dense, groups):
     """One ``VertexGroup.add`` per distinct weight of each group (a rigid part: one call)."""
-    rows = dense[groups]
-    member, verts = np.nonzero(rows)
-    values = rows[member, verts]
-    order = np.lexsort((values, member))  # by group, then by weight
-    member, verts, values = member[order], verts[order], values[order]
-    cuts = (np.flatnonzero((np.diff(member) != 0) | (np.diff(values) != 0)) + 1).tolist()
     made = []
     for b in groups:
         _replace_group(ob, names[b])
         made.append(ob.vertex_groups.new(name=names[b]))
-    if len(verts) == 0:
-        return
-    starts, verts = [0] + cuts, verts.tolist()
-    for start, end, g, w in zip(starts, cuts + [len(verts)], member[starts].tolist(), values[starts].tolist()):
-        made[g].add(verts[start:end], w, "REPLACE")
+    _add_runs(made, dense[groups], np.arange(dense.shape[1]))
 
 
 def _patch_groups(ob, names, dense, groups, only):
@@ -395,17 +401,27 @@ def _patch_groups(ob, names, dense, groups, only):
     (one ``add`` per distinct weight); every other vertex keeps its weights exactly."""
     picked = np.flatnonzero(only)
     listed = picked.tolist()
+    made = []
     for b in groups:
         group = ob.vertex_groups.get(names[b]) or ob.vertex_groups.new(name=names[b])
         group.remove(listed)
-        row = dense[b, picked]
-        order = np.argsort(row, kind="stable")
-        order = order[row[order] > 0]
-        verts, values = picked[order], row[order]
-        cuts = (np.flatnonzero(np.diff(values) != 0) + 1).tolist()
-        for start, end in zip([0] + cuts, cuts + [len(verts)]):
-            if end > start:
-                group.add(verts[start:end].tolist(), float(values[start]), "REPLACE")
+        made.append(group)
+    _add_runs(made, dense[groups][:, picked], picked)
+
+
+def _add_runs(made, rows, verts_of):
+    """Add row ``g`` of ``rows`` (its non-zero weights, column j being vertex ``verts_of[j]``) to
+    group ``made[g]``, one ``add`` call per run of vertices with the same weight."""
+    member, cols = np.nonzero(rows)
+    values = rows[member, cols]
+    order = np.lexsort((values, member))  # by group, then by weight
+    member, verts, values = member[order], verts_of[cols[order]], values[order]
+    if len(verts) == 0:
+        return
+    cuts = (np.flatnonzero((np.diff(member) != 0) | (np.diff(values) != 0)) + 1).tolist()
+    starts, verts = [0] + cuts, verts.tolist()
+    for start, end, g, w in zip(starts, cuts + [len(verts)], member[starts].tolist(), values[starts].tolist()):
+        made[g].add(verts[start:end], w, "REPLACE")
 
 
 def _convert_groups(ob, names, dense, groups):

@@ -598,12 +598,11 @@ class MINISKELETON_OT_make_video(bpy.types.Operator):
         path = Path(bpy.path.abspath(self.filepath)) if self.filepath else default_video_path(scene)
         if path.suffix.lower() != ".mp4":
             path = path.with_suffix(".mp4")
-        try:
-            path.parent.mkdir(parents=True, exist_ok=True)
-            if path.is_dir() or not os.access(path.parent, os.W_OK):
-                raise PermissionError(13, "not a writable file")
-        except OSError as err:
-            self.report({"ERROR"}, f"Cannot write the video to {path}: {err.strerror or err}")
+        why = mesh_io.make_folder(path)
+        if why is None and not os.access(path.parent, os.W_OK):
+            why = "its folder is not writable"
+        if why is not None:
+            self.report({"ERROR"}, f"Cannot write the video to {path}: {why}")
             return {"CANCELLED"}
         if scene.camera is None or self.camera in ("NEW", "FOLLOW"):
             if self.camera == "SCENE":

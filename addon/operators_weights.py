@@ -287,7 +287,7 @@ class MINISKELETON_OT_auto_weights(bpy.types.Operator):
         if partial:
             msg += "; re-weighted " + ", ".join(partial)
         if kept_locked:
-            notes.append(f"locked groups kept: {', '.join(sorted(kept_locked)[:5])}")
+            notes.append(f"locked groups kept: {mesh_io.name_list(sorted(kept_locked))}")
         for note in notes:
             self.report({"WARNING"}, note)
         self.report({"INFO"}, msg)

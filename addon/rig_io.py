@@ -325,13 +325,9 @@ def output_path(filepath: str, ext: str) -> Path:
         raise RigError(f"'{path}' is a folder: give a file name")
     if path.suffix.lower() != ext:
         path = path.with_name(path.name + ext)
-    blocker = next((p for p in path.parents if p.exists()), None)
-    if blocker is not None and not blocker.is_dir():
-        raise RigError(f"cannot write '{path}': '{blocker}' is a file, not a folder")
-    try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-    except OSError as err:
-        raise RigError(f"cannot write '{path}': {err.strerror or err}") from err
+    why = mesh_io.make_folder(path)
+    if why is not None:
+        raise RigError(f"cannot write '{path}': {why}")
     return path
 
 
@@ -350,17 +346,18 @@ def load_npz(filepath: str) -> dict:
         raise RigError("no file given")
     path = Path(bpy.path.abspath(filepath))
     try:
-        with open(path, "rb"):
-            pass
+        fh = open(path, "rb")
     except OSError as err:
         raise RigError(f"cannot read '{path}': {err.strerror or err}") from err
-    if not zipfile.is_zipfile(path):
-        raise RigError(f"'{path}' is not an .npz rig bundle (not a zip of arrays)")
-    try:
-        with np.load(path, allow_pickle=False) as f:
-            rig = {k: f[k] for k in f.files}
-    except (OSError, ValueError, EOFError, zipfile.BadZipFile) as err:
-        raise RigError(f"cannot read '{path}': {err}") from err
+    with fh:
+        if not zipfile.is_zipfile(fh):
+            raise RigError(f"'{path}' is not an .npz rig bundle (not a zip of arrays)")
+        fh.seek(0)
+        try:
+            with np.load(fh, allow_pickle=False) as f:
+                rig = {k: f[k] for k in f.files}
+        except (OSError, ValueError, EOFError, zipfile.BadZipFile) as err:
+            raise RigError(f"cannot read '{path}': {err}") from err
     missing = [k for k in ("format_version", "vertices", "bone_names", "indices", "weights") if k not in rig]
     if missing:
         raise RigError(f"'{path}' is not a MiniSkeleton rig bundle (missing {', '.join(missing)})")
@@ -390,7 +387,7 @@ def load_npz(filepath: str) -> dict:
         raise RigError(f"bone names must be 1 to 63 bytes (Blender's limit): {unusable[0][:70]!r}")
     twice = sorted(s for s, count in Counter(names).items() if count > 1)
     if twice:
-        raise RigError(f"bone names appear twice: {', '.join(twice[:5])}")
+        raise RigError(f"bone names appear twice: {mesh_io.name_list(twice)}")
     if "mesh_names" in rig or "mesh_vertex_counts" in rig:
         counts = rig.get("mesh_vertex_counts", np.zeros(0, np.int32))
         if (len(rig.get("mesh_names", ())) != len(counts) or counts.dtype.kind not in "iu"
