@@ -438,15 +438,15 @@ def _convert_groups(ob, names, dense, groups):
 
 
 def ensure_armature_modifier(ob: bpy.types.Object, arm_ob: bpy.types.Object) -> bool:
-    """Add an Armature modifier (first in the stack) deforming ``ob`` by ``arm_ob`` unless one exists."""
+    """Add an Armature modifier deforming ``ob`` by ``arm_ob`` unless one exists, last in the
+    stack as Blender's Ctrl+P adds it: after a Mirror modifier, whose mirrored half then follows
+    the mirrored (.R) groups rather than repeating the .L side's pose."""
     for mod in ob.modifiers:
         if mod.type == "ARMATURE" and mod.object == arm_ob:
             return False
     mod = ob.modifiers.new(name=arm_ob.name, type="ARMATURE")
     mod.object = arm_ob
     mod.use_vertex_groups = True
-    # First in the stack, as Blender's own Ctrl+P does: deform before Subdivision & co.
-    ob.modifiers.move(len(ob.modifiers) - 1, 0)
     return True
 
 

@@ -148,7 +148,7 @@ def test_another_armatures_modifier_is_kept_and_named_in_a_warning(capfd):
     bind([ob], old)
     capfd.readouterr()
     assert bind([ob], new) == {"FINISHED"}
-    assert [(m.type, m.object) for m in ob.modifiers] == [("ARMATURE", new), ("ARMATURE", old)]
+    assert [(m.type, m.object) for m in ob.modifiers] == [("ARMATURE", old), ("ARMATURE", new)]
     out = "".join(capfd.readouterr())
     assert f"'{ob.name}' also has Armature modifier(s) OldRig for another armature" in out
     ob.modifiers["OldRig"].show_viewport = ob.modifiers["OldRig"].show_render = False
@@ -189,6 +189,45 @@ def test_a_mesh_that_carries_its_armature_is_weighted_and_not_parented_in_a_loop
     assert moved[z > 3.8].min() > 0.1 and moved[z < 2.0].max() < 1e-5
 
 
+def test_a_half_modelled_with_a_mirror_modifier_poses_one_side_only():
+    """Characters are often modelled as one half with a Mirror modifier. The new Armature
+    modifier goes last in the stack, where Blender's Ctrl+P puts it, so the mirrored half follows
+    the mirrored (.R) groups: raising the left arm moves the left arm only. Before, it went first
+    and the Mirror modifier copied the left arm's pose onto the right (147 vertices moved)."""
+    import blender_session
+    import bmesh
+    import creature
+
+    def setup():
+        blender_session.reset_scene()
+        body, arm = creature.build_body(subdivisions=1), creature.build_armature()
+        bm = bmesh.new()
+        bm.from_mesh(body.data)
+        bmesh.ops.bisect_plane(bm, geom=bm.verts[:] + bm.edges[:] + bm.faces[:], plane_co=(0, 0, 0),
+                               plane_no=(1, 0, 0), clear_inner=True)
+        bm.to_mesh(body.data)
+        bm.free()
+        mirror = body.modifiers.new("Mirror", "MIRROR")
+        mirror.use_clip, mirror.use_mirror_merge = True, False
+        body.modifiers.new("Subdivision", "SUBSURF")
+        B.select_for_parenting([body], arm)
+        return body, arm
+
+    body, arm = setup()
+    assert bpy.ops.object.parent_set(type="ARMATURE_NAME") == {"FINISHED"}
+    blenders = [m.type for m in body.modifiers]
+    body, arm = setup()
+    assert bpy.ops.object.miniskeleton_auto_weights() == {"FINISHED"}
+    assert [m.type for m in body.modifiers] == blenders == ["MIRROR", "SUBSURF", "ARMATURE"]
+    rest = B.evaluated_world_vertices(body)
+    arm.pose.bones["upper_arm.L"].rotation_mode = "XYZ"
+    arm.pose.bones["upper_arm.L"].rotation_euler = (0.0, 0.0, 1.2)
+    bpy.context.view_layer.update()
+    moved = np.linalg.norm(B.evaluated_world_vertices(body) - rest, axis=1)
+    assert (moved[rest[:, 0] > 0.05] > 0.1).sum() > 100
+    assert moved[rest[:, 0] < -0.05].max() < 1e-5
+
+
 def test_foreign_groups_untouched_bone_groups_replaced():
     ob = B.cylinder()
     arm = B.chain()
@@ -207,7 +246,7 @@ def test_foreign_groups_untouched_bone_groups_replaced():
     bottom = B.world_vertices(ob)[:, 2] < 0.5
     assert (w[bottom, 3] == 0).all() and (w[bottom, 0] > 0.5).all()
     assert ob.modifiers.get("Keep") == other_mod and other_mod.type == "SUBSURF"
-    assert [m.type for m in ob.modifiers] == ["ARMATURE", "SUBSURF"]  # deform first
+    assert [m.type for m in ob.modifiers] == ["SUBSURF", "ARMATURE"]  # added last, as Ctrl+P does
     assert not ob.hide_viewport  # hidden only while the groups are written
 
 
