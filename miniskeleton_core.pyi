@@ -72,6 +72,14 @@ def touching_meshes(vertices: ArrayLike, mesh_of: ArrayLike, meshes: int, *,
     stacked, mesh_of (n,) the mesh of each vertex, triangles (m,3) of all meshes stacked: the bbox of
     the vertices they use sets the scale (a stray loose vertex does not); without them, all vertices."""
 
+def catmull_clark_limit(vertices: ArrayLike, face_sizes: ArrayLike, face_vertices: ArrayLike, *,
+                        keep_corners: bool = False) -> npt.NDArray[np.float32]:
+    """Catmull-Clark limit positions (n,3) of a polygon mesh's vertices: where a cage's vertices lie on
+    the smooth surface of its Subdivision Surface modifier (as Blender's OpenSubdiv puts them; creases
+    not read). face_sizes (f,) corners per face, face_vertices their vertex indices face after face.
+    keep_corners: a boundary vertex of one face stays put (Blender's "Keep Corners"); loose and
+    non-manifold vertices stay where they are."""
+
 def capped_cylinder(radius: float = 0.5, height: float = 4.0, rings: int = 32, segments: int = 32
                     ) -> Tuple[npt.NDArray[np.float32], npt.NDArray[np.uint32]]:
     """Closed capped cylinder along +Z from z=0 to z=height."""

@@ -43,6 +43,28 @@ def mesh_world_vertices(ob: bpy.types.Object) -> np.ndarray:
     return _world(ob, _positions(ob.data))
 
 
+def smoothing_modifier(ob: bpy.types.Object):
+    """``ob``'s first Catmull-Clark Subdivision Surface modifier that shows (in the viewport or
+    the render, at a level above 0), or None. Blender's Ctrl+P With Automatic Weights weights
+    such a cage where its vertices lie on the smooth surface (their limit positions)."""
+    for m in ob.modifiers:
+        if m.type == "SUBSURF" and m.subdivision_type == "CATMULL_CLARK" and (
+                (m.show_viewport and m.levels > 0) or (m.show_render and m.render_levels > 0)):
+            return m
+    return None
+
+
+def mesh_polygons(ob: bpy.types.Object) -> tuple[np.ndarray, np.ndarray]:
+    """``ob``'s faces as corners per face (f,) uint32 and their vertex indices face after face
+    (sum of the former,) uint32."""
+    me = ob.data
+    sizes = np.empty(len(me.polygons), dtype=np.uint32)
+    me.polygons.foreach_get("loop_total", sizes)
+    corners = np.empty(len(me.loops), dtype=np.uint32)
+    me.loops.foreach_get("vertex_index", corners)
+    return sizes, corners
+
+
 def _positions(me: bpy.types.Mesh) -> np.ndarray:
     """``me``'s vertex positions, flat float32 (3n,)."""
     co = np.empty(len(me.vertices) * 3, dtype=np.float32)

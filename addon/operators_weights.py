@@ -223,6 +223,15 @@ class MINISKELETON_OT_auto_weights(bpy.types.Operator):
                 self.report({"ERROR"}, f"Mesh '{ob.name}' has {bad} vertices with NaN or infinite "
                             "coordinates; nothing was changed")
                 return None
+            smoothing = mesh_io.smoothing_modifier(ob)
+            if smoothing is not None:
+                # A subdivided cage is weighted where its vertices lie on the smooth surface,
+                # as Ctrl+P does (Catmull-Clark is affine: world space is as good as its own).
+                import miniskeleton_core as core
+
+                verts = core.catmull_clark_limit(
+                    verts, *mesh_io.mesh_polygons(ob),
+                    keep_corners=smoothing.boundary_smooth == "PRESERVE_CORNERS")
             if mirror_space:
                 verts = mesh_io.to_armature_frame(arm, verts)
             tris = mesh_io.mesh_triangles(ob) if self.method == "HEAT" else None

@@ -248,3 +248,27 @@ def test_touching_meshes_groups_objects_that_share_a_seam(cyl):
         msc.touching_meshes(np.vstack(parts), mesh_of, 2)
     with pytest.raises(ValueError):
         msc.touching_meshes(np.vstack(parts), mesh_of[1:], 3)
+
+
+def test_catmull_clark_limit_of_a_cube_and_bad_faces():
+    """The limit of a cube cage's corner is half way to the centre (valence 3: (9 (5/9) + 4 (3/2)
+    + 1) / 24 = 1/2); polygons of any size are read face after face; bad input is a ValueError."""
+    v = np.array([[x, y, z] for z in (-1, 1) for y in (-1, 1) for x in (-1, 1)], np.float32)
+    quads = [[0, 2, 3, 1], [4, 5, 7, 6], [0, 1, 5, 4], [2, 6, 7, 3], [0, 4, 6, 2], [1, 3, 7, 5]]
+    limit = msc.catmull_clark_limit(v, [4] * 6, np.ravel(quads))
+    assert limit.dtype == np.float32 and limit.shape == (8, 3)
+    np.testing.assert_allclose(limit, v / 2, atol=1e-6)
+    # The top face as two triangles: the corners lose their symmetry, the cage stays closed.
+    tri = quads[:1] + quads[2:]
+    sizes = [4] + [4] * 4 + [3, 3]
+    corners = np.concatenate([np.ravel(tri), [4, 5, 7, 4, 7, 6]])
+    split = msc.catmull_clark_limit(v, sizes, corners)
+    assert np.abs(split - v / 2).max() > 0.01 and np.all(np.abs(split) < 1)
+    with pytest.raises(ValueError, match="corners"):
+        msc.catmull_clark_limit(v, [4] * 5, np.ravel(quads))
+    with pytest.raises(ValueError, match="vertex 8"):
+        msc.catmull_clark_limit(v, [3], [0, 1, 8])
+    bad = v.copy()
+    bad[3, 0] = np.nan
+    with pytest.raises(ValueError, match="NaN"):
+        msc.catmull_clark_limit(bad, [4] * 6, np.ravel(quads))

@@ -8,6 +8,7 @@ pub mod error;
 pub use error::{Error, Result};
 
 // Mesh input, topology and operators.
+pub mod catmull_clark;
 pub mod cotan;
 pub mod islands;
 pub mod mesh;

@@ -248,3 +248,24 @@ pub fn touching_meshes<'py>(
         guarded(py, move || miniskeleton_core::seams::touching_meshes(&v, &m, meshes, &tri, tolerance, min_shared))?;
     Ok(numpy::PyArray1::from_vec(py, groups.into_iter().map(|g| g as i32).collect()))
 }
+
+/// Catmull-Clark limit positions (n, 3) float32 of a polygon mesh's vertices: where a cage's
+/// vertices lie on the smooth surface of its Subdivision Surface modifier. `face_sizes` (f,)
+/// corners per face, `face_vertices` their vertex indices face after face; `keep_corners`:
+/// a boundary vertex of one face stays put (Blender's "Keep Corners"). Creases are not read;
+/// loose and non-manifold vertices stay where they are.
+#[pyfunction]
+#[pyo3(signature = (vertices, face_sizes, face_vertices, *, keep_corners=false))]
+pub fn catmull_clark_limit<'py>(
+    py: Python<'py>,
+    vertices: F32Rows<'py>,
+    face_sizes: PyArrayLike1<'py, u32, AllowTypeChange>,
+    face_vertices: PyArrayLike1<'py, u32, AllowTypeChange>,
+    keep_corners: bool,
+) -> PyResult<Bound<'py, PyArray2<f32>>> {
+    let v = rows::<f32, 3>(&vertices, "vertices")?;
+    let (sizes, corners) = (vector(&face_sizes), vector(&face_vertices));
+    let limit =
+        guarded(py, move || miniskeleton_core::catmull_clark::limit_positions(&v, &sizes, &corners, keep_corners))?;
+    crate::convert::from_rows(py, &limit)
+}
