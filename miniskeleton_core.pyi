@@ -37,6 +37,7 @@ def heat_weights(
     max_influences: int = 4, min_weight: float = 1e-3, visibility: bool = True,
     weld_tolerance: float = 1e-5, heat_constant: float = 1.0, bone_mirror: Optional[ArrayLike] = None,
     symmetry_axis: int = 0, symmetry_tolerance: float = 1e-3, parents: Optional[ArrayLike] = None,
+    curve_points: Optional[ArrayLike] = None, curve_bones: Optional[ArrayLike] = None,
     progress: Optional[Callable[[float], Optional[bool]]] = None,
 ) -> Influences:
     """Bone-heat weights (Baran & Popovic 2007) on the position-welded surface; never leaves a vertex unweighted.
@@ -47,13 +48,17 @@ def heat_weights(
     parents (b,): parent bone of each bone (-1 for roots), for imported (glTF/FBX) rigs whose tails
     the importer invented: a bone whose children start away from its tail is then the segments
     from its head to their heads that lie inside the mesh (plus head -> tail when a child starts
-    there; head -> tail alone when no such segment is inside, e.g. a root on the ground)."""
+    there; head -> tail alone when no such segment is inside, e.g. a root on the ground).
+    curve_points (p,3) with curve_bones (p,): interior points of bent bones (Blender's B-Bones in
+    their rest curve), each bone's in order from head to tail; such a bone is the polyline
+    head -> points -> tail, as Blender's bone heat splits a B-Bone into its segments."""
 
 def heat_weights_report(
     vertices: ArrayLike, triangles: ArrayLike, bone_heads: ArrayLike, bone_tails: ArrayLike, *,
     max_influences: int = 4, min_weight: float = 1e-3, visibility: bool = True,
     weld_tolerance: float = 1e-5, heat_constant: float = 1.0, bone_mirror: Optional[ArrayLike] = None,
     symmetry_axis: int = 0, symmetry_tolerance: float = 1e-3, parents: Optional[ArrayLike] = None,
+    curve_points: Optional[ArrayLike] = None, curve_bones: Optional[ArrayLike] = None,
     progress: Optional[Callable[[float], Optional[bool]]] = None,
 ) -> Tuple[npt.NDArray[np.int32], npt.NDArray[np.float32], dict]:
     """As heat_weights, plus a report: pieces, fallback_pieces (saw no bone), rigid_pieces, boneless_pieces,

@@ -26,7 +26,9 @@ class Bones:
 
     names: bone names (b,); heads, tails: (b, 3) float32 world space; parents: (b,) int32
     index into these bones or -1; selected: (b,) bool; skipped: names of zero-length bones;
-    imported: the armature looks imported (see ``invented_tails``).
+    imported: the armature looks imported (see ``invented_tails``); curve_points (p, 3)
+    float32 world space and curve_bones (p,) uint32: the inner joints of each B-Bone's rest
+    curve (``bbone_curves``), head to tail.
     """
 
     names: list[str]
@@ -36,6 +38,8 @@ class Bones:
     selected: np.ndarray
     skipped: list[str] = field(default_factory=list)
     imported: bool = False
+    curve_points: np.ndarray = field(default_factory=lambda: np.zeros((0, 3), np.float32))
+    curve_bones: np.ndarray = field(default_factory=lambda: np.zeros(0, np.uint32))
 
 
 def mesh_world_vertices(ob: bpy.types.Object) -> np.ndarray:
@@ -246,8 +250,42 @@ def armature_bones(arm_ob: bpy.types.Object, min_length: float = 0.0) -> Bones:
             p = p.parent
         parents.append(index[p.name] if p is not None else -1)
     as3 = lambda rows: np.asarray(rows, dtype=np.float32).reshape(-1, 3)  # noqa: E731
+    points, owners = bbone_curves(arm_ob, names)
     return Bones(names, as3(heads), as3(tails), np.asarray(parents, dtype=np.int32),
-                 np.asarray(sel, dtype=bool), skipped, imported=invented_tails(arm_ob.data.bones))
+                 np.asarray(sel, dtype=bool), skipped, imported=invented_tails(arm_ob.data.bones),
+                 curve_points=as3(_world(arm_ob, points)), curve_bones=owners)
+
+
+def bbone_curves(arm_ob: bpy.types.Object, names: list[str]) -> tuple[np.ndarray, np.ndarray]:
+    """Inner joints of the rest curve of each of ``names`` that is a B-Bone (more than one
+    segment), in ``arm_ob``'s space, head to tail: (p, 3) float32 and the index into ``names``
+    of each, (p,) uint32. Blender's bone heat weights a B-Bone as these segments (its rest
+    shape is a curve when its handles or curve settings bend it)."""
+    points, owners = [], []
+    refreshed = False
+    for j, name in enumerate(names):
+        bone, pose_bone = arm_ob.data.bones[name], arm_ob.pose.bones.get(name) if arm_ob.pose else None
+        if bone.bbone_segments < 2 or pose_bone is None:
+            continue
+        joints = _bbone_joints(pose_bone, bone.bbone_segments)
+        if joints is None and not refreshed:  # out-of-date segment data: evaluate the armature once
+            refreshed = True
+            bpy.context.view_layer.update()
+            joints = _bbone_joints(pose_bone, bone.bbone_segments)
+        if joints is None:  # unreadable: the bone stays straight
+            continue
+        points += [tuple(bone.matrix_local @ joint) for joint in joints]
+        owners += [j] * len(joints)
+    return (np.asarray(points, dtype=np.float32).reshape(-1, 3), np.asarray(owners, dtype=np.uint32))
+
+
+def _bbone_joints(pose_bone: bpy.types.PoseBone, segments: int) -> list | None:
+    """The rest joints between ``pose_bone``'s B-Bone segments in bone space, or None when
+    Blender has no up-to-date segment data for it."""
+    try:
+        return [pose_bone.bbone_segment_matrix(k, rest=True).translation.copy() for k in range(1, segments)]
+    except RuntimeError:
+        return None
 
 
 def invented_tails(bones) -> bool:

@@ -197,7 +197,8 @@ class MINISKELETON_OT_auto_weights(bpy.types.Operator):
         mirror_space = self.method == "HEAT" and self.symmetry == "X"
         if mirror_space:
             bones = dataclasses.replace(bones, heads=mesh_io.to_armature_frame(arm, bones.heads),
-                                        tails=mesh_io.to_armature_frame(arm, bones.tails))
+                                        tails=mesh_io.to_armature_frame(arm, bones.tails),
+                                        curve_points=mesh_io.to_armature_frame(arm, bones.curve_points))
         inputs = []
         # Linked duplicates (Alt+D) share one mesh, and Blender keeps vertex weights in the
         # mesh: compute them once, on the first of those objects; the others get the modifier.
@@ -389,9 +390,12 @@ def mesh_weights(core, settings: dict, verts, tris, bones, progress):
             verts, bones.heads, bones.tails, bones.parents, max_influences=k, nearest=settings["nearest"],
             falloff=settings["falloff"], sigma=settings["sigma"], power=settings["power"])
         return i, w, None
+    curved = len(bones.curve_bones) > 0
     return core.heat_weights_report(
         verts, tris, bones.heads, bones.tails, max_influences=k, visibility=settings["visibility"],
-        bone_mirror=settings["mirror"], parents=settings["parents"], progress=progress)
+        bone_mirror=settings["mirror"], parents=settings["parents"],
+        curve_points=bones.curve_points if curved else None, curve_bones=bones.curve_bones if curved else None,
+        progress=progress)
 
 
 def compute_weights(core, settings: dict, bones, inputs, progress):

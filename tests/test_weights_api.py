@@ -272,3 +272,19 @@ def test_catmull_clark_limit_of_a_cube_and_bad_faces():
     bad[3, 0] = np.nan
     with pytest.raises(ValueError, match="NaN"):
         msc.catmull_clark_limit(bad, [4] * 6, np.ravel(quads))
+
+
+def test_heat_bent_bones_take_their_curve_points(cyl):
+    """A bone given inner curve points (a B-Bone's rest curve) is the polyline through them:
+    points on the straight bone change nothing, points off it do; the two go together."""
+    v, t = cyl[:2]
+    heads, tails = np.float32([[0, 0, 0], [0, 0, 2]]), np.float32([[0, 0, 2], [0, 0, 4]])
+    plain = msc.heat_weights(v, t, heads, tails)
+    on = msc.heat_weights(v, t, heads, tails, curve_points=[[0, 0, 3]], curve_bones=[1])
+    off = msc.heat_weights(v, t, heads, tails, curve_points=[[0.3, 0, 3]], curve_bones=[1])
+    np.testing.assert_allclose(dense(*on, 2), dense(*plain, 2), atol=1e-6)
+    assert np.abs(dense(*off, 2) - dense(*plain, 2)).max() > 0.05
+    with pytest.raises(ValueError, match="together"):
+        msc.heat_weights(v, t, heads, tails, curve_points=[[0, 0, 3]])
+    with pytest.raises(ValueError, match="bone 2"):
+        msc.heat_weights(v, t, heads, tails, curve_points=[[0, 0, 3]], curve_bones=[2])

@@ -21,7 +21,7 @@ use crate::cotan::{cotan_laplacian, stiffness_lower_csc, triangle_cotangents};
 use crate::idw::bones_in_frame;
 use crate::influence::{top_k_row, Influences};
 use crate::islands::connected_components;
-use crate::mesh::{validate_bones, validate_mesh, Frame};
+use crate::mesh::{count_non_finite, validate_bones, validate_mesh, Frame};
 use crate::orient::orient_faces;
 use crate::segment::closest_point_on_segment;
 use crate::symmetry::{mirror_map, symmetrize_columns, validate_bone_mirror};
@@ -88,6 +88,19 @@ pub struct HeatOptions {
     /// a bone with no such segment inside (a root on the ground) keeps head -> tail.
     /// Default `None`: every bone is head -> tail, as in Blender.
     pub parents: Option<Vec<i32>>,
+    /// Bent bones (Blender's B-Bones, whose rest shape is a curve): each such bone is the
+    /// polyline head -> its points -> tail in the solve, as Blender's bone heat splits a
+    /// B-Bone into its segments. Replaces the bone's other segments. Default `None`.
+    pub curves: Option<BoneCurves>,
+}
+
+/// Interior points of bent bones, see [`HeatOptions::curves`].
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct BoneCurves {
+    /// The points, in the vertices' coordinates; each bone's in order from head to tail.
+    pub points: Vec<[f32; 3]>,
+    /// `(p,)` the bone of each point (`< bones`).
+    pub bone: Vec<u32>,
 }
 
 impl Default for HeatOptions {
@@ -104,6 +117,7 @@ impl Default for HeatOptions {
             rigid_accessories: true,
             normal_distance: true,
             parents: None,
+            curves: None,
         }
     }
 }
@@ -295,6 +309,18 @@ pub fn heat_weights(
     if let Some(parents) = &opts.parents {
         crate::reach::validate_parents(parents, b)?;
     }
+    if let Some(c) = &opts.curves {
+        if c.points.len() != c.bone.len() {
+            return Err(Error::Shape(format!("{} curve points but {} curve bones", c.points.len(), c.bone.len())));
+        }
+        if let Some(&j) = c.bone.iter().find(|&&j| j as usize >= b) {
+            return Err(Error::InvalidArgument(format!("curve point of bone {j}, but there are {b} bones")));
+        }
+        let bad = count_non_finite(&c.points);
+        if bad > 0 {
+            return Err(Error::NonFinite { what: "curve point", count: bad });
+        }
+    }
     if u32::try_from(b).is_err() || u32::try_from(vertices.len()).is_err() {
         return Err(Error::InvalidArgument("too many bones or vertices (limit 2^32 - 1)".into()));
     }
@@ -367,6 +393,10 @@ pub fn heat_weights(
     let (segs, owner) = match (&opts.parents, ray_mesh.as_ref()) {
         (Some(parents), Some(rm)) => reach_segments(rm, &bones, parents, &pieces, &labels, &tris),
         _ => (bones.clone(), (0..b as u32).collect()),
+    };
+    let (segs, owner) = match &opts.curves {
+        Some(c) if !c.points.is_empty() => bend(segs, owner, &bones, c, &frame),
+        _ => (segs, owner),
     };
     let mut bone_len = vec![0.0f64; b];
     for ((h, t), &o) in segs.iter().zip(&owner) {
@@ -600,6 +630,33 @@ fn vertex_normals(wpos: &[DVec3], tris: &[[u32; 3]], labels: &[u32], npieces: us
         *n = (*n * s).normalize_or_zero();
     });
     n
+}
+
+/// `segs` / `owner` with every bent bone's segments replaced by its polyline head -> points
+/// -> tail (points in input coordinates, moved into `frame`).
+fn bend(
+    segs: Vec<(DVec3, DVec3)>,
+    owner: Vec<u32>,
+    bones: &[(DVec3, DVec3)],
+    curves: &BoneCurves,
+    frame: &Frame,
+) -> (Vec<(DVec3, DVec3)>, Vec<u32>) {
+    let mut bent = vec![false; bones.len()];
+    for &j in &curves.bone {
+        bent[j as usize] = true;
+    }
+    let (mut out, mut out_owner): (Vec<_>, Vec<_>) =
+        segs.into_iter().zip(owner).filter(|&(_, o)| !bent[o as usize]).unzip();
+    for (j, &(head, tail)) in bones.iter().enumerate().filter(|&(j, _)| bent[j]) {
+        let mut from = head;
+        let inner = curves.points.iter().zip(&curves.bone).filter(|&(_, &o)| o as usize == j);
+        for to in inner.map(|(&p, _)| frame.to_unit(p)).chain(std::iter::once(tail)) {
+            out.push((from, to));
+            out_owner.push(j as u32);
+            from = to;
+        }
+    }
+    (out, out_owner)
 }
 
 /// Blender's small-weight ramp (`heat_limit_weight`): 0 below `end`, linear from 0 to

@@ -1,6 +1,6 @@
 //! Integration tests of bone-heat weights (Baran & Popovic 2007) on generated meshes.
 
-use miniskeleton_core::heat::{heat_weights, HeatOptions, HeatReport, Symmetry};
+use miniskeleton_core::heat::{heat_weights, BoneCurves, HeatOptions, HeatReport, Symmetry};
 use miniskeleton_core::influence::Influences;
 use miniskeleton_core::primitives::{bone_chain, capped_cylinder, split_flat};
 use miniskeleton_core::Error;
@@ -536,4 +536,35 @@ fn random_imported_rigs_always_give_weights() {
         assert_rows_sum_to_one(&inf);
         assert!(inf.indices.iter().all(|&j| j < b as i32));
     }
+}
+
+#[test]
+fn bent_bones_are_their_polylines() {
+    // A tube along Z (radius 0.15) and two bones on its axis.
+    let m = capped_cylinder(0.15, 2.0, 41, 16);
+    let b: Bones = (vec![[0.0, 0.0, 0.0], [0.0, 0.0, 1.0]], vec![[0.0, 0.0, 1.0], [0.0, 0.0, 2.0]]);
+    let (plain, _) = heat(&m, &b, &HeatOptions::default());
+    let bent = |points: Vec<[f32; 3]>, bone: Vec<u32>| HeatOptions {
+        curves: Some(BoneCurves { points, bone }),
+        ..HeatOptions::default()
+    };
+    // Points on the straight bone change nothing.
+    let (straight, _) = heat(&m, &b, &bent(vec![[0.0, 0.0, 0.25], [0.0, 0.0, 0.5], [0.0, 0.0, 0.75]], vec![0; 3]));
+    assert!(max_abs_diff(&plain.to_dense(2), &straight.to_dense(2)) < 1e-6);
+    // Bone 1 bent towards +x: just above the joint, the +x side is more on bone 1.
+    let (curved, _) = heat(&m, &b, &bent(vec![[0.1, 0.0, 1.5]], vec![1]));
+    assert_rows_sum_to_one(&curved);
+    let side = |inf: &Influences, sign: f32| {
+        let rows: Vec<usize> =
+            (0..m.0.len()).filter(|&v| (1.0..=1.3).contains(&m.0[v][2]) && m.0[v][0] * sign > 0.1).collect();
+        let w: f32 = rows.iter().map(|&v| inf.to_dense(2)[v * 2 + 1]).sum();
+        w / rows.len() as f32
+    };
+    assert!((side(&plain, 1.0) - side(&plain, -1.0)).abs() < 1e-4);
+    assert!(side(&curved, 1.0) > side(&curved, -1.0) + 0.05, "{} {}", side(&curved, 1.0), side(&curved, -1.0));
+    // Bad curves are errors.
+    let err = |o: HeatOptions| heat_weights(&m.0, &m.1, &b.0, &b.1, &o, None).unwrap_err();
+    assert!(matches!(err(bent(vec![[0.0; 3]], vec![])), Error::Shape(_)));
+    assert!(matches!(err(bent(vec![[0.0; 3]], vec![2])), Error::InvalidArgument(_)));
+    assert!(matches!(err(bent(vec![[f32::NAN, 0.0, 0.0]], vec![0])), Error::NonFinite { count: 1, .. }));
 }

@@ -3,7 +3,7 @@
 use crate::convert::{matrix, rows, vector};
 use crate::error::guarded;
 use miniskeleton_core::bilinear::{bilinear_weights as core_bilinear, BilinearOptions, Falloff};
-use miniskeleton_core::heat::{heat_weights as core_heat, HeatOptions, HeatReport, Symmetry};
+use miniskeleton_core::heat::{heat_weights as core_heat, BoneCurves, HeatOptions, HeatReport, Symmetry};
 use miniskeleton_core::idw::{idw_weights as core_idw, IdwOptions};
 use miniskeleton_core::influence::Influences;
 use numpy::{AllowTypeChange, PyArray2, PyArrayLike1, PyArrayLike2};
@@ -109,7 +109,8 @@ fn report_dict<'py>(py: Python<'py>, r: &HeatReport) -> PyResult<Bound<'py, PyDi
 #[pyfunction]
 #[pyo3(signature = (vertices, triangles, bone_heads, bone_tails, *, max_influences=4, min_weight=1e-3,
                     visibility=true, weld_tolerance=1e-5, heat_constant=1.0, bone_mirror=None,
-                    symmetry_axis=0, symmetry_tolerance=1e-3, parents=None, progress=None))]
+                    symmetry_axis=0, symmetry_tolerance=1e-3, parents=None, curve_points=None,
+                    curve_bones=None, progress=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn heat_weights<'py>(
     py: Python<'py>,
@@ -126,6 +127,8 @@ pub fn heat_weights<'py>(
     symmetry_axis: usize,
     symmetry_tolerance: f32,
     parents: Option<PyArrayLike1<'py, i32, AllowTypeChange>>,
+    curve_points: Option<F32Rows<'py>>,
+    curve_bones: Option<PyArrayLike1<'py, u32, AllowTypeChange>>,
     progress: Option<Py<PyAny>>,
 ) -> PyResult<Pair<'py>> {
     let (i, w, _) = heat_weights_report(
@@ -143,6 +146,8 @@ pub fn heat_weights<'py>(
         symmetry_axis,
         symmetry_tolerance,
         parents,
+        curve_points,
+        curve_bones,
         progress,
     )?;
     Ok((i, w))
@@ -152,7 +157,8 @@ pub fn heat_weights<'py>(
 #[pyfunction]
 #[pyo3(signature = (vertices, triangles, bone_heads, bone_tails, *, max_influences=4, min_weight=1e-3,
                     visibility=true, weld_tolerance=1e-5, heat_constant=1.0, bone_mirror=None,
-                    symmetry_axis=0, symmetry_tolerance=1e-3, parents=None, progress=None))]
+                    symmetry_axis=0, symmetry_tolerance=1e-3, parents=None, curve_points=None,
+                    curve_bones=None, progress=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn heat_weights_report<'py>(
     py: Python<'py>,
@@ -169,6 +175,8 @@ pub fn heat_weights_report<'py>(
     symmetry_axis: usize,
     symmetry_tolerance: f32,
     parents: Option<PyArrayLike1<'py, i32, AllowTypeChange>>,
+    curve_points: Option<F32Rows<'py>>,
+    curve_bones: Option<PyArrayLike1<'py, u32, AllowTypeChange>>,
     progress: Option<Py<PyAny>>,
 ) -> PyResult<PairAndReport<'py>> {
     let v = rows::<f32, 3>(&vertices, "vertices")?;
@@ -178,6 +186,11 @@ pub fn heat_weights_report<'py>(
     if symmetry_axis > 2 {
         return Err(PyValueError::new_err("symmetry_axis must be 0, 1 or 2"));
     }
+    let curves = match (curve_points, curve_bones) {
+        (None, None) => None,
+        (Some(p), Some(j)) => Some(BoneCurves { points: rows::<f32, 3>(&p, "curve_points")?, bone: vector(&j) }),
+        _ => return Err(PyValueError::new_err("curve_points and curve_bones go together")),
+    };
     let symmetry =
         bone_mirror.map(|m| Symmetry { axis: symmetry_axis, bone_mirror: vector(&m), tolerance: symmetry_tolerance });
     let opts = HeatOptions {
@@ -188,6 +201,7 @@ pub fn heat_weights_report<'py>(
         heat_constant,
         symmetry,
         parents: parents.map(|p| vector(&p)),
+        curves,
         ..HeatOptions::default()
     };
     if let Some(cb) = &progress {
