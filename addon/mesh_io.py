@@ -28,7 +28,7 @@ class Bones:
     index into these bones or -1; selected: (b,) bool; skipped: names of zero-length bones;
     imported: the armature looks imported (see ``invented_tails``); curve_points (p, 3)
     float32 world space and curve_bones (p,) uint32: the inner joints of each B-Bone's rest
-    curve (``bbone_curves``), head to tail.
+    curve, head to tail (empty unless filled from ``bbone_curves``, for Heat).
     """
 
     names: list[str]
@@ -250,16 +250,14 @@ def armature_bones(arm_ob: bpy.types.Object, min_length: float = 0.0) -> Bones:
             p = p.parent
         parents.append(index[p.name] if p is not None else -1)
     as3 = lambda rows: np.asarray(rows, dtype=np.float32).reshape(-1, 3)  # noqa: E731
-    points, owners = bbone_curves(arm_ob, names)
     return Bones(names, as3(heads), as3(tails), np.asarray(parents, dtype=np.int32),
-                 np.asarray(sel, dtype=bool), skipped, imported=invented_tails(arm_ob.data.bones),
-                 curve_points=as3(_world(arm_ob, points)), curve_bones=owners)
+                 np.asarray(sel, dtype=bool), skipped, imported=invented_tails(arm_ob.data.bones))
 
 
 def bbone_curves(arm_ob: bpy.types.Object, names: list[str]) -> tuple[np.ndarray, np.ndarray]:
     """Inner joints of the rest curve of each of ``names`` that is a B-Bone (more than one
-    segment), in ``arm_ob``'s space, head to tail: (p, 3) float32 and the index into ``names``
-    of each, (p,) uint32. Blender's bone heat weights a B-Bone as these segments (its rest
+    segment), in world space, head to tail: (p, 3) float32 and the index into ``names`` of
+    each, (p,) uint32 (for ``Bones.curve_points`` / ``curve_bones``). Blender's bone heat weights a B-Bone as these segments (its rest
     shape is a curve when its handles or curve settings bend it)."""
     points, owners = [], []
     refreshed = False
@@ -276,7 +274,7 @@ def bbone_curves(arm_ob: bpy.types.Object, names: list[str]) -> tuple[np.ndarray
             continue
         points += [tuple(bone.matrix_local @ joint) for joint in joints]
         owners += [j] * len(joints)
-    return (np.asarray(points, dtype=np.float32).reshape(-1, 3), np.asarray(owners, dtype=np.uint32))
+    return _world(arm_ob, np.asarray(points, dtype=np.float64)), np.asarray(owners, dtype=np.uint32)
 
 
 def _bbone_joints(pose_bone: bpy.types.PoseBone, segments: int) -> list | None:

@@ -193,6 +193,9 @@ class MINISKELETON_OT_auto_weights(bpy.types.Operator):
         if checked is None:
             return None
         arm, meshes, bones = checked
+        if self.method == "HEAT":  # B-Bones are weighted along their rest curve, as by Ctrl+P
+            points, owners = mesh_io.bbone_curves(arm, bones.names)
+            bones = dataclasses.replace(bones, curve_points=points, curve_bones=owners)
         # X symmetry is about the armature's x = 0 (as for Fit), so Heat works in its space.
         mirror_space = self.method == "HEAT" and self.symmetry == "X"
         if mirror_space:

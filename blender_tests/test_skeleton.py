@@ -179,7 +179,7 @@ def test_fit_reads_a_half_modelled_with_a_mirror_modifier_as_the_whole_body():
     builders.select_for_parenting([body], arm)
     assert bpy.ops.armature.miniskeleton_fit_skeleton() == {"FINISHED"}
     assert np.linalg.norm(joints_of(arm, ends) - whole, axis=1).mean() < 1e-3 * diag
-    assert [(m.type, m.show_viewport) for m in body.modifiers] == [("ARMATURE", True), ("MIRROR", True)]
+    assert [(m.type, m.show_viewport) for m in body.modifiers] == [("MIRROR", True), ("ARMATURE", True)]
     assert len(body.data.vertices) == half
     assert tuple(arm.pose.bones["upper_arm.L"].rotation_euler) == pytest.approx((0.0, 0.0, 1.2))
 
