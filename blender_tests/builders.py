@@ -158,3 +158,15 @@ def link_from_library(block, path):
     out = getattr(linked, collection)[0]
     assert out.library is not None and not out.is_editable
     return out
+
+
+def keep_positive_x_half(ob):
+    """Cut ``ob``'s mesh at x = 0 and keep the +X side: a half modelled for a Mirror modifier."""
+    import bmesh
+
+    bm = bmesh.new()
+    bm.from_mesh(ob.data)
+    bmesh.ops.bisect_plane(bm, geom=bm.verts[:] + bm.edges[:] + bm.faces[:], plane_co=(0, 0, 0),
+                           plane_no=(1, 0, 0), clear_inner=True)
+    bm.to_mesh(ob.data)
+    bm.free()

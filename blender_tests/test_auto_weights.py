@@ -195,18 +195,12 @@ def test_a_half_modelled_with_a_mirror_modifier_poses_one_side_only():
     the mirrored (.R) groups: raising the left arm moves the left arm only. Before, it went first
     and the Mirror modifier copied the left arm's pose onto the right (147 vertices moved)."""
     import blender_session
-    import bmesh
     import creature
 
     def setup():
         blender_session.reset_scene()
         body, arm = creature.build_body(subdivisions=1), creature.build_armature()
-        bm = bmesh.new()
-        bm.from_mesh(body.data)
-        bmesh.ops.bisect_plane(bm, geom=bm.verts[:] + bm.edges[:] + bm.faces[:], plane_co=(0, 0, 0),
-                               plane_no=(1, 0, 0), clear_inner=True)
-        bm.to_mesh(body.data)
-        bm.free()
+        B.keep_positive_x_half(body)
         mirror = body.modifiers.new("Mirror", "MIRROR")
         mirror.use_clip, mirror.use_mirror_merge = True, False
         body.modifiers.new("Subdivision", "SUBSURF")
