@@ -257,8 +257,9 @@ def armature_bones(arm_ob: bpy.types.Object, min_length: float = 0.0) -> Bones:
 def bbone_curves(arm_ob: bpy.types.Object, names: list[str]) -> tuple[np.ndarray, np.ndarray]:
     """Inner joints of the rest curve of each of ``names`` that is a B-Bone (more than one
     segment), in world space, head to tail: (p, 3) float32 and the index into ``names`` of
-    each, (p,) uint32 (for ``Bones.curve_points`` / ``curve_bones``). Blender's bone heat weights a B-Bone as these segments (its rest
-    shape is a curve when its handles or curve settings bend it)."""
+    each, (p,) uint32 (for ``Bones.curve_points`` / ``curve_bones``). Blender's bone heat
+    weights a B-Bone as these segments (its rest shape is a curve when its handles or curve
+    settings bend it)."""
     points, owners = [], []
     refreshed = False
     for j, name in enumerate(names):
