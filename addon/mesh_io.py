@@ -381,10 +381,7 @@ def paint_mask(ob: bpy.types.Object) -> tuple[np.ndarray | None, str]:
         return picked, "Vertex Selection"
     faces = np.zeros(len(me.polygons), dtype=bool)
     me.polygons.foreach_get("select", faces)
-    sizes = np.zeros(len(me.polygons), dtype=np.int32)
-    me.polygons.foreach_get("loop_total", sizes)
-    corners = np.zeros(len(me.loops), dtype=np.int32)
-    me.loops.foreach_get("vertex_index", corners)
+    sizes, corners = mesh_polygons(ob)
     picked[corners[np.repeat(faces, sizes)]] = True
     return picked, "Face Selection"
 

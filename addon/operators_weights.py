@@ -393,12 +393,10 @@ def mesh_weights(core, settings: dict, verts, tris, bones, progress):
             verts, bones.heads, bones.tails, bones.parents, max_influences=k, nearest=settings["nearest"],
             falloff=settings["falloff"], sigma=settings["sigma"], power=settings["power"])
         return i, w, None
-    curved = len(bones.curve_bones) > 0
     return core.heat_weights_report(
         verts, tris, bones.heads, bones.tails, max_influences=k, visibility=settings["visibility"],
         bone_mirror=settings["mirror"], parents=settings["parents"],
-        curve_points=bones.curve_points if curved else None, curve_bones=bones.curve_bones if curved else None,
-        progress=progress)
+        curve_points=bones.curve_points, curve_bones=bones.curve_bones, progress=progress)
 
 
 def compute_weights(core, settings: dict, bones, inputs, progress):
