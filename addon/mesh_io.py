@@ -26,6 +26,7 @@ class Bones:
 
     names: bone names (b,); heads, tails: (b, 3) float32 world space; parents: (b,) int32
     index into these bones or -1; selected: (b,) bool; skipped: names of zero-length bones;
+    hidden: names of bones left out as hidden (``armature_bones(weight_paint=True)``);
     imported: the armature looks imported (see ``invented_tails``); curve_points (p, 3)
     float32 world space and curve_bones (p,) uint32: the inner joints of each B-Bone's rest
     curve, head to tail (empty unless filled from ``bbone_curves``, for Heat).
@@ -37,6 +38,7 @@ class Bones:
     parents: np.ndarray
     selected: np.ndarray
     skipped: list[str] = field(default_factory=list)
+    hidden: list[str] = field(default_factory=list)
     imported: bool = False
     curve_points: np.ndarray = field(default_factory=lambda: np.zeros((0, 3), np.float32))
     curve_bones: np.ndarray = field(default_factory=lambda: np.zeros(0, np.uint32))
@@ -227,12 +229,30 @@ def _bone_selected(arm_ob: bpy.types.Object, bone: bpy.types.Bone) -> bool:
     return bool(getattr(bone, "select", False))
 
 
-def armature_bones(arm_ob: bpy.types.Object, min_length: float = 0.0) -> Bones:
-    """Deform bones of ``arm_ob`` in world space; bones shorter than ``min_length`` are skipped."""
+def _bone_hidden(arm_ob: bpy.types.Object, bone: bpy.types.Bone) -> bool:
+    """Hidden in Pose Mode (H): on the pose bone in Blender 5.0, on the bone in 4.x."""
+    pb = arm_ob.pose.bones.get(bone.name) if arm_ob.pose else None
+    if pb is not None and hasattr(pb, "hide"):
+        return bool(pb.hide)
+    return bool(bone.hide)
+
+
+def _in_visible_collection(bone: bpy.types.Bone) -> bool:
+    """A bone in no collection, or in one that shows (Blender's ``ANIM_bone_in_visible_collection``)."""
+    return not bone.collections or any(c.is_visible_effectively for c in bone.collections)
+
+
+def armature_bones(arm_ob: bpy.types.Object, min_length: float = 0.0, weight_paint: bool = False) -> Bones:
+    """Deform bones of ``arm_ob`` in world space; bones shorter than ``min_length`` are skipped.
+    ``weight_paint``: as Blender's Weight Paint > Assign Automatic from Bones, bones hidden in
+    Pose Mode are left out (``hidden``), and a bone counts as selected only in a visible collection."""
     m = np.array(arm_ob.matrix_world, dtype=np.float64)
     deform = [b for b in arm_ob.data.bones if b.use_deform]
-    names, heads, tails, sel, skipped = [], [], [], [], []
+    names, heads, tails, sel, skipped, hidden = [], [], [], [], [], []
     for b in deform:
+        if weight_paint and _bone_hidden(arm_ob, b):
+            hidden.append(b.name)
+            continue
         h = m[:3, :3] @ np.array(b.head_local) + m[:3, 3]
         t = m[:3, :3] @ np.array(b.tail_local) + m[:3, 3]
         if not np.all(np.isfinite(h)) or not np.all(np.isfinite(t)) or np.linalg.norm(t - h) <= min_length:
@@ -241,7 +261,7 @@ def armature_bones(arm_ob: bpy.types.Object, min_length: float = 0.0) -> Bones:
         names.append(b.name)
         heads.append(h)
         tails.append(t)
-        sel.append(_bone_selected(arm_ob, b))
+        sel.append(_bone_selected(arm_ob, b) and (not weight_paint or _in_visible_collection(b)))
     index = {n: i for i, n in enumerate(names)}
     parents = []
     for n in names:
@@ -251,7 +271,7 @@ def armature_bones(arm_ob: bpy.types.Object, min_length: float = 0.0) -> Bones:
         parents.append(index[p.name] if p is not None else -1)
     as3 = lambda rows: np.asarray(rows, dtype=np.float32).reshape(-1, 3)  # noqa: E731
     return Bones(names, as3(heads), as3(tails), np.asarray(parents, dtype=np.int32),
-                 np.asarray(sel, dtype=bool), skipped, imported=invented_tails(arm_ob.data.bones))
+                 np.asarray(sel, dtype=bool), skipped, hidden, imported=invented_tails(arm_ob.data.bones))
 
 
 def bbone_curves(arm_ob: bpy.types.Object, names: list[str]) -> tuple[np.ndarray, np.ndarray]:

@@ -1,7 +1,8 @@
 """Weights operators: Auto Weights (Heat / nearest-bone bilinear / inverse distance).
 
 Context like Blender's Ctrl+P > With Automatic Weights: the selected meshes and the active
-armature (in Weight Paint mode: the painted mesh and its armature). Everything is validated
+armature (in Weight Paint mode, like Assign Automatic from Bones: the painted mesh and its
+armature, hidden bones left out, the selected ones written). Everything is validated
 and computed before anything is written, so an error leaves every mesh as it was. Invoked from
 the UI on large meshes, the computation runs on a worker thread (the core releases the GIL)
 while a modal loop shows progress; Esc cancels it and nothing is written.
@@ -80,8 +81,9 @@ class MINISKELETON_OT_auto_weights(bpy.types.Operator):
         name="Max Influences", default=4, min=1, max=16,
         description="Bones kept per vertex (the strongest), then renormalized")
     selected_bones_only: BoolProperty(
-        name="Selected Bones Only", default=False,
-        description="Write groups only for selected deform bones; the others still take part")
+        name="Selected Bones Only", default=False, options={"SKIP_SAVE"},
+        description="Write groups only for selected deform bones; the others still take part. "
+        "On by default in Weight Paint mode when bones are selected, as Assign Automatic from Bones")
     # Heat
     symmetry: EnumProperty(
         name="Symmetry", default="NONE",
@@ -171,11 +173,18 @@ class MINISKELETON_OT_auto_weights(bpy.types.Operator):
             self.report({"ERROR"}, editing)
             return None
         scale = max(arm.dimensions.length, 1e-30)
-        bones = mesh_io.armature_bones(arm, min_length=1e-6 * scale)
+        # Weight Paint > Weights works like Blender's Assign Automatic from Bones there: hidden
+        # bones take no part, and the selected (visible) bones are the ones written.
+        painting = context.mode == "PAINT_WEIGHT"
+        bones = mesh_io.armature_bones(arm, min_length=1e-6 * scale, weight_paint=painting)
         if not bones.names:
-            what = "has no deform bones" if not bones.skipped else "has only zero-length deform bones"
+            what = ("has only hidden deform bones, which Weight Paint mode leaves out: unhide some "
+                    "(Pose Mode, Alt+H)" if bones.hidden else
+                    "has no deform bones" if not bones.skipped else "has only zero-length deform bones")
             self.report({"ERROR"}, f"Armature '{arm.name}' {what}")
             return None
+        if painting and bones.selected.any() and not self.properties.is_property_set("selected_bones_only"):
+            self.selected_bones_only = True
         if bones.skipped:
             self.report({"WARNING"}, f"Skipped {len(bones.skipped)} zero-length bone(s): "
                         + mesh_io.name_list(bones.skipped))
@@ -299,6 +308,8 @@ class MINISKELETON_OT_auto_weights(bpy.types.Operator):
             msg += "; bones reach their children (imported rig, see Bone Extent)"
         if partial:
             msg += "; re-weighted " + ", ".join(partial)
+        if bones.hidden:
+            msg += f"; hidden bones left out, their groups kept: {mesh_io.name_list(bones.hidden)}"
         if kept_locked:
             notes.append(f"locked groups kept: {mesh_io.name_list(sorted(kept_locked))}")
         for note in notes:

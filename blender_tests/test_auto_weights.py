@@ -652,6 +652,71 @@ def test_weight_paint_selection_masks_reweight_only_the_selected_vertices():
     bpy.ops.object.mode_set(mode="OBJECT")
 
 
+def _pose_select_and_hide(arm, selected=(), hidden=()):
+    """Select and hide bones as in Pose Mode (Blender 5.0 keeps both on the pose bone, 4.x on the bone)."""
+    for name in NAMES:
+        pb, bone = arm.pose.bones[name], arm.data.bones[name]
+        (pb if hasattr(pb, "select") else bone).select = name in selected
+        (pb if hasattr(pb, "hide") else bone).hide = name in hidden
+
+
+def test_weight_paint_assigns_the_selected_bones_and_leaves_hidden_ones_out(capfd):
+    """In Weight Paint mode, as Blender's Weights > Assign Automatic from Bones (measured in
+    bpy 5.0 and 4.2): a bone hidden in Pose Mode is no heat source and keeps its group (hiding
+    Bone2 changed Blender's Bone1 weights by 0.57), and only the selected bones get new weights.
+    Before, every deform bone was a source and every group was rewritten."""
+    ob, arm = B.cylinder(rings=24, segments=12), B.chain()
+    bind([ob], arm, method="HEAT")
+    bound = B.weights_matrix(ob, NAMES)
+    rule = bpy.ops.object.miniskeleton_auto_weights.get_rna_type().properties["selected_bones_only"]
+    assert rule.is_skip_save  # a Weight Paint default must not carry over to the next Ctrl+P
+    for name in NAMES:
+        ob.vertex_groups[name].add(list(range(len(ob.data.vertices))), 0.3, "REPLACE")
+    _pose_select_and_hide(arm, selected=("Bone1",), hidden=("Bone2",))
+    B.set_active(ob, selected=[arm])
+    bpy.ops.object.mode_set(mode="WEIGHT_PAINT")
+    painted = float(np.float32(0.3))  # as Blender stores it
+    capfd.readouterr()
+    assert bpy.ops.object.miniskeleton_auto_weights(method="HEAT") == {"FINISHED"}
+    assert "hidden bones left out, their groups kept: Bone2" in "".join(capfd.readouterr())
+    after = B.weights_matrix(ob, NAMES)
+    np.testing.assert_array_equal(after[:, [0, 2, 3]], painted)  # not selected, or hidden: kept
+
+    import miniskeleton_core as core
+
+    mesh_io = importlib.import_module("bl_ext.user_default.miniskeleton.mesh_io")
+    bones = mesh_io.armature_bones(arm)
+    seen = [0, 1, 3]  # Bone2 is hidden: no heat source
+    i, w = core.heat_weights(B.world_vertices(ob), mesh_io.mesh_triangles(ob), bones.heads[seen], bones.tails[seen])
+    np.testing.assert_allclose(after[:, 1], mesh_io.dense_weights(i, w, 3)[1], atol=1e-6)
+    z = np.array([v.co.z for v in ob.data.vertices])
+    low_half = (z > 2.0) & (z < 2.3)  # of Bone2 (z 2.0 to 2.9)
+    assert after[low_half, 1].min() > 0.8 and bound[low_half, 1].max() < 0.5  # Bone1 reaches in now
+
+    # Nothing selected: every visible bone is written; an explicit choice is kept.
+    _pose_select_and_hide(arm, hidden=("Bone2",))
+    assert bpy.ops.object.miniskeleton_auto_weights(method="HEAT") == {"FINISHED"}
+    np.testing.assert_array_equal(B.weights_matrix(ob, ["Bone2"]), painted)
+    full = B.weights_matrix(ob, NAMES)
+    np.testing.assert_allclose(full[:, 1], after[:, 1], atol=1e-6)
+    assert np.abs(full[:, [0, 3]] - 0.3).max() > 0.5
+    _pose_select_and_hide(arm, selected=("Bone0",))
+    for name in NAMES:
+        ob.vertex_groups[name].add(list(range(len(ob.data.vertices))), 0.3, "REPLACE")
+    assert bpy.ops.object.miniskeleton_auto_weights(method="HEAT", selected_bones_only=False) == {"FINISHED"}
+    assert np.abs(B.weights_matrix(ob, NAMES) - 0.3).max(0).min() > 0.5  # all four rewritten
+
+    _pose_select_and_hide(arm, hidden=NAMES)
+    with pytest.raises(RuntimeError, match="only hidden deform bones.*Alt\\+H"):
+        bpy.ops.object.miniskeleton_auto_weights(method="HEAT")
+    bpy.ops.object.mode_set(mode="OBJECT")
+    # In Object Mode (Ctrl+P), as in Blender, hiding and selection change nothing.
+    bind([ob], arm, method="HEAT")
+    np.testing.assert_allclose(B.weights_matrix(ob, NAMES), mesh_io.dense_weights(
+        *core.heat_weights(B.world_vertices(ob), mesh_io.mesh_triangles(ob), bones.heads, bones.tails), 4).T,
+        atol=1e-6)
+
+
 # ---------------------------------------------------------------- worker thread (Esc to cancel)
 
 
