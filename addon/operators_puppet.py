@@ -55,6 +55,16 @@ def puppet_rig(ob: bpy.types.Object | None) -> bpy.types.Object | None:
     return None
 
 
+def puppet_poll(op: type[bpy.types.Operator], context: bpy.types.Context) -> bool:
+    """Poll of the operators that act on a puppet: the active object belongs to one; if not,
+    the greyed button's tooltip (and a script's error) says what to select."""
+    if puppet_rig(context.active_object) is not None:
+        return True
+    op.poll_message_set(
+        "Select a shadow puppet (its armature, a rod or a part); Add > Armature > Shadow Puppet makes one")
+    return False
+
+
 def scene_puppets(scene: bpy.types.Scene) -> list[bpy.types.Object]:
     return [ob for ob in scene.objects if ob.type == "ARMATURE" and ob.get(KIND_KEY)]
 
@@ -527,7 +537,7 @@ class MINISKELETON_OT_bake_puppet(bpy.types.Operator):
 
     @classmethod
     def poll(cls, context):
-        return puppet_rig(context.active_object) is not None
+        return puppet_poll(cls, context)
 
     def execute(self, context):
         rig = puppet_rig(context.active_object)
@@ -574,7 +584,7 @@ class MINISKELETON_OT_set_part_image(bpy.types.Operator, ImportHelper):
 
     @classmethod
     def poll(cls, context):
-        return puppet_rig(context.active_object) is not None
+        return puppet_poll(cls, context)
 
     def execute(self, context):
         rig = puppet_rig(context.active_object)

@@ -384,6 +384,19 @@ def test_a_puppet_playing_a_linked_action_is_not_baked(tmp_path):
     # refused before baking: live solving (switched off by a bake) is still on
     assert rig.animation_data.action.name == "Show" and rig.get(P.LIVE_KEY, True)
 
+def test_puppet_operators_say_what_to_select_when_no_puppet_is_active(tmp_path):
+    """Bake and Set Part Image need a puppet: with a plain cube active they are greyed out, and
+    the tooltip (and a script's error) says what to select instead of "context is incorrect"."""
+    bpy.ops.mesh.primitive_cube_add()
+    for call in (bpy.ops.object.miniskeleton_bake_puppet,
+                 lambda: bpy.ops.object.miniskeleton_set_part_image(filepath=face_png(tmp_path), bone="head")):
+        with pytest.raises(RuntimeError, match=r"poll\(\) Select a shadow puppet .*Add > Armature > Shadow Puppet"):
+            call()
+    rig, _ = add("THREE_ROD")
+    bpy.context.view_layer.objects.active = rig
+    assert bpy.ops.object.miniskeleton_bake_puppet.poll()
+
+
 # ---------------------------------------------------------------------------- parts, theatre
 
 
