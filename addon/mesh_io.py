@@ -552,9 +552,28 @@ def parent_keep_transform(ob: bpy.types.Object, arm_ob: bpy.types.Object) -> boo
         if up == ob:
             return False
         up = up.parent
-    world = ob.matrix_world.copy()
+    world = _unconstrained_world(ob)
     ob.parent = arm_ob
     ob.parent_type = "OBJECT"
     ob.matrix_parent_inverse = arm_ob.matrix_world.inverted_safe()
     ob.matrix_basis = (arm_ob.matrix_world @ ob.matrix_parent_inverse).inverted_safe() @ world
     return True
+
+
+def _unconstrained_world(ob: bpy.types.Object):
+    """``ob``'s world matrix before its constraints act (parent, parent inverse, basis): what
+    the new parenting must reproduce so that its constraints, which act again afterwards, leave
+    it where it was (a Copy Rotation that adds to its own rotation would otherwise count twice)."""
+    active = [c for c in ob.constraints if not c.mute]
+    if not active:
+        return ob.matrix_world.copy()
+    layer = bpy.context.view_layer
+    for c in active:
+        c.mute = True
+    try:
+        layer.update()
+        return ob.matrix_world.copy()
+    finally:
+        for c in active:
+            c.mute = False
+        layer.update()

@@ -189,6 +189,38 @@ def test_a_mesh_that_carries_its_armature_is_weighted_and_not_parented_in_a_loop
     assert moved[z > 3.8].min() > 0.1 and moved[z < 2.0].max() < 1e-5
 
 
+@pytest.mark.parametrize("parent", [None, "EMPTY", "BONE"])
+def test_a_constrained_mesh_stays_where_it_is(parent):
+    """Parenting keeps the mesh where it is even when its own constraints act on top of its
+    parenting: a Copy Rotation that adds an empty's turn, on a mesh with no parent, under an
+    empty, or parented to a bone. Before, the world matrix with the constraint in it became the
+    new basis, the constraint added its turn again and the mesh swung by 0.25 units (Blender's
+    Ctrl+P with Keep Transform does the same; without it, a mesh with a parent jumps)."""
+    ob, arm = B.cylinder(location=(0.3, 0.1, 0.0)), B.chain(location=(0.3, 0.1, 0.0))
+    turn = bpy.data.objects.new("Turn", None)
+    bpy.context.collection.objects.link(turn)
+    turn.rotation_euler = (0.0, 0.0, 0.5)
+    if parent == "EMPTY":
+        holder = bpy.data.objects.new("Holder", None)
+        bpy.context.collection.objects.link(holder)
+        holder.location, holder.rotation_euler = (0.0, 1.0, 0.0), (0.0, 0.0, 0.3)
+        ob.parent = holder
+    elif parent == "BONE":
+        ob.parent, ob.parent_type, ob.parent_bone = arm, "BONE", "Bone1"
+    spin = ob.constraints.new("COPY_ROTATION")
+    spin.target, spin.mix_mode = turn, "ADD"
+    bpy.context.view_layer.update()
+    world, rest = ob.matrix_world.copy(), B.evaluated_world_vertices(ob)
+    assert bind([ob], arm, method="HEAT") == {"FINISHED"}
+    bpy.context.view_layer.update()
+    assert ob.parent == arm and ob.parent_type == "OBJECT" and not spin.mute
+    np.testing.assert_allclose(np.array(ob.matrix_world), np.array(world), atol=1e-6)
+    np.testing.assert_allclose(B.evaluated_world_vertices(ob), rest, atol=1e-5)
+    turn.rotation_euler = (0.0, 0.0, 0.9)  # and the constraint still acts
+    bpy.context.view_layer.update()
+    assert np.abs(np.array(ob.matrix_world) - np.array(world)).max() > 0.1
+
+
 def test_a_half_modelled_with_a_mirror_modifier_poses_one_side_only():
     """Characters are often modelled as one half with a Mirror modifier. The new Armature
     modifier goes last in the stack, where Blender's Ctrl+P puts it, so the mirrored half follows
