@@ -552,7 +552,7 @@ def parent_keep_transform(ob: bpy.types.Object, arm_ob: bpy.types.Object) -> boo
         if up == ob:
             return False
         up = up.parent
-    world = _unconstrained_world(ob)
+    world = unconstrained_world(ob)
     ob.parent = arm_ob
     ob.parent_type = "OBJECT"
     ob.matrix_parent_inverse = arm_ob.matrix_world.inverted_safe()
@@ -560,10 +560,10 @@ def parent_keep_transform(ob: bpy.types.Object, arm_ob: bpy.types.Object) -> boo
     return True
 
 
-def _unconstrained_world(ob: bpy.types.Object):
-    """``ob``'s world matrix before its constraints act (parent, parent inverse, basis): what
-    the new parenting must reproduce so that its constraints, which act again afterwards, leave
-    it where it was (a Copy Rotation that adds to its own rotation would otherwise count twice)."""
+def unconstrained_world(ob: bpy.types.Object):
+    """``ob``'s world matrix before its constraints act (parent, parent inverse, basis): what a
+    new parenting must reproduce so that its constraints, which act again afterwards, leave it
+    where it was (a Copy Rotation that adds to its own rotation would otherwise count twice)."""
     active = [c for c in ob.constraints if not c.mute]
     if not active:
         return ob.matrix_world.copy()

@@ -73,7 +73,8 @@ def bone_children_stay(arm_ob):
         yield
         return
     with mesh_io.rest_pose(arm_ob, children):
-        before = [o.matrix_world.copy() for o in children]
+        # Before their constraints act, which act again on the new parenting.
+        before = [mesh_io.unconstrained_world(o) for o in children]
         try:
             yield
         finally:
@@ -81,7 +82,8 @@ def bone_children_stay(arm_ob):
             for o, w0 in zip(children, before):
                 basis = o.matrix_basis.copy()
                 # world = parent @ parent_inverse @ basis: keep world, solve parent_inverse.
-                o.matrix_parent_inverse = (o.matrix_parent_inverse @ basis @ o.matrix_world.inverted_safe()
+                w1 = mesh_io.unconstrained_world(o)
+                o.matrix_parent_inverse = (o.matrix_parent_inverse @ basis @ w1.inverted_safe()
                                            @ w0 @ basis.inverted_safe())
             bpy.context.view_layer.update()
 

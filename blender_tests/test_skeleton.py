@@ -225,6 +225,38 @@ def test_fit_reads_bone_parented_parts_in_the_rest_pose():
     np.testing.assert_allclose(rest_vertices(), rest, atol=1e-5)
 
 
+def test_fit_and_restore_keep_a_constrained_bone_child_in_place():
+    """A part parented to a bone with its own constraint on top (a Copy Rotation that adds an
+    empty's turn) stays where it is while Fit and Restore move its bone. Before, its new parent
+    inverse was solved from the world matrix with the constraint in it, and the part moved by
+    0.08 units on this cylinder."""
+    ob = builders.cylinder("Body", radius=0.5, height=4.0, rings=24, segments=16)
+    arm = builders.chain("Rig", count=4)
+    names, h, t, parents, conn = bone_arrays(arm)
+    joints, ends = rig_io.joint_graph(h, t, parents, conn, 1e-6)
+    set_joints(arm, joints + np.array([0.2, -0.15, 0.0]), ends)
+    arm.data.bones.active = arm.data.bones["Bone0"]
+    builders.select_for_parenting([ob], arm)
+    assert bpy.ops.object.parent_set(type="BONE", keep_transform=True) == {"FINISHED"}
+    turn = bpy.data.objects.new("Turn", None)
+    bpy.context.collection.objects.link(turn)
+    turn.rotation_euler = (0.0, 0.0, 0.5)
+    spin = ob.constraints.new("COPY_ROTATION")
+    spin.target, spin.mix_mode = turn, "ADD"
+    bpy.context.view_layer.update()
+    rest = builders.evaluated_world_vertices(ob)
+    builders.select_for_parenting([ob], arm)
+    assert bpy.ops.armature.miniskeleton_fit_skeleton() == {"FINISHED"}
+    bpy.context.view_layer.update()
+    assert np.abs(joints_of(arm, ends) - joints).max() < 0.05  # Bone0 moved back in ...
+    np.testing.assert_allclose(builders.evaluated_world_vertices(ob), rest, atol=1e-5)  # ... the body did not
+    builders.set_active(arm)
+    assert bpy.ops.armature.miniskeleton_restore_skeleton() == {"FINISHED"}
+    bpy.context.view_layer.update()
+    np.testing.assert_allclose(builders.evaluated_world_vertices(ob), rest, atol=1e-5)
+    assert not spin.mute and ob.parent_type == "BONE"
+
+
 def test_fit_imported_rig_invented_tails_follow_their_bones():
     """No bone connected (as after a glTF/FBX import): tails that are no bone's head are invented,
     keep their bone's vector from the fitted head; the real joints (heads) still go inside."""
