@@ -322,3 +322,38 @@ def test_a_character_split_into_objects_is_weighted_as_one_surface(axis):
     assert len(seen) < sum(len(p.data.vertices) for p in parts)  # there was a seam
     w = B.weights_matrix(sleeve, names)
     assert np.allclose(w.sum(axis=1), 1, atol=1e-4)
+
+
+def _weight_paint_reassign(assign, mirror):
+    """Bind the legs, paint every group 0.3, then in Weight Paint mode with only shin.L
+    selected re-assign with ``assign``: (weights after, weights of the first bind, painted)."""
+    ob, arm, _ = legs()
+    names = ["thigh.L", "shin.L", "thigh.R", "shin.R"]
+    bind([ob], arm)
+    full = B.weights_matrix(ob, names)
+    for name in names:
+        ob.vertex_groups[name].add(list(range(len(ob.data.vertices))), 0.3, "REPLACE")
+        pb = arm.pose.bones[name]
+        (pb if hasattr(pb, "select") else arm.data.bones[name]).select = name == "shin.L"
+    B.set_active(ob, selected=[arm])
+    ob.data.use_mirror_x = mirror
+    bpy.ops.object.mode_set(mode="WEIGHT_PAINT")
+    assert assign() == {"FINISHED"}
+    after = B.weights_matrix(ob, names)
+    bpy.ops.object.mode_set(mode="OBJECT")
+    return after, full, float(np.float32(0.3))
+
+
+@pytest.mark.parametrize("mirror", [False, True])
+def test_weight_paint_x_mirror_writes_the_selected_bones_partners_too(mirror):
+    """Weight Paint with X Mirror on: Blender's Assign Automatic from Bones with shin.L selected
+    writes shin.R as well (measured in bpy 5.0); ours does too, each bone with its own weights,
+    which here are those of a full bind. Before, only shin.L was written."""
+    changed = {}
+    for who, assign in (("blender", lambda: bpy.ops.paint.weight_from_bones(type="AUTOMATIC")),
+                        ("ours", lambda: bpy.ops.object.miniskeleton_auto_weights(method="HEAT"))):
+        after, full, painted = _weight_paint_reassign(assign, mirror)
+        changed[who] = (after != painted).any(axis=0).tolist()
+    written = [False, True, False, mirror]  # thigh.L, shin.L, thigh.R, shin.R
+    assert changed == {"blender": written, "ours": written}
+    np.testing.assert_allclose(after[:, written], full[:, written], atol=1e-6)
