@@ -3,10 +3,10 @@
 Context like Blender's Ctrl+P > With Automatic Weights: the selected meshes and the active
 armature (in Weight Paint mode, like Assign Automatic from Bones: the painted mesh and its
 armature, hidden bones left out, the selected ones and, with X Mirror, their partners
-written). Everything is validated
-and computed before anything is written, so an error leaves every mesh as it was. Invoked from
-the UI on large meshes, the computation runs on a worker thread (the core releases the GIL)
-while a modal loop shows progress; Esc cancels it and nothing is written.
+written). Everything is validated and computed before anything is written, so an error leaves
+every mesh as it was. Invoked from the UI on large meshes, the computation runs on a worker
+thread (the core releases the GIL) while a modal loop shows progress; Esc cancels it and
+nothing is written.
 """
 
 from __future__ import annotations
@@ -184,15 +184,8 @@ class MINISKELETON_OT_auto_weights(bpy.types.Operator):
                     "has no deform bones" if not bones.skipped else "has only zero-length deform bones")
             self.report({"ERROR"}, f"Armature '{arm.name}' {what}")
             return None
-        if painting and bones.selected.any() and not self.properties.is_property_set("selected_bones_only"):
-            self.selected_bones_only = True
-        painted = context.active_object
-        if painting and self.selected_bones_only and painted.type == "MESH" and painted.data.use_mirror_x:
-            # X Mirror on: the selected bones' mirror partners (by name) are written too.
-            partners = mesh_io.bone_mirror_indices(bones.names)[bones.selected]
-            selected = bones.selected.copy()
-            selected[partners[partners >= 0]] = True
-            bones = dataclasses.replace(bones, selected=selected)
+        if painting:
+            bones = self._weight_paint_selection(context.active_object, bones)
         if bones.skipped:
             self.report({"WARNING"}, f"Skipped {len(bones.skipped)} zero-length bone(s): "
                         + mesh_io.name_list(bones.skipped))
@@ -200,6 +193,19 @@ class MINISKELETON_OT_auto_weights(bpy.types.Operator):
             self.report({"ERROR"}, "Selected Bones Only is on, but no deform bone is selected")
             return None
         return arm, meshes, bones
+
+    def _weight_paint_selection(self, painted, bones):
+        """In Weight Paint mode, as Assign Automatic from Bones: Selected Bones Only is on when
+        bones are selected (unless the caller chose), and with the painted mesh's X Mirror on
+        the selected bones' mirror partners (by name) are written too."""
+        if bones.selected.any() and not self.properties.is_property_set("selected_bones_only"):
+            self.selected_bones_only = True
+        if not (self.selected_bones_only and painted.type == "MESH" and painted.data.use_mirror_x):
+            return bones
+        partners = mesh_io.bone_mirror_indices(bones.names)[bones.selected]
+        selected = bones.selected.copy()
+        selected[partners[partners >= 0]] = True
+        return dataclasses.replace(bones, selected=selected)
 
     # ------------------------------------------------------------------ run
 

@@ -98,6 +98,15 @@ def set_active(ob, selected=()):
     bpy.context.view_layer.objects.active = ob
 
 
+def pose_select(arm, selected=(), hidden=()):
+    """Select and hide ``arm``'s bones as in Pose Mode: exactly ``selected`` selected and
+    ``hidden`` hidden (Blender 5.0 keeps both on the pose bone, 4.x on the bone)."""
+    for pb in arm.pose.bones:
+        bone = arm.data.bones[pb.name]
+        (pb if hasattr(pb, "select") else bone).select = pb.name in selected
+        (pb if hasattr(pb, "hide") else bone).hide = pb.name in hidden
+
+
 def select_for_parenting(meshes, arm):
     """Ctrl+P convention: meshes selected, armature selected and active."""
     set_active(arm, selected=meshes)

@@ -442,13 +442,7 @@ def test_group_writer_ways_write_the_same_groups(way, monkeypatch):
 def test_selected_bones_only_writes_only_those():
     ob = B.cylinder()
     arm = B.chain()
-    for name in NAMES:
-        pb = arm.pose.bones[name]
-        sel = name in ("Bone1", "Bone2")
-        if hasattr(pb, "select"):
-            pb.select = sel
-        else:
-            arm.data.bones[name].select = sel
+    B.pose_select(arm, selected=("Bone1", "Bone2"))
     bind([ob], arm, method="HEAT", selected_bones_only=True)
     assert sorted(g.name for g in ob.vertex_groups) == ["Bone1", "Bone2"]
 
@@ -684,14 +678,6 @@ def test_weight_paint_selection_masks_reweight_only_the_selected_vertices():
     bpy.ops.object.mode_set(mode="OBJECT")
 
 
-def _pose_select_and_hide(arm, selected=(), hidden=()):
-    """Select and hide bones as in Pose Mode (Blender 5.0 keeps both on the pose bone, 4.x on the bone)."""
-    for name in NAMES:
-        pb, bone = arm.pose.bones[name], arm.data.bones[name]
-        (pb if hasattr(pb, "select") else bone).select = name in selected
-        (pb if hasattr(pb, "hide") else bone).hide = name in hidden
-
-
 def test_weight_paint_assigns_the_selected_bones_and_leaves_hidden_ones_out(capfd):
     """In Weight Paint mode, as Blender's Weights > Assign Automatic from Bones (measured in
     bpy 5.0 and 4.2): a bone hidden in Pose Mode is no heat source and keeps its group (hiding
@@ -704,7 +690,7 @@ def test_weight_paint_assigns_the_selected_bones_and_leaves_hidden_ones_out(capf
     assert rule.is_skip_save  # a Weight Paint default must not carry over to the next Ctrl+P
     for name in NAMES:
         ob.vertex_groups[name].add(list(range(len(ob.data.vertices))), 0.3, "REPLACE")
-    _pose_select_and_hide(arm, selected=("Bone1",), hidden=("Bone2",))
+    B.pose_select(arm, selected=("Bone1",), hidden=("Bone2",))
     B.set_active(ob, selected=[arm])
     bpy.ops.object.mode_set(mode="WEIGHT_PAINT")
     painted = float(np.float32(0.3))  # as Blender stores it
@@ -726,19 +712,19 @@ def test_weight_paint_assigns_the_selected_bones_and_leaves_hidden_ones_out(capf
     assert after[low_half, 1].min() > 0.8 and bound[low_half, 1].max() < 0.5  # Bone1 reaches in now
 
     # Nothing selected: every visible bone is written; an explicit choice is kept.
-    _pose_select_and_hide(arm, hidden=("Bone2",))
+    B.pose_select(arm, hidden=("Bone2",))
     assert bpy.ops.object.miniskeleton_auto_weights(method="HEAT") == {"FINISHED"}
     np.testing.assert_array_equal(B.weights_matrix(ob, ["Bone2"]), painted)
     full = B.weights_matrix(ob, NAMES)
     np.testing.assert_allclose(full[:, 1], after[:, 1], atol=1e-6)
     assert np.abs(full[:, [0, 3]] - 0.3).max() > 0.5
-    _pose_select_and_hide(arm, selected=("Bone0",))
+    B.pose_select(arm, selected=("Bone0",))
     for name in NAMES:
         ob.vertex_groups[name].add(list(range(len(ob.data.vertices))), 0.3, "REPLACE")
     assert bpy.ops.object.miniskeleton_auto_weights(method="HEAT", selected_bones_only=False) == {"FINISHED"}
     assert np.abs(B.weights_matrix(ob, NAMES) - 0.3).max(0).min() > 0.5  # all four rewritten
 
-    _pose_select_and_hide(arm, hidden=NAMES)
+    B.pose_select(arm, hidden=NAMES)
     with pytest.raises(RuntimeError, match="only hidden deform bones.*Alt\\+H"):
         bpy.ops.object.miniskeleton_auto_weights(method="HEAT")
     bpy.ops.object.mode_set(mode="OBJECT")

@@ -333,8 +333,7 @@ def _weight_paint_reassign(assign, mirror):
     full = B.weights_matrix(ob, names)
     for name in names:
         ob.vertex_groups[name].add(list(range(len(ob.data.vertices))), 0.3, "REPLACE")
-        pb = arm.pose.bones[name]
-        (pb if hasattr(pb, "select") else arm.data.bones[name]).select = name == "shin.L"
+    B.pose_select(arm, selected=("shin.L",))
     B.set_active(ob, selected=[arm])
     ob.data.use_mirror_x = mirror
     bpy.ops.object.mode_set(mode="WEIGHT_PAINT")
