@@ -690,7 +690,11 @@ def test_weight_paint_assigns_the_selected_bones_and_leaves_hidden_ones_out(capf
     assert rule.is_skip_save  # a Weight Paint default must not carry over to the next Ctrl+P
     for name in NAMES:
         ob.vertex_groups[name].add(list(range(len(ob.data.vertices))), 0.3, "REPLACE")
-    B.pose_select(arm, selected=("Bone1",), hidden=("Bone2",))
+    # Bone0 is selected too, but in a bone collection that is hidden: not written either.
+    B.pose_select(arm, selected=("Bone0", "Bone1"), hidden=("Bone2",))
+    tucked = arm.data.collections.new("Tucked away")
+    tucked.assign(arm.data.bones["Bone0"])
+    tucked.is_visible = False
     B.set_active(ob, selected=[arm])
     bpy.ops.object.mode_set(mode="WEIGHT_PAINT")
     painted = float(np.float32(0.3))  # as Blender stores it
@@ -698,7 +702,7 @@ def test_weight_paint_assigns_the_selected_bones_and_leaves_hidden_ones_out(capf
     assert bpy.ops.object.miniskeleton_auto_weights(method="HEAT") == {"FINISHED"}
     assert "hidden bones left out, their groups kept: Bone2" in "".join(capfd.readouterr())
     after = B.weights_matrix(ob, NAMES)
-    np.testing.assert_array_equal(after[:, [0, 2, 3]], painted)  # not selected, or hidden: kept
+    np.testing.assert_array_equal(after[:, [0, 2, 3]], painted)  # selected where hidden, or hidden: kept
 
     import miniskeleton_core as core
 
