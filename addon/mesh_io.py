@@ -221,20 +221,13 @@ def _loop_triangles(me: bpy.types.Mesh) -> np.ndarray:
     return tris.reshape(-1, 3)
 
 
-def _bone_selected(arm_ob: bpy.types.Object, bone: bpy.types.Bone) -> bool:
-    # Blender 5.0 keeps pose-mode selection on the pose bone; 4.x on the bone.
+def pose_flag(arm_ob: bpy.types.Object, bone: bpy.types.Bone, flag: str) -> bool:
+    """``bone``'s Pose Mode ``flag`` ("select" or "hide"): Blender 5.0 keeps it on the pose
+    bone, 4.x on the bone."""
     pb = arm_ob.pose.bones.get(bone.name) if arm_ob.pose else None
-    if pb is not None and hasattr(pb, "select"):
-        return bool(pb.select)
-    return bool(getattr(bone, "select", False))
-
-
-def _bone_hidden(arm_ob: bpy.types.Object, bone: bpy.types.Bone) -> bool:
-    """Hidden in Pose Mode (H): on the pose bone in Blender 5.0, on the bone in 4.x."""
-    pb = arm_ob.pose.bones.get(bone.name) if arm_ob.pose else None
-    if pb is not None and hasattr(pb, "hide"):
-        return bool(pb.hide)
-    return bool(bone.hide)
+    if pb is not None and hasattr(pb, flag):
+        return bool(getattr(pb, flag))
+    return bool(getattr(bone, flag, False))
 
 
 def _in_visible_collection(bone: bpy.types.Bone) -> bool:
@@ -250,7 +243,7 @@ def armature_bones(arm_ob: bpy.types.Object, min_length: float = 0.0, weight_pai
     deform = [b for b in arm_ob.data.bones if b.use_deform]
     names, heads, tails, sel, skipped, hidden = [], [], [], [], [], []
     for b in deform:
-        if weight_paint and _bone_hidden(arm_ob, b):
+        if weight_paint and pose_flag(arm_ob, b, "hide"):
             hidden.append(b.name)
             continue
         h = m[:3, :3] @ np.array(b.head_local) + m[:3, 3]
@@ -261,7 +254,7 @@ def armature_bones(arm_ob: bpy.types.Object, min_length: float = 0.0, weight_pai
         names.append(b.name)
         heads.append(h)
         tails.append(t)
-        sel.append(_bone_selected(arm_ob, b) and (not weight_paint or _in_visible_collection(b)))
+        sel.append(pose_flag(arm_ob, b, "select") and (not weight_paint or _in_visible_collection(b)))
     index = {n: i for i, n in enumerate(names)}
     parents = []
     for n in names:

@@ -37,13 +37,6 @@ def _skinned_meshes(context, arm):
     return sorted(out, key=lambda ob: ob.name)
 
 
-def _pose_selected(arm, name):
-    pb = arm.pose.bones.get(name) if arm.pose else None
-    if pb is not None and hasattr(pb, "select"):
-        return bool(pb.select)
-    return bool(getattr(arm.data.bones[name], "select", False))
-
-
 def _armature_check(op, arm):
     if arm is None:
         op.report({"ERROR"}, "No armature: make the armature the active object")
@@ -178,7 +171,7 @@ class MINISKELETON_OT_fit_skeleton(bpy.types.Operator):
             return {"CANCELLED"}
         verts, tris = inputs
         mode = arm.mode
-        pose_sel = {b.name: _pose_selected(arm, b.name) for b in arm.data.bones} if mode == "POSE" else {}
+        pose_sel = {b.name: mesh_io.pose_flag(arm, b, "select") for b in arm.data.bones} if mode == "POSE" else {}
 
         with rig_io.bone_children_stay(arm), rig_io.armature_edit(context, arm) as ebs:
             bones = list(ebs)
