@@ -150,7 +150,8 @@ def detect_roles(bone_heads: ArrayLike, bone_tails: ArrayLike, parents: ArrayLik
     """Bone roles found from the geometry (+Z up), names as hints: {root, spine, neck, head,
     head_extras, tail, legs, arms ([{bones, side 'L'|'R', group (0 = front)}]), plan
     ('biped'|'quadruped'|'multiped'), up, forward, left, ground, height, leg_length,
-    single_tree (moving the root bone moves every role bone), notes}.
+    single_tree (moving the root bone moves every role bone), riders ([(foot, leg bone)]: feet
+    hanging off the root, as IK rigs exported to glTF have them, ride on their leg), notes}.
     ValueError saying 'no legs' / 'no head' when those cannot be found."""
 
 def make_motion(
@@ -161,5 +162,6 @@ def make_motion(
 ) -> dict:
     """'HEAD_SHAKE', 'WALK' or 'RUN' for a skeleton. rest_matrices (b,3,3): rest orientation per
     bone (columns = bone X, Y, Z) in the heads' space. Returns {rotations (frames,b,4) float32
-    local quaternions w,x,y,z; root_offset (frames,3) float32; animated (k,) int32; moves_root;
-    frames; frames_per_cycle; roles}."""
+    local quaternions w,x,y,z; root_offset (frames,3) float32; animated (k,) int32; locations
+    (frames,b,3) float32 local locations in the heads' units (zero but for located); located
+    (j,) int32 (the riders); moves_root; frames; frames_per_cycle; roles}."""

@@ -94,17 +94,22 @@ def keyed_rotation_bones(ob: bpy.types.Object) -> set[str]:
     return rotation_bones(action_fcurves(ob))
 
 
+def keyed_location_bones(ob: bpy.types.Object) -> set[str]:
+    """Names of pose bones that have location keys."""
+    return rotation_bones(action_fcurves(ob), ("location",))
+
+
 def driven_rotation_bones(ob: bpy.types.Object) -> set[str]:
     """Names of pose bones whose rotation has a driver (it overrides their keys)."""
     return rotation_bones(ob.animation_data.drivers if ob.animation_data is not None else [])
 
 
-def rotation_bones(fcurves) -> set[str]:
-    """Names of the pose bones whose rotation one of ``fcurves`` animates."""
+def rotation_bones(fcurves, paths: tuple[str, ...] = ROT_PATHS) -> set[str]:
+    """Names of the pose bones whose rotation (or another of ``paths``) one of ``fcurves`` animates."""
     out = set()
     for fc in fcurves:
         path = fc.data_path
-        if path.startswith('pose.bones["') and path.rsplit(".", 1)[-1] in ROT_PATHS:
+        if path.startswith('pose.bones["') and path.rsplit(".", 1)[-1] in paths:
             out.add(bpy.utils.unescape_identifier(path[len('pose.bones["'):path.rindex('"]')]))
     return out
 
@@ -267,6 +272,11 @@ class MINISKELETON_OT_add_motion(bpy.types.Operator):
         # Where the root is now (after earlier motions), to continue from there.
         earlier = last_key_frame(arm)
         keyed_before = keyed_rotation_bones(arm)
+        # feet hanging off the root (IK rigs exported without their constraints) follow their
+        # legs by location keys; the core gives them in world units
+        located = [int(b) for b in out["located"]]
+        located_before = keyed_location_bones(arm) - {root_pb.name}
+        unit = sum(abs(s) for s in arm.matrix_world.to_scale()) / 3.0
 
         if earlier is not None:
             # bones this motion keys for the first time hold their pose until it starts
@@ -275,17 +285,30 @@ class MINISKELETON_OT_add_motion(bpy.types.Operator):
                 pb = pose[names[b]]
                 if pb.name not in keyed_before:
                     pb.keyframe_insert(rotation_path(pb), frame=earlier, group=pb.name)
+            for b in located:
+                pb = pose[names[b]]
+                if pb.name not in located_before:
+                    pb.keyframe_insert("location", frame=earlier, group=pb.name)
         for b in animated:
             pb = pose[names[b]]
             euler = None
             for k in range(frames):
                 q = Quaternion([float(x) for x in rot[k, b]])
                 euler = key_rotation(pb, q, start + k, euler)
+        for b in located:
+            pb = pose[names[b]]
+            for k in range(frames):
+                pb.location = [float(x) / unit for x in out["locations"][k, b]]
+                pb.keyframe_insert("location", frame=start + k, group=pb.name)
         # bones keyed by earlier motions that this one leaves alone go back to rest
         animated_names = {names[b] for b in animated}
         for name in keyed_before - animated_names:
             if name in pose:
                 key_rotation(pose[name], Quaternion(), start)
+        for name in located_before - {names[b] for b in located}:
+            if name in pose:
+                pose[name].location = (0.0, 0.0, 0.0)
+                pose[name].keyframe_insert("location", frame=start, group=name)
 
         to_local = self.root_world_to_local(arm, root_pb) if out["roles"]["single_tree"] else None
         if earlier is not None:

@@ -179,3 +179,16 @@ def keep_positive_x_half(ob):
                            plane_no=(1, 0, 0), clear_inner=True)
     bm.to_mesh(ob.data)
     bm.free()
+
+
+def riding(arm, rider, carrier, frames):
+    """Over ``frames``: ``rider``'s posed head in ``carrier``'s posed frame (constant when the
+    rider stays fixed to it), and its world height. Two arrays, (len(frames), 3) and (len(frames),)."""
+    scene, mw, pose = bpy.context.scene, arm.matrix_world, arm.pose.bones
+    offsets, heights = [], []
+    for f in frames:
+        scene.frame_set(f)
+        head = mw @ pose[rider].head
+        offsets.append(tuple((mw @ pose[carrier].matrix).inverted() @ head))
+        heights.append(head.z)
+    return np.array(offsets), np.array(heights)

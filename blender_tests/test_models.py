@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 import blender_session
+import builders as B
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "bench"))
 import bench_fit  # noqa: E402
@@ -111,3 +112,31 @@ def test_rough_rig_on_unrigged_scans_fits_inside_and_binds_each_hoof_to_its_leg(
         assert hoof.sum() > 20, (leg, hoof.sum())
         shin = w[hoof, bones.index(f"shin.{leg}")]
         assert shin.min() > 0.9, f"{leg}: hoof vertices' shin weight {shin.min():.3f} .. {shin.max():.3f}"
+
+
+@pytest.mark.parametrize("name", ["RobotExpressive.glb", "q_Bunny.glb"])
+def test_game_rigs_with_feet_on_the_root_walk_with_their_feet_on_their_legs(name):
+    """Both rigs hang each foot off the ground root bone (exported from an IK set-up whose
+    constraints glTF drops); the robot's shins also end at the knee with invented tails. Walk:
+    each foot stays fixed to its shin and lifts; the T-posed arms are arms, so the neck is the
+    neck alone (before: the robot had no legs, and the bunny's whole torso turned as 'neck')."""
+    arm, skinned, rigid = eval_weights.import_model(bpy, need(name))
+    arm.animation_data_clear()
+    for pb in arm.pose.bones:
+        pb.matrix_basis.identity()
+    B.set_active(arm)
+    assert bpy.ops.pose.miniskeleton_add_motion(motion="WALK", cycles=1, append=False) == {"FINISHED"}
+    bones = importlib.import_module("bl_ext.user_default.miniskeleton.mesh_io").armature_bones(arm)
+    import miniskeleton_core as core
+
+    r = core.detect_roles(bones.heads, bones.tails, bones.parents, names=bones.names)
+    n = bones.names
+    assert [n[i] for i in r["neck"]] == ["Neck"] and len(r["arms"]) == 2
+    assert sorted((n[a], n[b]) for a, b in r["riders"]) == [("Foot.L", "LowerLeg.L"), ("Foot.R", "LowerLeg.R")]
+    scene = bpy.context.scene
+    frames = range(scene.frame_start, scene.frame_start + 25)
+    for s in "LR":
+        offsets, z = B.riding(arm, f"Foot.{s}", f"LowerLeg.{s}", frames)
+        world = offsets * max(arm.matrix_world.to_scale())
+        assert np.ptp(world, axis=0).max() < 1e-4 * r["leg_length"], (s, np.ptp(world, axis=0))
+        assert np.ptp(z) > 0.05 * r["leg_length"], (s, np.ptp(z), r["leg_length"])

@@ -48,6 +48,38 @@ def biped_rig():
     return B.armature("Biped", bones)
 
 
+def ik_exported_rig(invented_tails=False):
+    """A game-style biped as exported from an IK set-up (the structure of the Quaternius and
+    RobotExpressive rigs, not their data; as the Rust test rig ``roles::tests::ik_biped``): the
+    feet and knee pole targets hang off a ground root bone, the leg chains stop at the ankle
+    (with ``invented_tails``, every tail is a short stub as glTF importers make them and the
+    shins end at the knee), long ears, T-posed arms whose clavicle rises. Faces -Y."""
+    bones = [("Root", (0, 0.2, 0), (0, 0.2, 0.35), None),
+             ("Body", (0, 0.05, 0.95), (0, 0.05, 1.2), "Root"),
+             ("Hips", (0, 0.25, 0.8), (0, 0.3, 1.1), "Body"),
+             ("Abdomen", (0, 0.3, 1.1), (0, 0.27, 1.4), "Hips"),
+             ("Torso", (0, 0.27, 1.4), (0, 0.2, 1.7), "Abdomen"),
+             ("Neck", (0, 0.1, 1.95), (0, -0.05, 2.05), "Torso"),
+             ("Head", (0, -0.05, 2.05), (0, -0.2, 2.4), "Neck")]
+    for s, x in (("L", 1), ("R", -1)):
+        knee = (0.35 * x, 0.2, 0.55)
+        bones += [(f"Ear1.{s}", (0.24 * x, -0.2, 2.3), (0.36 * x, -0.2, 2.6), "Head"),
+                  (f"Ear2.{s}", (0.36 * x, -0.2, 2.6), (0.43 * x, -0.35, 3.5), f"Ear1.{s}"),
+                  (f"Shoulder.{s}", (0.17 * x, 0.22, 1.65), (0.37 * x, 0.22, 1.82), "Torso"),
+                  (f"UpperArm.{s}", (0.37 * x, 0.22, 1.82), (1.2 * x, 0.18, 1.82), f"Shoulder.{s}"),
+                  (f"LowerArm.{s}", (1.2 * x, 0.18, 1.82), (1.74 * x, 0.16, 1.85), f"UpperArm.{s}"),
+                  (f"Hand.{s}", (1.74 * x, 0.16, 1.85), (2.2 * x, 0.15, 1.88), f"LowerArm.{s}"),
+                  (f"UpperLeg.{s}", (0.34 * x, 0.22, 0.97), knee, "Body"),
+                  (f"LowerLeg.{s}", knee, (0.35 * x, 0.2, 0.4) if invented_tails else (0.35 * x, 0.25, 0.13),
+                   f"UpperLeg.{s}"),
+                  (f"Foot.{s}", (0.35 * x, 0.28, 0.04), (0.35 * x, -0.07, 0.04), "Root"),
+                  (f"PoleTarget.{s}", (0.35 * x, -1.6, 0.6), (0.35 * x, -1.6, 0.95), "Root")]
+    if invented_tails:
+        bones = [(n, h, tuple(np.add(h, 0.006 * np.subtract(t, h) / np.linalg.norm(np.subtract(t, h)))), p)
+                 for n, h, t, p in bones]
+    return B.armature("GameRig", [(n, h, t, p, False) for n, h, t, p in bones])
+
+
 def roles_by_name(arm):
     import miniskeleton_core as core
 
@@ -211,6 +243,48 @@ def test_mirrored_armature_walks_as_the_mirror_image_of_its_twin(capfd):
     capfd.readouterr()
     walk(Matrix.Diagonal((1.0, 2.0, 0.5, 1.0)))
     assert "is scaled unevenly (1, 2, 0.5)" in "".join(capfd.readouterr())
+
+
+@pytest.mark.parametrize("invented_tails", [False, True])
+def test_feet_hanging_off_the_root_walk_with_their_legs(invented_tails, capsys):
+    """Game rigs exported from an IK set-up (Quaternius characters, RobotExpressive) hang each
+    foot off the ground root bone, with no constraint left to make it follow the leg: the walk
+    keys the feet's location so that, in Blender's own evaluation, each foot stays fixed to its
+    shin, lifts in its swing and alternates with the other. The T-posed arms (clavicle rising) are
+    arms, so the torso is spine and the neck is the neck alone. Armature scaled by 100 (as the
+    robot imports): locations are in the armature's units. A head shake appended afterwards
+    puts the feet back to rest."""
+    arm = ik_exported_rig(invented_tails)
+    B.place_armature_keep_bones(arm, Matrix.Diagonal((100.0, 100.0, 100.0, 1.0)))
+    r, n, legs = roles_by_name(arm)
+    assert legs[("front", "L")] == ["UpperLeg.L", "LowerLeg.L", "Foot.L"]
+    assert sorted((n[a], n[b]) for a, b in r["riders"]) == [("Foot.L", "LowerLeg.L"), ("Foot.R", "LowerLeg.R")]
+    assert [n[i] for i in r["neck"]] == ["Neck"] and n[r["spine"][-1]] == "Torso"
+    assert len(r["arms"]) == 2
+
+    assert add_motion(arm, motion="WALK", cycles=1) == {"FINISHED"}
+    assert "feet hanging off the root bone, not their legs (an IK rig without its constraints): " \
+           "Foot.L, Foot.R" in capsys.readouterr().out
+    scene = bpy.context.scene
+    mm = motion_module()
+    end = int(mm.last_key_frame(arm))
+    leg = 0.93   # hip height above the foot (world units: the bones keep their world size)
+    peaks = []
+    for s in "LR":
+        offsets, z = B.riding(arm, f"Foot.{s}", f"LowerLeg.{s}", range(scene.frame_start, end + 1))
+        spread = np.ptp(offsets, axis=0).max() * 100.0   # armature units -> world
+        assert spread < 1e-4 * leg, f"Foot.{s} slides on its shin by {spread:.4f}"
+        assert np.ptp(z) > 0.05 * leg, f"Foot.{s} does not lift: {np.ptp(z):.2f}"
+        peaks.append(int(np.argmax(z)) / (end - scene.frame_start))
+    d = abs(peaks[0] - peaks[1])
+    assert abs(min(d, 1 - d) - 0.5) < 0.1, peaks
+
+    assert add_motion(arm, motion="HEAD_SHAKE", duration=1.0) == {"FINISHED"}
+    start = end + 1
+    for f in (start + round(scene.render.fps * 0.25), int(mm.last_key_frame(arm))):
+        scene.frame_set(f)
+        for s in "LR":
+            assert tuple(arm.pose.bones[f"Foot.{s}"].location) == pytest.approx((0, 0, 0), abs=1e-6)
 
 
 def test_head_shake_moves_head_not_feet_and_walk_appends():

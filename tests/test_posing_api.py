@@ -77,6 +77,26 @@ def test_make_motion_frames_and_a_clip_too_long_for_blender():
     assert np.isfinite(shake["rotations"]).all() and not shake["moves_root"]
     walk = msc.make_motion(h, t, p, rest, "WALK", names=names, cycles=2)
     assert walk["frames"] == 2 * walk["frames_per_cycle"] + 1 and walk["moves_root"]
+    # feet on their legs: nothing is moved by location
+    assert walk["locations"].shape == (walk["frames"], 10, 3) and not walk["locations"].any()
+    assert walk["located"].size == 0 and walk["roles"]["riders"] == []
+
+
+def test_feet_hanging_off_the_root_are_moved_by_location():
+    """The shins end at the ankle; the feet are children of the hips (the root), as game rigs
+    exported from an IK set-up have them: they ride on the shins, moved by location keys."""
+    h, t, p, rest, names = biped()
+    t[[5, 7], 2] = 0.08   # ankles
+    h = np.vstack([h, [[0.1, -0.02, 0.0], [-0.1, -0.02, 0.0]]]).astype(np.float32)
+    t = np.vstack([t, [[0.1, -0.2, 0.0], [-0.1, -0.2, 0.0]]]).astype(np.float32)
+    p = np.append(p, [0, 0])
+    rest = np.tile(np.eye(3, dtype=np.float32), (12, 1, 1))
+    names = names + ["foot.L", "foot.R"]
+    walk = msc.make_motion(h, t, p, rest, "WALK", names=names, cycles=1)
+    assert sorted(walk["roles"]["riders"]) == [(10, 5), (11, 7)]
+    assert sorted(walk["located"].tolist()) == [10, 11]
+    moved = np.abs(walk["locations"]).max(axis=(0, 2))
+    assert moved[10] > 0.05 and moved[11] > 0.05 and not moved[:10].any()
     # Clips past Blender's last frame (1048574) are refused before anything is allocated,
     # where fps 1e9 x 1e9 s used to abort the process on a failed allocation.
     for kw in (dict(fps=1e9, duration=1e9), dict(fps=1e30, duration=1e30)):

@@ -14,7 +14,9 @@
 //! Output
 //!   [`Clip`]: `frames` × #B local rotations (w, x, y, z) in each bone's rest frame, i.e.
 //!   Blender's `pose_bone.rotation_quaternion` (identity = rest), and `frames` root offsets in
-//!   the input space (add to the root bone's head).
+//!   the input space (add to the root bone's head). Feet that hang off the root instead of
+//!   their leg (`Roles::riders`) are posed as if on the leg, then given the local rotation and
+//!   location (`pose_bone.location`, input units) that put them there in the real hierarchy.
 //!
 //! Method. Every rotation is "angle about a body axis" (up, forward or right = forward × up),
 //! expressed in the bone's rest frame, so a chain rotated about one axis bends in one plane.
@@ -101,6 +103,11 @@ pub struct Clip {
     pub root_offset: Vec<[f32; 3]>,
     /// Bones whose rotation this motion sets (sorted).
     pub animated: Vec<usize>,
+    /// frames × bone_count local locations (Blender's `pose_bone.location` times the input's
+    /// scale); zero except for `located` bones.
+    pub locations: Vec<[f32; 3]>,
+    /// Bones whose location this motion sets: the feet riding on the root (`Roles::riders`).
+    pub located: Vec<usize>,
     /// Whether `root_offset` is used (false for the head shake).
     pub moves_root: bool,
     /// Frames per gait cycle (HEAD_SHAKE: frames per shake).
@@ -135,35 +142,76 @@ fn to_wxyz(q: Quat) -> [f32; 4] {
 }
 
 /// Posed bone heads and tails by forward kinematics: `local` are the local rotations
-/// (w, x, y, z) per bone, `root_offset` is added to every root's head. Shapes as the inputs.
+/// (w, x, y, z) per bone, `locations` (empty, or one per bone) move a bone's head along its
+/// rest axes as Blender's `pose_bone.location` does, `root_offset` is added to every root's
+/// head. Shapes as the inputs.
 pub fn posed_points(
     heads: &[[f32; 3]],
     tails: &[[f32; 3]],
     parents: &[i32],
     rest: &[[f32; 9]],
     local: &[[f32; 4]],
+    locations: &[[f32; 3]],
     root_offset: [f32; 3],
 ) -> (Vec<[f32; 3]>, Vec<[f32; 3]>) {
-    let rq = rest_quats(rest);
+    let (delta, ph) = posed_frames(heads, parents, &rest_quats(rest), local, locations, root_offset);
+    let pt = (0..heads.len())
+        .map(|b| (ph[b] + delta[b] * (Vec3::from(tails[b]) - Vec3::from(heads[b]))).to_array())
+        .collect();
+    (ph.iter().map(|p| p.to_array()).collect(), pt)
+}
+
+/// Forward kinematics as rigid motions: each bone's world rotation from rest and posed head.
+fn posed_frames(
+    heads: &[[f32; 3]],
+    parents: &[i32],
+    rq: &[Quat],
+    local: &[[f32; 4]],
+    locations: &[[f32; 3]],
+    root_offset: [f32; 3],
+) -> (Vec<Quat>, Vec<Vec3>) {
     let n = heads.len();
-    let order = preorder(parents);
     let mut delta = vec![Quat::IDENTITY; n];
     let mut ph = vec![Vec3::ZERO; n];
-    let mut pt = vec![[0.0; 3]; n];
-    for b in order {
+    for b in preorder(parents) {
         let q = Quat::from_xyzw(local[b][1], local[b][2], local[b][3], local[b][0]).normalize();
+        let moved = Vec3::from(heads[b]) + locations.get(b).map_or(Vec3::ZERO, |&l| rq[b] * Vec3::from(l));
         let (pd, head) = match parents[b] {
             p if p >= 0 => {
                 let p = p as usize;
-                (delta[p], ph[p] + delta[p] * (Vec3::from(heads[b]) - Vec3::from(heads[p])))
+                (delta[p], ph[p] + delta[p] * (moved - Vec3::from(heads[p])))
             }
-            _ => (Quat::IDENTITY, Vec3::from(heads[b]) + Vec3::from(root_offset)),
+            _ => (Quat::IDENTITY, moved + Vec3::from(root_offset)),
         };
         delta[b] = pd * rq[b] * q * rq[b].inverse();
         ph[b] = head;
-        pt[b] = (head + delta[b] * (Vec3::from(tails[b]) - Vec3::from(heads[b]))).to_array();
     }
-    (ph.iter().map(|p| p.to_array()).collect(), pt)
+    (delta, ph)
+}
+
+/// Local rotation and location (in its rest frame, input units) that put `rider` -- a foot
+/// hanging off the root (`Roles::riders`) -- where its leg carries it: `delta`/`ph` are the
+/// frames with the rider on its leg, `real` those of the input hierarchy. Blender's pose
+/// maths: posed head = parent's motion applied to (rest head + rest rotation · location).
+fn rider_pose(
+    rider: usize,
+    heads: &[[f32; 3]],
+    parents: &[i32],
+    rq: &[Quat],
+    (delta, ph): (&[Quat], &[Vec3]),
+    (real_delta, real_ph): (&[Quat], &[Vec3]),
+) -> (Quat, Vec3) {
+    let (pd, from) = match parents[rider] {
+        p if p >= 0 => {
+            let p = p as usize;
+            (real_delta[p], real_ph[p] + real_delta[p] * (Vec3::from(heads[rider]) - Vec3::from(heads[p])))
+        }
+        _ => (Quat::IDENTITY, Vec3::from(heads[rider])),
+    };
+    let inv = rq[rider].inverse();
+    let rotation = inv * pd.inverse() * delta[rider] * rq[rider];
+    let location = inv * (pd.inverse() * (ph[rider] - from));
+    (rotation.normalize(), location)
 }
 
 fn preorder(parents: &[i32]) -> Vec<usize> {
@@ -392,6 +440,8 @@ fn head_shake(
         rotations,
         root_offset: vec![[0.0; 3]; frames],
         animated,
+        locations: vec![[0.0; 3]; frames * n],
+        located: Vec::new(),
         moves_root: false,
         frames_per_cycle: (frames - 1) as f32 / p.cycles,
     })
@@ -474,7 +524,13 @@ fn gait(
 
     let mut poser = new_poser(rest);
     let mut rotations = Vec::with_capacity(frames * n);
+    let mut locations = vec![[0.0; 3]; frames * n];
     let mut root_offset = Vec::with_capacity(frames);
+    // forward kinematics with the feet that ride on the root carried by their legs
+    let mut carried = parents.to_vec();
+    for &[r, e] in &roles.riders {
+        carried[r] = e as i32;
+    }
     let feet: Vec<usize> = roles.legs.iter().map(|l| *l.bones.last().unwrap()).collect();
     let foot_low =
         |h: &[[f32; 3]], t: &[[f32; 3]]| feet.iter().map(|&b| h[b][2].min(t[b][2])).fold(f32::INFINITY, f32::min);
@@ -553,22 +609,46 @@ fn gait(
         if sway.is_empty() && roles.neck.is_empty() {
             poser.touch(roles.head);
         }
-        let local: Vec<[f32; 4]> = poser.q.iter().map(|&q| to_wxyz(q)).collect();
-        let (ph, pt) = posed_points(heads, tails, parents, rest, &local, [0.0; 3]);
+        let mut local: Vec<[f32; 4]> = poser.q.iter().map(|&q| to_wxyz(q)).collect();
+        let (ph, pt) = posed_points(heads, tails, &carried, rest, &local, &[], [0.0; 3]);
         let lift = rest_low - foot_low(&ph, &pt);
         let travel = if p.root_motion { stride * phi } else { 0.0 };
         root_offset.push((fwd * travel + up * lift).to_array());
+        if !roles.riders.is_empty() {
+            let on_legs = posed_frames(heads, &carried, &poser.rest, &local, &[], [0.0; 3]);
+            let real = posed_frames(heads, parents, &poser.rest, &local, &[], [0.0; 3]);
+            for &[r, _] in &roles.riders {
+                let (q, loc) = rider_pose(r, heads, parents, &poser.rest, (&on_legs.0, &on_legs.1), (&real.0, &real.1));
+                local[r] = to_wxyz(q);
+                locations[k * n + r] = loc.to_array();
+            }
+        }
         rotations.extend(local);
     }
-    let animated = (0..n).filter(|&b| poser.touched[b]).collect();
-    Ok(Clip { frames, bone_count: n, rotations, root_offset, animated, moves_root: true, frames_per_cycle: fpc })
+    let mut animated: Vec<usize> = (0..n).filter(|&b| poser.touched[b]).collect();
+    let mut located: Vec<usize> = roles.riders.iter().map(|&[r, _]| r).collect();
+    located.sort_unstable();
+    animated.extend(&located);
+    animated.sort_unstable();
+    animated.dedup();
+    Ok(Clip {
+        frames,
+        bone_count: n,
+        rotations,
+        root_offset,
+        animated,
+        locations,
+        located,
+        moves_root: true,
+        frames_per_cycle: fpc,
+    })
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::roles::detect_roles;
-    use crate::roles::tests::{biped, creature, spot, Skeleton};
+    use crate::roles::tests::{biped, creature, ik_biped, spot, Skeleton};
 
     /// A test rig run through a motion: names, heads, tails, parents, rest matrices, roles, clip.
     type Animated = (Vec<String>, Vec<[f32; 3]>, Vec<[f32; 3]>, Vec<i32>, Vec<[f32; 9]>, Roles, Clip);
@@ -611,7 +691,8 @@ mod tests {
         let mut out = vec![Vec::new(); roles.legs.len()];
         for f in 0..clip.frames {
             let local = &clip.rotations[f * clip.bone_count..(f + 1) * clip.bone_count];
-            let (_, pt) = posed_points(h, t, p, rest, local, clip.root_offset[f]);
+            let locations = &clip.locations[f * clip.bone_count..(f + 1) * clip.bone_count];
+            let (_, pt) = posed_points(h, t, p, rest, local, locations, clip.root_offset[f]);
             for (i, l) in roles.legs.iter().enumerate() {
                 out[i].push(pt[*l.bones.last().unwrap()][2]);
             }
@@ -687,6 +768,47 @@ mod tests {
     }
 
     #[test]
+    fn feet_hanging_off_the_root_walk_with_their_legs() {
+        for invented_tails in [false, true] {
+            check_walk(ik_biped(invented_tails), Motion::Walk);
+            check_walk(ik_biped(invented_tails), Motion::Run);
+            let (names, h, t, p, rest, roles, clip) = run(ik_biped(invented_tails), Motion::Walk);
+            let located: Vec<&str> = clip.located.iter().map(|&b| names[b].as_str()).collect();
+            assert_eq!(located, ["Foot.L", "Foot.R"]);
+            // in the rig's own hierarchy, rotation and location keys put every bone where it
+            // is with the feet carried by the legs
+            let mut carried = p.clone();
+            for &[r, e] in &roles.riders {
+                carried[r] = e as i32;
+            }
+            let n = clip.bone_count;
+            let mut moved = 0.0f32;
+            for f in 0..clip.frames {
+                let local = &clip.rotations[f * n..(f + 1) * n];
+                let locations = &clip.locations[f * n..(f + 1) * n];
+                let (rh, rt) = posed_points(&h, &t, &p, &rest, local, locations, [0.0; 3]);
+                // the same turns with each foot's turn taken relative to its leg instead
+                let rq = rest_quats(&rest);
+                let (d, _) = posed_frames(&h, &p, &rq, local, locations, [0.0; 3]);
+                let mut carried_local = local.to_vec();
+                for &[r, e] in &roles.riders {
+                    carried_local[r] = to_wxyz((rq[r].inverse() * d[e].inverse() * d[r] * rq[r]).normalize());
+                }
+                let (ch, ct) = posed_points(&h, &t, &carried, &rest, &carried_local, &[], [0.0; 3]);
+                for b in 0..n {
+                    let err = (Vec3::from(rh[b]) - Vec3::from(ch[b])).length()
+                        + (Vec3::from(rt[b]) - Vec3::from(ct[b])).length();
+                    assert!(err < 1e-4 * roles.leg_length, "frame {f}, {}: {err}", names[b]);
+                }
+                for &b in &clip.located {
+                    moved = moved.max(Vec3::from(locations[b]).length());
+                }
+            }
+            assert!(moved > 0.05 * roles.leg_length, "the feet never move: {moved}");
+        }
+    }
+
+    #[test]
     fn cadence_does_not_depend_on_units_beyond_reason() {
         let (.., cow) = run(spot(), Motion::Walk); // ~40 units per leg
         assert!(cow.frames_per_cycle <= 1.05 * 1.6 * 24.0 + 1.0, "{}", cow.frames_per_cycle);
@@ -714,7 +836,7 @@ mod tests {
         let mut max_turn = 0.0f32;
         for f in 0..clip.frames {
             let local = &clip.rotations[f * clip.bone_count..(f + 1) * clip.bone_count];
-            let (_, pt) = posed_points(&h, &t, &p, &rest, local, [0.0; 3]);
+            let (_, pt) = posed_points(&h, &t, &p, &rest, local, &[], [0.0; 3]);
             let jaw = names.iter().position(|n| n == "jaw").unwrap();
             max_turn = max_turn.max((pt[jaw][0] - t[jaw][0]).abs());
         }
@@ -744,7 +866,7 @@ mod tests {
         let (_, h, t, p) = creature();
         let rest = rest_of(&h, &t);
         let id = vec![[1.0, 0.0, 0.0, 0.0]; h.len()];
-        let (ph, pt) = posed_points(&h, &t, &p, &rest, &id, [0.0; 3]);
+        let (ph, pt) = posed_points(&h, &t, &p, &rest, &id, &[], [0.0; 3]);
         for b in 0..h.len() {
             assert!((Vec3::from(ph[b]) - Vec3::from(h[b])).length() < 1e-5);
             assert!((Vec3::from(pt[b]) - Vec3::from(t[b])).length() < 1e-5);

@@ -29,11 +29,13 @@
 //!    (bipeds: along the feet; if still undecided Blender's -Y); left = up × forward; legs get
 //!    their side from the plane and their front/back group from their position along forward.
 //! 6. Arms: paired, non-midline chains of two or more bones and length ≥ 0.2 h hanging off the
-//!    spine, never rising above where they start (horns and ears do). Tail: the midline chain
-//!    hanging off the spine that points backwards, not carrying legs.
+//!    spine, rising above where they start by at most a quarter of their length (a T-posed arm
+//!    with a raised clavicle; horns and ears point up). Tail: the midline chain hanging off the
+//!    spine that points backwards, not carrying legs.
 //!
 //! Rigs made of several root chains that meet at shared joints (common in hand-made and
-//! glTF rigs) are joined first: see `joined_parents`.
+//! glTF rigs) are joined first: see `joined_parents`. Feet that hang off the root instead of
+//! their leg (game rigs exported from an IK set-up) then ride on their leg: see `foot_riders`.
 //!
 //! Known limitations: assumes +Z up and a roughly symmetric rest pose; legs must reach the
 //! ground in the rest pose; control rigs (IK targets, mechanism bones) should be filtered out
@@ -101,6 +103,9 @@ pub struct Roles {
     /// Whether every role bone descends from `root` in the input hierarchy (else the trees were
     /// joined where they touch, and moving the root bone would not move the whole body).
     pub single_tree: bool,
+    /// Feet that hang off a root bone instead of their leg (game rigs exported from an IK set-up),
+    /// as (foot, the leg's last bone it rides on): a motion moves them by location as well.
+    pub riders: Vec<[usize; 2]>,
     /// Remarks for the user (names disagreeing with the geometry, guessed forward …).
     pub notes: Vec<String>,
 }
@@ -109,6 +114,13 @@ const GROUND_FRACTION: f32 = 0.2;
 const LONG_FRACTION: f32 = 0.2;
 const MIDLINE_FRACTION: f32 = 0.05;
 const ARM_FRACTION: f32 = 0.2;
+/// How far an arm may rise above its shoulder, as a fraction of its reach (a T-posed arm with a
+/// raised clavicle and fingers rises ~0.1; ears and horns, which point up, ~1).
+const ARM_RISE: f32 = 0.25;
+/// How far a foot riding on the root may lie from the end of its leg chain, as fractions of the
+/// height: horizontally, and below it (RobotExpressive's shins end at the knee, 0.3 above).
+const RIDER_REACH: f32 = 0.1;
+const RIDER_LIFT: f32 = 0.5;
 
 fn v(p: [f32; 3]) -> Vec3 {
     Vec3::from_array(p)
@@ -229,6 +241,72 @@ fn joined_parents(heads: &[[f32; 3]], tails: &[[f32; 3]], parents: &[i32], groun
     eff
 }
 
+/// Feet that ride on the root: game rigs exported from an IK set-up (Quaternius characters,
+/// RobotExpressive) parent each foot to the ground root bone, and their leg chain stops at the
+/// ankle (or, with an invented tail, at the knee). A bone hanging off a root (or a root itself)
+/// whose whole subtree lies at or below `low_z` rides on the leaf bone of another branch whose
+/// tail is above its head: horizontally within `reach`, and at most `lift` higher (not the head
+/// of a narrow character). Returns (rider, carrier) pairs, nearest first, each bone used once.
+fn foot_riders(
+    heads: &[[f32; 3]],
+    tails: &[[f32; 3]],
+    parents: &[i32],
+    low_z: f32,
+    (reach, lift): (f32, f32),
+) -> Vec<[usize; 2]> {
+    let n = parents.len();
+    let tree = build_tree(parents);
+    let kids = &tree.children;
+    let subtree = |r: usize| {
+        let mut out = vec![r];
+        let mut i = 0;
+        while i < out.len() {
+            out.extend(&kids[out[i]]);
+            i += 1;
+        }
+        out
+    };
+    let ancestor_of = |a: usize, mut b: usize| {
+        while parents[b] >= 0 {
+            b = parents[b] as usize;
+            if b == a {
+                return true;
+            }
+        }
+        false
+    };
+    let mut cands: Vec<(f32, usize, usize)> = Vec::new();
+    for r in 0..n {
+        let off_root = parents[r] < 0 || parents[parents[r] as usize] < 0;
+        let below = subtree(r);
+        if !off_root || below.iter().any(|&b| heads[b][2].max(tails[b][2]) > low_z) {
+            continue;
+        }
+        let foot = v(heads[r]);
+        for e in 0..n {
+            if !kids[e].is_empty() || parents[e] < 0 || below.contains(&e) || ancestor_of(e, r) {
+                continue;
+            }
+            let end = v(tails[e]);
+            let d = end - foot;
+            if d.z > 0.0 && d.z <= lift && d.truncate().length() <= reach {
+                cands.push((d.length(), r, e));
+            }
+        }
+    }
+    cands.sort_by(|a, b| a.0.partial_cmp(&b.0).unwrap_or(std::cmp::Ordering::Equal));
+    let mut used = vec![false; n];
+    let mut out = Vec::new();
+    for (_, r, e) in cands {
+        if !used[r] && !used[e] {
+            used[r] = true;
+            used[e] = true;
+            out.push([r, e]);
+        }
+    }
+    out
+}
+
 fn build_tree(parents: &[i32]) -> Tree {
     let n = parents.len();
     let mut children = vec![Vec::new(); n];
@@ -311,8 +389,16 @@ pub fn detect_roles(heads: &[[f32; 3]], tails: &[[f32; 3]], parents: &[i32], nam
         let ground_leaf: Vec<bool> = (0..n)
             .map(|b| !has_child[b] && heads[b][2].min(tails[b][2]) - zmin <= GROUND_FRACTION * (zmax - zmin))
             .collect();
-        joined_parents(heads, tails, parents, &ground_leaf, 1e-3 * (hi - lo).length())
+        let mut joined = joined_parents(heads, tails, parents, &ground_leaf, 1e-3 * (hi - lo).length());
+        let low_z = zmin + GROUND_FRACTION * (zmax - zmin);
+        let riders =
+            foot_riders(heads, tails, &joined, low_z, (RIDER_REACH * (zmax - zmin), RIDER_LIFT * (zmax - zmin)));
+        for &[r, e] in &riders {
+            joined[r] = e as i32;
+        }
+        (joined, riders)
     };
+    let (joined, riders) = joined;
     let parents = &joined[..];
     let tree = build_tree(parents);
     let kids = &tree.children;
@@ -454,11 +540,12 @@ pub fn detect_roles(heads: &[[f32; 3]], tails: &[[f32; 3]], parents: &[i32], nam
 
     // ---- arms: paired non-midline chains hanging off the axis
     let chain_down = |top: usize| {
-        // follow the child with the longest chain below it
+        // follow the child with the longest chain below it; a bone spans at least to its
+        // child's head (glTF importers invent short tails for joints)
         let mut reach = vec![0.0f32; n];
         for &b in tree.order.iter().rev() {
-            let below = kids[b].iter().map(|&c| reach[c]).fold(0.0, f32::max);
-            reach[b] = (t(b) - h(b)).length() + below;
+            let own = (t(b) - h(b)).length();
+            reach[b] = kids[b].iter().map(|&c| own.max((h(c) - h(b)).length()) + reach[c]).fold(own, f32::max);
         }
         let mut chain = vec![top];
         let mut cur = top;
@@ -477,10 +564,10 @@ pub fn detect_roles(heads: &[[f32; 3]], tails: &[[f32; 3]], parents: &[i32], nam
                 continue;
             }
             let (chain, reach) = chain_down(c);
-            // arms hang from their shoulder (or reach sideways): never above it, unlike
-            // horns and ears
+            // arms hang from their shoulder or reach sideways (a T-posed arm may rise a little
+            // with its clavicle and fingers), unlike horns and ears, which point up
             let top_z = chain.iter().map(|&b| h(b).z.max(t(b).z)).fold(f32::NEG_INFINITY, f32::max);
-            let below = top_z <= h(c).z.max(h(a).z) + 0.05 * height;
+            let below = top_z - h(c).z.max(h(a).z) <= (0.05 * height).max(ARM_RISE * reach);
             if chain.len() >= 2 && reach >= ARM_FRACTION * height && below {
                 arm_cands.push((i, chain));
             }
@@ -563,6 +650,16 @@ pub fn detect_roles(heads: &[[f32; 3]], tails: &[[f32; 3]], parents: &[i32], nam
     // ---- forward, left
     let up = Vec3::Z;
     let mut notes = Vec::new();
+    if !riders.is_empty() {
+        let mut feet: Vec<String> =
+            riders.iter().map(|&[r, _]| names.get(r).cloned().unwrap_or_else(|| format!("bone {r}"))).collect();
+        feet.sort();
+        notes.push(format!(
+            "feet hanging off the root bone, not their legs (an IK rig without its constraints): {}; \
+             a walk moves them with their legs by location keys",
+            feet.join(", ")
+        ));
+    }
     let along = up.cross(normal).normalize();
     let leg_top_mean = leg_tops.iter().map(|&b| h(b)).sum::<Vec3>() / leg_tops.len() as f32;
     let mut to_head = h(head) - leg_top_mean;
@@ -690,6 +787,7 @@ pub fn detect_roles(heads: &[[f32; 3]], tails: &[[f32; 3]], parents: &[i32], nam
         height,
         leg_length,
         single_tree,
+        riders,
         notes,
     })
 }
@@ -791,6 +889,55 @@ pub(crate) mod tests {
                 (f("foot"), [0.1 * x, 0.0, 0.08], [0.1 * x, -0.14, 0.02], Some(f("shin"))),
                 (f("toe"), [0.1 * x, -0.14, 0.02], [0.1 * x, -0.2, 0.02], Some(f("foot"))),
             ]);
+        }
+        let names: Vec<String> = b.iter().map(|x| x.0.clone()).collect();
+        let idx = |n: &str| names.iter().position(|x| x == n).unwrap() as i32;
+        let parents = b.iter().map(|x| x.3.as_deref().map_or(-1, idx)).collect();
+        (names.clone(), b.iter().map(|x| x.1).collect(), b.iter().map(|x| x.2).collect(), parents)
+    }
+
+    /// A game-style biped exported from an IK set-up (the structure of the Quaternius and
+    /// RobotExpressive rigs, not their data): a ground root carrying the feet and knee pole
+    /// targets, a body bone carrying the legs and a hips -> torso -> neck -> head chain, long
+    /// ears, T-posed arms whose clavicle and fingers rise a little. The leg chains stop at the
+    /// ankle; with `invented_tails`, every bone has a tiny tail along its direction (glTF stores
+    /// joints only: RobotExpressive imports so), and the shins end at the knee.
+    /// Faces -Y, Z up.
+    pub fn ik_biped(invented_tails: bool) -> Skeleton {
+        let mut b: Vec<BoneSpec> = vec![
+            ("Root".into(), [0.0, 0.2, 0.0], [0.0, 0.2, 0.35], None),
+            ("Body".into(), [0.0, 0.05, 0.95], [0.0, 0.05, 1.2], Some("Root".into())),
+            ("Hips".into(), [0.0, 0.25, 0.8], [0.0, 0.3, 1.1], Some("Body".into())),
+            ("Abdomen".into(), [0.0, 0.3, 1.1], [0.0, 0.27, 1.4], Some("Hips".into())),
+            ("Torso".into(), [0.0, 0.27, 1.4], [0.0, 0.2, 1.7], Some("Abdomen".into())),
+            ("Neck".into(), [0.0, 0.1, 1.95], [0.0, -0.05, 2.05], Some("Torso".into())),
+            ("Head".into(), [0.0, -0.05, 2.05], [0.0, -0.2, 2.4], Some("Neck".into())),
+        ];
+        for (s, x) in [("L", 1.0f32), ("R", -1.0)] {
+            let f = |n: &str| format!("{n}.{s}");
+            let knee = [0.35 * x, 0.2, 0.55];
+            let ankle = [0.35 * x, 0.25, 0.13];
+            let shin_end = if invented_tails { [0.35 * x, 0.2, 0.4] } else { ankle };
+            b.extend([
+                (f("Ear1"), [0.24 * x, -0.2, 2.3], [0.36 * x, -0.2, 2.6], Some("Head".into())),
+                (f("Ear2"), [0.36 * x, -0.2, 2.6], [0.42 * x, -0.2, 3.05], Some(f("Ear1"))),
+                (f("Ear3"), [0.42 * x, -0.2, 3.05], [0.43 * x, -0.35, 3.5], Some(f("Ear2"))),
+                (f("Shoulder"), [0.17 * x, 0.22, 1.65], [0.37 * x, 0.22, 1.82], Some("Torso".into())),
+                (f("UpperArm"), [0.37 * x, 0.22, 1.82], [1.2 * x, 0.18, 1.82], Some(f("Shoulder"))),
+                (f("LowerArm"), [1.2 * x, 0.18, 1.82], [1.74 * x, 0.16, 1.85], Some(f("UpperArm"))),
+                (f("Middle1"), [1.74 * x, 0.16, 1.85], [2.0 * x, 0.15, 1.88], Some(f("LowerArm"))),
+                (f("Middle2"), [2.0 * x, 0.15, 1.88], [2.23 * x, 0.15, 1.86], Some(f("Middle1"))),
+                (f("UpperLeg"), [0.34 * x, 0.22, 0.97], knee, Some("Body".into())),
+                (f("LowerLeg"), knee, shin_end, Some(f("UpperLeg"))),
+                (f("Foot"), [0.35 * x, 0.28, 0.04], [0.35 * x, -0.07, 0.04], Some("Root".into())),
+                (f("PoleTarget"), [0.35 * x, -1.6, 0.6], [0.35 * x, -1.6, 0.95], Some("Root".into())),
+            ]);
+        }
+        if invented_tails {
+            for bone in &mut b {
+                let (h, t) = (Vec3::from(bone.1), Vec3::from(bone.2));
+                bone.2 = (h + 0.006 * (t - h).normalize()).to_array();
+            }
         }
         let names: Vec<String> = b.iter().map(|x| x.0.clone()).collect();
         let idx = |n: &str| names.iter().position(|x| x == n).unwrap() as i32;
@@ -942,6 +1089,66 @@ pub(crate) mod tests {
         let r2 = detect_roles(&h, &t, &p, &[]).unwrap();
         assert_eq!(names[r2.head], "head");
         assert_eq!(r2.legs.len(), 2);
+    }
+
+    #[test]
+    fn ik_exported_biped_feet_ride_on_their_legs_and_t_posed_arms_are_arms() {
+        for invented_tails in [false, true] {
+            let (names, h, t, p) = ik_biped(invented_tails);
+            let r = detect_roles(&h, &t, &p, &names).unwrap();
+            assert_eq!(r.plan, BodyPlan::Biped);
+            assert_eq!(leg(&names, &r, Side::Left, 0), ["UpperLeg.L", "LowerLeg.L", "Foot.L"]);
+            assert_eq!(leg(&names, &r, Side::Right, 0), ["UpperLeg.R", "LowerLeg.R", "Foot.R"]);
+            let riders: Vec<[String; 2]> =
+                r.riders.iter().map(|&[a, b]| [names[a].clone(), names[b].clone()]).collect();
+            assert_eq!(riders.len(), 2, "{riders:?}");
+            for s in ["L", "R"] {
+                assert!(riders.contains(&[format!("Foot.{s}"), format!("LowerLeg.{s}")]), "{riders:?}");
+            }
+            assert!(r.notes.iter().any(|n| n.contains("Foot.L")), "{:?}", r.notes);
+            // the arms rise 0.23 above the shoulder over a reach of 2.1: arms, so the spine
+            // reaches the torso they hang from and the neck is the neck alone (not the torso)
+            assert_eq!(r.arms.len(), 2);
+            let la = r.arms.iter().find(|a| a.side == Side::Left).unwrap();
+            assert_eq!(named(&names, &la.bones)[..3], ["Shoulder.L", "UpperArm.L", "LowerArm.L"]);
+            assert_eq!(named(&names, &r.spine), ["Root", "Body", "Hips", "Abdomen", "Torso"]);
+            assert_eq!(named(&names, &r.neck), ["Neck"]);
+            assert_eq!(names[r.head], "Head");
+            assert!(r.head_extras.iter().all(|&b| names[b].starts_with("Ear")));
+            assert!((Vec3::from(r.forward) - Vec3::NEG_Y).length() < 1e-3, "{:?}", r.forward);
+        }
+    }
+
+    #[test]
+    fn rigs_with_feet_on_their_legs_have_no_riders() {
+        for (names, h, t, p) in [biped(), creature(), spot()] {
+            assert!(detect_roles(&h, &t, &p, &names).unwrap().riders.is_empty());
+        }
+        // a narrow biped, arms out, whose feet hang off the hips level with the shins' ends:
+        // the only leaf end above a foot is the head's, too high to be a leg's
+        let mut b: Vec<BoneSpec> = vec![
+            ("hips".into(), [0.0, 0.0, 1.0], [0.0, 0.0, 1.2], None),
+            ("spine".into(), [0.0, 0.0, 1.2], [0.0, 0.0, 1.5], Some("hips".into())),
+            ("neck".into(), [0.0, 0.0, 1.5], [0.0, 0.0, 1.6], Some("spine".into())),
+            ("head".into(), [0.0, 0.0, 1.6], [0.0, 0.0, 1.8], Some("neck".into())),
+        ];
+        for (s, x) in [("L", 1.0f32), ("R", -1.0)] {
+            let f = |n: &str| format!("{n}.{s}");
+            b.extend([
+                (f("thigh"), [0.1 * x, 0.0, 1.0], [0.1 * x, 0.0, 0.5], Some("hips".into())),
+                (f("shin"), [0.1 * x, 0.0, 0.5], [0.1 * x, 0.0, 0.0], Some(f("thigh"))),
+                (f("arm"), [0.2 * x, 0.0, 1.45], [0.5 * x, 0.0, 1.45], Some("spine".into())),
+                (f("hand"), [0.5 * x, 0.0, 1.45], [0.7 * x, 0.0, 1.45], Some(f("arm"))),
+                (f("foot"), [0.1 * x, -0.02, 0.0], [0.1 * x, -0.2, 0.0], Some("hips".into())),
+            ]);
+        }
+        let names: Vec<String> = b.iter().map(|x| x.0.clone()).collect();
+        let idx = |n: &str| names.iter().position(|x| x == n).unwrap() as i32;
+        let p: Vec<i32> = b.iter().map(|x| x.3.as_deref().map_or(-1, idx)).collect();
+        let (h, t): (Vec<_>, Vec<_>) = b.iter().map(|x| (x.1, x.2)).unzip();
+        let r = detect_roles(&h, &t, &p, &names).unwrap();
+        assert!(r.riders.is_empty(), "{:?}", r.riders);
+        assert_eq!(names[r.head], "head");
     }
 
     #[test]

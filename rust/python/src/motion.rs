@@ -48,6 +48,8 @@ fn roles_dict<'py>(py: Python<'py>, r: &Roles) -> PyResult<Bound<'py, PyDict>> {
     d.set_item("height", r.height)?;
     d.set_item("leg_length", r.leg_length)?;
     d.set_item("single_tree", r.single_tree)?;
+    let riders: Vec<(usize, usize)> = r.riders.iter().map(|&[a, b]| (a, b)).collect();
+    d.set_item("riders", riders)?;
     d.set_item("notes", r.notes.clone())?;
     Ok(d)
 }
@@ -75,7 +77,8 @@ fn skeleton(
 
 /// Roles of a skeleton's bones (+Z up): dict with root, spine, neck, head, head_extras, tail,
 /// legs/arms ([{bones, side 'L'/'R', group}], group 0 = front), plan, up/forward/left,
-/// ground, height, leg_length, single_tree (moving the root bone moves the body), notes.
+/// ground, height, leg_length, single_tree (moving the root bone moves the body), riders
+/// ([(foot, leg bone)]: feet hanging off the root that ride on their leg), notes.
 /// ValueError (saying what is missing) with no legs or head.
 #[pyfunction]
 #[pyo3(signature = (bone_heads, bone_tails, parents, names=None))]
@@ -95,7 +98,9 @@ pub fn detect_roles<'py>(
 /// each bone's rest orientation in the same space as heads/tails (columns = bone X, Y, Z).
 /// Returns dict: rotations (frames, b, 4) float32 local quaternions (w, x, y, z),
 /// root_offset (frames, 3) float32 in the input space, animated (k,) int32 bone indices,
-/// moves_root, frames, frames_per_cycle, roles (as detect_roles).
+/// locations (frames, b, 3) float32 local locations in input units (Blender's
+/// `pose_bone.location` times the armature's scale; zero but for `located`), located (j,)
+/// int32 (the roles' riders), moves_root, frames, frames_per_cycle, roles (as detect_roles).
 #[pyfunction]
 #[pyo3(signature = (bone_heads, bone_tails, parents, rest_matrices, motion="WALK", *, names=None,
                     fps=24.0, cycles=2.0, duration=2.0, amplitude=0.5236, stride=1.0, speed=1.0,
@@ -150,6 +155,12 @@ pub fn make_motion<'py>(
     d.set_item("root_offset", from_rows(py, &clip.root_offset)?)?;
     let animated: Vec<i32> = clip.animated.iter().map(|&b| b as i32).collect();
     d.set_item("animated", PyArray1::from_vec(py, animated))?;
+    let flat: Vec<f32> = clip.locations.iter().flat_map(|l| l.iter().copied()).collect();
+    let loc = Array3::from_shape_vec((clip.frames, clip.bone_count, 3), flat)
+        .map_err(|e| PyValueError::new_err(e.to_string()))?;
+    d.set_item("locations", loc.into_pyarray(py))?;
+    let located: Vec<i32> = clip.located.iter().map(|&b| b as i32).collect();
+    d.set_item("located", PyArray1::from_vec(py, located))?;
     d.set_item("moves_root", clip.moves_root)?;
     d.set_item("frames", clip.frames)?;
     d.set_item("frames_per_cycle", clip.frames_per_cycle)?;
