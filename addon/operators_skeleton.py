@@ -95,7 +95,7 @@ def _fit_graph(ends, real, parents, follow, names):
 
 
 class MINISKELETON_OT_fit_skeleton(bpy.types.Operator):
-    """Move the selected joints (all when none are selected) to the middle of the selected meshes"""
+    """Move the selected joints (none selected: the deform bones' joints) to the middle of the selected meshes"""
 
     bl_idname = "armature.miniskeleton_fit_skeleton"
     bl_label = "Fit Skeleton to Mesh"
@@ -201,6 +201,17 @@ class MINISKELETON_OT_fit_skeleton(bpy.types.Operator):
                     if pose_sel.get(n):
                         sel[ends[i]] = True
             movable = sel if sel.any() else np.ones(nj, dtype=bool)
+            # With nothing selected, joints that only non-deform bones use (IK targets, pole
+            # targets, a root on the ground: controls, which place no weight) keep their place.
+            controls = np.zeros(nj, dtype=bool)
+            if not sel.any():
+                deform = np.zeros(nj, dtype=bool)
+                for i, eb in enumerate(bones):
+                    if eb.use_deform:
+                        deform[ends[i]] = True
+                if deform.any():
+                    controls = ~deform
+                    movable = deform
 
             joints_f = joints @ stretch  # S is symmetric
             inside = core.points_inside(verts, tris, joints_f.astype(np.float32))
@@ -244,16 +255,22 @@ class MINISKELETON_OT_fit_skeleton(bpy.types.Operator):
         if rep["pieces"] > 1:
             self.report({"WARNING"}, f"The mesh has {rep['pieces']} separate pieces: each joint was "
                         "fitted into the piece around it")
+        # outside counts over the joints fitted; controls left outside are named apart
+        kept = controls[fit_j]
+        before = int((rep["outside_before_mask"] & ~kept).sum())
+        after = int((rep["outside_after_mask"] & ~kept).sum())
         mirrored = rep.get("mirrored_surface")
-        if rep["outside_after"] and mirrored is not None and mirrored < 0.9:
+        if after and mirrored is not None and mirrored < 0.9:
             self.report({"WARNING"}, f"Symmetry X: only {mirrored:.0%} of the mesh's surface has a mirror "
                         "image across the armature's X = 0 plane (a posed scan, or the armature's origin off "
                         "the mesh's middle), so mirrored joints can end outside; fit without Symmetry, or put "
                         "the armature's origin on the mesh's mirror plane")
-        level = {"WARNING"} if rep["outside_after"] else {"INFO"}
+        level = {"WARNING"} if after else {"INFO"}
         extra = f" ({nj - len(fit_j)} invented tails followed their bones)" if len(fit_j) < nj else ""
+        controls_note = (f"; {int(kept.sum())} joints of non-deform bones (controls such as IK and pole "
+                         "targets) kept in place: select them to fit them too") if kept.any() else ""
         self.report(level, f"Fitted {int(movable[fit_j].sum())} of {len(fit_j)} joints{extra}: outside the mesh "
-                    f"before {rep['outside_before']}, after {rep['outside_after']}")
+                    f"before {before}, after {after}{controls_note}")
         return {"FINISHED"}
 
 

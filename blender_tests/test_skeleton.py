@@ -401,6 +401,60 @@ def test_fit_symmetry_leaves_unpaired_side_joints_off_the_centre_line():
     assert abs(x_after) > 0.01 * diag and np.sign(x_after) == np.sign(x_before), (x_before, x_after)
 
 
+def test_fit_keeps_control_bones_outside_the_mesh_where_they_are(capfd):
+    """Non-deform bones (a root on the ground, an IK foot target, a knee pole target in front
+    of the knee) place no weight: with nothing selected, Fit keeps their joints where they are
+    (before, it pulled the pole 0.73 and the root 0.46 units into the body) and fits the deform
+    bones exactly as it does without the controls; the report names them. Selected, a control
+    is fitted like any joint."""
+    def displaced_creature():
+        body, arm, ends, orig, moved, diag = creature_setup(seed=6)
+        return body, arm, ends, moved
+
+    body, arm, ends, moved = displaced_creature()
+    builders.select_for_parenting([body], arm)
+    assert bpy.ops.armature.miniskeleton_fit_skeleton() == {"FINISHED"}
+    alone = edit_state(arm)
+
+    body, arm, ends, moved = displaced_creature()
+    builders.set_active(arm)
+    bpy.ops.object.mode_set(mode="EDIT")
+    eb = arm.data.edit_bones
+    foot, shin = eb["foot.L"].head.copy(), eb["shin.L"].head.copy()
+    controls = {"root": ((0, 0, 0), (0, 0.5, 0), None),
+                "foot_ik.L": ((foot.x, foot.y, 0), (foot.x, foot.y + 0.3, 0), "root"),
+                "knee_pole.L": ((shin.x, shin.y + 1.0, shin.z), (shin.x, shin.y + 1.2, shin.z), "root")}
+    for name, (head, tail, parent) in controls.items():
+        b = eb.new(name)
+        b.head, b.tail, b.use_deform = head, tail, False
+        if parent:
+            b.parent = eb[parent]
+    eb["spine"].parent = eb["root"]
+    bpy.ops.object.mode_set(mode="OBJECT")
+    before = edit_state(arm)
+    builders.select_for_parenting([body], arm)
+    capfd.readouterr()
+    assert bpy.ops.armature.miniskeleton_fit_skeleton() == {"FINISHED"}
+    assert "6 joints of non-deform bones (controls such as IK and pole targets) kept in place" \
+        in "".join(capfd.readouterr())
+    after = edit_state(arm)
+    for name in controls:
+        assert after[name][:2] == before[name][:2], name
+    for name, state in alone.items():
+        np.testing.assert_allclose(after[name][0] + after[name][1], state[0] + state[1], atol=1e-6, err_msg=name)
+
+    builders.set_active(arm, selected=[body])
+    bpy.ops.object.mode_set(mode="EDIT")
+    for b in arm.data.edit_bones:
+        b.select = b.select_head = b.select_tail = False
+    arm.data.edit_bones["knee_pole.L"].select_head = True
+    bpy.ops.armature.miniskeleton_fit_skeleton()
+    bpy.ops.object.mode_set(mode="OBJECT")
+    v, t = mesh_arrays(body)
+    head = np.array(arm.matrix_world @ arm.data.bones["knee_pole.L"].head_local, dtype=np.float32)
+    assert core.points_inside(v, t, head[None])[0]
+
+
 def test_fit_selected_joints_only():
     body, arm, ends, orig, moved, diag = creature_setup(seed=4)
     builders.set_active(arm, selected=[body])
