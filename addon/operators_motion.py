@@ -104,6 +104,28 @@ def driven_rotation_bones(ob: bpy.types.Object) -> set[str]:
     return rotation_bones(ob.animation_data.drivers if ob.animation_data is not None else [])
 
 
+# Constraints that set or turn a bone's rotation (limits and location-only ones leave keys be).
+TURNING_CONSTRAINTS = {"IK", "SPLINE_IK", "COPY_ROTATION", "COPY_TRANSFORMS", "DAMPED_TRACK", "LOCKED_TRACK",
+                       "TRACK_TO", "STRETCH_TO", "CHILD_OF", "ARMATURE", "TRANSFORM", "ACTION"}
+
+
+def constrained_rotation_bones(ob: bpy.types.Object) -> dict[str, str]:
+    """{pose bone: constraint} for the bones whose rotation an active constraint overrides: its
+    own (enabled, valid, influence > 0), or an IK constraint further down its chain."""
+    out = {}
+    for pb in ob.pose.bones:
+        for c in pb.constraints:
+            if c.type not in TURNING_CONSTRAINTS or c.mute or not c.is_valid or c.influence <= 0.0:
+                continue
+            out.setdefault(pb.name, f"{c.name}")
+            if c.type == "IK":  # chain_count 0: up to the root
+                up, k = pb.parent, 1
+                while up is not None and (c.chain_count == 0 or k < c.chain_count):
+                    out.setdefault(up.name, f"{c.name} of {pb.name}")
+                    up, k = up.parent, k + 1
+    return out
+
+
 def rotation_bones(fcurves, paths: tuple[str, ...] = ROT_PATHS) -> set[str]:
     """Names of the pose bones whose rotation (or another of ``paths``) one of ``fcurves`` animates."""
     out = set()
@@ -257,6 +279,13 @@ class MINISKELETON_OT_add_motion(bpy.types.Operator):
         if driven:
             self.report({"WARNING"}, f"{len(driven)} keyed bone(s) have rotation drivers, which "
                         f"override their keys: {mesh_io.name_list(driven, 6)}")
+        constrained = constrained_rotation_bones(arm)
+        held = sorted(n for n in constrained if n in {bones.names[int(b)] for b in out["animated"]})
+        if held:
+            named = [f"{n} ({constrained[n]})" for n in held]
+            self.report({"WARNING"}, f"{len(held)} keyed bone(s) follow constraints that override their keys: "
+                        f"{mesh_io.name_list(named, 6)}; mute those constraints (or set their influence to 0) "
+                        "to see the motion")
         return {"FINISHED"}
 
     def write_keys(self, context, arm, names, out, start) -> int:

@@ -189,6 +189,34 @@ def test_driven_bones_are_named_in_a_warning(capfd):
     assert add_motion(arm, motion="WALK") == {"FINISHED"}
     assert "1 keyed bone(s) have rotation drivers, which override their keys: shin.L" in capfd.readouterr().out
 
+def test_bones_held_by_constraints_are_named_in_a_warning(capfd):
+    """An IK constraint (or a Copy Rotation...) overrides the keys of its bone and, for IK, of
+    the chain above it, so the walk would not show there: say which, and through which
+    constraint. Muted, powerless, target-less and location-only constraints are not named."""
+    arm = biped_rig()
+    B.set_active(arm)
+    bpy.ops.object.mode_set(mode="EDIT")
+    target = arm.data.edit_bones.new("foot_ik.L")
+    target.head, target.tail, target.use_deform = (0.1, 0, 0.08), (0.1, 0.2, 0.08), False
+    bpy.ops.object.mode_set(mode="OBJECT")
+    pose = arm.pose.bones
+    ik = pose["shin.L"].constraints.new("IK")
+    ik.target, ik.subtarget, ik.chain_count = arm, "foot_ik.L", 2
+    copy = pose["upper_arm.R"].constraints.new("COPY_ROTATION")
+    copy.target, copy.subtarget = arm, "foot_ik.L"
+    muted = pose["upper_arm.L"].constraints.new("COPY_ROTATION")
+    muted.target, muted.subtarget, muted.mute = arm, "foot_ik.L", True
+    pose["forearm.L"].constraints.new("DAMPED_TRACK")                # no target: not evaluated
+    weak = pose["forearm.R"].constraints.new("COPY_ROTATION")
+    weak.target, weak.subtarget, weak.influence = arm, "foot_ik.L", 0.0
+    pose["foot.R"].constraints.new("LIMIT_LOCATION")
+    capfd.readouterr()
+    assert add_motion(arm, motion="WALK") == {"FINISHED"}
+    out = "".join(capfd.readouterr())
+    assert ("3 keyed bone(s) follow constraints that override their keys: shin.L (IK), "
+            "thigh.L (IK of shin.L), upper_arm.R (Copy Rotation)") in out, out
+
+
 # ---------------------------------------------------------------- motions
 
 
