@@ -91,17 +91,17 @@ def last_key_frame(ob: bpy.types.Object) -> float | None:
 
 def keyed_rotation_bones(ob: bpy.types.Object) -> set[str]:
     """Names of pose bones that have rotation keys."""
-    return rotation_bones(action_fcurves(ob))
+    return animated_pose_bones(action_fcurves(ob))
 
 
 def keyed_location_bones(ob: bpy.types.Object) -> set[str]:
     """Names of pose bones that have location keys."""
-    return rotation_bones(action_fcurves(ob), ("location",))
+    return animated_pose_bones(action_fcurves(ob), ("location",))
 
 
 def driven_rotation_bones(ob: bpy.types.Object) -> set[str]:
     """Names of pose bones whose rotation has a driver (it overrides their keys)."""
-    return rotation_bones(ob.animation_data.drivers if ob.animation_data is not None else [])
+    return animated_pose_bones(ob.animation_data.drivers if ob.animation_data is not None else [])
 
 
 # Constraints that set or turn a bone's rotation (limits and location-only ones leave keys be).
@@ -117,7 +117,7 @@ def constrained_rotation_bones(ob: bpy.types.Object) -> dict[str, str]:
         for c in pb.constraints:
             if c.type not in TURNING_CONSTRAINTS or c.mute or not c.is_valid or c.influence <= 0.0:
                 continue
-            out.setdefault(pb.name, f"{c.name}")
+            out.setdefault(pb.name, c.name)
             if c.type == "IK":  # chain_count 0: up to the root
                 up, k = pb.parent, 1
                 while up is not None and (c.chain_count == 0 or k < c.chain_count):
@@ -126,7 +126,7 @@ def constrained_rotation_bones(ob: bpy.types.Object) -> dict[str, str]:
     return out
 
 
-def rotation_bones(fcurves, paths: tuple[str, ...] = ROT_PATHS) -> set[str]:
+def animated_pose_bones(fcurves, paths: tuple[str, ...] = ROT_PATHS) -> set[str]:
     """Names of the pose bones whose rotation (or another of ``paths``) one of ``fcurves`` animates."""
     out = set()
     for fc in fcurves:

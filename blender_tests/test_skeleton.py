@@ -81,6 +81,17 @@ def creature_setup(seed=1, scale=0.05):
     return body, arm, ends, joints, moved, diag
 
 
+def fit_one_joint(arm, body, bone, end):
+    """Fit Skeleton in Edit Mode with only ``bone``'s ``end`` ('select_head' / 'select_tail') selected."""
+    builders.set_active(arm, selected=[body])
+    bpy.ops.object.mode_set(mode="EDIT")
+    for eb in arm.data.edit_bones:
+        eb.select = eb.select_head = eb.select_tail = False
+    setattr(arm.data.edit_bones[bone], end, True)
+    bpy.ops.armature.miniskeleton_fit_skeleton()
+    bpy.ops.object.mode_set(mode="OBJECT")
+
+
 def mesh_arrays(ob):
     v = builders.world_vertices(ob).astype(np.float32)
     ob.data.calc_loop_triangles()
@@ -443,13 +454,7 @@ def test_fit_keeps_control_bones_outside_the_mesh_where_they_are(capfd):
     for name, state in alone.items():
         np.testing.assert_allclose(after[name][0] + after[name][1], state[0] + state[1], atol=1e-6, err_msg=name)
 
-    builders.set_active(arm, selected=[body])
-    bpy.ops.object.mode_set(mode="EDIT")
-    for b in arm.data.edit_bones:
-        b.select = b.select_head = b.select_tail = False
-    arm.data.edit_bones["knee_pole.L"].select_head = True
-    bpy.ops.armature.miniskeleton_fit_skeleton()
-    bpy.ops.object.mode_set(mode="OBJECT")
+    fit_one_joint(arm, body, "knee_pole.L", "select_head")
     v, t = mesh_arrays(body)
     head = np.array(arm.matrix_world @ arm.data.bones["knee_pole.L"].head_local, dtype=np.float32)
     assert core.points_inside(v, t, head[None])[0]
@@ -457,13 +462,7 @@ def test_fit_keeps_control_bones_outside_the_mesh_where_they_are(capfd):
 
 def test_fit_selected_joints_only():
     body, arm, ends, orig, moved, diag = creature_setup(seed=4)
-    builders.set_active(arm, selected=[body])
-    bpy.ops.object.mode_set(mode="EDIT")
-    for eb in arm.data.edit_bones:
-        eb.select = eb.select_head = eb.select_tail = False
-    arm.data.edit_bones["forearm.L"].select_tail = True
-    bpy.ops.armature.miniskeleton_fit_skeleton()
-    bpy.ops.object.mode_set(mode="OBJECT")
+    fit_one_joint(arm, body, "forearm.L", "select_tail")
     fitted = joints_of(arm, ends)
     names = [b.name for b in arm.data.bones]
     j = ends[names.index("forearm.L"), 1]

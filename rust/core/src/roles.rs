@@ -376,7 +376,7 @@ pub fn detect_roles(heads: &[[f32; 3]], tails: &[[f32; 3]], parents: &[i32], nam
     validate(heads, tails, parents, names)?;
     let n = heads.len();
     let real_parents = parents;
-    let joined = {
+    let (joined, riders) = {
         let all: Vec<Vec3> = heads.iter().chain(tails).map(|&p| v(p)).collect();
         let zmin = all.iter().map(|p| p.z).fold(f32::INFINITY, f32::min);
         let zmax = all.iter().map(|p| p.z).fold(f32::NEG_INFINITY, f32::max);
@@ -398,7 +398,6 @@ pub fn detect_roles(heads: &[[f32; 3]], tails: &[[f32; 3]], parents: &[i32], nam
         }
         (joined, riders)
     };
-    let (joined, riders) = joined;
     let parents = &joined[..];
     let tree = build_tree(parents);
     let kids = &tree.children;
@@ -867,6 +866,14 @@ pub(crate) mod tests {
         (names, heads, tails, parents)
     }
 
+    /// A hand-written rig as arrays, parents looked up by name.
+    fn skeleton_of(b: &[BoneSpec]) -> Skeleton {
+        let names: Vec<String> = b.iter().map(|x| x.0.clone()).collect();
+        let idx = |n: &str| names.iter().position(|x| x == n).unwrap() as i32;
+        let parents = b.iter().map(|x| x.3.as_deref().map_or(-1, idx)).collect();
+        (names.clone(), b.iter().map(|x| x.1).collect(), b.iter().map(|x| x.2).collect(), parents)
+    }
+
     /// A simple human, facing -Y, arms down: hips root, 3 spine bones, neck, head,
     /// clavicle/upper arm/forearm/hand, thigh/shin/foot/toe.
     pub fn biped() -> Skeleton {
@@ -890,10 +897,7 @@ pub(crate) mod tests {
                 (f("toe"), [0.1 * x, -0.14, 0.02], [0.1 * x, -0.2, 0.02], Some(f("foot"))),
             ]);
         }
-        let names: Vec<String> = b.iter().map(|x| x.0.clone()).collect();
-        let idx = |n: &str| names.iter().position(|x| x == n).unwrap() as i32;
-        let parents = b.iter().map(|x| x.3.as_deref().map_or(-1, idx)).collect();
-        (names.clone(), b.iter().map(|x| x.1).collect(), b.iter().map(|x| x.2).collect(), parents)
+        skeleton_of(&b)
     }
 
     /// A game-style biped exported from an IK set-up (the structure of the Quaternius and
@@ -939,10 +943,7 @@ pub(crate) mod tests {
                 bone.2 = (h + 0.006 * (t - h).normalize()).to_array();
             }
         }
-        let names: Vec<String> = b.iter().map(|x| x.0.clone()).collect();
-        let idx = |n: &str| names.iter().position(|x| x == n).unwrap() as i32;
-        let parents = b.iter().map(|x| x.3.as_deref().map_or(-1, idx)).collect();
-        (names.clone(), b.iter().map(|x| x.1).collect(), b.iter().map(|x| x.2).collect(), parents)
+        skeleton_of(&b)
     }
 
     /// A generated rig with the structure of Spot the cow's hand-made one (not its data): seven
@@ -1142,10 +1143,7 @@ pub(crate) mod tests {
                 (f("foot"), [0.1 * x, -0.02, 0.0], [0.1 * x, -0.2, 0.0], Some("hips".into())),
             ]);
         }
-        let names: Vec<String> = b.iter().map(|x| x.0.clone()).collect();
-        let idx = |n: &str| names.iter().position(|x| x == n).unwrap() as i32;
-        let p: Vec<i32> = b.iter().map(|x| x.3.as_deref().map_or(-1, idx)).collect();
-        let (h, t): (Vec<_>, Vec<_>) = b.iter().map(|x| (x.1, x.2)).unzip();
+        let (names, h, t, p) = skeleton_of(&b);
         let r = detect_roles(&h, &t, &p, &names).unwrap();
         assert!(r.riders.is_empty(), "{:?}", r.riders);
         assert_eq!(names[r.head], "head");
