@@ -277,9 +277,11 @@ fn foot_riders(
     };
     let mut cands: Vec<(f32, usize, usize)> = Vec::new();
     for r in 0..n {
-        let off_root = parents[r] < 0 || parents[parents[r] as usize] < 0;
+        if parents[r] >= 0 && parents[parents[r] as usize] >= 0 {
+            continue; // not off a root
+        }
         let below = subtree(r);
-        if !off_root || below.iter().any(|&b| heads[b][2].max(tails[b][2]) > low_z) {
+        if below.iter().any(|&b| heads[b][2].max(tails[b][2]) > low_z) {
             continue;
         }
         let foot = v(heads[r]);
@@ -334,8 +336,14 @@ fn build_tree(parents: &[i32]) -> Tree {
     Tree { root: best[0], children, order: best }
 }
 
+/// Most points the mirror-plane scan compares: each score is quadratic in them (4000 bones took
+/// 6.4 s); above this, every k-th point.
+const MIRROR_POINTS: usize = 1024;
+
 /// Unit normal (horizontal) of the best mirror plane through `centre` for `points`.
 fn mirror_normal(points: &[Vec3], centre: Vec3) -> Vec3 {
+    let sampled: Vec<Vec3> = points.iter().step_by(points.len().div_ceil(MIRROR_POINTS).max(1)).copied().collect();
+    let points = &sampled[..];
     let score = |deg: f32| -> f32 {
         let a = deg.to_radians();
         let n = Vec3::new(a.cos(), a.sin(), 0.0);
@@ -1147,6 +1155,32 @@ pub(crate) mod tests {
         let r = detect_roles(&h, &t, &p, &names).unwrap();
         assert!(r.riders.is_empty(), "{:?}", r.riders);
         assert_eq!(names[r.head], "head");
+    }
+
+    #[test]
+    fn thousands_of_hair_bones_leave_the_roles_as_they_were() {
+        // 400 strands of 10 bones hanging off the head: the mirror-plane scan samples the
+        // 8000+ bone ends (it compares every pair) and still finds the body's plane
+        let (mut names, mut h, mut t, mut p) = biped();
+        let plain = detect_roles(&h, &t, &p, &names).unwrap();
+        let head = names.iter().position(|n| n == "head").unwrap() as i32;
+        for k in 0..400 {
+            let x = 0.1 * ((k as f32 * 0.618).fract() - 0.5);
+            for j in 0..10 {
+                let z = 1.78 - 0.01 * j as f32;
+                names.push(format!("hair{k}_{j}"));
+                h.push([x, 0.05 + 0.01 * j as f32, z]);
+                t.push([x, 0.06 + 0.01 * j as f32, z - 0.01]);
+                p.push(if j == 0 { head } else { h.len() as i32 - 2 });
+            }
+        }
+        let r = detect_roles(&h, &t, &p, &names).unwrap();
+        assert_eq!(named(&names, &r.spine), named(&names, &plain.spine));
+        assert_eq!(r.legs.len(), 2);
+        assert_eq!(leg(&names, &r, Side::Left, 0), leg(&names, &plain, Side::Left, 0));
+        assert_eq!(r.arms.len(), 2);
+        assert_eq!(names[r.head], "head");
+        assert!((Vec3::from(r.forward) - Vec3::from(plain.forward)).length() < 1e-3, "{:?}", r.forward);
     }
 
     #[test]
