@@ -161,7 +161,10 @@ def key_rotation(pb: bpy.types.PoseBone, q: Quaternion, frame: float, prev_euler
 
 def describe_roles(roles: dict, names: list[str]) -> list[str]:
     """One line per role: 'head: head (+ jaw, ear.L, ear.R)'."""
-    n = lambda ids: ", ".join(names[i] for i in ids) or "-"  # noqa: E731
+    def n(ids):  # a rig with hundreds of hair bones gets a dozen names and the count
+        listed = mesh_io.name_list([names[i] for i in ids], 12)
+        return (f"{listed} ({len(ids)} in all)" if len(ids) > 12 else listed) or "-"
+
     lines = [f"body: {roles['plan']}", f"root: {names[roles['root']]}", f"spine: {n(roles['spine'])}",
              f"neck: {n(roles['neck'])}", f"head: {names[roles['head']]}"
              + (f" (+ {n(roles['head_extras'])})" if roles["head_extras"] else "")]

@@ -189,6 +189,19 @@ def test_driven_bones_are_named_in_a_warning(capfd):
     assert add_motion(arm, motion="WALK") == {"FINISHED"}
     assert "1 keyed bone(s) have rotation drivers, which override their keys: shin.L" in capfd.readouterr().out
 
+def test_roles_of_a_rig_with_hundreds_of_hair_bones_are_listed_shortly():
+    """The console's role list names a dozen bones of a long role and gives the count (a rig
+    with 1000 hair bones printed all 1000 names on the head's line)."""
+    names = ["hips", "head"] + [f"hair{k}" for k in range(1000)] + ["thigh.L", "thigh.R"]
+    roles = dict(plan="biped", root=0, spine=[0], neck=[], head=1, head_extras=list(range(2, 1002)), tail=[],
+                 legs=[dict(bones=[1002], side="L", group=0), dict(bones=[1003], side="R", group=0)],
+                 arms=[], notes=[])
+    lines = motion_module().describe_roles(roles, names)
+    head = next(line for line in lines if line.startswith("head:"))
+    assert head == "head: head (+ " + ", ".join(f"hair{k}" for k in range(12)) + " ... (1000 in all))", head
+    assert "leg L: thigh.L" in lines
+
+
 def test_bones_held_by_constraints_are_named_in_a_warning(capfd):
     """An IK constraint (or a Copy Rotation...) overrides the keys of its bone and, for IK, of
     the chain above it, so the walk would not show there: say which, and through which

@@ -460,6 +460,62 @@ def test_fit_keeps_control_bones_outside_the_mesh_where_they_are(capfd):
     assert core.points_inside(v, t, head[None])[0]
 
 
+def test_joint_graph_merges_ends_within_the_tolerance_and_takes_any_bone_order():
+    """rig_io.joint_graph against its definition (every end compared with every joint so far,
+    in parents-first order; the first joint within the tolerance wins): near-coincident ends
+    just inside and just outside the tolerance, and a 1500-bone chain listed tip first (the
+    recursive parents-first walk it replaces went 1500 calls deep; Python stops at 1000)."""
+    rng = np.random.default_rng(3)
+    tol = 1e-3
+    base = rng.uniform(-1, 1, size=(300, 3))
+    heads = np.concatenate([base, base[:100] + 0.4 * tol, base[100:200] + 3.0 * tol])
+    tails = heads + rng.uniform(-0.2, 0.2, size=heads.shape)
+    tails[::7] = heads[1::7][:len(tails[::7])]            # some tails on other bones' heads
+    n = len(heads)
+    parents = [-1 if i % 5 == 0 else int(rng.integers(0, i)) for i in range(n)]
+    connected = [p >= 0 and i % 3 == 0 for i, p in enumerate(parents)]
+
+    def reference(heads, tails, parents, connected):
+        joints, ends, order, done = [], np.full((len(heads), 2), -1), [], set()
+
+        def visit(i):
+            if i not in done:
+                done.add(i)
+                if parents[i] >= 0:
+                    visit(parents[i])
+                order.append(i)
+
+        def find_or_add(p):
+            for k, q in enumerate(joints):
+                if np.linalg.norm(q - p) <= tol:
+                    return k
+            joints.append(p)
+            return len(joints) - 1
+
+        for i in range(len(heads)):
+            visit(i)
+        for i in order:
+            ends[i, 0] = ends[parents[i], 1] if connected[i] and parents[i] >= 0 else find_or_add(heads[i])
+            ends[i, 1] = find_or_add(tails[i])
+        return np.array(joints), ends
+
+    joints, ends = rig_io.joint_graph(heads, tails, parents, connected, tol)
+    want_joints, want_ends = reference(heads, tails, parents, connected)
+    np.testing.assert_array_equal(ends, want_ends)
+    np.testing.assert_array_equal(joints, want_joints)
+    assert len(joints) < 2 * n   # the 0.4-tolerance copies merged
+
+    # a rope listed tip first: bone i's parent is bone i + 1
+    count = 1500
+    z = np.arange(count + 1, dtype=np.float64)[::-1]
+    heads = np.stack([np.zeros(count), np.zeros(count), z[1:]], axis=1)
+    tails = np.stack([np.zeros(count), np.zeros(count), z[:-1]], axis=1)
+    parents = list(range(1, count)) + [-1]
+    joints, ends = rig_io.joint_graph(heads, tails, parents, [True] * (count - 1) + [False], tol)
+    assert len(joints) == count + 1
+    assert all(ends[i, 0] == ends[i + 1, 1] for i in range(count - 1))
+
+
 def test_fit_selected_joints_only():
     body, arm, ends, orig, moved, diag = creature_setup(seed=4)
     fit_one_joint(arm, body, "forearm.L", "select_tail")
