@@ -286,17 +286,17 @@ def test_mirrored_armature_walks_as_the_mirror_image_of_its_twin(capfd):
     assert "is scaled unevenly (1, 2, 0.5)" in "".join(capfd.readouterr())
 
 
-@pytest.mark.parametrize("invented_tails", [False, True])
-def test_feet_hanging_off_the_root_walk_with_their_legs(invented_tails, capsys):
+@pytest.mark.parametrize("invented_tails, scale", [(False, 100.0), (True, 100.0), (True, -50.0)])
+def test_feet_hanging_off_the_root_walk_with_their_legs(invented_tails, scale, capsys):
     """Game rigs exported from an IK set-up (Quaternius characters, RobotExpressive) hang each
     foot off the ground root bone, with no constraint left to make it follow the leg: the walk
     keys the feet's location so that, in Blender's own evaluation, each foot stays fixed to its
     shin, lifts in its swing and alternates with the other. The T-posed arms (clavicle rising) are
     arms, so the torso is spine and the neck is the neck alone. Armature scaled by 100 (as the
-    robot imports): locations are in the armature's units. A head shake appended afterwards
-    puts the feet back to rest."""
+    robot imports), or mirrored and scaled by 50: locations are in the armature's units. A
+    head shake appended afterwards puts the feet back to rest."""
     arm = ik_exported_rig(invented_tails)
-    B.place_armature_keep_bones(arm, Matrix.Diagonal((100.0, 100.0, 100.0, 1.0)))
+    B.place_armature_keep_bones(arm, Matrix.Diagonal((scale, abs(scale), abs(scale), 1.0)))
     r, n, legs = roles_by_name(arm)
     assert legs[("front", "L")] == ["UpperLeg.L", "LowerLeg.L", "Foot.L"]
     assert sorted((n[a], n[b]) for a, b in r["riders"]) == [("Foot.L", "LowerLeg.L"), ("Foot.R", "LowerLeg.R")]
@@ -313,7 +313,7 @@ def test_feet_hanging_off_the_root_walk_with_their_legs(invented_tails, capsys):
     peaks = []
     for s in "LR":
         offsets, z = B.riding(arm, f"Foot.{s}", f"LowerLeg.{s}", range(scene.frame_start, end + 1))
-        spread = np.ptp(offsets, axis=0).max() * 100.0   # armature units -> world
+        spread = np.ptp(offsets, axis=0).max() * abs(scale)   # armature units -> world
         assert spread < 1e-4 * leg, f"Foot.{s} slides on its shin by {spread:.4f}"
         assert np.ptp(z) > 0.05 * leg, f"Foot.{s} does not lift: {np.ptp(z):.2f}"
         peaks.append(int(np.argmax(z)) / (end - scene.frame_start))
