@@ -282,6 +282,9 @@ class MINISKELETON_OT_add_motion(bpy.types.Operator):
         if driven:
             self.report({"WARNING"}, f"{len(driven)} keyed bone(s) have rotation drivers, which "
                         f"override their keys: {mesh_io.name_list(driven, 6)}")
+        if arm.data.pose_position == "REST":
+            self.report({"WARNING"}, f"Armature '{arm.name}' shows its Rest Position, so the motion does not "
+                        "show: switch to Pose Position (Armature properties > Pose Position)")
         constrained = constrained_rotation_bones(arm)
         held = sorted(n for n in constrained if n in {bones.names[int(b)] for b in out["animated"]})
         if held:

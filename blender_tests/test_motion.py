@@ -189,6 +189,21 @@ def test_driven_bones_are_named_in_a_warning(capfd):
     assert add_motion(arm, motion="WALK") == {"FINISHED"}
     assert "1 keyed bone(s) have rotation drivers, which override their keys: shin.L" in capfd.readouterr().out
 
+def test_an_armature_in_rest_position_gets_the_keys_and_a_warning(capfd):
+    """In Rest Position the keys are written but nothing moves: say so, and how to see them."""
+    arm = biped_rig()
+    arm.data.pose_position = "REST"
+    capfd.readouterr()
+    assert add_motion(arm, motion="WALK", cycles=1) == {"FINISHED"}
+    assert "shows its Rest Position, so the motion does not show: switch to Pose Position" \
+        in "".join(capfd.readouterr())
+    assert motion_module().keyed_rotation_bones(arm) >= {"thigh.L", "shin.R"}
+    arm.data.pose_position = "POSE"
+    capfd.readouterr()
+    assert add_motion(arm, motion="WALK", cycles=1) == {"FINISHED"}
+    assert "Rest Position" not in "".join(capfd.readouterr())
+
+
 def test_roles_of_a_rig_with_hundreds_of_hair_bones_are_listed_shortly():
     """The console's role list names a dozen bones of a long role and gives the count (a rig
     with 1000 hair bones printed all 1000 names on the head's line)."""
