@@ -35,8 +35,9 @@
 //! - Body: spine yaw/roll sway (walk), pitch flexion (quadruped run) or twist and lean (biped
 //!   run); neck/head bob at the step rate with the head steadied; tail sway with a lag; biped
 //!   arms swing against the legs.
-//! - Root: forward travel (optional) and a vertical offset that keeps the lowest foot on its
-//!   rest height (forward kinematics each frame), which gives the body its natural bob.
+//! - Root: forward travel (optional) and a vertical offset that keeps every foot at or above
+//!   its own rest height and the lowest one on it (forward kinematics each frame), which gives
+//!   the body its natural bob.
 //! - Head shake: neck and head yaw A · env(u) · sin(2π c u) over the duration, with a smooth
 //!   fade in and out (starts and ends at rest), the head taking half; ears and other head
 //!   children swing after it with 35 % of the amplitude and a lag.
@@ -531,10 +532,12 @@ fn gait(
     for &[r, e] in &roles.riders {
         carried[r] = e as i32;
     }
+    // Each foot's lowest point; the body rises or sinks so that no foot goes below its own
+    // rest height and the lowest one stays on it (feet need not end at one height: the Fox's
+    // front leg bones end at the wrist, 6 units above its hind feet's).
     let feet: Vec<usize> = roles.legs.iter().map(|l| *l.bones.last().unwrap()).collect();
-    let foot_low =
-        |h: &[[f32; 3]], t: &[[f32; 3]]| feet.iter().map(|&b| h[b][2].min(t[b][2])).fold(f32::INFINITY, f32::min);
-    let rest_low = foot_low(heads, tails);
+    let foot_low = |h: &[[f32; 3]], t: &[[f32; 3]], b: usize| h[b][2].min(t[b][2]);
+    let rest_low: Vec<f32> = feet.iter().map(|&b| foot_low(heads, tails, b)).collect();
     let mut left_hip = 0.0;
     let mut right_hip = 0.0;
     for k in 0..frames {
@@ -601,7 +604,9 @@ fn gait(
             let a = (if run { 12f32 } else { 10.0 }).to_radians() * (0.5 + 0.5 * j as f32 / nt) / nt * 3.0;
             let s = (w - 0.6 * (j + 1) as f32).sin();
             if run {
-                poser.rotate(b, right, a * s)
+                // up and back to rest, never down: a low tail swung down went through the ground
+                // (the Fox's tail tip 3.9 units below it, 5 % of its height)
+                poser.rotate(b, right, -a * 0.5 * (1.0 + s))
             } else {
                 poser.rotate(b, up, a * s)
             }
@@ -611,7 +616,8 @@ fn gait(
         }
         let mut local: Vec<[f32; 4]> = poser.q.iter().map(|&q| to_wxyz(q)).collect();
         let (ph, pt) = posed_points(heads, tails, &carried, rest, &local, &[], [0.0; 3]);
-        let lift = rest_low - foot_low(&ph, &pt);
+        let lift =
+            feet.iter().zip(&rest_low).map(|(&b, &r)| r - foot_low(&ph, &pt, b)).fold(f32::NEG_INFINITY, f32::max);
         let travel = if p.root_motion { stride * phi } else { 0.0 };
         root_offset.push((fwd * travel + up * lift).to_array());
         if !roles.riders.is_empty() {
@@ -726,11 +732,17 @@ mod tests {
             let lift = zs.iter().cloned().fold(f32::MIN, f32::max) - zs.iter().cloned().fold(f32::MAX, f32::min);
             assert!(lift > 0.05 * l, "leg {i} lifts only {lift}");
         }
-        // the lowest foot stays on the ground
-        let rest_low = roles.legs.iter().map(|l| t[*l.bones.last().unwrap()][2]).fold(f32::MAX, f32::min);
+        // no foot goes below its own rest height (feet need not all end at one height: a
+        // Fox's front leg bones end at the wrist), and one foot is always on it
+        let rest_z: Vec<f32> = roles.legs.iter().map(|l| t[*l.bones.last().unwrap()][2]).collect();
         for f in 0..clip.frames {
-            let low = z.iter().map(|zs| zs[f]).fold(f32::MAX, f32::min);
-            assert!(low >= rest_low - 0.02 * l, "frame {f}: a foot is below the ground: {low}");
+            for (i, zs) in z.iter().enumerate() {
+                assert!(zs[f] >= rest_z[i] - 0.02 * l, "frame {f}: foot {i} is below its rest height: {}", zs[f]);
+            }
+            if motion == Motion::Walk {
+                let touch = z.iter().zip(&rest_z).map(|(zs, r)| zs[f] - r).fold(f32::MAX, f32::min);
+                assert!(touch < 0.05 * l, "frame {f}: every foot is off the ground ({touch})");
+            }
         }
         // left and right of each group are half a cycle apart (biped, quadruped walk)
         let groups = roles.legs.iter().map(|l| l.group).max().unwrap() + 1;
@@ -753,6 +765,24 @@ mod tests {
     fn quadruped_walk_and_run() {
         check_walk(creature(), Motion::Walk);
         check_walk(creature(), Motion::Run);
+    }
+
+    #[test]
+    fn quadruped_whose_front_legs_end_higher_keeps_every_foot_above_the_ground() {
+        // front leg bones ending at the wrist, 0.2 above the hind feet (as the Fox's do): the
+        // body's bob must not pull a front foot down to the hind feet's height
+        let (names, mut h, mut t, p) = creature();
+        for (b, name) in names.iter().enumerate() {
+            if name.starts_with("hand.") {
+                h[b][2] += 0.2;
+                t[b][2] += 0.2;
+            }
+            if name.starts_with("forearm.") {
+                t[b][2] += 0.2;
+            }
+        }
+        check_walk((names.clone(), h.clone(), t.clone(), p.clone()), Motion::Walk);
+        check_walk((names, h, t, p), Motion::Run);
     }
 
     #[test]
