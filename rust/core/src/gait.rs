@@ -536,8 +536,7 @@ fn gait(
     // rest height and the lowest one stays on it (feet need not end at one height: the Fox's
     // front leg bones end at the wrist, 6 units above its hind feet's).
     let feet: Vec<usize> = roles.legs.iter().map(|l| *l.bones.last().unwrap()).collect();
-    let foot_low = |h: &[[f32; 3]], t: &[[f32; 3]], b: usize| h[b][2].min(t[b][2]);
-    let rest_low: Vec<f32> = feet.iter().map(|&b| foot_low(heads, tails, b)).collect();
+    let rest_low: Vec<f32> = feet.iter().map(|&b| heads[b][2].min(tails[b][2])).collect();
     let mut left_hip = 0.0;
     let mut right_hip = 0.0;
     for k in 0..frames {
@@ -615,13 +614,15 @@ fn gait(
             poser.touch(roles.head);
         }
         let mut local: Vec<[f32; 4]> = poser.q.iter().map(|&q| to_wxyz(q)).collect();
-        let (ph, pt) = posed_points(heads, tails, &carried, rest, &local, &[], [0.0; 3]);
-        let lift =
-            feet.iter().zip(&rest_low).map(|(&b, &r)| r - foot_low(&ph, &pt, b)).fold(f32::NEG_INFINITY, f32::max);
+        let on_legs = posed_frames(heads, &carried, &poser.rest, &local, &[], [0.0; 3]);
+        let posed_low = |b: usize| {
+            let tail = on_legs.1[b] + on_legs.0[b] * (Vec3::from(tails[b]) - hv(b));
+            on_legs.1[b].z.min(tail.z)
+        };
+        let lift = feet.iter().zip(&rest_low).map(|(&b, &r)| r - posed_low(b)).fold(f32::NEG_INFINITY, f32::max);
         let travel = if p.root_motion { stride * phi } else { 0.0 };
         root_offset.push((fwd * travel + up * lift).to_array());
         if !roles.riders.is_empty() {
-            let on_legs = posed_frames(heads, &carried, &poser.rest, &local, &[], [0.0; 3]);
             let real = posed_frames(heads, parents, &poser.rest, &local, &[], [0.0; 3]);
             for &[r, _] in &roles.riders {
                 let (q, loc) = rider_pose(r, heads, parents, &poser.rest, (&on_legs.0, &on_legs.1), (&real.0, &real.1));
