@@ -407,8 +407,9 @@ def test_foreign_groups_untouched_bone_groups_replaced():
 @pytest.mark.parametrize("way", ["convert", "add"])
 def test_group_writer_ways_write_the_same_groups(way, monkeypatch):
     """Both ways of writing groups (attribute conversion for big meshes, VertexGroup.add for
-    small ones in busy scenes) replace a bone's group, keep locked and foreign groups, store no
-    zero weight, write exact values, and keep the viewport visibility."""
+    small ones in busy scenes) replace a bone's group in its place in the list, keep locked and
+    foreign groups, store no zero weight, write exact values, and keep the viewport visibility
+    and the selection."""
     mesh_io = importlib.import_module("bl_ext.user_default.miniskeleton.mesh_io")
     monkeypatch.setattr(mesh_io, "_ADD_CALL_S", 0.0 if way == "add" else math.inf)
     ob = B.cylinder()
@@ -422,10 +423,15 @@ def test_group_writer_ways_write_the_same_groups(way, monkeypatch):
                       np.zeros(n)]).astype(np.float32)
     names = ["A", "B", "Held", "Rigid", "Unused"]
     ob.data.attributes.active = ob.data.attributes.new("mine", "FLOAT", "POINT")
+    B.set_active(ob)
     for hidden in (True, False):
         ob.hide_viewport = hidden
+        selected = ob.select_get()
         kept = mesh_io.write_vertex_groups(ob, names, dense, np.ones(5, bool))
         assert kept == ["Held"] and ob.hide_viewport == hidden
+        assert ob.select_get() == selected
+        # B stays second, between the user's groups; the new ones follow in the bones' order
+        assert [g.name for g in ob.vertex_groups] == ["Mine", "B", "Held", "A", "Rigid", "Unused"]
         assert "Unused" in ob.vertex_groups  # an empty group, as Blender's Ctrl+P writes
         got = B.weights_matrix(ob, ["A", "B", "Rigid", "Unused"])
         assert np.array_equal(got, dense[[0, 1, 3, 4]].T.astype(got.dtype))
@@ -437,6 +443,32 @@ def test_group_writer_ways_write_the_same_groups(way, monkeypatch):
         assert ob.vertex_groups.active.name == "Unused"
         assert ob.data.attributes.active.name == "mine"
     assert "__miniskeleton_weights_tmp" not in ob.data.attributes
+
+
+def test_running_again_keeps_the_group_list_as_blenders_ctrl_p_does():
+    """A second Auto Weights rewrites each bone's group in its place in the list, as Blender's
+    Ctrl+P does, so a rigger's own groups stay where they were put; and the mesh stays
+    selected, so the operator can be run again at once (hiding it while the groups were written
+    used to deselect it)."""
+    lists = {}
+    for who in ("ours", "blender"):
+        ob, arm = B.cylinder(f"Mesh_{who}"), B.chain(f"Rig_{who}")
+        for name in ("Bone2", "Mine", "Bone0"):
+            ob.vertex_groups.new(name=name)
+        ob.vertex_groups["Mine"].add([0, 1], 0.5, "REPLACE")
+        B.select_for_parenting([ob], arm)
+        if who == "ours":
+            assert bpy.ops.object.miniskeleton_auto_weights() == {"FINISHED"}
+            first = B.weights_matrix(ob, NAMES)
+            assert ob.select_get()
+            assert bpy.ops.object.miniskeleton_auto_weights() == {"FINISHED"}  # no reselecting
+            assert np.array_equal(B.weights_matrix(ob, NAMES), first)
+        else:
+            assert bpy.ops.object.parent_set(type="ARMATURE_AUTO") == {"FINISHED"}
+        lists[who] = [g.name for g in ob.vertex_groups]
+        assert B.weights_matrix(ob, ["Mine"])[:3, 0].tolist() == [0.5, 0.5, 0.0]
+        assert ob.vertex_groups.active.name == "Bone3"
+    assert lists["ours"] == lists["blender"] == ["Bone2", "Mine", "Bone0", "Bone1", "Bone3"]
 
 
 def test_selected_bones_only_writes_only_those():
