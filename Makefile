@@ -9,7 +9,7 @@ VERSION    := 0.1.0
 WHEEL      := addon/wheels/miniskeleton_core-$(VERSION)-cp311-abi3-manylinux_2_28_x86_64.whl
 EXT_ZIP    := dist/miniskeleton-$(VERSION)-linux_x64.zip
 BPY_42     ?= 4.2.23
-VENV42     ?= .venv-bpy42
+BPY_45     ?= 4.5.15
 MODEL      ?=
 PUPPET     ?=
 export CARGO_TERM_COLOR ?= never
@@ -18,7 +18,7 @@ export MINISKELETON_EXTENSION_ZIP := $(abspath $(EXT_ZIP))
 RUST_SRC   := $(shell find rust -name '*.rs' -o -name Cargo.toml) Cargo.toml Cargo.lock pyproject.toml
 ADDON_SRC  := $(shell find addon -name '*.py' -o -name '*.toml')
 
-.PHONY: all demo test test-rust test-python test-blender test-blender-4.2 extension wheel venv bench clean
+.PHONY: all demo test test-rust test-python test-blender test-blender-4.2 test-blender-4.5 extension wheel venv bench clean
 
 all: extension
 
@@ -69,11 +69,11 @@ test-python: $(WHEEL)
 test-blender: $(EXT_ZIP)
 	$(VPY) -m pytest -q blender_tests
 
-## The same Blender tests on Blender 4.2 LTS.
-test-blender-4.2: $(EXT_ZIP)
-	test -x $(VENV42)/bin/python || $(PYTHON) -m venv $(VENV42)
-	$(VENV42)/bin/python -m pip install --quiet "bpy==$(BPY_42)" "numpy<2" pytest
-	$(VENV42)/bin/python -m pytest -q blender_tests
+## The same Blender tests on the LTS releases 4.2 and 4.5 (bpy from PyPI, own virtualenvs).
+test-blender-4.2 test-blender-4.5: test-blender-%: $(EXT_ZIP)
+	test -x .venv-bpy$(subst .,,$*)/bin/python || $(PYTHON) -m venv .venv-bpy$(subst .,,$*)
+	.venv-bpy$(subst .,,$*)/bin/python -m pip install --quiet "bpy==$(BPY_$(subst .,,$*))" "numpy<2" pytest
+	.venv-bpy$(subst .,,$*)/bin/python -m pytest -q blender_tests
 
 ## Benchmarks (speed is measured here, never asserted in tests).
 bench: $(EXT_ZIP)
