@@ -546,26 +546,40 @@ class MINISKELETON_OT_bake_puppet(bpy.types.Operator):
             self.report({"ERROR"}, locked)
             return {"CANCELLED"}
         scene = context.scene
-        n = bake_puppet(scene, rig)
+        wm = context.window_manager
+        frames = scene_frames(scene)
+        wm.progress_begin(0, len(frames))  # about 2 ms a frame: 2 s for 1000 frames
+        try:
+            n = bake_puppet(scene, rig, frames, progress=wm.progress_update)
+        finally:
+            wm.progress_end()
         if self.stop_live:
             rig[LIVE_KEY] = False
         self.report({"INFO"}, f"Baked {n} frames of {rig.name}")
         return {"FINISHED"}
 
 
-def bake_puppet(scene, rig, frames=None) -> int:
-    """Key ``rotation_euler`` of every movable bone on each frame (scene range by default)."""
-    frames = list(frames or range(scene.frame_start, scene.frame_end + 1, max(scene.frame_step, 1)))
+def scene_frames(scene) -> list[int]:
+    """The frames of the scene's range, by its frame step."""
+    return list(range(scene.frame_start, scene.frame_end + 1, max(scene.frame_step, 1)))
+
+
+def bake_puppet(scene, rig, frames=None, progress=None) -> int:
+    """Key ``rotation_euler`` of every movable bone on each frame (scene range by default);
+    ``progress(done)`` is called with the number of frames baked after each one."""
+    frames = list(frames or scene_frames(scene))
     current = scene.frame_current
     bones = [pb for pb in rig.pose.bones if not all(pb.lock_rotation)]
     live = rig.get(LIVE_KEY, True)
     rig[LIVE_KEY] = False          # this loop solves itself; keep the handler out of it
     try:
-        for f in frames:
+        for done, f in enumerate(frames):
             scene.frame_set(f)
             solve_puppet(rig)
             for pb in bones:
                 pb.keyframe_insert("rotation_euler", frame=f, group=pb.name)
+            if progress is not None:
+                progress(done + 1)
     finally:
         rig[LIVE_KEY] = live
         scene.frame_set(current)

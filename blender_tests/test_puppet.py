@@ -350,6 +350,19 @@ def test_bake_keys_reproduce_the_live_pose_without_the_addon():
 
 
 
+def test_bake_reports_progress_frame_by_frame_on_the_scene_frame_step():
+    """Baking is about 2 ms a frame (2 s for 1000 frames), so the operator shows progress: the
+    bake calls back after each frame, on the frames of the scene's range by its frame step."""
+    rig, _ = add("THREE_ROD")
+    scene = bpy.context.scene
+    scene.frame_start, scene.frame_end, scene.frame_step = 3, 11, 2
+    done = []
+    assert P.bake_puppet(scene, rig, progress=done.append) == 5
+    assert done == [1, 2, 3, 4, 5]
+    motion = importlib.import_module("bl_ext.user_default.miniskeleton.operators_motion")
+    assert {kp.co[0] for fc in motion.action_fcurves(rig) for kp in fc.keyframe_points} == {3, 5, 7, 9, 11}
+
+
 def test_a_puppet_linked_from_a_library_is_refused_clearly(tmp_path):
     """A puppet linked from another .blend with its parts cannot take keys or new part images:
     Bake and Set Part Image say so and change nothing."""
