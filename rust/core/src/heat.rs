@@ -11,7 +11,8 @@
 //!
 //! Robustness on top of the paper: coordinates are normalized (scale-free), coincident
 //! vertices are welded (split seams), degenerate faces dropped, flipped faces turned for the
-//! normals (consistent winding per piece), pieces that see no bone use
+//! normals (consistent winding per piece), a vertex hidden from every bone by another
+//! piece (a coat over the body) looks through its own piece only, pieces that see no bone use
 //! the nearest bone by distance, pieces with no bone inside them (eyes, buttons, a held
 //! prop) become rigid accessories, isolated vertices take their nearest bone, and the
 //! factorization retries with more regularization and finally falls back to nearest-bone
@@ -229,7 +230,9 @@ struct Source {
 /// the bones (head -> tail, or with `opts.parents` the spans of [`HeatOptions::parents`]);
 /// per vertex the nearest visible bone (the bone of the nearest visible segment) among its
 /// [`MAX_VISIBILITY_TESTS`] nearest (the segment from the bone's closest point to the
-/// vertex, stopped just short of the vertex, crosses no triangle;
+/// vertex, stopped just short of the vertex, crosses no triangle; a vertex that sees none
+/// of a piece holding a bone looks again through that piece's triangles only, at bones behind
+/// its surface;
 /// ties within [`TIE_RATIO`] share); fallback pieces and isolated vertices use the nearest
 /// bone; factor `L + M H` once and solve all bones; clip to `[0, 1]`; rigid pieces;
 /// symmetry; small-weight ramp ([`weight_limit`]), top-k and normalization per vertex; copy
@@ -402,15 +405,32 @@ pub fn heat_weights(
     for ((h, t), &o) in segs.iter().zip(&owner) {
         bone_len[o as usize] = bone_len[o as usize].max((*t - *h).length());
     }
+    // Which pieces hold a bone (see the doc): for rigid accessories, and on a mesh in several
+    // pieces for the second look through a vertex's own piece (see `Sight`).
+    let rays = ray_mesh.as_ref().filter(|_| opts.visibility);
+    let inside: Vec<bool> = match ray_mesh.as_ref() {
+        Some(rm) if opts.rigid_accessories || (npieces > 1 && rays.is_some()) => (0..npieces)
+            .into_par_iter()
+            .map(|i| pieces[i].active && piece_contains_bone(rm, i as u32, &pieces[i], &segs, &labels, &tris))
+            .collect(),
+        _ => vec![false; npieces],
+    };
+    let tri_piece: Option<Vec<u32>> = (npieces > 1).then(|| tris.iter().map(|t| labels[t[0] as usize]).collect());
     let mut sources: Vec<Source> = Vec::with_capacity(nw);
     wpos.par_iter()
         .with_min_len(256)
         .zip(normals.par_iter())
+        .zip(labels.par_iter())
         .map_init(
             || vec![0.0f64; 2 * segs.len()],
-            |dist, (x, n)| {
-                let s = nearest_visible_bone(*x, *n, &segs, ray_mesh.as_ref().filter(|_| opts.visibility), dist);
-                s.owned(&owner)
+            |dist, ((x, n), &piece)| {
+                let whole = rays.map(|rays| Sight { rays, tri_piece: None, piece, normal: *n });
+                let s = nearest_visible_bone(*x, *n, &segs, whole, dist);
+                if s.count > 0 || tri_piece.is_none() || !inside[piece as usize] {
+                    return s.owned(&owner);
+                }
+                let own = rays.map(|rays| Sight { rays, tri_piece: tri_piece.as_deref(), piece, normal: *n });
+                nearest_visible_bone(*x, *n, &segs, own, dist).owned(&owner)
             },
         )
         .collect_into_vec(&mut sources);
@@ -422,11 +442,7 @@ pub fn heat_weights(
     let c = HEAT_SCALE * opts.heat_constant as f64;
     let mut rigid: Vec<Option<Ties>> = vec![None; npieces];
     // Accessories (see the doc of `heat_weights`).
-    if let (true, Some(rm)) = (opts.rigid_accessories, ray_mesh.as_ref()) {
-        let inside: Vec<bool> = (0..npieces)
-            .into_par_iter()
-            .map(|i| pieces[i].active && piece_contains_bone(rm, i as u32, &pieces[i], &segs, &labels, &tris))
-            .collect();
+    if opts.rigid_accessories && ray_mesh.is_some() {
         let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
         for (h, t) in &segs {
             lo = lo.min(h.min(*t));
@@ -1022,7 +1038,7 @@ fn nearest_visible_bone(
     x: DVec3,
     normal: DVec3,
     bones: &[(DVec3, DVec3)],
-    rays: Option<&RayMesh>,
+    sight: Option<Sight>,
     scratch: &mut [f64],
 ) -> Source {
     let b = bones.len();
@@ -1063,7 +1079,7 @@ fn nearest_visible_bone(
         if first.is_none() && step >= MAX_VISIBILITY_TESTS {
             break;
         }
-        if is_visible(x, bones[cur.1], euclid[cur.1], rays) {
+        if is_visible(x, bones[cur.1], euclid[cur.1], sight) {
             if first.is_none() {
                 first = Some(cur.0);
                 src.dist = cur.0;
@@ -1079,8 +1095,8 @@ fn nearest_visible_bone(
 /// Is the straight segment from the bone's closest point to `x` free of the surface?
 /// The segment starts at the bone and stops at `(1 - 1e-4) d - 1e-6` so the faces around
 /// the vertex itself do not count.
-fn is_visible(x: DVec3, bone: (DVec3, DVec3), d: f64, rays: Option<&RayMesh>) -> bool {
-    let Some(rays) = rays else { return true };
+fn is_visible(x: DVec3, bone: (DVec3, DVec3), d: f64, sight: Option<Sight>) -> bool {
+    let Some(Sight { rays, tri_piece, piece, normal }) = sight else { return true };
     let stop = (1.0 - 1e-4) - 1e-6 / d.max(1e-300);
     if !(stop > 0.0) {
         return true;
@@ -1088,7 +1104,33 @@ fn is_visible(x: DVec3, bone: (DVec3, DVec3), d: f64, rays: Option<&RayMesh>) ->
     let (t, _) = closest_point_on_segment(x, bone.0, bone.1);
     let from = bone.0 + (bone.1 - bone.0) * t;
     let to = from + (x - from) * stop;
-    !rays.segment_blocked(from.as_vec3(), to.as_vec3())
+    match tri_piece {
+        // Through its own piece a vertex sees only bones behind its surface, inside the piece.
+        Some(tp) => {
+            (x - from).dot(normal) >= 0.0
+                && !rays.segment_blocked_where(from.as_vec3(), to.as_vec3(), |k| tp[k as usize] == piece)
+        }
+        None => !rays.segment_blocked(from.as_vec3(), to.as_vec3()),
+    }
+}
+
+/// What a vertex's visibility test looks through: every triangle of the mesh, or only those
+/// of the vertex's own piece (`tri_piece[k]`, the piece of triangle `k`, equal to `piece`).
+/// A vertex of a mesh in several pieces that sees no bone through the whole mesh looks again
+/// through its own piece: a coat or an armour layer in the same object as the body sees no
+/// bone through the body beneath it, bar a few vertices where a bone's end pokes out, and heat
+/// from those few spread over the whole layer (a creature's coat bound to its hands, feet and
+/// tail tip, as by Blender's Ctrl+P). Vertices that see a bone keep it, so parts pushed into
+/// each other still hide bones from each other as before. Only pieces that hold a bone (as
+/// for rigid accessories) look again, so a piece beside the body with no bone in it still sees
+/// none, and through its own piece a vertex sees only bones behind its surface (against its
+/// outward `normal`, unless that is zero).
+#[derive(Clone, Copy)]
+struct Sight<'a> {
+    rays: &'a RayMesh,
+    tri_piece: Option<&'a [u32]>,
+    piece: u32,
+    normal: DVec3,
 }
 
 #[cfg(test)]
@@ -1131,14 +1173,15 @@ mod visibility_tests {
         ];
         let mut scratch = vec![0.0; 4];
         let p = DVec3::new(0.9, 0.5, 0.5);
-        let s = nearest_visible_bone(p, DVec3::ZERO, &bones, Some(&rm), &mut scratch);
+        let whole = Some(Sight { rays: &rm, tri_piece: None, piece: 0, normal: DVec3::ZERO });
+        let s = nearest_visible_bone(p, DVec3::ZERO, &bones, whole, &mut scratch);
         assert_eq!((s.count, s.bones[0], s.nearest), (1, 1, 0));
         assert!((s.dist - 0.4).abs() < 1e-9);
         let s = nearest_visible_bone(p, DVec3::ZERO, &bones, None, &mut scratch);
         assert_eq!((s.count, s.bones[0]), (1, 0));
         // Equidistant bones tie.
         let tie = [bones[1], (DVec3::new(0.5, 0.5, 0.8), DVec3::new(0.5, 0.5, 0.2))];
-        let s = nearest_visible_bone(p, DVec3::ZERO, &tie, Some(&rm), &mut scratch);
+        let s = nearest_visible_bone(p, DVec3::ZERO, &tie, whole, &mut scratch);
         assert_eq!((s.count, s.bones[0], s.bones[1]), (2, 0, 1));
     }
 }

@@ -95,6 +95,12 @@ impl RayMesh {
     /// A zero-length or non-finite segment is never blocked. Triangles count grown by
     /// [`GROW`] (see the module notes).
     pub fn segment_blocked(&self, from: Vec3, to: Vec3) -> bool {
+        self.segment_blocked_where(from, to, |_| true)
+    }
+
+    /// [`segment_blocked`](Self::segment_blocked) by the input triangles `t` with `keep(t)`
+    /// only (`t` indexes the `triangles` given to [`RayMesh::new`]).
+    pub fn segment_blocked_where(&self, from: Vec3, to: Vec3, keep: impl Fn(u32) -> bool) -> bool {
         let dir = to - from;
         if self.tris.is_empty() || !(dir.length_squared() > 0.0) || !from.is_finite() || !to.is_finite() {
             return false;
@@ -106,7 +112,8 @@ impl RayMesh {
             if !node_hit(node, from, inv, 1.0) {
                 return TraversalAction::Prune;
             }
-            if node.leaf_data().and_then(|i| self.triangle_hit(i, &ray, 1.0)).is_some() {
+            let kept = node.leaf_data().filter(|&i| keep(self.orig[i as usize]));
+            if kept.and_then(|i| self.triangle_hit(i, &ray, 1.0)).is_some() {
                 hit = true;
                 return TraversalAction::EarlyExit;
             }

@@ -568,3 +568,45 @@ fn bent_bones_are_their_polylines() {
     assert!(matches!(err(bent(vec![[0.0; 3]], vec![2])), Error::InvalidArgument(_)));
     assert!(matches!(err(bent(vec![[f32::NAN, 0.0, 0.0]], vec![0])), Error::NonFinite { count: 1, .. }));
 }
+
+/// A coat over the body in the same mesh (a second, larger closed shell around the first, as
+/// clothes joined into a character are) is weighted as it would be alone: the body beneath
+/// hides every bone from it except the chain's two ends, which poke out of the body, and heat
+/// from those few coat vertices used to spread over the whole coat. The body is unchanged.
+#[test]
+fn a_coat_over_the_body_is_weighted_as_it_would_be_alone() {
+    let body = capped_cylinder(0.15, 2.0, 41, 16);
+    let coat: Mesh = {
+        let (v, t) = capped_cylinder(0.2, 2.4, 49, 16);
+        (v.iter().map(|p| [p[0], p[1], p[2] - 0.2]).collect(), t)
+    };
+    // Four bones from z = -0.1 to 2.1: both ends outside the body, inside the coat.
+    let zs: Vec<f32> = (0..=4).map(|i| -0.1 + 0.55 * i as f32).collect();
+    let bones: Bones = ((0..4).map(|i| [0.0, 0.0, zs[i]]).collect(), (0..4).map(|i| [0.0, 0.0, zs[i + 1]]).collect());
+    let mut both = body.clone();
+    let base = both.0.len() as u32;
+    both.0.extend(&coat.0);
+    both.1.extend(coat.1.iter().map(|t| t.map(|i| i + base)));
+
+    let (inf, rep) = heat(&both, &bones, &HeatOptions::default());
+    assert_eq!((rep.pieces, rep.fallback_pieces, rep.rigid_pieces), (2, 0, 0));
+    assert_rows_sum_to_one(&inf);
+    let dense = inf.to_dense(4);
+    let (n_body, n) = (base as usize, both.0.len());
+    let rows = |d: &[f32], r: std::ops::Range<usize>| d[r.start * 4..r.end * 4].to_vec();
+    let (body_alone, _) = heat(&body, &bones, &HeatOptions::default());
+    assert!(max_abs_diff(&rows(&dense, 0..n_body), &body_alone.to_dense(4)) < 1e-4);
+    let (coat_alone, _) = heat(&coat, &bones, &HeatOptions::default());
+    let coat_alone = coat_alone.to_dense(4);
+    let joined = rows(&dense, n_body..n);
+    let l1 = |v: usize| (0..4).map(|b| (joined[v * 4 + b] - coat_alone[v * 4 + b]).abs()).sum::<f32>();
+    let mean = (0..coat.0.len()).map(l1).sum::<f32>() / coat.0.len() as f32;
+    assert!(mean < 0.02, "mean L1 to the coat alone {mean}");
+    // Along its side the coat follows the bone at its height.
+    for (v, p) in coat.0.iter().enumerate() {
+        let b = (0..4).find(|&b| (zs[b] + 0.1..zs[b + 1] - 0.1).contains(&p[2]));
+        if let (Some(b), true) = (b, p[0].hypot(p[1]) > 0.19) {
+            assert!(joined[v * 4 + b] > 0.6, "coat vertex {v} at z {} has {} on bone {b}", p[2], joined[v * 4 + b]);
+        }
+    }
+}
