@@ -81,6 +81,7 @@ bench: $(EXT_ZIP)
 	$(VPY) bench/bench_weights.py
 	$(VPY) bench/eval_weights.py
 	$(VPY) bench/bench_fit.py
+	$(VPY) bench/bench_keys.py
 
 clean:
 	rm -rf dist addon/wheels out .build

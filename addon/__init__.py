@@ -1,7 +1,7 @@
 """MiniSkeleton: automatic skinning, skeleton fitting and puppet IK backed by a Rust core.
 
-This file only registers; see operators_*.py (operators), ui.py (menus and panels) and
-mesh_io.py (Blender data to arrays and back).
+This file only registers; see operators_*.py (operators), ui.py (menus and panels),
+mesh_io.py (Blender data to arrays and back) and keys.py (keyframes in bulk).
 """
 
 from . import operators_motion, operators_puppet, operators_skeleton, operators_weights, ui

@@ -20,6 +20,7 @@ from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty, St
 from mathutils import Matrix, Quaternion, Vector
 
 from . import mesh_io
+from .keys import action_fcurves, key_series
 
 MOTIONS = [
     ("HEAD_SHAKE", "Head Shake", "Neck and head yaw back and forth; ears and other head children follow"),
@@ -65,22 +66,6 @@ def motion_skeleton(arm: bpy.types.Object, bones) -> tuple[np.ndarray, np.ndarra
         tails[:, 0] *= -1
         rest[:, 0, :] *= -1
     return heads, tails, rest
-
-
-def action_fcurves(ob: bpy.types.Object) -> list:
-    """F-curves of ``ob``'s action for its own slot (Blender 4.4+ channelbags, else legacy)."""
-    ad = ob.animation_data
-    if ad is None or ad.action is None:
-        return []
-    slot = getattr(ad, "action_slot", None)
-    if slot is not None:
-        try:
-            from bpy_extras import anim_utils
-            bag = anim_utils.action_get_channelbag_for_slot(ad.action, slot)
-            return list(bag.fcurves) if bag is not None else []
-        except (ImportError, AttributeError):
-            pass
-    return list(getattr(ad.action, "fcurves", []))
 
 
 def last_key_frame(ob: bpy.types.Object) -> float | None:
@@ -139,6 +124,22 @@ def animated_pose_bones(fcurves, paths: tuple[str, ...] = ROT_PATHS) -> set[str]
 def rotation_path(pb: bpy.types.PoseBone) -> str:
     return {"QUATERNION": "rotation_quaternion", "AXIS_ANGLE": "rotation_axis_angle"}.get(
         pb.rotation_mode, "rotation_euler")
+
+
+def rotation_series(pb: bpy.types.PoseBone, quats) -> tuple[str, list]:
+    """``pb``'s rotation path and its values for the rotations ``quats`` ((frames, 4) w, x, y,
+    z) in its own rotation mode; Euler angles continue from frame to frame (no 360 jumps)."""
+    qs = [Quaternion([float(x) for x in q]) for q in quats]
+    mode = pb.rotation_mode
+    if mode == "QUATERNION":
+        return "rotation_quaternion", [tuple(q) for q in qs]
+    if mode == "AXIS_ANGLE":
+        return "rotation_axis_angle", [(angle, *axis) for axis, angle in (q.to_axis_angle() for q in qs)]
+    values, euler = [], None
+    for q in qs:
+        euler = q.to_euler(mode, euler) if euler is not None else q.to_euler(mode)
+        values.append(tuple(euler))
+    return "rotation_euler", values
 
 
 def key_rotation(pb: bpy.types.PoseBone, q: Quaternion, frame: float, prev_euler=None):
@@ -324,17 +325,14 @@ class MINISKELETON_OT_add_motion(bpy.types.Operator):
                 pb = pose[names[b]]
                 if pb.name not in located_before:
                     pb.keyframe_insert("location", frame=earlier, group=pb.name)
+        span = range(start, start + frames)
         for b in animated:
             pb = pose[names[b]]
-            euler = None
-            for k in range(frames):
-                q = Quaternion([float(x) for x in rot[k, b]])
-                euler = key_rotation(pb, q, start + k, euler)
+            path, values = rotation_series(pb, rot[:, b])
+            key_series(pb, path, span, values, group=pb.name)
         for b in located:
             pb = pose[names[b]]
-            for k in range(frames):
-                pb.location = [float(x) / unit for x in out["locations"][k, b]]
-                pb.keyframe_insert("location", frame=start + k, group=pb.name)
+            key_series(pb, "location", span, np.asarray(out["locations"])[:, b] / unit, group=pb.name)
         # bones keyed by earlier motions that this one leaves alone go back to rest
         animated_names = {names[b] for b in animated}
         for name in keyed_before - animated_names:
@@ -362,9 +360,7 @@ class MINISKELETON_OT_add_motion(bpy.types.Operator):
                     root_pb.keyframe_insert("location", frame=earlier, group=root_pb.name)
                 elif to_local is None and not self.has_object_keys(arm):
                     arm.keyframe_insert("location", frame=earlier)
-            offsets = out["root_offset"]
-            for k in range(frames):
-                self.key_root(arm, root_pb, to_local, root_base, Vector(offsets[k].tolist()), start + k)
+            self.key_root(arm, root_pb, to_local, root_base, out["root_offset"], span)
         elif earlier is not None:
             # keep the distance travelled, drop the gait's vertical bob
             if to_local is not None and self.has_root_keys(arm, root_pb):
@@ -407,14 +403,14 @@ class MINISKELETON_OT_add_motion(bpy.types.Operator):
         return any(fc.data_path == path for fc in action_fcurves(arm))
 
     @staticmethod
-    def key_root(arm, root_pb, to_local, base, offset, frame):
-        """Key the root at ``base`` + world ``offset`` (the object when the root cannot move)."""
+    def key_root(arm, root_pb, to_local, base, offsets, frames):
+        """Key the root at ``base`` + world ``offsets[k]`` on ``frames[k]`` (the object when the
+        root cannot move)."""
         if to_local is not None:
-            root_pb.location = base + to_local @ offset
-            root_pb.keyframe_insert("location", frame=frame, group=root_pb.name)
+            places = [base + to_local @ Vector(o) for o in np.asarray(offsets).tolist()]
+            key_series(root_pb, "location", frames, places, group=root_pb.name)
         else:
-            arm.location = base + offset
-            arm.keyframe_insert("location", frame=frame)
+            key_series(arm, "location", frames, [base + Vector(o) for o in np.asarray(offsets).tolist()])
 
 
 # ---------------------------------------------------------------------------- video

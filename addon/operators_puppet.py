@@ -22,6 +22,7 @@ from bpy_extras.io_utils import ImportHelper
 from mathutils import Euler, Matrix, Vector
 
 from . import mesh_io, puppet
+from .keys import key_series
 
 KIND_KEY = "miniskeleton_puppet"      # on the armature object (and its data): the template kind
 LIVE_KEY = "miniskeleton_live"        # on the armature object: solve live from the rods
@@ -572,14 +573,17 @@ def bake_puppet(scene, rig, frames=None, progress=None) -> int:
     bones = [pb for pb in rig.pose.bones if not all(pb.lock_rotation)]
     live = rig.get(LIVE_KEY, True)
     rig[LIVE_KEY] = False          # this loop solves itself; keep the handler out of it
+    angles = {pb.name: [] for pb in bones}
     try:
         for done, f in enumerate(frames):
             scene.frame_set(f)
             solve_puppet(rig)
             for pb in bones:
-                pb.keyframe_insert("rotation_euler", frame=f, group=pb.name)
+                angles[pb.name].append(tuple(pb.rotation_euler))
             if progress is not None:
                 progress(done + 1)
+        for pb in bones:
+            key_series(pb, "rotation_euler", frames, angles[pb.name], group=pb.name)
     finally:
         rig[LIVE_KEY] = live
         scene.frame_set(current)

@@ -343,6 +343,42 @@ def test_feet_hanging_off_the_root_walk_with_their_legs(invented_tails, scale, c
             assert tuple(arm.pose.bones[f"Foot.{s}"].location) == pytest.approx((0, 0, 0), abs=1e-6)
 
 
+@pytest.mark.parametrize("before", ["nothing", "earlier keys", "keys in the range"])
+@pytest.mark.parametrize("path", ["rotation_quaternion", "rotation_euler"])
+def test_a_key_series_is_the_keys_keyframe_insert_makes_one_by_one(before, path):
+    """Add Motion and Bake Puppet Animation write each bone's keys as one series (keying a frame
+    at a time slowed as the curves grew: 100 walk cycles took 11 s, now 0.3 s). The series is
+    the same keys, handles, interpolation, key types and group as keyframe_insert makes one
+    frame at a time, after a curve's earlier keys or over keys in its range."""
+    keys = __import__(ADDON + ".keys", fromlist=["keys"])
+    rng = np.random.default_rng(5)
+    values = rng.normal(size=(21, 4 if path == "rotation_quaternion" else 3))
+    frames = range(10, 31)
+    made = []
+    for how in ("one by one", "series"):
+        arm = biped_rig()
+        pb = arm.pose.bones["thigh.L"]
+        pb.rotation_mode = "QUATERNION" if path == "rotation_quaternion" else "XZY"
+        for f in {"earlier keys": (1, 4), "keys in the range": (12, 15, 40)}.get(before, ()):
+            setattr(pb, path, [0.3] * len(values[0]))
+            pb.keyframe_insert(path, frame=f, group="Mine")
+        if how == "series":
+            keys.key_series(pb, path, frames, values, group=pb.name)
+        else:
+            for f, v in zip(frames, values):
+                setattr(pb, path, v.tolist())
+                pb.keyframe_insert(path, frame=f, group=pb.name)
+        assert np.allclose(tuple(getattr(pb, path)), values[-1])
+        made.append([(fc.data_path, fc.array_index, fc.group.name,
+                      [(*kp.co, *kp.handle_left, *kp.handle_right) for kp in fc.keyframe_points],
+                      [(kp.interpolation, kp.handle_left_type, kp.handle_right_type, kp.type)
+                       for kp in fc.keyframe_points])
+                     for fc in keys.action_fcurves(arm)])
+    assert [c[:3] + c[4:] for c in made[0]] == [c[:3] + c[4:] for c in made[1]]
+    for one, series in zip(made[0], made[1]):
+        np.testing.assert_allclose(series[3], one[3], atol=1e-6)
+
+
 def test_head_shake_moves_head_not_feet_and_walk_appends():
     arm = creature.build_armature()
     scene = bpy.context.scene

@@ -1,0 +1,78 @@
+"""Keyframes: an object's F-curves, and a whole series of keys on one property in one go.
+
+``keyframe_insert`` gets slower as an F-curve grows (each key goes into a sorted array), so
+keying a long motion one frame at a time grew with the square of its length: 100 walk cycles
+(2500 frames, 22 bones) took 11 s. ``key_series`` writes the same keys with one array write
+per F-curve.
+"""
+
+from __future__ import annotations
+
+from typing import Sequence
+
+import bpy
+import numpy as np
+
+
+def action_fcurves(ob: bpy.types.ID) -> list:
+    """F-curves of ``ob``'s action for its own slot (Blender 4.4+ channelbags, else legacy)."""
+    ad = ob.animation_data
+    if ad is None or ad.action is None:
+        return []
+    slot = getattr(ad, "action_slot", None)
+    if slot is not None:
+        try:
+            from bpy_extras import anim_utils
+            bag = anim_utils.action_get_channelbag_for_slot(ad.action, slot)
+            return list(bag.fcurves) if bag is not None else []
+        except (ImportError, AttributeError):
+            pass
+    return list(getattr(ad.action, "fcurves", []))
+
+
+def key_series(owner: bpy.types.bpy_struct, path: str, frames: Sequence[float], values,
+               group: str | None = None) -> None:
+    """Key ``owner.<path>`` (a vector property of a pose bone or an object) to ``values[k]`` at
+    ``frames[k]`` (ascending): the keys ``keyframe_insert`` makes one frame at a time, in one go.
+
+    Blender keys the first frame itself (making the action, slot, F-curves and ``group`` as
+    usual); the others are added to those F-curves as arrays, with the first key's
+    interpolation, handle and key types and easing (whatever Blender chose for it), and
+    the curves are sorted and their handles recomputed once. Where a curve already has keys
+    between the first frame and the last, each frame is keyed by ``keyframe_insert`` instead, so
+    that Blender's own rules replace them. The property is left at the last frame's value.
+    """
+    values = np.asarray(values, dtype=np.float64).reshape(len(frames), -1)
+    frames = [float(f) for f in frames]
+    kw = {"group": group} if group else {}
+    setattr(owner, path, values[0].tolist())
+    owner.keyframe_insert(path, frame=frames[0], **kw)
+    if len(frames) < 2:
+        return
+    full = owner.path_from_id(path)
+    curves = {fc.array_index: fc for fc in action_fcurves(owner.id_data) if fc.data_path == full}
+    lo, hi = frames[1], frames[-1]
+    if sorted(curves) != list(range(values.shape[1])) or any(
+            lo <= kp.co[0] <= hi for fc in curves.values() for kp in fc.keyframe_points):
+        for f, v in zip(frames[1:], values[1:]):
+            setattr(owner, path, v.tolist())
+            owner.keyframe_insert(path, frame=f, **kw)
+        return
+    new = len(frames) - 1
+    for i, fc in curves.items():
+        points = fc.keyframe_points
+        old = len(points)
+        co = np.empty(2 * old)
+        points.foreach_get("co", co)
+        at = np.flatnonzero(co[0::2] == np.float32(frames[0]))
+        first = int(at[0]) if len(at) else old - 1   # the key Blender just made
+        points.add(new)
+        co = np.concatenate([co, np.column_stack([frames[1:], values[1:, i]]).ravel()])
+        points.foreach_set("co", co)
+        for prop in ("interpolation", "handle_left_type", "handle_right_type", "type", "easing"):
+            kinds = np.empty(old + new, dtype=np.int32)
+            points.foreach_get(prop, kinds)
+            kinds[old:] = kinds[first]
+            points.foreach_set(prop, kinds)
+        fc.update()
+    setattr(owner, path, values[-1].tolist())

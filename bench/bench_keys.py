@@ -1,0 +1,82 @@
+"""Keying long motions: Add Motion (Walk) and Bake Puppet Animation over growing frame ranges.
+
+    .venv/bin/python bench/bench_keys.py [--cycles 2,10,100] [--frames 250,1000] [--repeats 3]
+
+Add Motion on the generated creature's rig (scripts/creature.py, 22 bones keyed) for each number
+of walk cycles, and Bake Puppet Animation on a five-rod shadow puppet over each scene range;
+both write every bone's keys as one series (``addon/keys.py``). Prints a markdown table of the
+operator's time (median of the repeats, a fresh scene each) and frames keyed, and writes it to
+out/bench_keys.md. Nothing is asserted (a Blender test checks the series equals keyframe_insert
+frame by frame).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path[:0] = [str(ROOT / "scripts")]
+import blender_session  # noqa: E402
+
+
+def timed(fn) -> tuple[float, object]:
+    start = time.perf_counter()
+    result = fn()
+    return time.perf_counter() - start, result
+
+
+def walk(bpy, cycles: float) -> tuple[float, int]:
+    """Seconds for Add Motion (Walk, ``cycles``) on a fresh creature rig, and frames keyed."""
+    import creature
+
+    blender_session.reset_scene()
+    arm = creature.build_armature()
+    bpy.context.view_layer.objects.active = arm
+    arm.select_set(True)
+    secs, result = timed(lambda: bpy.ops.pose.miniskeleton_add_motion(motion="WALK", cycles=cycles))
+    assert result == {"FINISHED"}, result
+    return secs, bpy.context.scene.frame_end - bpy.context.scene.frame_start + 1
+
+
+def bake(bpy, frames: int) -> tuple[float, int]:
+    """Seconds for Bake Puppet Animation on a fresh five-rod puppet over ``frames`` frames."""
+    blender_session.reset_scene()
+    assert bpy.ops.object.miniskeleton_add_puppet(type="FIVE_ROD") == {"FINISHED"}
+    scene = bpy.context.scene
+    scene.frame_start, scene.frame_end = 1, frames
+    secs, result = timed(lambda: bpy.ops.object.miniskeleton_bake_puppet())
+    assert result == {"FINISHED"}, result
+    return secs, frames
+
+
+def main(argv=None) -> None:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--cycles", default="2,10,100", help="walk cycles for Add Motion")
+    ap.add_argument("--frames", default="250,1000", help="scene ranges for Bake Puppet Animation")
+    ap.add_argument("--repeats", type=int, default=3)
+    args = ap.parse_args(argv)
+    bpy = blender_session.start()
+    rows = []
+    for label, run, sizes in (("Add Motion (Walk), cycles", walk, args.cycles),
+                              ("Bake Puppet Animation, frames", bake, args.frames)):
+        for size in [float(s) if "." in s else int(s) for s in sizes.split(",") if s]:
+            runs = [run(bpy, size) for _ in range(max(args.repeats, 1))]
+            rows.append((f"{label} {size}", runs[0][1], float(np.median([r[0] for r in runs]))))
+            print(f"done {rows[-1][0]}", flush=True)
+    lines = [f"bpy {bpy.app.version_string}; median of {args.repeats}", "",
+             "| operator | frames keyed | s |", "|---|---:|---:|"]
+    lines += [f"| {name} | {frames} | {secs:.3f} |" for name, frames, secs in rows]
+    text = "\n".join(lines)
+    print(text)
+    out = ROOT / "out"
+    out.mkdir(exist_ok=True)
+    (out / "bench_keys.md").write_text(text + "\n")
+
+
+if __name__ == "__main__":
+    main()
