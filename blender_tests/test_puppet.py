@@ -351,8 +351,9 @@ def test_bake_keys_reproduce_the_live_pose_without_the_addon():
 
 
 def test_bake_reports_progress_frame_by_frame_on_the_scene_frame_step():
-    """Baking is about 2 ms a frame (2 s for 1000 frames), so the operator shows progress: the
-    bake calls back after each frame, on the frames of the scene's range by its frame step."""
+    """Baking evaluates and solves every frame of the scene (0.36 s for 1000 frames), so the
+    operator shows progress: the bake calls back after each frame, on the frames of the scene's
+    range by its frame step."""
     rig, _ = add("THREE_ROD")
     scene = bpy.context.scene
     scene.frame_start, scene.frame_end, scene.frame_step = 3, 11, 2
