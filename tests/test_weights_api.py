@@ -175,6 +175,16 @@ def test_bad_inputs_raise_clear_errors(cyl):
         msc.idw_weights(bad, h, tl)
     with pytest.raises(ValueError):
         msc.heat_weights(v, t + len(v), h, tl)  # indices out of range
+    # Negative or huge indices are named as given (cast to u32, -1 read as 4294967295 and
+    # 2^32 + i wrapped round to i, a valid index).
+    neg = t.astype(np.int64)
+    neg[5, 1] = -1
+    with pytest.raises(ValueError, match=r"triangles\[5, 1\] is -1"):
+        msc.heat_weights(v, neg, h, tl)
+    with pytest.raises(ValueError, match=r"triangles\[0, 0\] is 4294967296"):
+        msc.heat_weights(v, t.astype(np.int64) + 2**32, h, tl)
+    with pytest.raises(ValueError, match=r"triangles\[5, 1\] is -1"):
+        msc.fit_joints(v, neg, (h + tl) / 2, np.array([[0, 1]], np.uint32))
     with pytest.raises(ValueError, match="shape"):
         msc.idw_weights(v[:, :2], h, tl)
     with pytest.raises(ValueError):

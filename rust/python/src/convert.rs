@@ -24,6 +24,23 @@ pub fn rows<T: numpy::Element + Copy + Default, const C: usize>(
     Ok(out)
 }
 
+/// An (n, C) array of indices (any integer array-like, read as i64).
+pub type IndexRows<'py> = PyArrayLike2<'py, i64, AllowTypeChange>;
+
+/// An (n, C) array of indices as `Vec<[u32; C]>`: a negative index, or one past u32, is an
+/// error naming it (cast straight to u32, -1 would read as 4294967295 and 2^32 as 0).
+pub fn index_rows<const C: usize>(arr: &IndexRows<'_>, name: &str) -> PyResult<Vec<[u32; C]>> {
+    let wide = rows::<i64, C>(arr, name)?;
+    let mut out = vec![[0u32; C]; wide.len()];
+    for (i, (row, dst)) in wide.iter().zip(out.iter_mut()).enumerate() {
+        for (j, &v) in row.iter().enumerate() {
+            dst[j] = u32::try_from(v)
+                .map_err(|_| PyValueError::new_err(format!("{name}[{i}, {j}] is {v}: indices must be in 0..2^32")))?;
+        }
+    }
+    Ok(out)
+}
+
 /// A 1-D array as a `Vec<T>`.
 pub fn vector<T: numpy::Element + Copy>(arr: &PyArrayLike1<'_, T, AllowTypeChange>) -> Vec<T> {
     arr.as_array().iter().copied().collect()

@@ -48,10 +48,10 @@ pub fn bone_chain<'py>(py: Python<'py>, height: f32, bones: usize) -> PyResult<C
 pub fn split_flat<'py>(
     py: Python<'py>,
     vertices: numpy::PyArrayLike2<'py, f32, numpy::AllowTypeChange>,
-    triangles: numpy::PyArrayLike2<'py, u32, numpy::AllowTypeChange>,
+    triangles: crate::convert::IndexRows<'py>,
 ) -> PyResult<MeshArrays<'py>> {
     let v = crate::convert::rows::<f32, 3>(&vertices, "vertices")?;
-    let t = crate::convert::rows::<u32, 3>(&triangles, "triangles")?;
+    let t = crate::convert::index_rows::<3>(&triangles, "triangles")?;
     let (sv, st) = miniskeleton_core::primitives::split_flat(&v, &t);
     Ok((from_rows(py, &sv)?, from_rows(py, &st)?))
 }

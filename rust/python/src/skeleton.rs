@@ -1,6 +1,6 @@
 //! Bindings for skeleton tools: joint fitting and the inside test (`fit.rs`).
 
-use crate::convert::{from_rows, rows, vector};
+use crate::convert::{from_rows, index_rows, rows, vector, IndexRows};
 use crate::error::guarded;
 use miniskeleton_core::fit::{self, FitOptions, Symmetry};
 use numpy::{AllowTypeChange, PyArray1, PyArray2, PyArrayLike1, PyArrayLike2};
@@ -21,9 +21,9 @@ use pyo3::types::PyDict;
 pub fn fit_joints<'py>(
     py: Python<'py>,
     vertices: PyArrayLike2<'py, f32, AllowTypeChange>,
-    triangles: PyArrayLike2<'py, u32, AllowTypeChange>,
+    triangles: IndexRows<'py>,
     joints: PyArrayLike2<'py, f32, AllowTypeChange>,
-    bones: PyArrayLike2<'py, u32, AllowTypeChange>,
+    bones: IndexRows<'py>,
     movable: Option<PyArrayLike1<'py, bool, AllowTypeChange>>,
     symmetry_axis: Option<usize>,
     symmetry_plane: f64,
@@ -39,9 +39,9 @@ pub fn fit_joints<'py>(
     min_sections: usize,
 ) -> PyResult<(Bound<'py, PyArray2<f32>>, Bound<'py, PyDict>)> {
     let v = rows::<f32, 3>(&vertices, "vertices")?;
-    let t = rows::<u32, 3>(&triangles, "triangles")?;
+    let t = index_rows::<3>(&triangles, "triangles")?;
     let j = rows::<f32, 3>(&joints, "joints")?;
-    let b = rows::<u32, 2>(&bones, "bones")?;
+    let b = index_rows::<2>(&bones, "bones")?;
     let mv = movable.map(|m| vector(&m)).unwrap_or_else(|| vec![true; j.len()]);
     let symmetry = match (symmetry_axis, joint_mirror) {
         (None, None) => None,
@@ -70,11 +70,11 @@ pub fn fit_joints<'py>(
 pub fn points_inside<'py>(
     py: Python<'py>,
     vertices: PyArrayLike2<'py, f32, AllowTypeChange>,
-    triangles: PyArrayLike2<'py, u32, AllowTypeChange>,
+    triangles: IndexRows<'py>,
     points: PyArrayLike2<'py, f32, AllowTypeChange>,
 ) -> PyResult<Bound<'py, PyArray1<bool>>> {
     let v = rows::<f32, 3>(&vertices, "vertices")?;
-    let t = rows::<u32, 3>(&triangles, "triangles")?;
+    let t = index_rows::<3>(&triangles, "triangles")?;
     let p = rows::<f32, 3>(&points, "points")?;
     let out = guarded(py, move || fit::points_inside(&v, &t, &p))?;
     Ok(PyArray1::from_vec(py, out))

@@ -1,6 +1,6 @@
 //! Bindings for `miniskeleton_core::{idw, bilinear, heat}`: skinning weights as dense top-k arrays.
 
-use crate::convert::{matrix, rows, vector};
+use crate::convert::{index_rows, matrix, rows, vector, IndexRows};
 use crate::error::guarded;
 use miniskeleton_core::bilinear::{bilinear_weights as core_bilinear, BilinearOptions, Falloff};
 use miniskeleton_core::heat::{heat_weights as core_heat, BoneCurves, HeatOptions, HeatReport, Symmetry};
@@ -115,7 +115,7 @@ fn report_dict<'py>(py: Python<'py>, r: &HeatReport) -> PyResult<Bound<'py, PyDi
 pub fn heat_weights<'py>(
     py: Python<'py>,
     vertices: F32Rows<'py>,
-    triangles: PyArrayLike2<'py, u32, AllowTypeChange>,
+    triangles: IndexRows<'py>,
     bone_heads: F32Rows<'py>,
     bone_tails: F32Rows<'py>,
     max_influences: usize,
@@ -163,7 +163,7 @@ pub fn heat_weights<'py>(
 pub fn heat_weights_report<'py>(
     py: Python<'py>,
     vertices: F32Rows<'py>,
-    triangles: PyArrayLike2<'py, u32, AllowTypeChange>,
+    triangles: IndexRows<'py>,
     bone_heads: F32Rows<'py>,
     bone_tails: F32Rows<'py>,
     max_influences: usize,
@@ -180,7 +180,7 @@ pub fn heat_weights_report<'py>(
     progress: Option<Py<PyAny>>,
 ) -> PyResult<PairAndReport<'py>> {
     let v = rows::<f32, 3>(&vertices, "vertices")?;
-    let tri = rows::<u32, 3>(&triangles, "triangles")?;
+    let tri = index_rows::<3>(&triangles, "triangles")?;
     let h = rows::<f32, 3>(&bone_heads, "bone_heads")?;
     let t = rows::<f32, 3>(&bone_tails, "bone_tails")?;
     if symmetry_axis > 2 {
@@ -248,14 +248,14 @@ pub fn touching_meshes<'py>(
     vertices: F32Rows<'py>,
     mesh_of: PyArrayLike1<'py, u32, AllowTypeChange>,
     meshes: usize,
-    triangles: Option<PyArrayLike2<'py, u32, AllowTypeChange>>,
+    triangles: Option<IndexRows<'py>>,
     tolerance: f64,
     min_shared: usize,
 ) -> PyResult<Bound<'py, numpy::PyArray1<i32>>> {
     let v = rows::<f32, 3>(&vertices, "vertices")?;
     let m = vector(&mesh_of);
     let tri = match &triangles {
-        Some(t) => rows::<u32, 3>(t, "triangles")?,
+        Some(t) => index_rows::<3>(t, "triangles")?,
         None => Vec::new(),
     };
     let groups =
