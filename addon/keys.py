@@ -51,9 +51,13 @@ def key_series(owner: bpy.types.bpy_struct, path: str, frames: Sequence[float], 
         return
     full = owner.path_from_id(path)
     curves = {fc.array_index: fc for fc in action_fcurves(owner.id_data) if fc.data_path == full}
+    co = {}   # each curve's keys (frame, value) as read once
+    for i, fc in curves.items():
+        co[i] = np.empty(2 * len(fc.keyframe_points))
+        fc.keyframe_points.foreach_get("co", co[i])
     lo, hi = frames[1], frames[-1]
     if sorted(curves) != list(range(values.shape[1])) or any(
-            lo <= kp.co[0] <= hi for fc in curves.values() for kp in fc.keyframe_points):
+            ((c[0::2] >= lo) & (c[0::2] <= hi)).any() for c in co.values()):
         for f, v in zip(frames[1:], values[1:]):
             setattr(owner, path, v.tolist())
             owner.keyframe_insert(path, frame=f, **kw)
@@ -62,13 +66,10 @@ def key_series(owner: bpy.types.bpy_struct, path: str, frames: Sequence[float], 
     for i, fc in curves.items():
         points = fc.keyframe_points
         old = len(points)
-        co = np.empty(2 * old)
-        points.foreach_get("co", co)
-        at = np.flatnonzero(co[0::2] == np.float32(frames[0]))
+        at = np.flatnonzero(co[i][0::2] == np.float32(frames[0]))
         first = int(at[0]) if len(at) else old - 1   # the key Blender just made
         points.add(new)
-        co = np.concatenate([co, np.column_stack([frames[1:], values[1:, i]]).ravel()])
-        points.foreach_set("co", co)
+        points.foreach_set("co", np.concatenate([co[i], np.column_stack([frames[1:], values[1:, i]]).ravel()]))
         for prop in ("interpolation", "handle_left_type", "handle_right_type", "type", "easing"):
             kinds = np.empty(old + new, dtype=np.int32)
             points.foreach_get(prop, kinds)

@@ -132,32 +132,21 @@ def rotation_series(pb: bpy.types.PoseBone, quats) -> tuple[str, list]:
     qs = [Quaternion([float(x) for x in q]) for q in quats]
     mode = pb.rotation_mode
     if mode == "QUATERNION":
-        return "rotation_quaternion", [tuple(q) for q in qs]
-    if mode == "AXIS_ANGLE":
-        return "rotation_axis_angle", [(angle, *axis) for axis, angle in (q.to_axis_angle() for q in qs)]
-    values, euler = [], None
-    for q in qs:
-        euler = q.to_euler(mode, euler) if euler is not None else q.to_euler(mode)
-        values.append(tuple(euler))
-    return "rotation_euler", values
+        values = [tuple(q) for q in qs]
+    elif mode == "AXIS_ANGLE":
+        values = [(angle, *axis) for axis, angle in (q.to_axis_angle() for q in qs)]
+    else:
+        values, euler = [], None
+        for q in qs:
+            euler = q.to_euler(mode, euler) if euler is not None else q.to_euler(mode)
+            values.append(tuple(euler))
+    return rotation_path(pb), values
 
 
-def key_rotation(pb: bpy.types.PoseBone, q: Quaternion, frame: float, prev_euler=None):
-    """Set and key ``pb``'s rotation to ``q`` in its own rotation mode; returns the Euler used."""
-    mode = pb.rotation_mode
-    if mode == "QUATERNION":
-        pb.rotation_quaternion = q
-        pb.keyframe_insert("rotation_quaternion", frame=frame, group=pb.name)
-        return None
-    if mode == "AXIS_ANGLE":
-        axis, angle = q.to_axis_angle()
-        pb.rotation_axis_angle = (angle, *axis)
-        pb.keyframe_insert("rotation_axis_angle", frame=frame, group=pb.name)
-        return None
-    e = q.to_euler(mode, prev_euler) if prev_euler is not None else q.to_euler(mode)
-    pb.rotation_euler = e
-    pb.keyframe_insert("rotation_euler", frame=frame, group=pb.name)
-    return e
+def key_rotation(pb: bpy.types.PoseBone, q: Quaternion, frame: float) -> None:
+    """Set and key ``pb``'s rotation to ``q`` in its own rotation mode."""
+    path, values = rotation_series(pb, [q])
+    key_series(pb, path, [frame], values, group=pb.name)
 
 
 def describe_roles(roles: dict, names: list[str]) -> list[str]:
@@ -279,7 +268,8 @@ class MINISKELETON_OT_add_motion(bpy.types.Operator):
             self.report({"WARNING"}, f"Armature '{arm.name}' is scaled unevenly ({scale[0]:.3g}, {scale[1]:.3g}, "
                         f"{scale[2]:.3g}): its bones shear as they turn, so the motion looks stretched; "
                         "apply the scale first (Ctrl+A > Scale)")
-        driven = sorted(driven_rotation_bones(arm) & {bones.names[int(b)] for b in out["animated"]})
+        keyed = {bones.names[int(b)] for b in out["animated"]}
+        driven = sorted(driven_rotation_bones(arm) & keyed)
         if driven:
             self.report({"WARNING"}, f"{len(driven)} keyed bone(s) have rotation drivers, which "
                         f"override their keys: {mesh_io.name_list(driven, 6)}")
@@ -287,7 +277,7 @@ class MINISKELETON_OT_add_motion(bpy.types.Operator):
             self.report({"WARNING"}, f"Armature '{arm.name}' shows its Rest Position, so the motion does not "
                         "show: switch to Pose Position (Armature properties > Pose Position)")
         constrained = constrained_rotation_bones(arm)
-        held = sorted(n for n in constrained if n in {bones.names[int(b)] for b in out["animated"]})
+        held = sorted(n for n in constrained if n in keyed)
         if held:
             named = [f"{n} ({constrained[n]})" for n in held]
             self.report({"WARNING"}, f"{len(held)} keyed bone(s) follow constraints that override their keys: "
@@ -406,11 +396,11 @@ class MINISKELETON_OT_add_motion(bpy.types.Operator):
     def key_root(arm, root_pb, to_local, base, offsets, frames):
         """Key the root at ``base`` + world ``offsets[k]`` on ``frames[k]`` (the object when the
         root cannot move)."""
+        offsets = [Vector(o) for o in np.asarray(offsets).tolist()]
         if to_local is not None:
-            places = [base + to_local @ Vector(o) for o in np.asarray(offsets).tolist()]
-            key_series(root_pb, "location", frames, places, group=root_pb.name)
+            key_series(root_pb, "location", frames, [base + to_local @ o for o in offsets], group=root_pb.name)
         else:
-            key_series(arm, "location", frames, [base + Vector(o) for o in np.asarray(offsets).tolist()])
+            key_series(arm, "location", frames, [base + o for o in offsets])
 
 
 # ---------------------------------------------------------------------------- video
