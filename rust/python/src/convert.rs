@@ -5,16 +5,21 @@ use numpy::{AllowTypeChange, IntoPyArray, PyArray2, PyArrayLike1, PyArrayLike2};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 
+/// The row count `n` of an array of shape `(n, c)` that must be `(n, C)` (any shape when empty).
+fn rows_of<const C: usize>((n, c): (usize, usize), name: &str) -> PyResult<usize> {
+    if c != C && n != 0 {
+        return Err(PyValueError::new_err(format!("{name} must have shape (n, {C}), got ({n}, {c})")));
+    }
+    Ok(n)
+}
+
 /// An (n, C) array as `Vec<[T; C]>`; `name` is used in the error message.
 pub fn rows<T: numpy::Element + Copy + Default, const C: usize>(
     arr: &PyArrayLike2<'_, T, AllowTypeChange>,
     name: &str,
 ) -> PyResult<Vec<[T; C]>> {
     let view = arr.as_array();
-    let (n, c) = view.dim();
-    if c != C && n != 0 {
-        return Err(PyValueError::new_err(format!("{name} must have shape (n, {C}), got ({n}, {c})")));
-    }
+    let n = rows_of::<C>(view.dim(), name)?;
     let mut out = vec![[T::default(); C]; n];
     for (i, row) in view.outer_iter().enumerate() {
         for (j, v) in row.iter().enumerate().take(C) {
@@ -30,13 +35,12 @@ pub type IndexRows<'py> = PyArrayLike2<'py, i64, AllowTypeChange>;
 /// An (n, C) array of indices as `Vec<[u32; C]>`: a negative index, or one past u32, is an
 /// error naming it (cast straight to u32, -1 would read as 4294967295 and 2^32 as 0).
 pub fn index_rows<const C: usize>(arr: &IndexRows<'_>, name: &str) -> PyResult<Vec<[u32; C]>> {
-    let wide = rows::<i64, C>(arr, name)?;
-    let mut out = vec![[0u32; C]; wide.len()];
-    for (i, (row, dst)) in wide.iter().zip(out.iter_mut()).enumerate() {
-        for (j, &v) in row.iter().enumerate() {
-            dst[j] = u32::try_from(v)
-                .map_err(|_| PyValueError::new_err(format!("{name}[{i}, {j}] is {v}: indices must be in 0..2^32")))?;
-        }
+    let view = arr.as_array();
+    let n = rows_of::<C>(view.dim(), name)?;
+    let mut out = vec![[0u32; C]; n];
+    for ((i, j), &v) in view.indexed_iter() {
+        out[i][j] = u32::try_from(v)
+            .map_err(|_| PyValueError::new_err(format!("{name}[{i}, {j}] is {v}: indices must be in 0..2^32")))?;
     }
     Ok(out)
 }
