@@ -257,15 +257,6 @@ fn foot_riders(
     let n = parents.len();
     let tree = build_tree(parents);
     let kids = &tree.children;
-    let subtree = |r: usize| {
-        let mut out = vec![r];
-        let mut i = 0;
-        while i < out.len() {
-            out.extend(&kids[out[i]]);
-            i += 1;
-        }
-        out
-    };
     let ancestor_of = |a: usize, mut b: usize| {
         while parents[b] >= 0 {
             b = parents[b] as usize;
@@ -280,7 +271,7 @@ fn foot_riders(
         if parents[r] >= 0 && parents[parents[r] as usize] >= 0 {
             continue; // not off a root
         }
-        let below = subtree(r);
+        let below = subtree(kids, r);
         if below.iter().any(|&b| heads[b][2].max(tails[b][2]) > low_z) {
             continue;
         }
@@ -305,6 +296,17 @@ fn foot_riders(
             used[e] = true;
             out.push([r, e]);
         }
+    }
+    out
+}
+
+/// `root` and every bone below it (`kids`: each bone's children), `root` first.
+fn subtree(kids: &[Vec<usize>], root: usize) -> Vec<usize> {
+    let mut out = vec![root];
+    let mut i = 0;
+    while i < out.len() {
+        out.extend(&kids[out[i]]);
+        i += 1;
     }
     out
 }
@@ -483,10 +485,8 @@ pub fn detect_roles(heads: &[[f32; 3]], tails: &[[f32; 3]], parents: &[i32], nam
     let leg_chains: Vec<Vec<usize>> = leg_tops.iter().map(|&b| leg_chain(b)).collect();
     let mut in_leg = vec![false; n];
     for &top in &leg_tops {
-        let mut stack = vec![top];
-        while let Some(b) = stack.pop() {
+        for b in subtree(kids, top) {
             in_leg[b] = true;
-            stack.extend(&kids[b]);
         }
     }
 
@@ -646,12 +646,7 @@ pub fn detect_roles(heads: &[[f32; 3]], tails: &[[f32; 3]], parents: &[i32], nam
     }
     let neck: Vec<usize> = axis[s_idx + 1..hi_idx].to_vec();
     let head = axis[hi_idx];
-    let mut head_extras = Vec::new();
-    let mut stack: Vec<usize> = kids[head].clone();
-    while let Some(b) = stack.pop() {
-        head_extras.push(b);
-        stack.extend(&kids[b]);
-    }
+    let mut head_extras = subtree(kids, head).split_off(1);
     head_extras.sort_unstable();
 
     // ---- forward, left
