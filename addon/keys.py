@@ -30,10 +30,21 @@ def action_fcurves(ob: bpy.types.ID) -> list:
     return list(getattr(ad.action, "fcurves", []))
 
 
+def action_frame(ob: bpy.types.ID, frame: float, invert: bool = False) -> float:
+    """Scene ``frame`` -> the same moment in ``ob``'s action (``invert``: action -> scene).
+    They differ in NLA tweak mode, where the action is a strip's (moved, scaled, repeated) and
+    ``keyframe_insert`` maps the scene frame it is given, as the Dope Sheet shows it."""
+    ad = getattr(ob, "animation_data", None)
+    if ad is None or not ad.use_tweak_mode:
+        return frame
+    return ad.nla_tweak_strip_time_to_scene(frame, invert=not invert)
+
+
 def key_series(owner: bpy.types.bpy_struct, path: str, frames: Sequence[float], values,
                group: str | None = None) -> None:
     """Key ``owner.<path>`` (a vector property of a pose bone or an object) to ``values[k]`` at
-    ``frames[k]`` (ascending): the keys ``keyframe_insert`` makes one frame at a time, in one go.
+    ``frames[k]`` (scene frames, ascending): the keys ``keyframe_insert`` makes one frame at a
+    time, in one go (in NLA tweak mode, at the tweaked strip's action frames).
 
     Blender keys the first frame itself (making the action, slot, F-curves and ``group`` as
     usual); the others are added to those F-curves as arrays, with the first key's
@@ -50,12 +61,13 @@ def key_series(owner: bpy.types.bpy_struct, path: str, frames: Sequence[float], 
     if len(frames) < 2:
         return
     full = owner.path_from_id(path)
+    at_frames = [action_frame(owner.id_data, f) for f in frames]
     curves = {fc.array_index: fc for fc in action_fcurves(owner.id_data) if fc.data_path == full}
     co = {}   # each curve's keys (frame, value) as read once
     for i, fc in curves.items():
         co[i] = np.empty(2 * len(fc.keyframe_points))
         fc.keyframe_points.foreach_get("co", co[i])
-    lo, hi = frames[1], frames[-1]
+    lo, hi = at_frames[1], at_frames[-1]
     if sorted(curves) != list(range(values.shape[1])) or any(
             ((c[0::2] >= lo) & (c[0::2] <= hi)).any() for c in co.values()):
         for f, v in zip(frames[1:], values[1:]):
@@ -66,10 +78,10 @@ def key_series(owner: bpy.types.bpy_struct, path: str, frames: Sequence[float], 
     for i, fc in curves.items():
         points = fc.keyframe_points
         old = len(points)
-        at = np.flatnonzero(co[i][0::2] == np.float32(frames[0]))
+        at = np.flatnonzero(co[i][0::2] == np.float32(at_frames[0]))
         first = int(at[0]) if len(at) else old - 1   # the key Blender just made
         points.add(new)
-        points.foreach_set("co", np.concatenate([co[i], np.column_stack([frames[1:], values[1:, i]]).ravel()]))
+        points.foreach_set("co", np.concatenate([co[i], np.column_stack([at_frames[1:], values[1:, i]]).ravel()]))
         for prop in ("interpolation", "handle_left_type", "handle_right_type", "type", "easing"):
             kinds = np.empty(old + new, dtype=np.int32)
             points.foreach_get(prop, kinds)

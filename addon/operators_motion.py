@@ -20,7 +20,7 @@ from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty, St
 from mathutils import Matrix, Quaternion, Vector
 
 from . import mesh_io
-from .keys import action_fcurves, key_series
+from .keys import action_fcurves, action_frame, key_series
 
 MOTIONS = [
     ("HEAD_SHAKE", "Head Shake", "Neck and head yaw back and forth; ears and other head children follow"),
@@ -69,9 +69,9 @@ def motion_skeleton(arm: bpy.types.Object, bones) -> tuple[np.ndarray, np.ndarra
 
 
 def last_key_frame(ob: bpy.types.Object) -> float | None:
-    """Frame of the last keyframe on ``ob``'s action, None without keys."""
+    """Scene frame of the last keyframe on ``ob``'s action, None without keys."""
     frames = [kp.co[0] for fc in action_fcurves(ob) for kp in fc.keyframe_points[-1:]]
-    return max(frames) if frames else None
+    return action_frame(ob, max(frames), invert=True) if frames else None
 
 
 def keyed_rotation_bones(ob: bpy.types.Object) -> set[str]:
@@ -691,7 +691,7 @@ class MINISKELETON_OT_make_video(bpy.types.Operator):
         set_mp4(scene, path)
         path.unlink(missing_ok=True)   # so a failed render cannot pass for this one
 
-        total = scene.frame_end - scene.frame_start + 1
+        total = len(range(scene.frame_start, scene.frame_end + 1, scene.frame_step))  # as Blender renders
         wm = context.window_manager
         done = [0]
 

@@ -409,6 +409,56 @@ def test_head_shake_moves_head_not_feet_and_walk_appends():
     assert {"head", "foot.L", "thigh.R"} <= groups
 
 
+def action_keys(arm):
+    """{(data path, index): (keys, 2) array of (frame, value)} of the armature's action."""
+    out = {}
+    for fc in motion_module().action_fcurves(arm):
+        co = np.empty(2 * len(fc.keyframe_points))
+        fc.keyframe_points.foreach_get("co", co)
+        out[fc.data_path, fc.array_index] = co.reshape(-1, 2)
+    return out
+
+
+def test_in_nla_tweak_mode_a_motion_goes_after_the_strips_keys_where_the_strip_shows_them():
+    """Tweaking an NLA strip that starts at scene frame 101, the action's frame 1 is scene frame
+    101. ``keyframe_insert`` maps the scene frame it is given, so the series written as arrays
+    must map theirs too (they went to the scene's frame numbers, the first key 100 frames before
+    the rest), and the motion is appended after the strip's last key in scene frames."""
+    scene = bpy.context.scene
+    twin = creature.build_armature("Twin")       # the same motions without the NLA
+    assert add_motion(twin, motion="WALK", cycles=1) == {"FINISHED"}
+    assert add_motion(twin, motion="HEAD_SHAKE", cycles=1) == {"FINISHED"}
+    want, twin_end = action_keys(twin), scene.frame_end
+
+    arm = creature.build_armature()
+    scene.frame_end = 1
+    assert add_motion(arm, motion="WALK", cycles=1) == {"FINISHED"}
+    ad = arm.animation_data
+    track = ad.nla_tracks.new()
+    strip = track.strips.new("walk", 101, ad.action)
+    ad.action = None
+    track.select = strip.select = True
+    ad.nla_tracks.active = track
+    ad.use_tweak_mode = True
+    assert ad.use_tweak_mode and ad.action is strip.action
+    assert add_motion(arm, motion="HEAD_SHAKE", cycles=1) == {"FINISHED"}
+    got = action_keys(arm)
+    assert got.keys() == want.keys()
+    for path, keys in want.items():
+        np.testing.assert_allclose(got[path], keys, atol=1e-6, err_msg=str(path))
+    assert motion_module().last_key_frame(arm) == twin_end + 100
+    assert scene.frame_end == twin_end + 100
+    # the strip shows the shake 100 frames after the twin does, in tweak mode and after it
+    names = ["head", "jaw", "hand.L"]
+    at = [twin_end - 30, twin_end - 20, twin_end - 10]
+    ref = tails_over_frames(twin, names, at)
+    for tweak in (True, False):
+        ad.use_tweak_mode = tweak
+        pos = tails_over_frames(arm, names, [f + 100 for f in at])
+        for n in names:
+            np.testing.assert_allclose(pos[n], ref[n], atol=1e-5, err_msg=f"{n} tweak={tweak}")
+
+
 def test_run_is_faster_and_keeps_going_after_walk():
     arm = biped_rig()
     mm = motion_module()
@@ -465,6 +515,20 @@ def test_video_is_a_valid_mp4(tmp_path):
     for c in body.bound_box:
         p = world_to_camera_view(scene, scene.camera, body.matrix_world @ Vector(c))
         assert 0 <= p.x <= 1 and 0 <= p.y <= 1 and p.z > 0
+
+
+def test_video_counts_the_frames_it_renders_on_the_scene_frame_step(tmp_path, capfd):
+    """Render Animation renders every frame_step-th frame; the report and the progress said
+    frame_end - frame_start + 1 (5 here, for 3 frames rendered)."""
+    creature.build_body(subdivisions=0)
+    scene = bpy.context.scene
+    scene.frame_start, scene.frame_end, scene.frame_step = 1, 5, 2
+    out = tmp_path / "stepped.mp4"
+    assert bpy.ops.render.miniskeleton_make_video(filepath=str(out), resolution_x=32,
+                                                  resolution_y=32) == {"FINISHED"}
+    assert probe(out) == (3, 32, 32)
+    printed = capfd.readouterr().out
+    assert "video: frame 3/3" in printed and "(3 frames, 32x32" in printed
 
 
 def test_video_with_the_scenes_own_engine_and_camera(tmp_path):
