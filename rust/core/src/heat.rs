@@ -210,8 +210,10 @@ struct Source {
     count: u8,
     /// Distance to the nearest visible bone(s).
     dist: f64,
-    /// Nearest bone by distance, ignoring visibility, and its distance.
-    nearest: u32,
+    /// Nearest bone(s) by distance, ignoring visibility (ties within [`TIE_RATIO`], lowest
+    /// indices first, so a vertex on a symmetric rig's mirror plane shares a left/right pair),
+    /// and their distance.
+    nearest: Ties,
     nearest_dist: f64,
 }
 
@@ -483,8 +485,8 @@ pub fn heat_weights(
     // Fallback sources: nearest bone by distance for vertices of pieces that see nothing.
     sources.par_iter_mut().zip(labels.par_iter()).with_min_len(1024).for_each(|(s, &l)| {
         if !pieces[l as usize].sees {
-            s.bones = [s.nearest, u32::MAX, u32::MAX, u32::MAX];
-            s.count = 1;
+            s.bones = s.nearest.bones;
+            s.count = s.nearest.count;
             s.dist = s.nearest_dist;
         }
     });
@@ -573,7 +575,7 @@ pub fn heat_weights(
 
     // 9. Rigid pieces and isolated vertices: 100% to one bone (or shared by exact ties).
     for v in 0..nw {
-        let ties = if mass[v] <= 0.0 { Some(Ties::one(sources[v].nearest)) } else { rigid[labels[v] as usize] };
+        let ties = if mass[v] <= 0.0 { Some(sources[v].nearest) } else { rigid[labels[v] as usize] };
         if let Some(t) = ties {
             for j in 0..b {
                 x[j * nw + v] = 0.0;
@@ -603,7 +605,7 @@ pub fn heat_weights(
                 used = top_k_row(|j| x[j * nw + v] as f32, b, opts.min_weight, idx, w);
             }
             if used == 0 {
-                idx[0] = sources[v].nearest as i32;
+                idx[0] = sources[v].nearest.bones[0] as i32;
                 w[0] = 1.0;
             }
         },
@@ -727,13 +729,19 @@ impl Source {
     /// segments merged).
     fn owned(self, owner: &[u32]) -> Source {
         let (bones, count) = owned_ties(self.bones, self.count, owner);
-        Source { bones, count, nearest: owner[self.nearest as usize], ..self }
+        Source { bones, count, nearest: self.nearest.owned(owner), ..self }
     }
 }
 
 /// The bone(s) nearest to the point `p` (ties within [`TIE_RATIO`], lowest indices first).
 fn nearest_bones(p: DVec3, bones: &[(DVec3, DVec3)]) -> Ties {
     let d: Vec<f64> = bones.iter().map(|(h, t)| closest_point_on_segment(p, *h, *t).1).collect();
+    least(&d)
+}
+
+/// The indices of the least of the distances `d` (ties within [`TIE_RATIO`], lowest first; 0
+/// when there is none).
+fn least(d: &[f64]) -> Ties {
     let best = d.iter().copied().fold(f64::INFINITY, f64::min);
     let mut out = Ties { bones: [u32::MAX; MAX_TIES], count: 0 };
     for (j, &dj) in d.iter().enumerate() {
@@ -866,7 +874,7 @@ fn mark_sources(pieces: &mut [PieceStats], labels: &[u32], sources: &[Source]) {
         let p = &mut pieces[l as usize];
         p.sees |= s.count > 0;
         if s.nearest_dist < p.best.0 {
-            p.best = (s.nearest_dist, s.nearest);
+            p.best = (s.nearest_dist, s.nearest.bones[0]);
         }
     }
 }
@@ -1043,7 +1051,8 @@ fn nearest_visible_bone(
 ) -> Source {
     let b = bones.len();
     let (dist, euclid) = scratch.split_at_mut(b);
-    let mut src = Source { bones: [u32::MAX; MAX_TIES], count: 0, dist: 0.0, nearest: 0, nearest_dist: f64::INFINITY };
+    let mut src =
+        Source { bones: [u32::MAX; MAX_TIES], count: 0, dist: 0.0, nearest: Ties::one(0), nearest_dist: f64::INFINITY };
     for (j, (h, t)) in bones.iter().enumerate() {
         let (s, d) = closest_point_on_segment(x, *h, *t);
         euclid[j] = d;
@@ -1052,11 +1061,9 @@ fn nearest_visible_bone(
             let cos = (x - (*h + (*t - *h) * s)).dot(normal) / d;
             dist[j] = d / (0.5 * (cos + 1.001));
         }
-        if d < src.nearest_dist {
-            src.nearest = j as u32;
-            src.nearest_dist = d;
-        }
+        src.nearest_dist = src.nearest_dist.min(d);
     }
+    src.nearest = least(euclid);
     // Walk the bones in increasing (distance, index) order without sorting.
     let mut prev = (f64::NEG_INFINITY, usize::MAX);
     let mut first: Option<f64> = None;
@@ -1175,7 +1182,7 @@ mod visibility_tests {
         let p = DVec3::new(0.9, 0.5, 0.5);
         let whole = Some(Sight { rays: &rm, tri_piece: None, piece: 0, normal: DVec3::ZERO });
         let s = nearest_visible_bone(p, DVec3::ZERO, &bones, whole, &mut scratch);
-        assert_eq!((s.count, s.bones[0], s.nearest), (1, 1, 0));
+        assert_eq!((s.count, s.bones[0], s.nearest), (1, 1, Ties::one(0)));
         assert!((s.dist - 0.4).abs() < 1e-9);
         let s = nearest_visible_bone(p, DVec3::ZERO, &bones, None, &mut scratch);
         assert_eq!((s.count, s.bones[0]), (1, 0));

@@ -343,6 +343,24 @@ fn points_without_faces_take_the_nearest_bone() {
 }
 
 #[test]
+fn points_on_the_mirror_plane_of_two_bones_share_them() {
+    // Two upright bones mirrored across x = 0. A point without faces on that plane is as near
+    // to one as to the other: it shares them (it took the first at 1.0, as Blender's bone
+    // heat shares a tie); points beside the plane take their own side's bone.
+    let heads = vec![[-0.5, 0.0, 0.0], [0.5, 0.0, 0.0]];
+    let tails = vec![[-0.5, 0.0, 1.0], [0.5, 0.0, 1.0]];
+    let pts = vec![[0.0, 0.0, 0.5], [0.0, 0.3, 2.0], [0.01, 0.0, 0.5], [-0.01, 0.0, 0.5]];
+    let (inf, rep) = heat_weights(&pts, &[], &heads, &tails, &HeatOptions::default(), None).unwrap();
+    assert_eq!(rep.isolated_vertices, 4);
+    let dense = inf.to_dense(2);
+    for v in 0..2 {
+        assert_eq!((dense[v * 2], dense[v * 2 + 1]), (0.5, 0.5), "point {v}");
+    }
+    assert_eq!((dense[4], dense[5]), (0.0, 1.0));
+    assert_eq!((dense[6], dense[7]), (1.0, 0.0));
+}
+
+#[test]
 fn visibility_off_still_works() {
     let (m, b) = cylinder();
     let (a, _) = heat(&m, &b, &HeatOptions::default());
