@@ -170,7 +170,7 @@ def main(argv=None):
     mesh_io = importlib.import_module(blender_session.ADDON_MODULE + ".mesh_io")
 
     rows = []
-    specs = [(shape, spec) for shape in args.shapes.split(",") if shape for spec in args.sizes.split(",")]
+    specs = [(shape, spec) for shape in args.shapes.split(",") if shape for spec in args.sizes.split(",") if spec]
     for shape, spec in specs:
         size, bones = spec.split(":")
         rings, segments = SHAPES[shape][size]
