@@ -353,6 +353,33 @@ def _write_chain(pose, names, angles, offsets):
         pose.set_z(n, puppet.wrap(float(a) - off))
 
 
+class PuppetError(ValueError):
+    """A puppet that cannot be solved as its scene stands (said in a line, never a traceback)."""
+
+
+def _finite(m: Matrix) -> bool:
+    return all(math.isfinite(v) for row in m for v in row)
+
+
+def _plane_inverse(rig: bpy.types.Object, rods: dict) -> Matrix:
+    """World -> armature space of ``rig``, after checking that the rig and its ``rods`` have
+    finite places (a driver or constraint gone wrong can give NaN) and that the rig's scale is
+    not zero on an axis (its picture plane has no inverse). PuppetError names what is wrong."""
+    m = rig.matrix_world
+    if not _finite(m):
+        raise PuppetError(f"Puppet '{rig.name}' has no finite place (NaN or infinite transform)")
+    try:
+        inv = m.inverted()
+    except ValueError:
+        raise PuppetError(f"Puppet '{rig.name}' is scaled to zero on an axis ({', '.join(f'{x:.3g}' for x in m.to_scale())}): "
+                          "set its scale (Object > Transform)") from None
+    bad = sorted(rod.name for rod in rods.values() if not _finite(rod.matrix_world))
+    if bad:
+        raise PuppetError(f"Puppet '{rig.name}': rod(s) {mesh_io.name_list(bad)} have no finite place "
+                          "(NaN or infinite transform)")
+    return inv
+
+
 def _rod_point(inv, rod):
     p = inv @ rod.matrix_world.translation
     return (p.x, p.z)
@@ -364,13 +391,14 @@ def solve_puppet(rig: bpy.types.Object) -> dict:
     Only the in-plane angle (``rotation_euler.z``) of driven bones is written, and only when
     it changes; the other bones are clamped into their stored limits. Each solve starts from
     the bones' seed angles, so the pose is a function of the rods alone (scrubbing and
-    baking give the same pose as live solving)."""
+    baking give the same pose as live solving). PuppetError when the rig or a rod has no
+    finite place, or the rig is scaled to zero; nothing is written then."""
     import miniskeleton_core as core
 
     tpl = puppet.template(rig[KIND_KEY])
     rods = puppet_rods(rig)
+    inv = _plane_inverse(rig, rods)
     pose = _Pose(rig)
-    inv = rig.matrix_world.inverted()
     turn = _plane_turn(rig.matrix_world)
     pbones = rig.pose.bones
     reports = {}
@@ -441,11 +469,14 @@ _state = {"busy": False, "last": {}}
 def _signature(rig, rods):
     """Everything a solve depends on, rounded: the rig's and rods' world matrices and the
     bones' rotations and limits."""
-    vals = [round(v, 7) for row in rig.matrix_world for v in row]
+    def r(v):   # NaN != NaN: as text, an unchanged broken rod keeps its signature
+        return round(v, 7) if math.isfinite(v) else str(v)
+
+    vals = [r(v) for row in rig.matrix_world for v in row]
     for role in sorted(rods):
-        vals += [round(v, 7) for row in rods[role].matrix_world for v in row]
+        vals += [r(v) for row in rods[role].matrix_world for v in row]
     for pb in rig.pose.bones:
-        vals += [round(v, 7) for v in pb.rotation_euler]
+        vals += [r(v) for v in pb.rotation_euler]
         vals += [pb.ik_min_z, pb.ik_max_z, pb.ik_min_y, pb.ik_max_y, pb.get(SEED_KEY, 0.0)]
     return tuple(vals)
 
@@ -466,7 +497,12 @@ def update_scene_puppets(scene, force=False) -> int:
             sig = _signature(rig, puppet_rods(rig))
             if not force and _state["last"].get(key) == sig:
                 continue
-            solve_puppet(rig)
+            try:
+                solve_puppet(rig)
+            except PuppetError as err:   # said once, until the rods or the rig change
+                print(f"[MiniSkeleton] {err}; its pose is kept")
+                _state["last"][key] = sig
+                continue
             _state["last"][key] = _signature(rig, puppet_rods(rig))
             solved += 1
     except Exception:   # a handler must never break Blender's update loop
@@ -552,6 +588,9 @@ class MINISKELETON_OT_bake_puppet(bpy.types.Operator):
         wm.progress_begin(0, len(frames))  # each frame is evaluated and solved: 0.36 s for 1000 frames
         try:
             n = bake_puppet(scene, rig, frames, progress=wm.progress_update)
+        except PuppetError as err:
+            self.report({"ERROR"}, f"{err}; nothing was baked")
+            return {"CANCELLED"}
         finally:
             wm.progress_end()
         if self.stop_live:
@@ -567,17 +606,25 @@ def scene_frames(scene) -> list[int]:
 
 def bake_puppet(scene, rig, frames=None, progress=None) -> int:
     """Key ``rotation_euler`` of every movable bone on each frame (scene range by default);
-    ``progress(done)`` is called with the number of frames baked after each one."""
+    ``progress(done)`` is called with the number of frames baked after each one. PuppetError
+    (naming the frame) when a frame cannot be solved: then no key is written and the bones
+    keep the rotations they had."""
     frames = list(frames or scene_frames(scene))
     current = scene.frame_current
     bones = [pb for pb in rig.pose.bones if not all(pb.lock_rotation)]
     live = rig.get(LIVE_KEY, True)
     rig[LIVE_KEY] = False          # this loop solves itself; keep the handler out of it
     angles = {pb.name: [] for pb in bones}
+    before = {pb.name: pb.rotation_euler.copy() for pb in bones}
     try:
         for done, f in enumerate(frames):
             scene.frame_set(f)
-            solve_puppet(rig)
+            try:
+                solve_puppet(rig)
+            except PuppetError as err:
+                for pb in bones:
+                    pb.rotation_euler = before[pb.name]
+                raise PuppetError(f"At frame {f}: {err}") from None
             for pb in bones:
                 angles[pb.name].append(tuple(pb.rotation_euler))
             if progress is not None:

@@ -398,6 +398,54 @@ def test_a_puppet_playing_a_linked_action_is_not_baked(tmp_path):
     # refused before baking: live solving (switched off by a bake) is still on
     assert rig.animation_data.action.name == "Show" and rig.get(P.LIVE_KEY, True)
 
+def pose_of(rig):
+    return {pb.name: tuple(pb.rotation_euler) for pb in rig.pose.bones}
+
+
+def test_a_rod_or_rig_without_a_finite_place_keeps_the_pose_and_is_not_baked(capfd):
+    """A rod at NaN (a driver or constraint gone wrong), or the rig scaled to zero on an axis:
+    live solving printed a traceback on every update and Bake stopped with one. Now live solving
+    keeps the pose and says why once; Bake is an error naming the frame and keys nothing."""
+    rig, rods = add("FIVE_ROD")
+    scene = bpy.context.scene
+    move_rod(rods["hand.R"], -0.3, 1.2)
+    posed = pose_of(rig)
+    capfd.readouterr()
+    hand = rods["hand.R"]
+    placed = hand.location.copy()
+    hand.keyframe_insert("location", frame=1)
+    hand.location.x = float("nan")
+    hand.keyframe_insert("location", frame=3)   # NaN from frame 2 on (interpolated towards it)
+    scene.frame_start, scene.frame_end = 1, 5
+    for f in (3, 4, 5):
+        scene.frame_set(f)
+        settle()
+    assert pose_of(rig) == posed
+    out = capfd.readouterr()
+    assert "Traceback" not in out.out + out.err
+    assert out.out.count("rod(s) FiveRodPuppet.rod.hand.R have no finite place") == 1
+    bpy.context.view_layer.objects.active = rig
+    with pytest.raises(RuntimeError, match=r"At frame 2: Puppet 'FiveRodPuppet': rod\(s\) "
+                       r"FiveRodPuppet.rod.hand.R have no finite place .*nothing was baked"):
+        bpy.ops.object.miniskeleton_bake_puppet()
+    assert rig.animation_data is None and pose_of(rig) == posed and rig.get(P.LIVE_KEY, True)
+    assert scene.frame_current == 5
+
+    hand.animation_data_clear()
+    hand.location = placed
+    rig.scale.x = 0.0
+    settle()
+    assert pose_of(rig) == posed
+    assert "is scaled to zero on an axis (0, 1, 1)" in capfd.readouterr().out
+    with pytest.raises(RuntimeError, match=r"At frame 1: Puppet 'FiveRodPuppet' is scaled to zero"):
+        bpy.ops.object.miniskeleton_bake_puppet()
+    assert rig.animation_data is None
+    rig.scale.x = 1.0                                  # mended: it solves and bakes again
+    settle()
+    assert bpy.ops.object.miniskeleton_bake_puppet() == {"FINISHED"}
+    assert rig.animation_data.action is not None
+
+
 def test_puppet_operators_say_what_to_select_when_no_puppet_is_active(tmp_path):
     """Bake and Set Part Image need a puppet: with a plain cube active they are greyed out, and
     the tooltip (and a script's error) says what to select instead of "context is incorrect"."""
