@@ -98,6 +98,28 @@ def read_only(*blocks) -> str | None:
     return None
 
 
+def unplaced(*objects) -> str | None:
+    """Why one of ``objects`` cannot be read in world space, or None: a NaN or infinite world
+    transform (its own location, rotation or scale, a parent's, a constraint's, a driver gone
+    wrong) puts it nowhere. Read as it was, an armature's bones came out NaN and were reported
+    as "zero-length", and Fit stopped with a traceback."""
+    bad = [ob.name for ob in objects if ob is not None and not np.isfinite(np.array(ob.matrix_world)).all()]
+    if not bad:
+        return None
+    return (f"{'Object' if len(bad) == 1 else 'Objects'} {name_list([repr(n) for n in bad])} "
+            f"{'has' if len(bad) == 1 else 'have'} a NaN or infinite transform (location, rotation or "
+            "scale, or a parent's): set it in Object Properties > Transform")
+
+
+def extent(ob: bpy.types.Object) -> float:
+    """The diagonal of ``ob``'s bounding box as placed in the world, in double precision
+    (Blender's ``dimensions`` overflow to inf on an armature scaled by 1e30, which made every
+    one of its bones "zero-length")."""
+    m = np.array(ob.matrix_world, dtype=np.float64)
+    corners = np.array(ob.bound_box, dtype=np.float64) @ m[:3, :3].T
+    return float(np.linalg.norm(np.ptp(corners, axis=0)))
+
+
 def in_edit_mode(meshes) -> str | None:
     """Why ``meshes`` cannot be written now, or None: in Edit Mode a mesh's edits live apart
     from its data until Edit Mode ends, which then overwrites what an operator wrote."""

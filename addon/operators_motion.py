@@ -48,10 +48,15 @@ def motion_armature(context: bpy.types.Context) -> bpy.types.Object | None:
 
 
 def rest_matrices(arm: bpy.types.Object, names: list[str]) -> np.ndarray:
-    """(b, 3, 3) rest orientation of each bone in world space (columns = bone X, Y, Z)."""
-    world = arm.matrix_world.to_3x3()
-    return np.array([np.array(world @ arm.data.bones[n].matrix_local.to_3x3()) for n in names],
-                    dtype=np.float32).reshape(-1, 3, 3)
+    """(b, 3, 3) rest orientation of each bone in world space (columns = bone X, Y, Z, of unit
+    length: the armature's scale taken out in double precision, as the core's single-precision
+    thresholds took a rig scaled by 1e-15 or 1e25 for one with no axes)."""
+    world = np.array(arm.matrix_world.to_3x3(), dtype=np.float64)
+    local = np.array([np.array(arm.data.bones[n].matrix_local.to_3x3()) for n in names],
+                     dtype=np.float64).reshape(-1, 3, 3)
+    m = world @ local
+    norms = np.linalg.norm(m, axis=1, keepdims=True)   # of each column
+    return (m / np.where(norms > 0, norms, 1.0)).astype(np.float32)
 
 
 def motion_skeleton(arm: bpy.types.Object, bones) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -61,7 +66,9 @@ def motion_skeleton(arm: bpy.types.Object, bones) -> tuple[np.ndarray, np.ndarra
     make the armature itself walk (its mirror image's motion, mirrored back)."""
     heads, tails = bones.heads.copy(), bones.tails.copy()
     rest = rest_matrices(arm, bones.names)
-    if arm.matrix_world.to_3x3().determinant() < 0:
+    # in double precision: mathutils' single-precision determinant of a mirror scaled by 1e-15
+    # underflows to 0, and the mirror went unseen
+    if np.linalg.det(np.array(arm.matrix_world.to_3x3(), dtype=np.float64)) < 0:
         heads[:, 0] *= -1
         tails[:, 0] *= -1
         rest[:, 0, :] *= -1
@@ -225,7 +232,11 @@ class MINISKELETON_OT_add_motion(bpy.types.Operator):
         if locked:
             self.report({"ERROR"}, locked)
             return {"CANCELLED"}
-        scale = max(arm.dimensions.length, 1e-30)
+        unplaced = mesh_io.unplaced(arm)
+        if unplaced:
+            self.report({"ERROR"}, unplaced)
+            return {"CANCELLED"}
+        scale = max(mesh_io.extent(arm), 1e-30)
         bones = mesh_io.armature_bones(arm, min_length=1e-6 * scale)
         if len(bones.names) < 3:
             self.report({"ERROR"}, f"Armature '{arm.name}' has too few deform bones for a motion")
@@ -233,15 +244,27 @@ class MINISKELETON_OT_add_motion(bpy.types.Operator):
         scene = context.scene
         fps = scene.render.fps / scene.render.fps_base
         heads, tails, rest = motion_skeleton(arm, bones)
+        # The core works in single precision and squares lengths: a skeleton over about 1e19
+        # units overflowed ("the skeleton is flat"). One larger than 1e6 units or smaller than
+        # 1e-3 is given at that size, by a power of two (exact), and the offsets scaled back;
+        # the cadence, which follows the leg length in metres, is clamped there all the same.
+        size = float(np.linalg.norm(np.ptp(np.concatenate([heads, tails]).astype(np.float64), axis=0)))
+        unit_size = 1.0
+        if size > 1e6:
+            unit_size = 2.0 ** math.floor(math.log2(size / 1e6))
+        elif 0.0 < size < 1e-3:
+            unit_size = 2.0 ** math.ceil(math.log2(size / 1e-3))
         try:
             out = core.make_motion(
-                heads, tails, bones.parents, rest, self.motion,
+                heads / unit_size, tails / unit_size, bones.parents, rest, self.motion,
                 names=bones.names, fps=fps, cycles=self.cycles, duration=self.duration,
                 amplitude=self.amplitude, stride=self.stride, speed=self.speed,
                 root_motion=self.root_motion)
         except ValueError as err:
             self.report({"ERROR"}, f"{arm.name}: {err}")
             return {"CANCELLED"}
+        for key in ("root_offset", "locations"):   # back in world units
+            out[key] = np.asarray(out[key], dtype=np.float64) * unit_size
         roles = out["roles"]
         lines = describe_roles(roles, bones.names)
         print(f"[MiniSkeleton] roles of '{arm.name}':")
@@ -333,11 +356,12 @@ class MINISKELETON_OT_add_motion(bpy.types.Operator):
                 pose[name].location = (0.0, 0.0, 0.0)
                 pose[name].keyframe_insert("location", frame=start, group=name)
 
-        to_local = self.root_world_to_local(arm, root_pb) if out["roles"]["single_tree"] else None
+        axes = self.root_axes(arm, root_pb) if out["roles"]["single_tree"] else None
+        to_local, to_world = axes if axes is not None else (None, None)
         if earlier is not None:
             scene.frame_set(int(math.floor(earlier)))
         if to_local is not None:
-            world = to_local.inverted() @ root_pb.location   # drop the last frame's bob
+            world = to_world @ root_pb.location   # drop the last frame's bob
             world.z = 0.0
             root_base = to_local @ world
         else:
@@ -354,7 +378,7 @@ class MINISKELETON_OT_add_motion(bpy.types.Operator):
         elif earlier is not None:
             # keep the distance travelled, drop the gait's vertical bob
             if to_local is not None and self.has_root_keys(arm, root_pb):
-                world = to_local.inverted() @ root_base
+                world = to_world @ root_base
                 world.z = 0.0
                 root_pb.location = to_local @ world
                 root_pb.keyframe_insert("location", frame=start, group=root_pb.name)
@@ -376,16 +400,18 @@ class MINISKELETON_OT_add_motion(bpy.types.Operator):
         return arm.location.z
 
     @staticmethod
-    def root_world_to_local(arm, root_pb) -> Matrix | None:
-        """World offset -> the root pose bone's location space; None when it cannot translate
-        (connected), or when the rig is several trees: then the object moves instead."""
+    def root_axes(arm, root_pb) -> tuple[Matrix, Matrix] | None:
+        """(world offset -> the root pose bone's location space, and back); None when it cannot
+        translate (connected, or a singular frame), or when the rig is several trees: then the
+        object moves instead. Inverted in double precision: mathutils' single-precision
+        determinant of an armature scaled by 1e15 underflowed and the inverse failed."""
         if root_pb.bone.use_connect:
             return None
-        m = arm.matrix_world.to_3x3() @ root_pb.bone.matrix_local.to_3x3()
-        try:
-            return m.inverted()
-        except ValueError:
+        m = np.array(arm.matrix_world.to_3x3(), dtype=np.float64) @ np.array(root_pb.bone.matrix_local.to_3x3())
+        sv = np.linalg.svd(m, compute_uv=False) if np.isfinite(m).all() else np.zeros(3)
+        if not sv.min() > 1e-12 * sv.max():
             return None
+        return Matrix(np.linalg.inv(m).tolist()), Matrix(m.tolist())
 
     @staticmethod
     def has_root_keys(arm, root_pb) -> bool:
@@ -424,7 +450,8 @@ def character_objects(scene) -> list[bpy.types.Object]:
 
 def motion_boxes(scene, objects, samples: int = 24) -> list[tuple[int, Vector, Vector]]:
     """World bounding boxes (frame, lo, hi) of ``objects`` at ``samples`` frames spread evenly
-    over the frame range (start and end included)."""
+    over the frame range (start and end included). Corners that are NaN or infinite (an object
+    or a bone with a broken transform) are left out, and so are frames with none left."""
     current = scene.frame_current
     n = scene.frame_end - scene.frame_start + 1
     frames = sorted({scene.frame_start + round(i * (n - 1) / max(samples - 1, 1))
@@ -439,9 +466,11 @@ def motion_boxes(scene, objects, samples: int = 24) -> list[tuple[int, Vector, V
             ev = ob.evaluated_get(dg)
             for c in ev.bound_box:
                 p = ev.matrix_world @ Vector(c)
-                lo = Vector(map(min, lo, p))
-                hi = Vector(map(max, hi, p))
-        boxes.append((f, lo, hi))
+                if all(map(math.isfinite, p)):
+                    lo = Vector(map(min, lo, p))
+                    hi = Vector(map(max, hi, p))
+        if lo.x <= hi.x:
+            boxes.append((f, lo, hi))
     scene.frame_set(current)
     return boxes
 
@@ -657,6 +686,11 @@ class MINISKELETON_OT_make_video(bpy.types.Operator):
                 self.report({"ERROR"}, "Nothing to film: no visible mesh or armature")
                 return {"CANCELLED"}
             boxes = motion_boxes(scene, objects)
+            if not boxes:
+                self.report({"ERROR"}, "Nothing to film: the objects to frame have a NaN or infinite "
+                            f"transform or shape: {mesh_io.name_list([ob.name for ob in objects])} "
+                            "(Object Properties > Transform)")
+                return {"CANCELLED"}
             aspect = self.resolution_x / self.resolution_y
             if self.camera == "FOLLOW":
                 add_follow_camera(scene, boxes, aspect)

@@ -126,7 +126,7 @@ class MINISKELETON_OT_fit_skeleton(bpy.types.Operator):
         if not meshes:
             self.report({"ERROR"}, "No mesh selected: select the mesh(es), then the armature (active)")
             return None
-        editing = mesh_io.in_edit_mode(meshes)
+        editing = mesh_io.in_edit_mode(meshes) or mesh_io.unplaced(*meshes)
         if editing:
             self.report({"ERROR"}, editing)
             return None
@@ -157,6 +157,10 @@ class MINISKELETON_OT_fit_skeleton(bpy.types.Operator):
 
         arm = find_armature(context)
         if not _editable_armature(self, arm):
+            return {"CANCELLED"}
+        unplaced = mesh_io.unplaced(arm)
+        if unplaced:
+            self.report({"ERROR"}, unplaced + "; nothing was changed")
             return {"CANCELLED"}
         # Bones are stored in armature space, the mesh is read in the armature's frame: the
         # stretch S (the armature's scale) maps one to the other, p_frame = S p_armature.
@@ -338,6 +342,10 @@ def _rig_context(op, context):
     meshes = _skinned_meshes(context, arm)
     if not meshes:
         op.report({"ERROR"}, "No mesh: select the skinned mesh(es) or bind a mesh to the armature")
+        return None
+    unplaced = mesh_io.unplaced(arm, *meshes)   # world-space vertices and joints would be NaN
+    if unplaced:
+        op.report({"ERROR"}, unplaced + "; nothing was written")
         return None
     for ob in meshes:  # export what the rigger sees, edits made in Edit Mode included
         if ob.mode == "EDIT":

@@ -173,7 +173,11 @@ class MINISKELETON_OT_auto_weights(bpy.types.Operator):
         if editing:
             self.report({"ERROR"}, editing)
             return None
-        scale = max(arm.dimensions.length, 1e-30)
+        unplaced = mesh_io.unplaced(arm, *meshes)
+        if unplaced:
+            self.report({"ERROR"}, unplaced + "; nothing was changed")
+            return None
+        scale = max(mesh_io.extent(arm), 1e-30)
         # Weight Paint > Weights works like Blender's Assign Automatic from Bones there: hidden
         # bones take no part, and the selected (visible) bones are the ones written.
         painting = context.mode == "PAINT_WEIGHT"

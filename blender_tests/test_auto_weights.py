@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 import builders as B
+import creature
 
 METHODS = ["HEAT", "BILINEAR", "IDW"]
 NAMES = [f"Bone{i}" for i in range(4)]
@@ -594,6 +595,54 @@ def test_nan_coordinates_report_count_and_leave_mesh_untouched():
     with pytest.raises(RuntimeError, match="2 vertices with NaN"):
         bind([ob], arm, method="HEAT")
     assert _untouched(ob)
+
+
+def test_an_object_placed_at_nan_is_named_by_every_operator_and_nothing_changes(tmp_path):
+    """An armature or mesh whose transform went NaN (a driver or script gone wrong): its bones
+    came out NaN and were reported as "zero-length", Walk said "too few deform bones", Fit
+    stopped with a traceback (SVD did not converge). Every operator now names the object."""
+    ob, arm = B.cylinder(), B.chain()
+    heads = [tuple(b.head_local) for b in arm.data.bones]
+    arm.location.x = float("nan")
+    bpy.context.view_layer.update()
+    calls = [lambda: bind([ob], arm, method=m) for m in ("HEAT", "BILINEAR", "IDW")]
+    calls += [lambda: (B.select_for_parenting([ob], arm), bpy.ops.armature.miniskeleton_fit_skeleton())]
+    calls += [lambda: (B.set_active(arm), bpy.ops.pose.miniskeleton_add_motion(motion="WALK"))]
+    calls += [lambda: (B.select_for_parenting([ob], arm),
+                       bpy.ops.export_scene.miniskeleton_npz(filepath=str(tmp_path / "rig.npz")))]
+    for call in calls:
+        with pytest.raises(RuntimeError) as err:
+            call()
+        assert f"Object '{arm.name}' has a NaN or infinite transform" in str(err.value), str(err.value)
+        assert "Traceback" not in str(err.value)
+    assert _untouched(ob) and arm.animation_data is None and not (tmp_path / "rig.npz").exists()
+    assert [tuple(b.head_local) for b in arm.data.bones] == heads
+    arm.location.x = 0.0
+    ob.location.z = float("nan")
+    bpy.context.view_layer.update()
+    with pytest.raises(RuntimeError, match="Object 'Cylinder' has a NaN or infinite transform"):
+        bind([ob], arm)
+    with pytest.raises(RuntimeError, match="Nothing to film: the objects to frame have a NaN"):
+        bpy.ops.render.miniskeleton_make_video(filepath=str(tmp_path / "v.mp4"), camera="NEW")
+    assert _untouched(ob) and bpy.context.scene.camera is None
+
+
+def test_an_armature_scaled_by_1e30_is_weighted_as_at_scale_one():
+    """Blender's ``dimensions`` of an armature scaled by 1e30 are inf: read as its size, every
+    bone fell under the zero-length limit and the rig was refused ("only zero-length deform
+    bones"). The mesh, parented to the chain by the first binding, scales with it, and the pair
+    gets the weights it had unscaled."""
+    ob, arm = creature.build()
+    names = [b.name for b in arm.data.bones if b.use_deform]
+    assert bind([ob], arm) == {"FINISHED"}
+    want = B.weights_matrix(ob, names)
+    for g in list(ob.vertex_groups):
+        ob.vertex_groups.remove(g)
+    arm.scale = (1e30,) * 3
+    bpy.context.view_layer.update()
+    assert np.linalg.norm(np.array(ob.matrix_world, dtype=np.float64)[:3, 0]) == pytest.approx(1e30, rel=1e-6)
+    assert bind([ob], arm) == {"FINISHED"}
+    np.testing.assert_allclose(B.weights_matrix(ob, names), want, atol=1e-4)
 
 
 def test_an_empty_mesh_is_skipped_with_a_warning_and_alone_is_an_error(capfd):

@@ -301,6 +301,30 @@ def test_mirrored_armature_walks_as_the_mirror_image_of_its_twin(capfd):
     assert "is scaled unevenly (1, 2, 0.5)" in "".join(capfd.readouterr())
 
 
+@pytest.mark.parametrize("scale, twin", [(1e-15, 1e-3), (1e15, 1e4), (1e25, 1e4), (-1e-15, -1e-3)])
+def test_an_armature_at_any_scale_gets_the_keys_of_its_twin(scale, twin):
+    """The walk's keys (rotations, and the root bone's location in its own space) depend on the
+    armature's size only through the cadence, which follows the leg length in metres between
+    0.3 and 2.3 m and is clamped outside: a rig 1e15 times the creature's size walks as one
+    1e4 times it (the x scale's sign mirrors the rig). Before: at 1e15 Add Motion stopped with
+    a traceback (the root's frame inverted twice in single precision), at 1e25 it was refused
+    as "flat" (the core's squared lengths overflowed), and a mirror at 1e-15 walked as if
+    unmirrored (its single-precision determinant underflowed to 0)."""
+    def keys(scale):
+        blender_session.reset_scene()
+        arm = creature.build_armature()
+        arm.scale = scale
+        bpy.context.view_layer.update()
+        assert add_motion(arm, motion="WALK", cycles=1) == {"FINISHED"}
+        return action_keys(arm)
+
+    want = keys((twin, abs(twin), abs(twin)))
+    got = keys((scale, abs(scale), abs(scale)))
+    assert got.keys() == want.keys()
+    for path, k in want.items():
+        np.testing.assert_allclose(got[path], k, rtol=1e-4, atol=1e-5, err_msg=str(path))
+
+
 @pytest.mark.parametrize("invented_tails, scale", [(False, 100.0), (True, 100.0), (True, -50.0)])
 def test_feet_hanging_off_the_root_walk_with_their_legs(invented_tails, scale, capsys):
     """Game rigs exported from an IK set-up (Quaternius characters, RobotExpressive) hang each
