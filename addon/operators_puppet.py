@@ -555,7 +555,12 @@ class MINISKELETON_OT_add_puppet(bpy.types.Operator):
                         description="Scale of the figure (1 = a 1.9 m tall human figure)")
 
     def execute(self, context):
-        rig = build_puppet(context, self.type, context.scene.cursor.location, self.size)
+        at = context.scene.cursor.location
+        if not all(map(math.isfinite, at)):   # a script can put it there; nothing is built
+            self.report({"ERROR"}, "The 3D cursor has a NaN or infinite location, where a puppet has "
+                        "no place: reset it (Shift+C, or Object > Snap > Cursor to World Origin)")
+            return {"CANCELLED"}
+        rig = build_puppet(context, self.type, at, self.size)
         self.report({"INFO"}, f"Added {rig.name}: {len(rig.data.bones)} bones, "
                     f"{len(puppet_rods(rig))} rods")
         return {"FINISHED"}

@@ -446,6 +446,21 @@ def test_a_rod_or_rig_without_a_finite_place_keeps_the_pose_and_is_not_baked(cap
     assert rig.animation_data.action is not None
 
 
+def test_a_puppet_is_not_added_at_a_nan_cursor():
+    """A 3D cursor a script put at NaN: Add Puppet built the objects, then stopped with a
+    traceback in its first solve and left them half made. It is an error, and nothing is added."""
+    cursor = bpy.context.scene.cursor
+    cursor.location = (float("nan"), 0.0, 0.0)
+    before = set(bpy.data.objects)
+    try:
+        with pytest.raises(RuntimeError, match="The 3D cursor has a NaN or infinite location") as err:
+            bpy.ops.object.miniskeleton_add_puppet(type="FIVE_ROD")
+    finally:
+        cursor.location = (0.0, 0.0, 0.0)
+    assert "Traceback" not in str(err.value)
+    assert set(bpy.data.objects) == before
+
+
 def test_puppet_operators_say_what_to_select_when_no_puppet_is_active(tmp_path):
     """Bake and Set Part Image need a puppet: with a plain cube active they are greyed out, and
     the tooltip (and a script's error) says what to select instead of "context is incorrect"."""
