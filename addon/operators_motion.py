@@ -403,8 +403,8 @@ class MINISKELETON_OT_add_motion(bpy.types.Operator):
     def root_axes(arm, root_pb) -> tuple[Matrix, Matrix] | None:
         """(world offset -> the root pose bone's location space, and back); None when it cannot
         translate (connected, or a singular frame), or when the rig is several trees: then the
-        object moves instead. Inverted in double precision: mathutils' single-precision
-        determinant of an armature scaled by 1e15 underflowed and the inverse failed."""
+        object moves instead. Inverted in double precision: mathutils inverts in single
+        precision, where the determinant of an armature scaled by 1e15 (1e45) overflows."""
         if root_pb.bone.use_connect:
             return None
         m = np.array(arm.matrix_world.to_3x3(), dtype=np.float64) @ np.array(root_pb.bone.matrix_local.to_3x3())

@@ -368,11 +368,12 @@ def _plane_inverse(rig: bpy.types.Object, rods: dict) -> Matrix:
     m = rig.matrix_world
     if not _finite(m):
         raise PuppetError(f"Puppet '{rig.name}' has no finite place (NaN or infinite transform)")
-    try:
-        inv = m.inverted()
-    except ValueError:
+    a = np.array(m, dtype=np.float64)   # inverted in double precision, as a tiny puppet's needs
+    sv = np.linalg.svd(a[:3, :3], compute_uv=False)
+    if not sv.min() > 1e-12 * sv.max():
         raise PuppetError(f"Puppet '{rig.name}' is scaled to zero on an axis ({', '.join(f'{x:.3g}' for x in m.to_scale())}): "
-                          "set its scale (Object > Transform)") from None
+                          "set its scale (Object > Transform)")
+    inv = Matrix(np.linalg.inv(a).tolist())
     bad = sorted(rod.name for rod in rods.values() if not _finite(rod.matrix_world))
     if bad:
         raise PuppetError(f"Puppet '{rig.name}': rod(s) {mesh_io.name_list(bad)} have no finite place "
