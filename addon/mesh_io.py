@@ -98,12 +98,31 @@ def read_only(*blocks) -> str | None:
     return None
 
 
+def placed(m) -> bool:
+    """Whether the matrix ``m`` (an object's world transform) is finite throughout."""
+    return bool(np.isfinite(np.array(m, dtype=np.float64)).all())
+
+
+def inverse(m) -> np.ndarray | None:
+    """The inverse of the square matrix ``m`` (3x3, or 4x4 affine) in double precision, or None
+    when it is not finite or its 3x3 part is singular relative to its size (a zero scale on an
+    axis). mathutils inverts in single precision, where the determinant of a transform scaled by
+    1e15 (1e45) overflows and one scaled by 1e-15 underflows."""
+    a = np.array(m, dtype=np.float64)
+    if not np.isfinite(a).all():
+        return None
+    sv = np.linalg.svd(a[:3, :3], compute_uv=False)
+    if not sv.min() > 1e-12 * sv.max():
+        return None
+    return np.linalg.inv(a)
+
+
 def unplaced(*objects) -> str | None:
     """Why one of ``objects`` cannot be read in world space, or None: a NaN or infinite world
     transform (its own location, rotation or scale, a parent's, a constraint's, a driver gone
     wrong) puts it nowhere. Read as it was, an armature's bones came out NaN and were reported
     as "zero-length", and Fit stopped with a traceback."""
-    bad = [ob.name for ob in objects if ob is not None and not np.isfinite(np.array(ob.matrix_world)).all()]
+    bad = [ob.name for ob in objects if ob is not None and not placed(ob.matrix_world)]
     if not bad:
         return None
     return (f"{'Object' if len(bad) == 1 else 'Objects'} {name_list([repr(n) for n in bad])} "

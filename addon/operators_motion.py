@@ -403,15 +403,14 @@ class MINISKELETON_OT_add_motion(bpy.types.Operator):
     def root_axes(arm, root_pb) -> tuple[Matrix, Matrix] | None:
         """(world offset -> the root pose bone's location space, and back); None when it cannot
         translate (connected, or a singular frame), or when the rig is several trees: then the
-        object moves instead. Inverted in double precision: mathutils inverts in single
-        precision, where the determinant of an armature scaled by 1e15 (1e45) overflows."""
+        object moves instead. Inverted in double precision (``mesh_io.inverse``)."""
         if root_pb.bone.use_connect:
             return None
         m = np.array(arm.matrix_world.to_3x3(), dtype=np.float64) @ np.array(root_pb.bone.matrix_local.to_3x3())
-        sv = np.linalg.svd(m, compute_uv=False) if np.isfinite(m).all() else np.zeros(3)
-        if not sv.min() > 1e-12 * sv.max():
+        inv = mesh_io.inverse(m)
+        if inv is None:
             return None
-        return Matrix(np.linalg.inv(m).tolist()), Matrix(m.tolist())
+        return Matrix(inv.tolist()), Matrix(m.tolist())
 
     @staticmethod
     def has_root_keys(arm, root_pb) -> bool:

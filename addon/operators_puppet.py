@@ -357,28 +357,22 @@ class PuppetError(ValueError):
     """A puppet that cannot be solved as its scene stands (said in a line, never a traceback)."""
 
 
-def _finite(m: Matrix) -> bool:
-    return all(math.isfinite(v) for row in m for v in row)
-
-
 def _plane_inverse(rig: bpy.types.Object, rods: dict) -> Matrix:
     """World -> armature space of ``rig``, after checking that the rig and its ``rods`` have
     finite places (a driver or constraint gone wrong can give NaN) and that the rig's scale is
     not zero on an axis (its picture plane has no inverse). PuppetError names what is wrong."""
     m = rig.matrix_world
-    if not _finite(m):
+    if not mesh_io.placed(m):
         raise PuppetError(f"Puppet '{rig.name}' has no finite place (NaN or infinite transform)")
-    a = np.array(m, dtype=np.float64)   # inverted in double precision, as a tiny puppet's needs
-    sv = np.linalg.svd(a[:3, :3], compute_uv=False)
-    if not sv.min() > 1e-12 * sv.max():
+    inv = mesh_io.inverse(m)   # in double precision, as a tiny puppet's needs
+    if inv is None:
         raise PuppetError(f"Puppet '{rig.name}' is scaled to zero on an axis ({', '.join(f'{x:.3g}' for x in m.to_scale())}): "
                           "set its scale (Object > Transform)")
-    inv = Matrix(np.linalg.inv(a).tolist())
-    bad = sorted(rod.name for rod in rods.values() if not _finite(rod.matrix_world))
+    bad = sorted(rod.name for rod in rods.values() if not mesh_io.placed(rod.matrix_world))
     if bad:
         raise PuppetError(f"Puppet '{rig.name}': rod(s) {mesh_io.name_list(bad)} have no finite place "
                           "(NaN or infinite transform)")
-    return inv
+    return Matrix(inv.tolist())
 
 
 def _rod_point(inv, rod):
