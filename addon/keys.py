@@ -40,6 +40,17 @@ def action_frame(ob: bpy.types.ID, frame: float, invert: bool = False) -> float:
     return ad.nla_tweak_strip_time_to_scene(frame, invert=not invert)
 
 
+def value_at(owner: bpy.types.bpy_struct, path: str, frame: float) -> list[float] | None:
+    """``owner.<path>`` as its F-curves give it at scene ``frame``; None unless every component
+    of the property is keyed."""
+    full = owner.path_from_id(path)
+    curves = {fc.array_index: fc for fc in action_fcurves(owner.id_data) if fc.data_path == full}
+    if sorted(curves) != list(range(len(getattr(owner, path)))):
+        return None
+    at = action_frame(owner.id_data, frame)
+    return [curves[i].evaluate(at) for i in sorted(curves)]
+
+
 def key_series(owner: bpy.types.bpy_struct, path: str, frames: Sequence[float], values,
                group: str | None = None) -> None:
     """Key ``owner.<path>`` (a vector property of a pose bone or an object) to ``values[k]`` at

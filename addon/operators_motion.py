@@ -17,10 +17,10 @@ from pathlib import Path
 import bpy
 import numpy as np
 from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty, StringProperty
-from mathutils import Matrix, Quaternion, Vector
+from mathutils import Euler, Matrix, Quaternion, Vector
 
 from . import mesh_io
-from .keys import action_fcurves, action_frame, key_series
+from .keys import action_fcurves, action_frame, key_series, value_at
 
 MOTIONS = [
     ("HEAD_SHAKE", "Head Shake", "Neck and head yaw back and forth; ears and other head children follow"),
@@ -133,26 +133,47 @@ def rotation_path(pb: bpy.types.PoseBone) -> str:
         pb.rotation_mode, "rotation_euler")
 
 
-def rotation_series(pb: bpy.types.PoseBone, quats) -> tuple[str, list]:
+def rotation_series(pb: bpy.types.PoseBone, quats, before=None) -> tuple[str, list]:
     """``pb``'s rotation path and its values for the rotations ``quats`` ((frames, 4) w, x, y,
-    z) in its own rotation mode; Euler angles continue from frame to frame (no 360 jumps)."""
+    z) in its own rotation mode, continuing from ``before`` (the path's value just before the
+    first, when known) so that F-curves interpolate each step the short way: quaternions stay
+    in one hemisphere, Euler angles make no 360 jumps, and an axis-angle keeps its axis on one
+    side (a swing through rest goes from (+a, n) to (-a, n), not to (a, -n), whose components
+    pass through a zero axis) and its angle within half a turn of the previous one."""
     qs = [Quaternion([float(x) for x in q]) for q in quats]
     mode = pb.rotation_mode
+    values = []
     if mode == "QUATERNION":
-        values = [tuple(q) for q in qs]
+        prev = Quaternion(before) if before is not None else None
+        for q in qs:
+            if prev is not None and q.dot(prev) < 0.0:
+                q = -q
+            values.append(tuple(q))
+            prev = q
     elif mode == "AXIS_ANGLE":
-        values = [(angle, *axis) for axis, angle in (q.to_axis_angle() for q in qs)]
+        prev_angle, prev_axis = (before[0], Vector(before[1:])) if before is not None else (None, None)
+        for q in qs:
+            axis, angle = q.to_axis_angle()
+            if prev_axis is not None and prev_axis.length > 0.0:
+                if abs(angle) < 1e-7:             # rest: any axis, so keep the previous one
+                    axis = prev_axis.normalized()
+                elif axis.dot(prev_axis) < 0.0:
+                    axis, angle = -axis, -angle
+                angle += math.tau * round((prev_angle - angle) / math.tau)
+            values.append((angle, *axis))
+            prev_angle, prev_axis = angle, axis
     else:
-        values, euler = [], None
+        euler = Euler(before, mode) if before is not None else None
         for q in qs:
             euler = q.to_euler(mode, euler) if euler is not None else q.to_euler(mode)
             values.append(tuple(euler))
     return rotation_path(pb), values
 
 
-def key_rotation(pb: bpy.types.PoseBone, q: Quaternion, frame: float) -> None:
-    """Set and key ``pb``'s rotation to ``q`` in its own rotation mode."""
-    path, values = rotation_series(pb, [q])
+def key_rotation(pb: bpy.types.PoseBone, q: Quaternion, frame: float, before=None) -> None:
+    """Set and key ``pb``'s rotation to ``q`` in its own rotation mode (continuing from ``before``,
+    see ``rotation_series``)."""
+    path, values = rotation_series(pb, [q], before)
     key_series(pb, path, [frame], values, group=pb.name)
 
 
@@ -341,7 +362,8 @@ class MINISKELETON_OT_add_motion(bpy.types.Operator):
         span = range(start, start + frames)
         for b in animated:
             pb = pose[names[b]]
-            path, values = rotation_series(pb, rot[:, b])
+            before = value_at(pb, rotation_path(pb), earlier) if earlier is not None else None
+            path, values = rotation_series(pb, rot[:, b], before)
             key_series(pb, path, span, values, group=pb.name)
         for b in located:
             pb = pose[names[b]]
@@ -350,7 +372,8 @@ class MINISKELETON_OT_add_motion(bpy.types.Operator):
         animated_names = {names[b] for b in animated}
         for name in keyed_before - animated_names:
             if name in pose:
-                key_rotation(pose[name], Quaternion(), start)
+                pb = pose[name]
+                key_rotation(pb, Quaternion(), start, value_at(pb, rotation_path(pb), earlier))
         for name in located_before - {names[b] for b in located}:
             if name in pose:
                 pose[name].location = (0.0, 0.0, 0.0)
