@@ -17,10 +17,10 @@ from pathlib import Path
 import bpy
 import numpy as np
 from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty, StringProperty
-from mathutils import Euler, Matrix, Quaternion, Vector
+from mathutils import Matrix, Quaternion, Vector
 
 from . import mesh_io
-from .keys import action_fcurves, action_frame, key_series, value_at
+from .keys import action_fcurves, action_frame, key_rotation, key_series, rotation_path, rotation_series, value_at
 
 MOTIONS = [
     ("HEAD_SHAKE", "Head Shake", "Neck and head yaw back and forth; ears and other head children follow"),
@@ -126,55 +126,6 @@ def animated_pose_bones(fcurves, paths: tuple[str, ...] = ROT_PATHS) -> set[str]
         if path.startswith('pose.bones["') and path.rsplit(".", 1)[-1] in paths:
             out.add(bpy.utils.unescape_identifier(path[len('pose.bones["'):path.rindex('"]')]))
     return out
-
-
-def rotation_path(pb: bpy.types.PoseBone) -> str:
-    return {"QUATERNION": "rotation_quaternion", "AXIS_ANGLE": "rotation_axis_angle"}.get(
-        pb.rotation_mode, "rotation_euler")
-
-
-def rotation_series(pb: bpy.types.PoseBone, quats, before=None) -> tuple[str, list]:
-    """``pb``'s rotation path and its values for the rotations ``quats`` ((frames, 4) w, x, y,
-    z) in its own rotation mode, continuing from ``before`` (the path's value just before the
-    first, when known) so that F-curves interpolate each step the short way: quaternions stay
-    in one hemisphere, Euler angles make no 360 jumps, and an axis-angle keeps its axis on one
-    side (a swing through rest goes from (+a, n) to (-a, n), not to (a, -n), whose components
-    pass through a zero axis) and its angle within half a turn of the previous one."""
-    qs = [Quaternion([float(x) for x in q]) for q in quats]
-    mode = pb.rotation_mode
-    values = []
-    if mode == "QUATERNION":
-        prev = Quaternion(before) if before is not None else None
-        for q in qs:
-            if prev is not None and q.dot(prev) < 0.0:
-                q = -q
-            values.append(tuple(q))
-            prev = q
-    elif mode == "AXIS_ANGLE":
-        prev_angle, prev_axis = (before[0], Vector(before[1:])) if before is not None else (None, None)
-        for q in qs:
-            axis, angle = q.to_axis_angle()
-            if prev_axis is not None and prev_axis.length > 0.0:
-                if abs(angle) < 1e-7:             # rest: any axis, so keep the previous one
-                    axis = prev_axis.normalized()
-                elif axis.dot(prev_axis) < 0.0:
-                    axis, angle = -axis, -angle
-                angle += math.tau * round((prev_angle - angle) / math.tau)
-            values.append((angle, *axis))
-            prev_angle, prev_axis = angle, axis
-    else:
-        euler = Euler(before, mode) if before is not None else None
-        for q in qs:
-            euler = q.to_euler(mode, euler) if euler is not None else q.to_euler(mode)
-            values.append(tuple(euler))
-    return rotation_path(pb), values
-
-
-def key_rotation(pb: bpy.types.PoseBone, q: Quaternion, frame: float, before=None) -> None:
-    """Set and key ``pb``'s rotation to ``q`` in its own rotation mode (continuing from ``before``,
-    see ``rotation_series``)."""
-    path, values = rotation_series(pb, [q], before)
-    key_series(pb, path, [frame], values, group=pb.name)
 
 
 def describe_roles(roles: dict, names: list[str]) -> list[str]:

@@ -3,7 +3,8 @@ the Shadow Theatre scene preset.
 
 The puppet's picture plane is the armature's XZ plane (front view looks along +Y). Each bone's
 local Z axis points at the viewer (-Y), so its in-plane rotation is ``rotation_euler.z``
-(Euler XYZ) and the other axes are locked. A 2D point is ``(x, z)`` in armature space; a 2D
+(Euler XYZ, the mode the puppet's bones are made in; a bone a rigger sets to another rotation
+mode is read and written in that mode, see ``bone_euler``) and the other axes are locked. A 2D point is ``(x, z)`` in armature space; a 2D
 angle is counter-clockwise as seen from the front. The IK maths is ``miniskeleton_core.ik2d_*``
 (Rust); this module maps rods and bones to arrays and writes the angles back.
 """
@@ -22,7 +23,7 @@ from bpy_extras.io_utils import ImportHelper
 from mathutils import Euler, Matrix, Vector
 
 from . import mesh_io, puppet
-from .keys import key_series
+from .keys import key_series, rotation_path, rotation_series
 
 KIND_KEY = "miniskeleton_puppet"      # on the armature object (and its data): the template kind
 LIVE_KEY = "miniskeleton_live"        # on the armature object: solve live from the rods
@@ -292,6 +293,24 @@ def _limits(pb, axis="z"):
     return -math.pi, math.pi
 
 
+def bone_euler(pb: bpy.types.PoseBone) -> Euler:
+    """``pb``'s rotation as XYZ Euler angles, the puppet's terms (its in-plane angle is z),
+    whatever its rotation mode."""
+    if pb.rotation_mode == "XYZ":
+        return pb.rotation_euler.copy()
+    return pb.matrix_basis.to_3x3().normalized().to_quaternion().to_euler("XYZ")
+
+
+def set_bone_euler(pb: bpy.types.PoseBone, e: Euler) -> None:
+    """Turn ``pb`` to the XYZ Euler angles ``e`` in its own rotation mode (continuing from its
+    value: the short way for a quaternion or an axis-angle, no 360 jump for an Euler)."""
+    if pb.rotation_mode == "XYZ":
+        pb.rotation_euler = e
+        return
+    path = rotation_path(pb)
+    setattr(pb, path, rotation_series(pb, [e.to_quaternion()], tuple(getattr(pb, path)))[1][0])
+
+
 class _Pose:
     """Armature-space pose matrices from rest matrices and rotations (forward kinematics as
     Blender's default bone inheritance does it), with rotations being overridden as drivers
@@ -304,7 +323,7 @@ class _Pose:
         self.cache = {}
 
     def euler(self, name) -> Euler:
-        return self.rot.get(name) or self.pbones[name].rotation_euler.copy()
+        return self.rot.get(name) or bone_euler(self.pbones[name])
 
     def set_z(self, name, z):
         e = self.euler(name)
@@ -450,9 +469,9 @@ def solve_puppet(rig: bpy.types.Object) -> dict:
             pose.set_z(name, puppet.clamp(puppet.wrap(_angle(m.col[0])), *_limits(pbones[name])))
 
     for name, e in pose.rot.items():                   # write back only what changed
-        cur = pbones[name].rotation_euler
+        cur = bone_euler(pbones[name])
         if any(abs(cur[i] - e[i]) > 1e-9 for i in range(3)):
-            pbones[name].rotation_euler = e
+            set_bone_euler(pbones[name], e)
     return reports
 
 
@@ -471,7 +490,7 @@ def _signature(rig, rods):
     for role in sorted(rods):
         vals += [r(v) for row in rods[role].matrix_world for v in row]
     for pb in rig.pose.bones:
-        vals += [r(v) for v in pb.rotation_euler]
+        vals += [pb.rotation_mode] + [r(v) for v in getattr(pb, rotation_path(pb))]
         vals += [pb.ik_min_z, pb.ik_max_z, pb.ik_min_y, pb.ik_max_y, pb.get(SEED_KEY, 0.0)]
     return tuple(vals)
 
@@ -605,17 +624,17 @@ def scene_frames(scene) -> list[int]:
 
 
 def bake_puppet(scene, rig, frames=None, progress=None) -> int:
-    """Key ``rotation_euler`` of every movable bone on each frame (scene range by default);
-    ``progress(done)`` is called with the number of frames baked after each one. PuppetError
-    (naming the frame) when a frame cannot be solved: then no key is written and the bones
-    keep the rotations they had."""
+    """Key the rotation of every movable bone on each frame (scene range by default), in the
+    bone's rotation mode (``rotation_euler`` as the puppet makes them); ``progress(done)`` is
+    called with the number of frames baked after each one. PuppetError (naming the frame) when
+    a frame cannot be solved: then no key is written and the bones keep the rotations they had."""
     frames = list(frames or scene_frames(scene))
     current = scene.frame_current
     bones = [pb for pb in rig.pose.bones if not all(pb.lock_rotation)]
     live = rig.get(LIVE_KEY, True)
     rig[LIVE_KEY] = False          # this loop solves itself; keep the handler out of it
     angles = {pb.name: [] for pb in bones}
-    before = {pb.name: pb.rotation_euler.copy() for pb in bones}
+    before = {pb.name: tuple(getattr(pb, rotation_path(pb))) for pb in bones}
     try:
         for done, f in enumerate(frames):
             scene.frame_set(f)
@@ -623,14 +642,19 @@ def bake_puppet(scene, rig, frames=None, progress=None) -> int:
                 solve_puppet(rig)
             except PuppetError as err:
                 for pb in bones:
-                    pb.rotation_euler = before[pb.name]
+                    setattr(pb, rotation_path(pb), before[pb.name])
                 raise PuppetError(f"At frame {f}: {err}") from None
             for pb in bones:
-                angles[pb.name].append(tuple(pb.rotation_euler))
+                angles[pb.name].append(bone_euler(pb))
             if progress is not None:
                 progress(done + 1)
         for pb in bones:
-            key_series(pb, "rotation_euler", frames, angles[pb.name], group=pb.name)
+            if pb.rotation_mode == "XYZ":
+                path, values = "rotation_euler", [tuple(e) for e in angles[pb.name]]
+            else:
+                path, values = rotation_series(pb, [e.to_quaternion() for e in angles[pb.name]],
+                                               before[pb.name])
+            key_series(pb, path, frames, values, group=pb.name)
     finally:
         rig[LIVE_KEY] = live
         scene.frame_set(current)

@@ -16,6 +16,7 @@ import builders as B
 
 P = importlib.import_module("bl_ext.user_default.miniskeleton.operators_puppet")
 T = importlib.import_module("bl_ext.user_default.miniskeleton.puppet")
+K = importlib.import_module("bl_ext.user_default.miniskeleton.keys")
 
 HUMAN_BONES = {"abdomen", "chest", "neck", "head", "skirt"} | {
     f"{b}.{s}" for b in ("upper_arm", "forearm", "hand", "thigh", "shin", "foot") for s in "LR"}
@@ -74,12 +75,13 @@ def random_reachable(rig, names, rng, n):
     return out
 
 
-def assert_in_plane(rig):
+def assert_in_plane(rig, euler=True):
     """Every bone's rotation axis stays the picture-plane normal: its Z axis is still -Y."""
     for pb in rig.pose.bones:
         z = pb.matrix.col[2].xyz
         assert abs(z.dot(Vector((0, -1, 0))) - 1) < 1e-6, (pb.name, tuple(z))
-        assert abs(pb.rotation_euler.x) < 1e-9, pb.name
+        if euler:
+            assert abs(pb.rotation_euler.x) < 1e-9, pb.name
 
 
 def assert_within_limits(rig, eps=1e-6):
@@ -350,6 +352,46 @@ def test_bake_keys_reproduce_the_live_pose_without_the_addon():
 
 
 
+@pytest.mark.parametrize("mode", ["QUATERNION", "AXIS_ANGLE", "YXZ"])
+def test_bones_a_rigger_set_to_another_rotation_mode_follow_their_rods_and_bake(mode):
+    """A puppet's bones are made in XYZ Euler; one a rigger sets to another rotation mode (a
+    rig-wide Quaternion habit) is solved, written and baked in that mode. Before: the solver
+    wrote ``rotation_euler``, which such a bone ignores, so the arm stayed put (0.29 from a
+    rod 0.3 away) and Bake keyed a property nothing reads."""
+    rig, rods = add("FIVE_ROD")
+    scene = bpy.context.scene
+    targets = random_reachable(rig, ARM, np.random.default_rng(3), 5)
+    for name in ARM:
+        rig.pose.bones[name].rotation_mode = mode
+    rod = rods["hand.R"]
+    tol = 2e-3 * reach(rig, ARM)
+    live = {}
+    for f, t in enumerate(targets, start=1):
+        move_rod(rod, t.x, t.z)
+        assert (tip_world(rig, "hand.R") - t).length < tol, (f, tuple(t))
+        assert_in_plane(rig, euler=False)
+        rod.keyframe_insert("location", frame=f)
+    scene.frame_start, scene.frame_end = 1, len(targets)
+    for f in range(1, len(targets) + 1):
+        scene.frame_set(f)
+        settle()
+        live[f] = tip_world(rig, "hand.R").copy()
+
+    bpy.context.view_layer.objects.active = rig
+    assert bpy.ops.object.miniskeleton_bake_puppet() == {"FINISHED"}
+    path = {"QUATERNION": "rotation_quaternion", "AXIS_ANGLE": "rotation_axis_angle"}.get(mode, "rotation_euler")
+    keyed = {fc.data_path for fc in K.action_fcurves(rig)}
+    assert {f'pose.bones["{n}"].{path}' for n in ARM} <= keyed
+    bpy.ops.preferences.addon_disable(module=blender_session.ADDON_MODULE)
+    try:
+        for f in (5, 2, 4, 1, 3):
+            scene.frame_set(f)
+            bpy.context.view_layer.update()
+            assert (tip_world(rig, "hand.R") - live[f]).length < 1e-5, f
+    finally:
+        bpy.ops.preferences.addon_enable(module=blender_session.ADDON_MODULE)
+
+
 def test_bake_reports_progress_frame_by_frame_on_the_scene_frame_step():
     """Baking evaluates and solves every frame of the scene (0.36 s for 1000 frames), so the
     operator shows progress: the bake calls back after each frame, on the frames of the scene's
@@ -360,8 +402,7 @@ def test_bake_reports_progress_frame_by_frame_on_the_scene_frame_step():
     done = []
     assert P.bake_puppet(scene, rig, progress=done.append) == 5
     assert done == [1, 2, 3, 4, 5]
-    motion = importlib.import_module("bl_ext.user_default.miniskeleton.operators_motion")
-    assert {kp.co[0] for fc in motion.action_fcurves(rig) for kp in fc.keyframe_points} == {3, 5, 7, 9, 11}
+    assert {kp.co[0] for fc in K.action_fcurves(rig) for kp in fc.keyframe_points} == {3, 5, 7, 9, 11}
 
 
 def test_a_puppet_linked_from_a_library_is_refused_clearly(tmp_path):
