@@ -117,6 +117,12 @@ def inverse(m) -> np.ndarray | None:
     return np.linalg.inv(a)
 
 
+def axis_scales(m) -> np.ndarray:
+    """The lengths of the axes of the transform ``m`` (``to_scale`` without its signs) in double
+    precision: mathutils squares them in single precision, which overflows to inf past 1.8e19."""
+    return np.linalg.norm(np.array(m, dtype=np.float64)[:3, :3], axis=0)
+
+
 def unplaced(*objects) -> str | None:
     """Why one of ``objects`` cannot be read in world space, or None: a NaN or infinite world
     transform (its own location, rotation or scale, a parent's, a constraint's, a driver gone

@@ -258,7 +258,7 @@ class MINISKELETON_OT_add_motion(bpy.types.Operator):
         self.report({"INFO"}, f"{label} ({roles['plan']}): frames {start}-{end}; head "
                     f"{bones.names[roles['head']]}, legs {legs}; spine "
                     f"{', '.join(bones.names[i] for i in roles['spine'])} (full list in the console)")
-        scale = [abs(s) for s in arm.matrix_world.to_scale()]  # negative for a mirror: even
+        scale = mesh_io.axis_scales(arm.matrix_world)   # a mirror's negative scale is even
         if max(scale) > 1.001 * min(scale):
             self.report({"WARNING"}, f"Armature '{arm.name}' is scaled unevenly ({scale[0]:.3g}, {scale[1]:.3g}, "
                         f"{scale[2]:.3g}): its bones shear as they turn, so the motion looks stretched; "
@@ -297,7 +297,7 @@ class MINISKELETON_OT_add_motion(bpy.types.Operator):
         # legs by location keys; the core gives them in world units
         located = [int(b) for b in out["located"]]
         located_before = keyed_location_bones(arm) - {root_pb.name}
-        unit = sum(abs(s) for s in arm.matrix_world.to_scale()) / 3.0
+        unit = float(np.mean(mesh_io.axis_scales(arm.matrix_world)))
 
         if earlier is not None:
             # bones this motion keys for the first time hold their pose until it starts

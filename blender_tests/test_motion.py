@@ -301,18 +301,24 @@ def test_mirrored_armature_walks_as_the_mirror_image_of_its_twin(capfd):
     assert "is scaled unevenly (1, 2, 0.5)" in "".join(capfd.readouterr())
 
 
-@pytest.mark.parametrize("scale, twin", [(1e-15, 1e-3), (1e15, 1e4), (1e25, 1e4), (-1e-15, -1e-3)])
-def test_an_armature_at_any_scale_gets_the_keys_of_its_twin(scale, twin):
+@pytest.mark.parametrize("rig, scale, twin", [("creature", 1e-15, 1e-3), ("creature", 1e15, 1e4),
+                                             ("creature", 1e25, 1e4), ("creature", -1e-15, -1e-3),
+                                             ("game rig", 1e25, 1e3), ("game rig", 1e4, 1e3)])
+def test_an_armature_at_any_scale_gets_the_keys_of_its_twin(rig, scale, twin):
     """The walk's keys (rotations, and the root bone's location in its own space) depend on the
     armature's size only through the cadence, which follows the leg length in metres between
     0.3 and 2.3 m and is clamped outside: a rig 1e15 times the creature's size walks as one
     1e4 times it (the x scale's sign mirrors the rig). Before: at 1e15 Add Motion stopped with
     a traceback (the root's frame inverted twice in single precision), at 1e25 it was refused
     as "flat" (the core's squared lengths overflowed), and a mirror at 1e-15 walked as if
-    unmirrored (its single-precision determinant underflowed to 0)."""
+    unmirrored (its single-precision determinant underflowed to 0). A game rig's feet riding on
+    the root are keyed in armature units: from 1e20 up they stood still (the scale, read in
+    single precision, was inf), and its arms swung from the clavicle at some sizes and from the
+    upper arm at others (its invented tails are stubs of one length, and the longer of the two
+    went by rounding)."""
     def keys(scale):
         blender_session.reset_scene()
-        arm = creature.build_armature()
+        arm = creature.build_armature() if rig == "creature" else ik_exported_rig(invented_tails=True)
         arm.scale = scale
         bpy.context.view_layer.update()
         assert add_motion(arm, motion="WALK", cycles=1) == {"FINISHED"}

@@ -509,8 +509,10 @@ fn gait(
         .arms
         .iter()
         .map(|a| {
-            let len = |b: usize| (Vec3::from(tails[b]) - hv(b)).length();
-            let i0 = if a.bones.len() >= 3 && len(a.bones[0]) < len(a.bones[1]) { 1 } else { 0 };
+            // a bone's span reaches the next bone's head: an imported rig's tails are stubs of
+            // one length (so the clavicle-or-upper-arm choice went by rounding, and by scale)
+            let span = |k: usize| (hv(a.bones[k + 1]) - hv(a.bones[k])).length();
+            let i0 = if a.bones.len() >= 3 && span(0) < span(1) { 1 } else { 0 };
             let elbow = a.bones.get(i0 + 1).map(|&b| (b, flex_sign(heads, tails, b, hv(a.bones[i0]), right, 1.0)));
             (a.bones[i0], elbow, a.side)
         })
@@ -796,6 +798,27 @@ mod tests {
     fn biped_walk_and_run() {
         check_walk(biped(), Motion::Walk);
         check_walk(biped(), Motion::Run);
+    }
+
+    #[test]
+    fn an_imported_rigs_arms_swing_from_their_upper_arms_at_any_size() {
+        // With invented tails every bone is a stub of one length: the arm swung from the
+        // clavicle or from the upper arm as rounding (and so the rig's size) decided.
+        let arm_bones_turned = |(names, h, t, p): Skeleton| -> Vec<String> {
+            let (names, _, _, _, _, _, clip) = run((names, h, t, p), Motion::Walk);
+            (0..clip.bone_count)
+                .filter(|&b| names[b].contains("Arm") || names[b].starts_with("Shoulder"))
+                .filter(|&b| (0..clip.frames).any(|f| q(clip.rotation(f, b)).angle_between(Quat::IDENTITY) > 1e-3))
+                .map(|b| names[b].clone())
+                .collect()
+        };
+        let want = arm_bones_turned(ik_biped(false));
+        assert_eq!(want, ["UpperArm.L", "LowerArm.L", "UpperArm.R", "LowerArm.R"]);
+        for scale in [1.0f32, 1e-3, 0.37, 3.7, 1e3, 1e4, 1e6] {
+            let (names, h, t, p) = ik_biped(true);
+            let sc = |v: Vec<[f32; 3]>| v.into_iter().map(|x| (Vec3::from(x) * scale).to_array()).collect();
+            assert_eq!(arm_bones_turned((names, sc(h), sc(t), p)), want, "scale {scale}");
+        }
     }
 
     #[test]
