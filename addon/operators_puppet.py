@@ -72,8 +72,18 @@ def scene_puppets(scene: bpy.types.Scene) -> list[bpy.types.Object]:
 
 
 def puppet_rods(rig: bpy.types.Object) -> dict[str, bpy.types.Object]:
+    """{role: rod} of ``rig``'s rods that are still in a scene: one deleted in the viewport
+    stays in the file while the rig refers to it, and the limb went on following it unseen."""
     rods = rig.get(RODS_KEY) or {}
-    return {role: ob for role, ob in rods.items() if isinstance(ob, bpy.types.Object)}
+    return {role: ob for role, ob in rods.items() if isinstance(ob, bpy.types.Object) and ob.users_scene}
+
+
+GAPS = "leaves these as they are (a bone renamed or deleted, a rod deleted)"
+
+
+def puppet_gaps(rig: bpy.types.Object) -> list[str]:
+    """What ``rig``'s drivers lack (``puppet.driver_gaps``): bones renamed or deleted, rods deleted."""
+    return puppet.driver_gaps(puppet.template(rig[KIND_KEY]), set(rig.pose.bones.keys()), set(puppet_rods(rig)))
 
 
 # ---------------------------------------------------------------------------- building
@@ -207,7 +217,7 @@ def build_puppet(context, kind: str, location=(0.0, 0.0, 0.0), size: float = 1.0
     rig.location = -_to3(main.at, size)
     rig[KIND_KEY] = kind
     arm[KIND_KEY] = kind
-    rig[LIVE_KEY] = True
+    rig[LIVE_KEY] = False    # until it is whole: the handler would solve (and judge) a half-made rig
 
     for ob in context.view_layer.objects:
         ob.select_set(False)
@@ -260,6 +270,7 @@ def build_puppet(context, kind: str, location=(0.0, 0.0, 0.0), size: float = 1.0
         rod[ROLE_KEY] = role
         rod[RIG_KEY] = rig
     rig[RODS_KEY] = rods
+    rig[LIVE_KEY] = True
 
     context.view_layer.update()
     solve_puppet(rig)
@@ -477,12 +488,12 @@ def solve_puppet(rig: bpy.types.Object) -> dict:
 
 # ---------------------------------------------------------------------------- live handlers
 
-_state = {"busy": False, "last": {}}
+_state = {"busy": False, "last": {}, "gaps": {}}
 
 
 def _signature(rig, rods):
     """Everything a solve depends on, rounded: the rig's and rods' world matrices and the
-    bones' rotations and limits."""
+    bones' names, rotations and limits."""
     def r(v):   # NaN != NaN: as text, an unchanged broken rod keeps its signature
         return round(v, 7) if math.isfinite(v) else str(v)
 
@@ -490,7 +501,7 @@ def _signature(rig, rods):
     for role in sorted(rods):
         vals += [r(v) for row in rods[role].matrix_world for v in row]
     for pb in rig.pose.bones:
-        vals += [pb.rotation_mode] + [r(v) for v in getattr(pb, rotation_path(pb))]
+        vals += [pb.name, pb.rotation_mode] + [r(v) for v in getattr(pb, rotation_path(pb))]
         vals += [pb.ik_min_z, pb.ik_max_z, pb.ik_min_y, pb.ik_max_y, pb.get(SEED_KEY, 0.0)]
     return tuple(vals)
 
@@ -519,6 +530,11 @@ def update_scene_puppets(scene, force=False) -> int:
                 continue
             _state["last"][key] = _signature(rig, puppet_rods(rig))
             solved += 1
+            gaps = puppet_gaps(rig)
+            if gaps != _state["gaps"].get(key, []):     # said once, when they change
+                if gaps:
+                    print(f"[MiniSkeleton] Puppet '{rig.name}' {GAPS}: {'; '.join(gaps)}")
+                _state["gaps"][key] = gaps
     except Exception:   # a handler must never break Blender's update loop
         traceback.print_exc()
     finally:
@@ -552,6 +568,7 @@ def unregister_handlers() -> None:
             if getattr(h, "__name__", "") == fn.__name__ and getattr(h, "__module__", "") == fn.__module__:
                 lst.remove(h)
     _state["last"].clear()
+    _state["gaps"].clear()
 
 
 # ---------------------------------------------------------------------------- operators
@@ -614,7 +631,11 @@ class MINISKELETON_OT_bake_puppet(bpy.types.Operator):
             wm.progress_end()
         if self.stop_live:
             rig[LIVE_KEY] = False
-        self.report({"INFO"}, f"Baked {n} frames of {rig.name}")
+        gaps = puppet_gaps(rig)
+        if gaps:
+            self.report({"WARNING"}, f"Baked {n} frames of {rig.name}; it {GAPS}: {'; '.join(gaps)}")
+        else:
+            self.report({"INFO"}, f"Baked {n} frames of {rig.name}")
         return {"FINISHED"}
 
 

@@ -259,6 +259,25 @@ def driven_bones(tpl: Template) -> list[str]:
     return out
 
 
+def driver_gaps(tpl: Template, bones, rods) -> list[str]:
+    """One line per driver of ``tpl`` that a rig with the bone names ``bones`` and the rod
+    roles ``rods`` cannot solve in full, naming what it lacks (a bone renamed or deleted, a rod
+    deleted); the solver leaves such a chain as it is, or follows the rods it still has."""
+    out = []
+    for drv in tpl.drivers:
+        kind = drv[0]
+        names = drv[1] if isinstance(drv[1], tuple) else (drv[1],)
+        wanted = {"ik": (drv[2],) if kind == "ik" else (), "turn": drv[2:3],
+                  "multi": tuple(role for _, role, _ in drv[2]) if kind == "multi" else ()}.get(kind, ())
+        lost = [f"bone {n}" for n in names if n not in bones] + [f"rod {r}" for r in wanted if r not in rods]
+        if lost:
+            how = {"ik": f"following rod {wanted[0]}" if wanted else "", "hang": "hanging",
+                   "multi": "following rods " + ", ".join(wanted), "level": "kept level",
+                   "turn": f"turned by rod {wanted[0]}" if wanted else ""}.get(kind, kind)
+            out.append(f"{', '.join(names)} ({how}): no {', '.join(lost)}")
+    return out
+
+
 # ---------------------------------------------------------------------------- pure maths
 
 

@@ -392,6 +392,43 @@ def test_bones_a_rigger_set_to_another_rotation_mode_follow_their_rods_and_bake(
         bpy.ops.preferences.addon_enable(module=blender_session.ADDON_MODULE)
 
 
+def test_a_renamed_bone_or_deleted_rod_is_named_and_the_rest_still_follows(capfd):
+    """A rigger renames a bone the template drives, or deletes a rod in the viewport: that
+    chain is left as it is and named (once in the console while solving live, and in Bake's
+    report), while the other limbs follow their rods. Before: nothing was said, and a limb whose
+    rod was deleted went on following it unseen (the rig's reference kept it in the file)."""
+    rig, rods = add("FIVE_ROD")
+    capfd.readouterr()
+    rig.data.bones["forearm.R"].name = "lowerarm.R"
+    settle()
+    assert "upper_arm.R, forearm.R, hand.R (following rod hand.R): no bone forearm.R" in capfd.readouterr().out
+    for ob in bpy.context.view_layer.objects:
+        ob.select_set(False)
+    gone = rods["foot.L"]
+    gone.select_set(True)
+    bpy.context.view_layer.objects.active = gone
+    assert bpy.ops.object.delete() == {"FINISHED"}
+    assert "FiveRodPuppet.rod.foot.L" in bpy.data.objects     # still referenced by the rig
+    settle()
+    said = capfd.readouterr().out
+    assert "no bone forearm.R; thigh.L, shin.L (following rod foot.L): no rod foot.L" in said
+    assert said.count("[MiniSkeleton] Puppet") == 1
+
+    shin = tip_world(rig, "shin.L").copy()
+    gone.location.x += 0.3                                      # a script moves the deleted rod
+    target = rods["hand.L"].matrix_world.translation + Vector((0.1, 0.0, 0.2))
+    move_rod(rods["hand.L"], target.x, target.z)
+    assert (tip_world(rig, "hand.L") - target).length < 2e-3 * reach(rig, ("upper_arm.L", "forearm.L", "hand.L"))
+    assert (tip_world(rig, "shin.L") - shin).length < 1e-6
+    assert "[MiniSkeleton] Puppet" not in capfd.readouterr().out   # said once, until it changes
+
+    bpy.context.scene.frame_start, bpy.context.scene.frame_end = 1, 3
+    bpy.context.view_layer.objects.active = rig
+    assert bpy.ops.object.miniskeleton_bake_puppet() == {"FINISHED"}
+    out = capfd.readouterr().out
+    assert "Baked 3 frames of FiveRodPuppet; it leaves these as they are" in out and "no rod foot.L" in out
+
+
 def test_bake_reports_progress_frame_by_frame_on_the_scene_frame_step():
     """Baking evaluates and solves every frame of the scene (0.36 s for 1000 frames), so the
     operator shows progress: the bake calls back after each frame, on the frames of the scene's
