@@ -4,9 +4,10 @@ the Shadow Theatre scene preset.
 The puppet's picture plane is the armature's XZ plane (front view looks along +Y). Each bone's
 local Z axis points at the viewer (-Y), so its in-plane rotation is ``rotation_euler.z``
 (Euler XYZ, the mode the puppet's bones are made in; a bone a rigger sets to another rotation
-mode is read and written in that mode, see ``bone_euler``) and the other axes are locked. A 2D point is ``(x, z)`` in armature space; a 2D
-angle is counter-clockwise as seen from the front. The IK maths is ``miniskeleton_core.ik2d_*``
-(Rust); this module maps rods and bones to arrays and writes the angles back.
+mode is read and written in that mode, see ``bone_euler``) and the other axes are locked. A
+2D point is ``(x, z)`` in armature space; a 2D angle is counter-clockwise as seen from the
+front. The IK maths is ``miniskeleton_core.ik2d_*`` (Rust); this module maps rods and bones to
+arrays and writes the angles back.
 """
 
 from __future__ import annotations
