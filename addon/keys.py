@@ -9,9 +9,8 @@ before (``rotation_series``).
 
 from __future__ import annotations
 
-from typing import Sequence
-
 import math
+from typing import Sequence
 
 import bpy
 import numpy as np
@@ -44,11 +43,16 @@ def action_frame(ob: bpy.types.ID, frame: float, invert: bool = False) -> float:
     return ad.nla_tweak_strip_time_to_scene(frame, invert=not invert)
 
 
+def _curves(owner: bpy.types.bpy_struct, path: str) -> dict:
+    """{component index: F-curve} of ``owner.<path>`` in its ID's action."""
+    full = owner.path_from_id(path)
+    return {fc.array_index: fc for fc in action_fcurves(owner.id_data) if fc.data_path == full}
+
+
 def value_at(owner: bpy.types.bpy_struct, path: str, frame: float) -> list[float] | None:
     """``owner.<path>`` as its F-curves give it at scene ``frame``; None unless every component
     of the property is keyed."""
-    full = owner.path_from_id(path)
-    curves = {fc.array_index: fc for fc in action_fcurves(owner.id_data) if fc.data_path == full}
+    curves = _curves(owner, path)
     if sorted(curves) != list(range(len(getattr(owner, path)))):
         return None
     at = action_frame(owner.id_data, frame)
@@ -75,9 +79,8 @@ def key_series(owner: bpy.types.bpy_struct, path: str, frames: Sequence[float], 
     owner.keyframe_insert(path, frame=frames[0], **kw)
     if len(frames) < 2:
         return
-    full = owner.path_from_id(path)
     at_frames = [action_frame(owner.id_data, f) for f in frames]
-    curves = {fc.array_index: fc for fc in action_fcurves(owner.id_data) if fc.data_path == full}
+    curves = _curves(owner, path)
     co = {}   # each curve's keys (frame, value) as read once
     for i, fc in curves.items():
         co[i] = np.empty(2 * len(fc.keyframe_points))

@@ -397,7 +397,8 @@ def _plane_inverse(rig: bpy.types.Object, rods: dict) -> Matrix:
         raise PuppetError(f"Puppet '{rig.name}' has no finite place (NaN or infinite transform)")
     inv = mesh_io.inverse(m)   # in double precision, as a tiny puppet's needs
     if inv is None:
-        raise PuppetError(f"Puppet '{rig.name}' is scaled to zero on an axis ({', '.join(f'{x:.3g}' for x in mesh_io.axis_scales(m))}): "
+        scales = ", ".join(f"{x:.3g}" for x in mesh_io.axis_scales(m))
+        raise PuppetError(f"Puppet '{rig.name}' is scaled to zero on an axis ({scales}): "
                           "set its scale (Object > Transform)")
     bad = sorted(rod.name for rod in rods.values() if not mesh_io.placed(rod.matrix_world))
     if bad:

@@ -267,13 +267,18 @@ def driver_gaps(tpl: Template, bones, rods) -> list[str]:
     for drv in tpl.drivers:
         kind = drv[0]
         names = drv[1] if isinstance(drv[1], tuple) else (drv[1],)
-        wanted = {"ik": (drv[2],) if kind == "ik" else (), "turn": drv[2:3],
-                  "multi": tuple(role for _, role, _ in drv[2]) if kind == "multi" else ()}.get(kind, ())
+        if kind in ("ik", "turn"):
+            wanted = (drv[2],)
+        elif kind == "multi":
+            wanted = tuple(role for _, role, _ in drv[2])
+        else:
+            wanted = ()
         lost = [f"bone {n}" for n in names if n not in bones] + [f"rod {r}" for r in wanted if r not in rods]
         if lost:
-            how = {"ik": f"following rod {wanted[0]}" if wanted else "", "hang": "hanging",
-                   "multi": "following rods " + ", ".join(wanted), "level": "kept level",
-                   "turn": f"turned by rod {wanted[0]}" if wanted else ""}.get(kind, kind)
+            how = {"ik": "following rod", "turn": "turned by rod", "multi": "following rods",
+                   "hang": "hanging", "level": "kept level"}.get(kind, kind)
+            if wanted:
+                how += " " + ", ".join(wanted)
             out.append(f"{', '.join(names)} ({how}): no {', '.join(lost)}")
     return out
 
