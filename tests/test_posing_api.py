@@ -25,6 +25,10 @@ def test_lbs_rejects_bad_index():
     v = np.zeros((1, 3), np.float32)
     with pytest.raises(ValueError):
         msc.lbs(v, [[3]], [[1.0]], np.eye(4)[None])
+    # 2^32 would be cast by numpy to int32 0, a valid bone, and 0.5 to 0.
+    for bad in (2**32, 0.5):
+        with pytest.raises(ValueError, match=r"indices\[0, 0\] is "):
+            msc.lbs(v, np.array([[bad]]), [[1.0]], np.eye(4)[None])
 
 
 def test_ik2d_reaches_and_forward_agrees():

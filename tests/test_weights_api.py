@@ -202,6 +202,35 @@ def test_bad_inputs_raise_clear_errors(cyl):
         msc.touching_meshes(v, np.zeros(len(v), np.uint32), 10**12)
 
 
+def test_index_arrays_must_hold_whole_numbers_in_range(cyl):
+    """numpy would cast a float index 1.7 to 1, and int64 -1 or 2^32 + 1 into a valid index."""
+    v, t, h, tl, p = cyl
+    frac = t.astype(np.float64)
+    frac[5, 1] += 0.7
+    with pytest.raises(ValueError, match=r"triangles\[5, 1\] is .*\.7: indices must be whole"):
+        msc.heat_weights(v, frac, h, tl)
+    with pytest.raises(ValueError, match=r"triangles\[5, 1\] is NaN"):
+        msc.touching_meshes(v, np.zeros(len(v)), 1, triangles=np.where(frac % 1, np.nan, frac))
+    idx, w = msc.heat_weights(v, t.astype(np.float64), h, tl)  # whole floats are indices
+    i0, w0 = msc.heat_weights(v, t, h, tl)
+    np.testing.assert_array_equal(idx, i0)
+    np.testing.assert_array_equal(w, w0)
+    for name, value in [("parents", [-1, 0, 1.5, 2]), ("parents", [-1, 0, 2**32 + 1, 2]),
+                        ("bone_mirror", [0.5, 1, 2, 3])]:
+        with pytest.raises(ValueError, match=rf"{name}\[\d\] is "):
+            msc.heat_weights(v, t, h, tl, **{name: np.array(value)})
+    with pytest.raises(ValueError, match=r"parents\[2\] is 1.5"):
+        msc.bilinear_weights(v, h, tl, [-1, 0, 1.5, 2])
+    with pytest.raises(ValueError, match=r"parents\[1\] is 0.5"):
+        msc.detect_roles(h, tl, [-1, 0.5, 1, 2])
+    with pytest.raises(ValueError, match=r"mesh_of\[0\] is -1"):
+        msc.touching_meshes(v, np.full(len(v), -1), 1)
+    with pytest.raises(ValueError, match=r"face_sizes\[1\] is -1"):
+        msc.catmull_clark_limit(v, [3, -1], [0, 1, 2])
+    with pytest.raises(ValueError, match=r"bones\[0, 1\] is 1.25"):
+        msc.fit_joints(v, t, (h + tl) / 2, [[0, 1.25]])
+
+
 def test_symmetric_mesh_symmetric_weights():
     # Two legs: cylinders at x = +-1 with a bone each, named as mirror pairs.
     v, t = msc.capped_cylinder(0.4, 3.0, 20, 16)

@@ -1,4 +1,5 @@
-//! numpy <-> slice conversion. Any float/int array-like is accepted and cast; shapes are checked.
+//! numpy <-> slice conversion. Any float/int array-like is accepted and cast; shapes are checked,
+//! and indices must be whole numbers in range.
 
 use numpy::ndarray::Array2;
 use numpy::{AllowTypeChange, IntoPyArray, PyArray2, PyArrayLike1, PyArrayLike2};
@@ -29,20 +30,49 @@ pub fn rows<T: numpy::Element + Copy + Default, const C: usize>(
     Ok(out)
 }
 
-/// An (n, C) array of indices (any integer array-like, read as i64).
-pub type IndexRows<'py> = PyArrayLike2<'py, i64, AllowTypeChange>;
+/// Indices of any numeric array-like, read as f64 so that a float index such as 1.7 is an error
+/// rather than numpy's silent cast to 1 (and -1 or 2^32 are not wrapped into range).
+pub type IndexRows<'py> = PyArrayLike2<'py, f64, AllowTypeChange>;
+/// A 1-D array-like of indices, read as [`IndexRows`] are.
+pub type Indices<'py> = PyArrayLike1<'py, f64, AllowTypeChange>;
 
-/// An (n, C) array of indices as `Vec<[u32; C]>`: a negative index, or one past u32, is an
-/// error naming it (cast straight to u32, -1 would read as 4294967295 and 2^32 as 0).
-pub fn index_rows<const C: usize>(arr: &IndexRows<'_>, name: &str) -> PyResult<Vec<[u32; C]>> {
-    let view = arr.as_array();
-    let n = rows_of::<C>(view.dim(), name)?;
-    let mut out = vec![[0u32; C]; n];
-    for ((i, j), &v) in view.indexed_iter() {
-        out[i][j] = u32::try_from(v)
-            .map_err(|_| PyValueError::new_err(format!("{name}[{i}, {j}] is {v}: indices must be in 0..2^32")))?;
-    }
-    Ok(out)
+/// An integer type indices are converted to, with its range as said in errors.
+pub trait Index: TryFrom<i64> + Copy + Default {
+    const RANGE: &'static str;
+}
+impl Index for u32 {
+    const RANGE: &'static str = "0..2^32";
+}
+impl Index for i32 {
+    const RANGE: &'static str = "-2^31..2^31";
+}
+
+/// `v` as a whole number of type `T`, or an error naming `name` at `at` and the value given
+/// (`at` is only formatted on error: it is called once per index of a large mesh).
+fn index<T: Index>(v: f64, name: &str, at: impl FnOnce() -> String) -> PyResult<T> {
+    let whole = v.is_finite() && v.fract() == 0.0 && v.abs() < 2f64.powi(63);
+    let out = if whole { T::try_from(v as i64).ok() } else { None };
+    out.ok_or_else(|| {
+        PyValueError::new_err(format!("{name}{} is {v}: indices must be whole numbers in {}", at(), T::RANGE))
+    })
+}
+
+/// An (n, C) array of indices as `Vec<[T; C]>`; a value that is not a whole number in `T`'s
+/// range is an error naming its place.
+pub fn index_rows<T: Index, const C: usize>(arr: &IndexRows<'_>, name: &str) -> PyResult<Vec<[T; C]>> {
+    rows_of::<C>(arr.as_array().dim(), name)?;
+    let flat = index_matrix::<T>(arr, name)?;
+    Ok(flat.chunks_exact(C).map(|row| std::array::from_fn(|j| row[j])).collect())
+}
+
+/// An (n, k) array of indices, row after row, checked as [`index_rows`] checks.
+pub fn index_matrix<T: Index>(arr: &IndexRows<'_>, name: &str) -> PyResult<Vec<T>> {
+    arr.as_array().indexed_iter().map(|((i, j), &v)| index(v, name, || format!("[{i}, {j}]"))).collect()
+}
+
+/// A 1-D array of indices as `Vec<T>`, checked as [`index_rows`] checks.
+pub fn indices<T: Index>(arr: &Indices<'_>, name: &str) -> PyResult<Vec<T>> {
+    arr.as_array().iter().enumerate().map(|(i, &v)| index(v, name, || format!("[{i}]"))).collect()
 }
 
 /// A 1-D array as a `Vec<T>`.

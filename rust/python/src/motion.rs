@@ -1,12 +1,12 @@
 //! Bindings for motion: skeleton roles (`roles.rs`) and procedural gaits (`gait.rs`).
 #![allow(clippy::approx_constant)] // make_motion's amplitude=0.5236 rad (30 degrees) is a literal so Python's signature shows it
 
-use crate::convert::{from_rows, rows, vector};
+use crate::convert::{from_rows, indices, rows, Indices};
 use crate::error::guarded;
 use miniskeleton_core::gait::{motion_clip, GaitParams, Motion};
 use miniskeleton_core::roles::{detect_roles as core_detect, BodyPlan, Limb, Roles, Side};
 use numpy::ndarray::Array3;
-use numpy::{AllowTypeChange, IntoPyArray, PyArray1, PyArrayLike1, PyArrayLike2};
+use numpy::{AllowTypeChange, IntoPyArray, PyArray1, PyArrayLike2};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
@@ -64,13 +64,13 @@ struct Skeleton {
 fn skeleton(
     heads: &F32Rows<'_>,
     tails: &F32Rows<'_>,
-    parents: &PyArrayLike1<'_, i32, AllowTypeChange>,
+    parents: &Indices<'_>,
     names: Option<Vec<String>>,
 ) -> PyResult<Skeleton> {
     Ok(Skeleton {
         heads: rows::<f32, 3>(heads, "bone_heads")?,
         tails: rows::<f32, 3>(tails, "bone_tails")?,
-        parents: vector(parents),
+        parents: indices(parents, "parents")?,
         names: names.unwrap_or_default(),
     })
 }
@@ -86,7 +86,7 @@ pub fn detect_roles<'py>(
     py: Python<'py>,
     bone_heads: F32Rows<'py>,
     bone_tails: F32Rows<'py>,
-    parents: PyArrayLike1<'py, i32, AllowTypeChange>,
+    parents: Indices<'py>,
     names: Option<Vec<String>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let s = skeleton(&bone_heads, &bone_tails, &parents, names)?;
@@ -110,7 +110,7 @@ pub fn make_motion<'py>(
     py: Python<'py>,
     bone_heads: F32Rows<'py>,
     bone_tails: F32Rows<'py>,
-    parents: PyArrayLike1<'py, i32, AllowTypeChange>,
+    parents: Indices<'py>,
     rest_matrices: numpy::PyArrayLikeDyn<'py, f32, AllowTypeChange>,
     motion: &str,
     names: Option<Vec<String>>,

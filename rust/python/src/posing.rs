@@ -1,6 +1,6 @@
 //! Bindings for posing: linear blend skinning (`lbs.rs`) and planar IK (`ik2d.rs`).
 
-use crate::convert::{from_rows, rows, vector};
+use crate::convert::{from_rows, index_matrix, rows, vector, IndexRows};
 use crate::error::guarded;
 use miniskeleton_core::ik2d::{self, Chain2d, SolveOptions, SolveReport};
 use numpy::{AllowTypeChange, PyArray1, PyArray2, PyArrayLike1, PyArrayLike2, PyArrayLike3};
@@ -13,7 +13,7 @@ use pyo3::types::PyDict;
 pub fn lbs<'py>(
     py: Python<'py>,
     vertices: PyArrayLike2<'py, f32, AllowTypeChange>,
-    indices: PyArrayLike2<'py, i32, AllowTypeChange>,
+    indices: IndexRows<'py>,
     weights: PyArrayLike2<'py, f32, AllowTypeChange>,
     bone_matrices: PyArrayLike3<'py, f32, AllowTypeChange>,
 ) -> PyResult<Bound<'py, PyArray2<f32>>> {
@@ -28,7 +28,7 @@ pub fn lbs<'py>(
         )));
     }
     let k = idx.dim().1;
-    let idx: Vec<i32> = idx.iter().copied().collect();
+    let idx: Vec<i32> = index_matrix(&indices, "indices")?;
     let w: Vec<f32> = w.iter().copied().collect();
     let m = bone_matrices.as_array();
     if m.dim().1 != 4 || m.dim().2 != 4 {

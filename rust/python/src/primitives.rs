@@ -51,7 +51,7 @@ pub fn split_flat<'py>(
     triangles: crate::convert::IndexRows<'py>,
 ) -> PyResult<MeshArrays<'py>> {
     let v = crate::convert::rows::<f32, 3>(&vertices, "vertices")?;
-    let t = crate::convert::index_rows::<3>(&triangles, "triangles")?;
+    let t = crate::convert::index_rows::<u32, 3>(&triangles, "triangles")?;
     let (sv, st) = miniskeleton_core::primitives::split_flat(&v, &t);
     Ok((from_rows(py, &sv)?, from_rows(py, &st)?))
 }

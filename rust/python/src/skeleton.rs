@@ -1,6 +1,6 @@
 //! Bindings for skeleton tools: joint fitting and the inside test (`fit.rs`).
 
-use crate::convert::{from_rows, index_rows, rows, vector, IndexRows};
+use crate::convert::{from_rows, index_rows, indices, rows, vector, IndexRows, Indices};
 use crate::error::guarded;
 use miniskeleton_core::fit::{self, FitOptions, Symmetry};
 use numpy::{AllowTypeChange, PyArray1, PyArray2, PyArrayLike1, PyArrayLike2};
@@ -27,7 +27,7 @@ pub fn fit_joints<'py>(
     movable: Option<PyArrayLike1<'py, bool, AllowTypeChange>>,
     symmetry_axis: Option<usize>,
     symmetry_plane: f64,
-    joint_mirror: Option<PyArrayLike1<'py, i32, AllowTypeChange>>,
+    joint_mirror: Option<Indices<'py>>,
     rays: usize,
     samples: usize,
     rounds: usize,
@@ -39,13 +39,13 @@ pub fn fit_joints<'py>(
     min_sections: usize,
 ) -> PyResult<(Bound<'py, PyArray2<f32>>, Bound<'py, PyDict>)> {
     let v = rows::<f32, 3>(&vertices, "vertices")?;
-    let t = index_rows::<3>(&triangles, "triangles")?;
+    let t = index_rows::<u32, 3>(&triangles, "triangles")?;
     let j = rows::<f32, 3>(&joints, "joints")?;
-    let b = index_rows::<2>(&bones, "bones")?;
+    let b = index_rows::<u32, 2>(&bones, "bones")?;
     let mv = movable.map(|m| vector(&m)).unwrap_or_else(|| vec![true; j.len()]);
     let symmetry = match (symmetry_axis, joint_mirror) {
         (None, None) => None,
-        (Some(axis), Some(m)) => Some(Symmetry { axis, plane: symmetry_plane, mirror: vector(&m) }),
+        (Some(axis), Some(m)) => Some(Symmetry { axis, plane: symmetry_plane, mirror: indices(&m, "joint_mirror")? }),
         _ => return Err(PyValueError::new_err("symmetry_axis and joint_mirror go together")),
     };
     let opts =
@@ -74,7 +74,7 @@ pub fn points_inside<'py>(
     points: PyArrayLike2<'py, f32, AllowTypeChange>,
 ) -> PyResult<Bound<'py, PyArray1<bool>>> {
     let v = rows::<f32, 3>(&vertices, "vertices")?;
-    let t = index_rows::<3>(&triangles, "triangles")?;
+    let t = index_rows::<u32, 3>(&triangles, "triangles")?;
     let p = rows::<f32, 3>(&points, "points")?;
     let out = guarded(py, move || fit::points_inside(&v, &t, &p))?;
     Ok(PyArray1::from_vec(py, out))

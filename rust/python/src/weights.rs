@@ -1,12 +1,12 @@
 //! Bindings for `miniskeleton_core::{idw, bilinear, heat}`: skinning weights as dense top-k arrays.
 
-use crate::convert::{index_rows, matrix, rows, vector, IndexRows};
+use crate::convert::{index_rows, indices, matrix, rows, IndexRows, Indices};
 use crate::error::guarded;
 use miniskeleton_core::bilinear::{bilinear_weights as core_bilinear, BilinearOptions, Falloff};
 use miniskeleton_core::heat::{heat_weights as core_heat, BoneCurves, HeatOptions, HeatReport, Symmetry};
 use miniskeleton_core::idw::{idw_weights as core_idw, IdwOptions};
 use miniskeleton_core::influence::Influences;
-use numpy::{AllowTypeChange, PyArray2, PyArrayLike1, PyArrayLike2};
+use numpy::{AllowTypeChange, PyArray2, PyArrayLike2};
 use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -59,7 +59,7 @@ pub fn bilinear_weights<'py>(
     vertices: F32Rows<'py>,
     bone_heads: F32Rows<'py>,
     bone_tails: F32Rows<'py>,
-    parents: Option<PyArrayLike1<'py, i32, AllowTypeChange>>,
+    parents: Option<Indices<'py>>,
     max_influences: usize,
     nearest: usize,
     falloff: &str,
@@ -70,7 +70,7 @@ pub fn bilinear_weights<'py>(
     let h = rows::<f32, 3>(&bone_heads, "bone_heads")?;
     let t = rows::<f32, 3>(&bone_tails, "bone_tails")?;
     let p = match parents {
-        Some(p) => vector(&p),
+        Some(p) => indices(&p, "parents")?,
         None => vec![-1; h.len()],
     };
     let falloff = match falloff.to_ascii_lowercase().as_str() {
@@ -123,12 +123,12 @@ pub fn heat_weights<'py>(
     visibility: bool,
     weld_tolerance: f32,
     heat_constant: f32,
-    bone_mirror: Option<PyArrayLike1<'py, i32, AllowTypeChange>>,
+    bone_mirror: Option<Indices<'py>>,
     symmetry_axis: usize,
     symmetry_tolerance: f32,
-    parents: Option<PyArrayLike1<'py, i32, AllowTypeChange>>,
+    parents: Option<Indices<'py>>,
     curve_points: Option<F32Rows<'py>>,
-    curve_bones: Option<PyArrayLike1<'py, u32, AllowTypeChange>>,
+    curve_bones: Option<Indices<'py>>,
     progress: Option<Py<PyAny>>,
 ) -> PyResult<Pair<'py>> {
     let (i, w, _) = heat_weights_report(
@@ -171,16 +171,16 @@ pub fn heat_weights_report<'py>(
     visibility: bool,
     weld_tolerance: f32,
     heat_constant: f32,
-    bone_mirror: Option<PyArrayLike1<'py, i32, AllowTypeChange>>,
+    bone_mirror: Option<Indices<'py>>,
     symmetry_axis: usize,
     symmetry_tolerance: f32,
-    parents: Option<PyArrayLike1<'py, i32, AllowTypeChange>>,
+    parents: Option<Indices<'py>>,
     curve_points: Option<F32Rows<'py>>,
-    curve_bones: Option<PyArrayLike1<'py, u32, AllowTypeChange>>,
+    curve_bones: Option<Indices<'py>>,
     progress: Option<Py<PyAny>>,
 ) -> PyResult<PairAndReport<'py>> {
     let v = rows::<f32, 3>(&vertices, "vertices")?;
-    let tri = index_rows::<3>(&triangles, "triangles")?;
+    let tri = index_rows::<u32, 3>(&triangles, "triangles")?;
     let h = rows::<f32, 3>(&bone_heads, "bone_heads")?;
     let t = rows::<f32, 3>(&bone_tails, "bone_tails")?;
     if symmetry_axis > 2 {
@@ -188,11 +188,19 @@ pub fn heat_weights_report<'py>(
     }
     let curves = match (curve_points, curve_bones) {
         (None, None) => None,
-        (Some(p), Some(j)) => Some(BoneCurves { points: rows::<f32, 3>(&p, "curve_points")?, bone: vector(&j) }),
+        (Some(p), Some(j)) => {
+            Some(BoneCurves { points: rows::<f32, 3>(&p, "curve_points")?, bone: indices(&j, "curve_bones")? })
+        }
         _ => return Err(PyValueError::new_err("curve_points and curve_bones go together")),
     };
-    let symmetry =
-        bone_mirror.map(|m| Symmetry { axis: symmetry_axis, bone_mirror: vector(&m), tolerance: symmetry_tolerance });
+    let symmetry = match bone_mirror {
+        Some(m) => Some(Symmetry {
+            axis: symmetry_axis,
+            bone_mirror: indices(&m, "bone_mirror")?,
+            tolerance: symmetry_tolerance,
+        }),
+        None => None,
+    };
     let opts = HeatOptions {
         max_influences: positive_k(max_influences)?,
         min_weight,
@@ -200,7 +208,7 @@ pub fn heat_weights_report<'py>(
         weld_tolerance,
         heat_constant,
         symmetry,
-        parents: parents.map(|p| vector(&p)),
+        parents: parents.map(|p| indices(&p, "parents")).transpose()?,
         curves,
         ..HeatOptions::default()
     };
@@ -246,16 +254,16 @@ pub fn heat_weights_report<'py>(
 pub fn touching_meshes<'py>(
     py: Python<'py>,
     vertices: F32Rows<'py>,
-    mesh_of: PyArrayLike1<'py, u32, AllowTypeChange>,
+    mesh_of: Indices<'py>,
     meshes: usize,
     triangles: Option<IndexRows<'py>>,
     tolerance: f64,
     min_shared: usize,
 ) -> PyResult<Bound<'py, numpy::PyArray1<i32>>> {
     let v = rows::<f32, 3>(&vertices, "vertices")?;
-    let m = vector(&mesh_of);
+    let m = indices(&mesh_of, "mesh_of")?;
     let tri = match &triangles {
-        Some(t) => index_rows::<3>(t, "triangles")?,
+        Some(t) => index_rows::<u32, 3>(t, "triangles")?,
         None => Vec::new(),
     };
     let groups =
@@ -273,12 +281,12 @@ pub fn touching_meshes<'py>(
 pub fn catmull_clark_limit<'py>(
     py: Python<'py>,
     vertices: F32Rows<'py>,
-    face_sizes: PyArrayLike1<'py, u32, AllowTypeChange>,
-    face_vertices: PyArrayLike1<'py, u32, AllowTypeChange>,
+    face_sizes: Indices<'py>,
+    face_vertices: Indices<'py>,
     keep_corners: bool,
 ) -> PyResult<Bound<'py, PyArray2<f32>>> {
     let v = rows::<f32, 3>(&vertices, "vertices")?;
-    let (sizes, corners) = (vector(&face_sizes), vector(&face_vertices));
+    let (sizes, corners) = (indices(&face_sizes, "face_sizes")?, indices(&face_vertices, "face_vertices")?);
     let limit =
         guarded(py, move || miniskeleton_core::catmull_clark::limit_positions(&v, &sizes, &corners, keep_corners))?;
     crate::convert::from_rows(py, &limit)
