@@ -24,11 +24,11 @@ _TMP_ATTR = "__miniskeleton_weights_tmp"
 class Bones:
     """Deform bones of an armature in world space (rest pose).
 
-    names: bone names (b,); heads, tails: (b, 3) float32 world space; parents: (b,) int32
+    names: bone names (b,); heads, tails: (b, 3) float64 world space; parents: (b,) int32
     index into these bones or -1; selected: (b,) bool; skipped: names of zero-length bones;
     hidden: names of bones left out as hidden (``armature_bones(weight_paint=True)``);
     imported: the armature looks imported (see ``invented_tails``); curve_points (p, 3)
-    float32 world space and curve_bones (p,) uint32: the inner joints of each B-Bone's rest
+    float64 world space and curve_bones (p,) uint32: the inner joints of each B-Bone's rest
     curve, head to tail (empty unless filled from ``bbone_curves``, for Heat).
     """
 
@@ -40,12 +40,12 @@ class Bones:
     skipped: list[str] = field(default_factory=list)
     hidden: list[str] = field(default_factory=list)
     imported: bool = False
-    curve_points: np.ndarray = field(default_factory=lambda: np.zeros((0, 3), np.float32))
+    curve_points: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
     curve_bones: np.ndarray = field(default_factory=lambda: np.zeros(0, np.uint32))
 
 
 def mesh_world_vertices(ob: bpy.types.Object) -> np.ndarray:
-    """Rest-pose vertex positions of ``ob`` (its own mesh, no modifiers) in world space, (n, 3) float32."""
+    """Rest-pose vertex positions of ``ob`` (its own mesh, no modifiers) in world space, (n, 3) float64."""
     return _world(ob, _positions(ob.data))
 
 
@@ -79,9 +79,11 @@ def _positions(me: bpy.types.Mesh) -> np.ndarray:
 
 
 def _world(ob: bpy.types.Object, co: np.ndarray) -> np.ndarray:
-    """Object-space coordinates (flat or (n, 3)) in world space by ``ob.matrix_world``, (n, 3) float32."""
+    """Object-space coordinates (flat or (n, 3)) in world space by ``ob.matrix_world``, (n, 3)
+    float64: in single precision, world points 1e5 m from the origin are 8 mm apart, and a
+    character there lost its detail (``to_armature_frame`` brings them back near 0 first)."""
     m = np.array(ob.matrix_world, dtype=np.float64)
-    return (co.reshape(-1, 3).astype(np.float64) @ m[:3, :3].T + m[:3, 3]).astype(np.float32)
+    return co.reshape(-1, 3).astype(np.float64) @ m[:3, :3].T + m[:3, 3]
 
 
 def read_only(*blocks) -> str | None:
@@ -180,7 +182,7 @@ def keyed_action(ob: bpy.types.Object) -> bpy.types.Action | None:
 
 
 def shaped_world_mesh(ob: bpy.types.Object) -> tuple[np.ndarray, np.ndarray]:
-    """World vertices (n, 3) float32 and triangles (m, 3) uint32 of ``ob`` as the rigger sees it
+    """World vertices (n, 3) float64 and triangles (m, 3) uint32 of ``ob`` as the rigger sees it
     undeformed: its modifier stack (Mirror, Subdivision, Solidify, ...) evaluated with its
     Armature modifiers off. Its own mesh when it has no other enabled modifier, or when it is
     linked (read-only: its modifiers cannot be switched). For reading only (Fit); weights are
@@ -309,14 +311,14 @@ def armature_bones(arm_ob: bpy.types.Object, min_length: float = 0.0, weight_pai
         while p is not None and p.name not in index:  # skip non-deform / skipped ancestors
             p = p.parent
         parents.append(index[p.name] if p is not None else -1)
-    as3 = lambda rows: np.asarray(rows, dtype=np.float32).reshape(-1, 3)  # noqa: E731
+    as3 = lambda rows: np.asarray(rows, dtype=np.float64).reshape(-1, 3)  # noqa: E731
     return Bones(names, as3(heads), as3(tails), np.asarray(parents, dtype=np.int32),
                  np.asarray(sel, dtype=bool), skipped, hidden, imported=invented_tails(arm_ob.data.bones))
 
 
 def bbone_curves(arm_ob: bpy.types.Object, names: list[str]) -> tuple[np.ndarray, np.ndarray]:
     """Inner joints of the rest curve of each of ``names`` that is a B-Bone (more than one
-    segment), in world space, head to tail: (p, 3) float32 and the index into ``names`` of
+    segment), in world space, head to tail: (p, 3) float64 and the index into ``names`` of
     each, (p,) uint32 (for ``Bones.curve_points`` / ``curve_bones``). Blender's bone heat
     weights a B-Bone as these segments (its rest shape is a curve when its handles or curve
     settings bend it)."""

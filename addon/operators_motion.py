@@ -60,11 +60,15 @@ def rest_matrices(arm: bpy.types.Object, names: list[str]) -> np.ndarray:
 
 
 def motion_skeleton(arm: bpy.types.Object, bones) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """World heads, tails and rest orientations (``rest_matrices``) of ``bones`` for the core.
-    An armature mirrored by a negative scale is given as its mirror image across world x = 0:
-    there its rest frames are rotations again, and the local rotations that make that image walk
-    make the armature itself walk (its mirror image's motion, mirrored back)."""
-    heads, tails = bones.heads.copy(), bones.tails.copy()
+    """Heads and tails of ``bones`` along world axes from the armature's origin, and their world
+    rest orientations (``rest_matrices``), for the core. The origin is taken off in double
+    precision: the motion does not depend on where the rig stands, and 1e5 m from the world
+    origin single-precision points are 8 mm apart. An armature mirrored by a negative scale is
+    given as its mirror image across x = 0: there its rest frames are rotations again, and the
+    local rotations that make that image walk make the armature itself walk (its mirror image's
+    motion, mirrored back)."""
+    origin = np.array(arm.matrix_world.translation, dtype=np.float64)
+    heads, tails = bones.heads - origin, bones.tails - origin
     rest = rest_matrices(arm, bones.names)
     # in double precision: mathutils' single-precision determinant of a mirror scaled by 1e-15
     # underflows to 0, and the mirror went unseen

@@ -214,8 +214,8 @@ class MINISKELETON_OT_auto_weights(bpy.types.Operator):
     # ------------------------------------------------------------------ run
 
     def _prepare(self, context):
-        """Validate and read every input (``Prepared``) or return None (reported). With Heat's X
-        symmetry, vertices and bones are in the armature's space instead of world."""
+        """Validate and read every input (``Prepared``) or return None (reported). Vertices and
+        bones are given in the armature's frame (``mesh_io.to_armature_frame``), not world."""
         checked = self._validate(context)
         if checked is None:
             return None
@@ -223,12 +223,12 @@ class MINISKELETON_OT_auto_weights(bpy.types.Operator):
         if self.method == "HEAT":  # B-Bones are weighted along their rest curve, as by Ctrl+P
             points, owners = mesh_io.bbone_curves(arm, bones.names)
             bones = dataclasses.replace(bones, curve_points=points, curve_bones=owners)
-        # X symmetry is about the armature's x = 0 (as for Fit), so Heat works in its space.
-        mirror_space = self.method == "HEAT" and self.symmetry == "X"
-        if mirror_space:
-            bones = dataclasses.replace(bones, heads=mesh_io.to_armature_frame(arm, bones.heads),
-                                        tails=mesh_io.to_armature_frame(arm, bones.tails),
-                                        curve_points=mesh_io.to_armature_frame(arm, bones.curve_points))
+        # Every method works in the armature's frame, moved there in double precision: X
+        # symmetry is about the armature's x = 0 (as for Fit), and the core's single precision
+        # keeps a character 1e5 m from the world origin only 8 mm apart (its weights changed).
+        bones = dataclasses.replace(bones, heads=mesh_io.to_armature_frame(arm, bones.heads),
+                                    tails=mesh_io.to_armature_frame(arm, bones.tails),
+                                    curve_points=mesh_io.to_armature_frame(arm, bones.curve_points))
         inputs = []
         # Linked duplicates (Alt+D) share one mesh, and Blender keeps vertex weights in the
         # mesh: compute them once, on the first of those objects; the others get the modifier.
@@ -254,17 +254,16 @@ class MINISKELETON_OT_auto_weights(bpy.types.Operator):
                 self.report({"ERROR"}, f"Mesh '{ob.name}' has {bad} vertices with NaN or infinite "
                             "coordinates; nothing was changed")
                 return None
+            verts = mesh_io.to_armature_frame(arm, verts)
             smoothing = mesh_io.smoothing_modifier(ob)
             if smoothing is not None:
                 # A subdivided cage is weighted where its vertices lie on the smooth surface,
-                # as Ctrl+P does (Catmull-Clark is affine: world space is as good as its own).
+                # as Ctrl+P does (Catmull-Clark is affine: any frame is as good as its own).
                 import miniskeleton_core as core
 
                 verts = core.catmull_clark_limit(
                     verts, *mesh_io.mesh_polygons(ob),
                     keep_corners=smoothing.boundary_smooth == "PRESERVE_CORNERS")
-            if mirror_space:
-                verts = mesh_io.to_armature_frame(arm, verts)
             tris = mesh_io.mesh_triangles(ob) if self.method == "HEAT" else None
             inputs.append((ob, ob.name, verts, tris))
         return Prepared(arm, bones, inputs, linked, masks)

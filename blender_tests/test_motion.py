@@ -331,6 +331,25 @@ def test_an_armature_at_any_scale_gets_the_keys_of_its_twin(rig, scale, twin):
         np.testing.assert_allclose(got[path], k, rtol=1e-4, atol=1e-5, err_msg=str(path))
 
 
+def test_an_armature_far_from_the_world_origin_gets_the_keys_it_gets_at_the_origin():
+    """The walk does not depend on where the rig stands. 1e5 m and more from the world origin,
+    single-precision world heads are 8 mm apart, and the creature's walk keys there differed
+    from its keys at the origin by up to 0.007; heads now go to the core relative to the
+    armature's origin, taken off in double precision."""
+    def keys(location):
+        blender_session.reset_scene()
+        arm = creature.build_armature()
+        arm.location = location
+        bpy.context.view_layer.update()
+        assert add_motion(arm, motion="WALK", cycles=1) == {"FINISHED"}
+        return action_keys(arm)
+
+    want, got = keys((0.0, 0.0, 0.0)), keys((1e6, -5e5, 2e5))
+    assert got.keys() == want.keys()
+    for path, k in want.items():
+        np.testing.assert_allclose(got[path], k, atol=1e-6, err_msg=str(path))
+
+
 @pytest.mark.parametrize("invented_tails, scale", [(False, 100.0), (True, 100.0), (True, -50.0)])
 def test_feet_hanging_off_the_root_walk_with_their_legs(invented_tails, scale, capsys):
     """Game rigs exported from an IK set-up (Quaternius characters, RobotExpressive) hang each

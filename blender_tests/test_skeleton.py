@@ -148,6 +148,23 @@ def test_fit_does_not_depend_on_the_armatures_scale():
     assert edit_state(arm) == before
 
 
+def test_fit_far_from_the_world_origin_gives_the_joints_it_gives_at_the_origin():
+    """Creature and rig moved together 1e6 m from the world origin, where single-precision world
+    coordinates are 6 cm apart: the mesh is read in double precision and moved into the
+    armature's frame before the core's single precision, so the joints end where they do at
+    the origin (read in world space first, the creature's shape was lost)."""
+    body, arm, ends, orig, moved, diag = creature_setup(seed=1)
+    assert bpy.ops.armature.miniskeleton_fit_skeleton() == {"FINISHED"}
+    reference = joints_of(arm, ends)
+    set_joints(arm, moved, ends)
+    for ob in (body, arm):
+        ob.location = (1e6, -5e5, 2e5)
+    bpy.context.view_layer.update()
+    builders.select_for_parenting([body], arm)
+    assert bpy.ops.armature.miniskeleton_fit_skeleton() == {"FINISHED"}
+    np.testing.assert_allclose(joints_of(arm, ends), reference, atol=1e-5 * diag)
+
+
 def test_fit_ignores_a_stray_vertex_far_away():
     """A loose vertex 1000 diagonals away neither widens Max Move (a fraction of the mesh's
     diagonal) nor merges distinct joints: the fit is the same as without it."""
