@@ -37,19 +37,20 @@ def _skinned_meshes(context, arm):
     return sorted(out, key=lambda ob: ob.name)
 
 
-def _armature_check(op, arm):
+def _armature_check(op, arm, need_bones=True):
+    """There is an armature, with bones unless not ``need_bones``; otherwise reported."""
     if arm is None:
         op.report({"ERROR"}, "No armature: make the armature the active object")
         return False
-    if len(arm.data.bones) == 0 and not (arm.mode == "EDIT" and len(arm.data.edit_bones)):
+    if need_bones and len(arm.data.bones) == 0 and not (arm.mode == "EDIT" and len(arm.data.edit_bones)):
         op.report({"ERROR"}, f"Armature '{arm.name}' has no bones")
         return False
     return True
 
 
-def _editable_armature(op, arm):
+def _editable_armature(op, arm, need_bones=True):
     """``_armature_check``, and the armature can be changed (not linked from a library)."""
-    if not _armature_check(op, arm):
+    if not _armature_check(op, arm, need_bones):
         return False
     locked = mesh_io.read_only(arm, arm.data)
     if locked:
@@ -287,12 +288,7 @@ class MINISKELETON_OT_restore_skeleton(bpy.types.Operator):
 
     def execute(self, context):
         arm = find_armature(context)
-        if arm is None:
-            self.report({"ERROR"}, "No armature: make the armature the active object")
-            return {"CANCELLED"}
-        locked = mesh_io.read_only(arm, arm.data)
-        if locked:
-            self.report({"ERROR"}, locked)
+        if not _editable_armature(self, arm, need_bones=False):  # all deleted: still restorable
             return {"CANCELLED"}
         snap = rig_io.load_snapshot(arm.data)
         if snap is None:

@@ -610,6 +610,14 @@ def test_restore_names_the_bones_it_removes_or_makes_again(capfd):
         "renamed since: Hand, Extra; made again 1 deleted or renamed: Bone2 (Ctrl+Z to undo)" in out
     assert bpy.ops.armature.miniskeleton_restore_skeleton() == {"FINISHED"}
     assert "Info: Restored the original skeleton of 'Rig' (3 bones)" in capfd.readouterr().out
+    # Every bone deleted: the armature has none left, and Restore still brings them back.
+    bpy.ops.object.mode_set(mode="EDIT")
+    for eb in list(arm.data.edit_bones):
+        arm.data.edit_bones.remove(eb)
+    bpy.ops.object.mode_set(mode="OBJECT")
+    assert len(arm.data.bones) == 0
+    assert bpy.ops.armature.miniskeleton_restore_skeleton() == {"FINISHED"}
+    assert sorted(b.name for b in arm.data.bones) == original
 
 
 def test_restore_without_snapshot_is_an_error():
