@@ -79,6 +79,12 @@ def motion_skeleton(arm: bpy.types.Object, bones) -> tuple[np.ndarray, np.ndarra
     return heads, tails, rest
 
 
+def scene_metres(scene: bpy.types.Scene) -> float:
+    """Metres per Blender unit: the scene's Unit Scale (1 when unset or unusable)."""
+    m = float(scene.unit_settings.scale_length)
+    return m if math.isfinite(m) and m > 0.0 else 1.0
+
+
 def last_key_frame(ob: bpy.types.Object) -> float | None:
     """Scene frame of the last keyframe on ``ob``'s action, None without keys."""
     frames = [kp.co[0] for fc in action_fcurves(ob) for kp in fc.keyframe_points[-1:]]
@@ -220,10 +226,15 @@ class MINISKELETON_OT_add_motion(bpy.types.Operator):
         scene = context.scene
         fps = scene.render.fps / scene.render.fps_base
         heads, tails, rest = motion_skeleton(arm, bones)
+        # The cadence follows the leg length in metres: the core gets the skeleton in metres,
+        # by the scene's Unit Scale (in a centimetre scene, 0.01, a creature walked at the
+        # slowest cadence, as if its legs were metres long).
+        metres = scene_metres(scene)
+        heads, tails = heads * metres, tails * metres
         # The core works in single precision and squares lengths: a skeleton over about 1e19
         # units overflowed ("the skeleton is flat"). One larger than 1e6 units or smaller than
         # 1e-3 is given at that size, by a power of two (exact), and the offsets scaled back;
-        # the cadence, which follows the leg length in metres, is clamped there all the same.
+        # the cadence is clamped there all the same.
         size = float(np.linalg.norm(np.ptp(np.concatenate([heads, tails]).astype(np.float64), axis=0)))
         unit_size = 1.0
         if size > 1e6:
@@ -240,7 +251,7 @@ class MINISKELETON_OT_add_motion(bpy.types.Operator):
             self.report({"ERROR"}, f"{arm.name}: {err}")
             return {"CANCELLED"}
         for key in ("root_offset", "locations"):   # back in world units
-            out[key] = np.asarray(out[key], dtype=np.float64) * unit_size
+            out[key] = np.asarray(out[key], dtype=np.float64) * (unit_size / metres)
         roles = out["roles"]
         lines = describe_roles(roles, bones.names)
         print(f"[MiniSkeleton] roles of '{arm.name}':")

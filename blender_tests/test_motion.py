@@ -331,6 +331,27 @@ def test_an_armature_at_any_scale_gets_the_keys_of_its_twin(rig, scale, twin):
         np.testing.assert_allclose(got[path], k, rtol=1e-4, atol=1e-5, err_msg=str(path))
 
 
+def test_a_centimetre_scene_walks_as_its_metre_twin():
+    """The cadence follows the leg length in metres, and the scene's Unit Scale says how long a
+    unit is: a creature 100 times larger in a scene of 0.01 m units (Unreal's centimetres) gets
+    the keys its twin gets in metres (before, its 100-unit legs walked at the slowest cadence,
+    as if 100 m long: 40 frames a cycle instead of 25). The root's travel, keyed in armature
+    units, is the same too, since the armature is scaled with it."""
+    def keys(scale, unit):
+        blender_session.reset_scene()
+        bpy.context.scene.unit_settings.scale_length = unit
+        arm = creature.build_armature()
+        arm.scale = (scale,) * 3
+        bpy.context.view_layer.update()
+        assert add_motion(arm, motion="WALK", cycles=1) == {"FINISHED"}
+        return action_keys(arm)
+
+    want, got = keys(1.0, 1.0), keys(100.0, 0.01)
+    assert got.keys() == want.keys()
+    for path, k in want.items():
+        np.testing.assert_allclose(got[path], k, rtol=1e-4, atol=1e-5, err_msg=str(path))
+
+
 def test_an_armature_far_from_the_world_origin_gets_the_keys_it_gets_at_the_origin():
     """The walk does not depend on where the rig stands. 1e5 m and more from the world origin,
     single-precision world heads are 8 mm apart, and the creature's walk keys there differed
