@@ -232,8 +232,8 @@ class MINISKELETON_OT_add_motion(bpy.types.Operator):
         metres = scene_metres(scene)
         heads, tails = heads * metres, tails * metres
         # The core works in single precision and squares lengths: a skeleton over about 1e19
-        # units overflowed ("the skeleton is flat"). One larger than 1e6 units or smaller than
-        # 1e-3 is given at that size, by a power of two (exact), and the offsets scaled back;
+        # units overflowed ("the skeleton is flat"). One larger than 1e6 m or smaller than
+        # 1e-3 m is given at that size, by a power of two (exact), and the offsets scaled back;
         # the cadence is clamped there all the same.
         size = float(np.linalg.norm(np.ptp(np.concatenate([heads, tails]).astype(np.float64), axis=0)))
         unit_size = 1.0
