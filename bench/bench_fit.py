@@ -206,9 +206,7 @@ def main():
           "scored); outside counts are real joints. Floor: mean move of the artist's own joints when "
           "fitted undisplaced (where the mesh's cross-section centres disagree with the artist).\n")
     print(table)
-    out = ROOT / "out"
-    out.mkdir(exist_ok=True)
-    (out / "bench_fit.md").write_text(table + "\n")
+    blender_session.write_report(ROOT / "out" / "bench_fit.md", table)
 
 
 if __name__ == "__main__":

@@ -73,9 +73,7 @@ def main(argv=None) -> None:
     lines += [f"| {name} | {frames} | {secs:.3f} |" for name, frames, secs in rows]
     text = "\n".join(lines)
     print(text)
-    out = ROOT / "out"
-    out.mkdir(exist_ok=True)
-    (out / "bench_keys.md").write_text(text + "\n")
+    blender_session.write_report(ROOT / "out" / "bench_keys.md", text)
 
 
 if __name__ == "__main__":

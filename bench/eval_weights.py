@@ -563,9 +563,7 @@ def main(argv=None):
     text = "\n".join(lines)
     print()
     print(text)
-    out = Path(args.out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(text + "\n")
+    out = blender_session.write_report(Path(args.out), text)
     print(f"[eval] wrote {out}")
 
 

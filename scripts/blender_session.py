@@ -2,7 +2,8 @@
 
 ``start()`` points Blender at a throw-away user directory *before* ``bpy`` is imported, then
 installs the extension zip built by ``make extension`` with ``package_install_files``.
-Used by the demo, the benchmarks and blender_tests/conftest.py.
+Used by the demo, the benchmarks and blender_tests/conftest.py. ``write_report`` saves a
+benchmark's markdown under out/.
 """
 
 from __future__ import annotations
@@ -38,6 +39,14 @@ def start(user_dir: str | None = None):
         if result != {"FINISHED"}:
             raise RuntimeError(f"installing the extension failed: {result}")
     return bpy
+
+
+def write_report(path: Path, text: str) -> Path:
+    """Write a benchmark's markdown ``text`` to ``path`` (e.g. out/bench_fit.md), making its
+    folder if missing; returns ``path``."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(text + "\n")
+    return path
 
 
 def reset_scene() -> None:
