@@ -17,24 +17,29 @@
 //! prop) become rigid accessories, isolated vertices take their nearest bone, and the
 //! factorization retries with more regularization and finally falls back to nearest-bone
 //! weights instead of failing. Small weights are dropped with Blender's continuous ramp.
+//!
+//! This module holds the options, the report and the order of the steps; the steps with
+//! their own rules are in their own modules: `sources` (each vertex's nearest visible
+//! bones), `pieces` (per-piece geometry, the inside test, rigid pieces), [`crate::reach`]
+//! (the spans of imported rigs' bones), `cholesky` (factor and solves), and
+//! [`crate::orient`] (winding and outward normals).
 
+use crate::cholesky::{factor_first, symbolic_factor};
 use crate::cotan::{cotan_laplacian, stiffness_lower_csc, triangle_cotangents};
 use crate::idw::bones_in_frame;
 use crate::influence::{top_k_row, Influences};
 use crate::islands::connected_components;
 use crate::mesh::{count_non_finite, validate_bones, validate_mesh, Frame};
-use crate::orient::orient_faces;
-use crate::segment::closest_point_on_segment;
+use crate::orient::{orient_faces, vertex_normals};
+use crate::pieces::{mark_sources, piece_contains_bone, piece_stats, rigid_pieces};
+use crate::reach::reach_segments;
+use crate::sources::{heat_sources, Source};
 use crate::symmetry::{mirror_map, symmetrize_columns, validate_bone_mirror};
 use crate::visibility::RayMesh;
 use crate::weld::weld;
 use crate::{Error, Result};
-use faer::dyn_stack::{MemBuffer, MemStack};
-use faer::linalg::cholesky::llt::factor::LltRegularization;
-use faer::sparse::linalg::cholesky::{factorize_symbolic_cholesky, LltRef, SymbolicCholesky, SymmetricOrdering};
-use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
-use faer::{Conj, MatMut, Par, Side};
-use glam::{DVec3, Vec3};
+use faer::sparse::SymbolicSparseColMatRef;
+use glam::DVec3;
 use rayon::prelude::*;
 use std::time::Instant;
 
@@ -165,57 +170,15 @@ pub struct HeatReport {
 /// `(L + M H) w = M H p`. Less diffusion than Pinocchio's `c = 1`; measured closer to the
 /// artists' weights on the real models of `bench/eval_weights.py`.
 pub const HEAT_SCALE: f64 = 4.0;
-/// Relative distance within which two visible bones tie (Pinocchio uses 1.0001).
-pub const TIE_RATIO: f64 = 1.0001;
+pub use crate::sources::{MAX_VISIBILITY_TESTS, TIE_RATIO};
 /// Default [`HeatOptions::weight_limit_start`] (Blender's `WEIGHT_LIMIT_START`).
 pub const WEIGHT_LIMIT_START: f32 = 0.05;
 /// Default [`HeatOptions::weight_limit_end`] (Blender's `WEIGHT_LIMIT_END`).
 pub const WEIGHT_LIMIT_END: f32 = 0.025;
-/// Fixed generic directions of the ray-parity inside test: the first 3 for closed pieces
-/// (majority 2 of 3), all 7 for open ones (majority 4 of 7, see [`heat_weights`]).
-const PARITY_DIRS: [[f32; 3]; 7] = [
-    [0.48, 0.62, 0.62],
-    [-0.70, 0.31, 0.64],
-    [0.21, -0.89, 0.40],
-    [-0.37, -0.52, -0.77],
-    [0.83, 0.12, -0.54],
-    [-0.15, 0.95, -0.27],
-    [-0.91, -0.33, 0.25],
-];
-/// Positions along a bone (fractions head -> tail) tested by the inside test; a bone is
-/// inside a piece when at least [`BONE_INSIDE_SAMPLES`] of them are.
-const BONE_SAMPLES: [f64; 5] = [0.0, 0.25, 0.5, 0.75, 1.0];
-/// See [`BONE_SAMPLES`]: a majority, so a fingertip poking into a held prop does not count.
-const BONE_INSIDE_SAMPLES: usize = 3;
-/// An accessory is at most this fraction of the skeleton's bbox diagonal.
-const ACCESSORY_SIZE: f64 = 0.5;
-/// Distance (unit frame) under which a child's head counts as starting at a bone's tail or head.
-const REACH_TOLERANCE: f64 = 1e-5;
 /// Minimum vertex-to-bone distance used in `H = c / d^2`, in bbox diagonals.
 pub const MIN_DISTANCE: f64 = 1e-5;
 /// Diagonal regularizations tried in turn: `A_ii += r (L_ii + M_ii)`.
 const REGULARIZATION: [f64; 3] = [1e-10, 1e-6, 1e-3];
-/// Up to this many tied bones share a vertex's heat source.
-const MAX_TIES: usize = 4;
-/// A vertex whose this many nearest bones are all hidden is treated as seeing none (bounds
-/// the ray casts for bone-less pieces; Pinocchio tests every bone).
-pub const MAX_VISIBILITY_TESTS: usize = 12;
-
-/// Per welded vertex: its heat source.
-#[derive(Clone, Copy, Debug)]
-struct Source {
-    /// Nearest visible bones (ties), `u32::MAX` padded.
-    bones: [u32; MAX_TIES],
-    /// Number of valid entries of `bones`; 0 = sees no bone.
-    count: u8,
-    /// Distance to the nearest visible bone(s).
-    dist: f64,
-    /// Nearest bone(s) by distance, ignoring visibility (ties within [`TIE_RATIO`], lowest
-    /// indices first, so a vertex on a symmetric rig's mirror plane shares a left/right pair),
-    /// and their distance.
-    nearest: Ties,
-    nearest_dist: f64,
-}
 
 /// Bone heat skinning weights (Baran & Popovic 2007).
 ///
@@ -284,51 +247,8 @@ pub fn heat_weights(
     };
 
     // 1. Validate.
-    validate_mesh(vertices, triangles, false)?;
-    validate_bones(heads, tails)?;
-    if opts.max_influences == 0 {
-        return Err(Error::InvalidArgument("max_influences must be >= 1".into()));
-    }
-    if !(opts.min_weight.is_finite() && (0.0..1.0).contains(&opts.min_weight)) {
-        return Err(Error::InvalidArgument(format!("min_weight must be in [0, 1), got {}", opts.min_weight)));
-    }
-    if !(opts.weld_tolerance.is_finite() && opts.weld_tolerance >= 0.0) {
-        return Err(Error::InvalidArgument(format!("weld_tolerance must be >= 0, got {}", opts.weld_tolerance)));
-    }
-    if !(opts.heat_constant.is_finite() && opts.heat_constant > 0.0) {
-        return Err(Error::InvalidArgument(format!("heat_constant must be > 0, got {}", opts.heat_constant)));
-    }
-    let (ls, le) = (opts.weight_limit_start, opts.weight_limit_end);
-    if !(ls.is_finite() && le.is_finite() && 0.0 <= le && le <= ls && ls < 1.0) {
-        return Err(Error::InvalidArgument(format!(
-            "weight limits must satisfy 0 <= end <= start < 1, got start {ls}, end {le}"
-        )));
-    }
+    validate(vertices, triangles, heads, tails, opts)?;
     let b = heads.len();
-    if let Some(s) = &opts.symmetry {
-        validate_bone_mirror(&s.bone_mirror, b)?;
-        if s.axis > 2 || !(s.tolerance.is_finite() && s.tolerance >= 0.0) {
-            return Err(Error::InvalidArgument("symmetry axis must be 0..=2 and tolerance >= 0".into()));
-        }
-    }
-    if let Some(parents) = &opts.parents {
-        crate::reach::validate_parents(parents, b)?;
-    }
-    if let Some(c) = &opts.curves {
-        if c.points.len() != c.bone.len() {
-            return Err(Error::Shape(format!("{} curve points but {} curve bones", c.points.len(), c.bone.len())));
-        }
-        if let Some(&j) = c.bone.iter().find(|&&j| j as usize >= b) {
-            return Err(Error::InvalidArgument(format!("curve point of bone {j}, but there are {b} bones")));
-        }
-        let bad = count_non_finite(&c.points);
-        if bad > 0 {
-            return Err(Error::NonFinite { what: "curve point", count: bad });
-        }
-    }
-    if u32::try_from(b).is_err() || u32::try_from(vertices.len()).is_err() {
-        return Err(Error::InvalidArgument("too many bones or vertices (limit 2^32 - 1)".into()));
-    }
     tick(0.0)?;
 
     // 2. Normalize, weld, clean faces.
@@ -359,7 +279,7 @@ pub fn heat_weights(
     //      and its symbolic Cholesky analysis (AMD ordering + supernodes); then every vertex
     //      looks for its nearest visible bone on all threads.
     let need_rays = opts.visibility || opts.rigid_accessories || opts.parents.is_some();
-    let ((ray_mesh, t_bvh), ((labels, npieces), oriented, cot, normals, csc, mut symbolic, t_lap, t_sym)) = rayon::join(
+    let ((ray_mesh, t_bvh), ((labels, npieces), oriented, cot, normals, csc, symbolic, t_lap, t_sym)) = rayon::join(
         || {
             let s = Instant::now();
             let ray_mesh = need_rays.then(|| {
@@ -408,7 +328,7 @@ pub fn heat_weights(
         bone_len[o as usize] = bone_len[o as usize].max((*t - *h).length());
     }
     // Which pieces hold a bone (see the doc): for rigid accessories, and on a mesh in several
-    // pieces for the second look through a vertex's own piece (see `Sight`).
+    // pieces for the second look through a vertex's own piece (see `sources::heat_sources`).
     let rays = ray_mesh.as_ref().filter(|_| opts.visibility);
     let inside: Vec<bool> = match ray_mesh.as_ref() {
         Some(rm) if opts.rigid_accessories || (npieces > 1 && rays.is_some()) => (0..npieces)
@@ -418,70 +338,18 @@ pub fn heat_weights(
         _ => vec![false; npieces],
     };
     let tri_piece: Option<Vec<u32>> = (npieces > 1).then(|| tris.iter().map(|t| labels[t[0] as usize]).collect());
-    let mut sources: Vec<Source> = Vec::with_capacity(nw);
-    wpos.par_iter()
-        .with_min_len(256)
-        .zip(normals.par_iter())
-        .zip(labels.par_iter())
-        .map_init(
-            || vec![0.0f64; 2 * segs.len()],
-            |dist, ((x, n), &piece)| {
-                let whole = rays.map(|rays| Sight { rays, tri_piece: None, piece, normal: *n });
-                let s = nearest_visible_bone(*x, *n, &segs, whole, dist);
-                if s.count > 0 || tri_piece.is_none() || !inside[piece as usize] {
-                    return s.owned(&owner);
-                }
-                let own = rays.map(|rays| Sight { rays, tri_piece: tri_piece.as_deref(), piece, normal: *n });
-                nearest_visible_bone(*x, *n, &segs, own, dist).owned(&owner)
-            },
-        )
-        .collect_into_vec(&mut sources);
+    let mut sources = heat_sources(&wpos, &normals, &labels, &segs, &owner, rays, tri_piece.as_deref(), &inside);
     mark_sources(&mut pieces, &labels, &sources);
     lap(&mut report, "rays");
     tick(0.2)?;
 
     // 6. Pieces: fallback and rigid accessories; isolated vertices.
-    let c = HEAT_SCALE * opts.heat_constant as f64;
-    let mut rigid: Vec<Option<Ties>> = vec![None; npieces];
-    // Accessories (see the doc of `heat_weights`).
-    if opts.rigid_accessories && ray_mesh.is_some() {
-        let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
-        for (h, t) in &segs {
-            lo = lo.min(h.min(*t));
-            hi = hi.max(h.max(*t));
-        }
-        let max_size = ACCESSORY_SIZE * (hi - lo).length();
-        let active: Vec<usize> = (0..npieces).filter(|&i| pieces[i].active).collect();
-        report.boneless_pieces = active.iter().filter(|&&i| !inside[i]).count();
-        let largest = active.iter().copied().max_by(|&a, &b| pieces[a].area.total_cmp(&pieces[b].area));
-        let union = active.iter().fold(PieceStats::default(), |u, &i| u.merged(&pieces[i]));
-        if !active.is_empty() && active.iter().all(|&i| !inside[i]) && union.size() <= max_size {
-            // A prop (the whole mesh holds no bone): one rigid body on one bone.
-            let ties = nearest_bones(union.centre(), &segs).owned(&owner);
-            for &i in &active {
-                rigid[i] = Some(ties);
-            }
-        } else {
-            for &i in &active {
-                if !inside[i] && Some(i) != largest && pieces[i].size() <= max_size {
-                    rigid[i] = Some(nearest_bones(pieces[i].centre(), &segs).owned(&owner));
-                }
-            }
-        }
-    }
-    for (i, p) in pieces.iter_mut().enumerate() {
-        if !p.active {
-            continue;
-        }
-        report.pieces += 1;
-        if !p.sees {
-            report.fallback_pieces += 1;
-            if rigid[i].is_none() && p.size() <= bone_len[p.best.1 as usize] {
-                rigid[i] = Some(Ties::one(p.best.1));
-            }
-        }
-        report.rigid_pieces += rigid[i].is_some() as usize;
-    }
+    let accessories = opts.rigid_accessories && ray_mesh.is_some();
+    let (rigid, counts) = rigid_pieces(&pieces, &inside, &segs, &owner, &bone_len, accessories);
+    report.pieces = counts.pieces;
+    report.fallback_pieces = counts.fallback;
+    report.rigid_pieces = counts.rigid;
+    report.boneless_pieces = counts.boneless;
     // Fallback sources: nearest bone by distance for vertices of pieces that see nothing.
     sources.par_iter_mut().zip(labels.par_iter()).with_min_len(1024).for_each(|(s, &l)| {
         if !pieces[l as usize].sees {
@@ -493,6 +361,7 @@ pub fn heat_weights(
     report.isolated_vertices = (0..vertices.len()).filter(|&v| mass[map[v] as usize] <= 0.0).count();
 
     // 7. Assemble A = L + M H (+ regularization), RHS = M H P (column-major, nw x b).
+    let c = HEAT_SCALE * opts.heat_constant as f64;
     let heat: Vec<f64> = sources
         .par_iter()
         .zip(mass.par_iter())
@@ -500,16 +369,7 @@ pub fn heat_weights(
         .map(|(s, &m)| if m > 0.0 && s.count > 0 { m * c / s.dist.max(MIN_DISTANCE).powi(2) } else { 0.0 })
         .collect();
     drop(cot.edges);
-    let mut x = vec![0.0f64; nw * b];
-    for v in 0..nw {
-        let s = &sources[v];
-        if heat[v] > 0.0 {
-            let share = heat[v] / s.count as f64;
-            for &j in &s.bones[..s.count as usize] {
-                x[j as usize * nw + v] += share;
-            }
-        }
-    }
+    let mut x = source_columns(&sources, &heat, b);
     let values_for = |r: f64| -> Vec<f64> {
         let mut vals = csc.values.clone();
         for v in 0..nw {
@@ -522,24 +382,12 @@ pub fn heat_weights(
     tick(0.3)?;
 
     // 8. Factor once, solve all bones.
-    let mut llt: Option<Factor> = None;
-    for (attempt, &r) in REGULARIZATION.iter().enumerate() {
-        let Some(s) = symbolic.take() else { break };
-        let vals = values_for(r);
-        match numeric_factor(s, SparseColMatRef::new(symbolic_mat, &vals)) {
-            Ok(f) => {
-                report.regularized = attempt > 0;
-                llt = Some(f);
-                break;
-            }
-            Err(s) => symbolic = Some(s),
-        }
-    }
-    drop(symbolic);
+    let llt = symbolic.and_then(|s| factor_first(s, symbolic_mat, &REGULARIZATION, values_for));
+    report.regularized = matches!(llt, Some((_, attempt)) if attempt > 0);
     lap(&mut report, "factor");
     tick(0.6)?;
     match &llt {
-        Some(llt) => {
+        Some((llt, _)) => {
             let threads = rayon::current_num_threads().max(1);
             // One block of columns per worker, all solved at once: faer's supernodal solve
             // is BLAS-3 in the right-hand sides (a triangular solve and a matmul per supernode
@@ -562,8 +410,7 @@ pub fn heat_weights(
         None => {
             report.factorization_failed = true;
             x.par_iter_mut().for_each(|w| *w = 0.0);
-            for v in 0..nw {
-                let s = &sources[v];
+            for (v, s) in sources.iter().enumerate() {
                 for &j in &s.bones[..s.count as usize] {
                     x[j as usize * nw + v] = 1.0 / s.count as f64;
                 }
@@ -595,6 +442,93 @@ pub fn heat_weights(
     }
 
     // 11. Top-k per welded vertex, then copy to every input vertex.
+    let welded = top_k_columns(&x, nw, b, opts, &sources);
+    drop(x);
+    let out = unweld(&welded, &map);
+    lap(&mut report, "finish");
+    report.timings.push(("total", t0.elapsed().as_secs_f64()));
+    tick(1.0)?;
+    Ok((out, report))
+}
+
+/// Check the inputs and options of [`heat_weights`].
+fn validate(
+    vertices: &[[f32; 3]],
+    triangles: &[[u32; 3]],
+    heads: &[[f32; 3]],
+    tails: &[[f32; 3]],
+    opts: &HeatOptions,
+) -> Result<()> {
+    validate_mesh(vertices, triangles, false)?;
+    validate_bones(heads, tails)?;
+    if opts.max_influences == 0 {
+        return Err(Error::InvalidArgument("max_influences must be >= 1".into()));
+    }
+    if !(opts.min_weight.is_finite() && (0.0..1.0).contains(&opts.min_weight)) {
+        return Err(Error::InvalidArgument(format!("min_weight must be in [0, 1), got {}", opts.min_weight)));
+    }
+    if !(opts.weld_tolerance.is_finite() && opts.weld_tolerance >= 0.0) {
+        return Err(Error::InvalidArgument(format!("weld_tolerance must be >= 0, got {}", opts.weld_tolerance)));
+    }
+    if !(opts.heat_constant.is_finite() && opts.heat_constant > 0.0) {
+        return Err(Error::InvalidArgument(format!("heat_constant must be > 0, got {}", opts.heat_constant)));
+    }
+    let (ls, le) = (opts.weight_limit_start, opts.weight_limit_end);
+    if !(ls.is_finite() && le.is_finite() && 0.0 <= le && le <= ls && ls < 1.0) {
+        return Err(Error::InvalidArgument(format!(
+            "weight limits must satisfy 0 <= end <= start < 1, got start {ls}, end {le}"
+        )));
+    }
+    let b = heads.len();
+    if let Some(s) = &opts.symmetry {
+        validate_bone_mirror(&s.bone_mirror, b)?;
+        if s.axis > 2 || !(s.tolerance.is_finite() && s.tolerance >= 0.0) {
+            return Err(Error::InvalidArgument("symmetry axis must be 0..=2 and tolerance >= 0".into()));
+        }
+    }
+    if let Some(parents) = &opts.parents {
+        crate::reach::validate_parents(parents, b)?;
+    }
+    if let Some(c) = &opts.curves {
+        if c.points.len() != c.bone.len() {
+            return Err(Error::Shape(format!("{} curve points but {} curve bones", c.points.len(), c.bone.len())));
+        }
+        if let Some(&j) = c.bone.iter().find(|&&j| j as usize >= b) {
+            return Err(Error::InvalidArgument(format!("curve point of bone {j}, but there are {b} bones")));
+        }
+        let bad = count_non_finite(&c.points);
+        if bad > 0 {
+            return Err(Error::NonFinite { what: "curve point", count: bad });
+        }
+    }
+    if u32::try_from(b).is_err() || u32::try_from(vertices.len()).is_err() {
+        return Err(Error::InvalidArgument("too many bones or vertices (limit 2^32 - 1)".into()));
+    }
+    Ok(())
+}
+
+/// The right-hand sides `M H P`, column-major `(n, b)`: each vertex's heat `heat[v]`
+/// (`M_ii H_ii`) shared equally among its source bones.
+fn source_columns(sources: &[Source], heat: &[f64], b: usize) -> Vec<f64> {
+    let nw = sources.len();
+    let mut x = vec![0.0f64; nw * b];
+    for (v, s) in sources.iter().enumerate() {
+        if heat[v] > 0.0 {
+            let share = heat[v] / s.count as f64;
+            for &j in &s.bones[..s.count as usize] {
+                x[j as usize * nw + v] += share;
+            }
+        }
+    }
+    x
+}
+
+/// Per vertex of the column-major `(n, b)` weights `x`: Blender's small-weight ramp
+/// ([`weight_limit`]), then the top `max_influences`, pruned and normalized ([`top_k_row`]).
+/// A row whose weights all fall below the ramp keeps them unramped; an empty row takes the
+/// vertex's nearest bone.
+fn top_k_columns(x: &[f64], nw: usize, b: usize, opts: &HeatOptions, sources: &[Source]) -> Influences {
+    let (ls, le) = (opts.weight_limit_start, opts.weight_limit_end);
     let mut welded = Influences::empty(nw, opts.max_influences.min(b));
     let k = welded.k;
     welded.indices.par_chunks_mut(k).zip(welded.weights.par_chunks_mut(k)).enumerate().with_min_len(1024).for_each(
@@ -610,8 +544,13 @@ pub fn heat_weights(
             }
         },
     );
-    drop(x);
-    let mut out = Influences::empty(vertices.len(), k);
+    welded
+}
+
+/// The rows of `welded` copied to every input vertex (`map[i]`: the welded vertex of input `i`).
+fn unweld(welded: &Influences, map: &[u32]) -> Influences {
+    let k = welded.k;
+    let mut out = Influences::empty(map.len(), k);
     out.indices.par_chunks_mut(k).zip(out.weights.par_chunks_mut(k)).zip(map.par_iter()).with_min_len(1024).for_each(
         |((idx, w), &m)| {
             let (si, sw) = welded.row(m as usize);
@@ -619,35 +558,7 @@ pub fn heat_weights(
             w.copy_from_slice(sw);
         },
     );
-    lap(&mut report, "finish");
-    report.timings.push(("total", t0.elapsed().as_secs_f64()));
-    tick(1.0)?;
-    Ok((out, report))
-}
-
-/// Unit area-weighted vertex normals (zero for vertices in no triangle), oriented outward
-/// per piece: a piece whose signed volume is negative has its normals flipped.
-fn vertex_normals(wpos: &[DVec3], tris: &[[u32; 3]], labels: &[u32], npieces: usize) -> Vec<DVec3> {
-    let mut n = vec![DVec3::ZERO; wpos.len()];
-    let mut vol = vec![0.0f64; npieces];
-    let mut lo = vec![DVec3::splat(f64::INFINITY); npieces];
-    for (v, &l) in labels.iter().enumerate() {
-        lo[l as usize] = lo[l as usize].min(wpos[v]);
-    }
-    for t in tris {
-        let [a, b, c] = t.map(|i| wpos[i as usize]);
-        let f = (b - a).cross(c - a);
-        for &i in t {
-            n[i as usize] += f;
-        }
-        let r = lo[labels[t[0] as usize] as usize];
-        vol[labels[t[0] as usize] as usize] += (a - r).dot((b - r).cross(c - r));
-    }
-    n.par_iter_mut().zip(labels.par_iter()).with_min_len(4096).for_each(|(n, &l)| {
-        let s = if vol[l as usize] < 0.0 { -1.0 } else { 1.0 };
-        *n = (*n * s).normalize_or_zero();
-    });
-    n
+    out
 }
 
 /// `segs` / `owner` with every bent bone's segments replaced by its polyline head -> points
@@ -690,456 +601,6 @@ pub fn weight_limit(w: f32, start: f32, end: f32) -> f32 {
     }
 }
 
-/// Up to [`MAX_TIES`] bones sharing one role equally.
-#[derive(Clone, Copy, Debug, PartialEq)]
-struct Ties {
-    bones: [u32; MAX_TIES],
-    count: u8,
-}
-
-impl Ties {
-    fn one(j: u32) -> Ties {
-        Ties { bones: [j, u32::MAX, u32::MAX, u32::MAX], count: 1 }
-    }
-
-    /// Segment indices mapped to their bones (`owner`), duplicates merged.
-    fn owned(self, owner: &[u32]) -> Ties {
-        let (bones, count) = owned_ties(self.bones, self.count, owner);
-        Ties { bones, count }
-    }
-}
-
-/// The first `count` segment indices of `ties` mapped through `owner`, duplicates merged,
-/// order kept; `u32::MAX` padded.
-fn owned_ties(ties: [u32; MAX_TIES], count: u8, owner: &[u32]) -> ([u32; MAX_TIES], u8) {
-    let mut out = [u32::MAX; MAX_TIES];
-    let mut n = 0u8;
-    for &j in &ties[..count as usize] {
-        let o = owner[j as usize];
-        if !out[..n as usize].contains(&o) {
-            out[n as usize] = o;
-            n += 1;
-        }
-    }
-    (out, n)
-}
-
-impl Source {
-    /// The same source in bones: segment indices mapped through `owner` (ties of one bone's
-    /// segments merged).
-    fn owned(self, owner: &[u32]) -> Source {
-        let (bones, count) = owned_ties(self.bones, self.count, owner);
-        Source { bones, count, nearest: self.nearest.owned(owner), ..self }
-    }
-}
-
-/// The bone(s) nearest to the point `p` (ties within [`TIE_RATIO`], lowest indices first).
-fn nearest_bones(p: DVec3, bones: &[(DVec3, DVec3)]) -> Ties {
-    let d: Vec<f64> = bones.iter().map(|(h, t)| closest_point_on_segment(p, *h, *t).1).collect();
-    least(&d)
-}
-
-/// The indices of the least of the distances `d` (ties within [`TIE_RATIO`], lowest first; 0
-/// when there is none).
-fn least(d: &[f64]) -> Ties {
-    let best = d.iter().copied().fold(f64::INFINITY, f64::min);
-    let mut out = Ties { bones: [u32::MAX; MAX_TIES], count: 0 };
-    for (j, &dj) in d.iter().enumerate() {
-        if dj <= best * TIE_RATIO + 1e-12 && (out.count as usize) < MAX_TIES {
-            out.bones[out.count as usize] = j as u32;
-            out.count += 1;
-        }
-    }
-    if out.count == 0 {
-        out = Ties::one(0);
-    }
-    out
-}
-
-/// Geometry of one connected piece (welded, unit frame).
-#[derive(Clone, Debug)]
-struct PieceStats {
-    /// Has a vertex with positive mass (a usable triangle).
-    active: bool,
-    /// Some vertex sees a bone.
-    sees: bool,
-    lo: DVec3,
-    hi: DVec3,
-    /// Nearest (distance, bone) over the piece's vertices, ignoring visibility.
-    best: (f64, u32),
-    area: f64,
-    /// Sum of triangle area times centroid.
-    area_moment: DVec3,
-    /// Signed enclosed volume and its first moment (meaningful when closed).
-    volume: f64,
-    volume_moment: DVec3,
-    /// Every edge is used by an even number of the piece's triangles.
-    closed: bool,
-}
-
-impl Default for PieceStats {
-    fn default() -> Self {
-        PieceStats {
-            active: false,
-            sees: false,
-            lo: DVec3::splat(f64::INFINITY),
-            hi: DVec3::splat(f64::NEG_INFINITY),
-            best: (f64::INFINITY, 0),
-            area: 0.0,
-            area_moment: DVec3::ZERO,
-            volume: 0.0,
-            volume_moment: DVec3::ZERO,
-            closed: true,
-        }
-    }
-}
-
-impl PieceStats {
-    /// Bounding-box diagonal.
-    fn size(&self) -> f64 {
-        if self.hi.x >= self.lo.x {
-            (self.hi - self.lo).length()
-        } else {
-            0.0
-        }
-    }
-
-    /// Centre of mass: of the enclosed volume for a closed piece with a volume, else of the
-    /// surface area, else of the bounding box.
-    fn centre(&self) -> DVec3 {
-        if self.closed && self.volume.abs() > 1e-9 * self.area.powf(1.5) {
-            self.volume_moment / self.volume
-        } else if self.area > 0.0 {
-            self.area_moment / self.area
-        } else {
-            0.5 * (self.lo + self.hi)
-        }
-    }
-
-    /// Two pieces as one body (volume terms of closed pieces do not depend on the reference
-    /// point, so they add).
-    fn merged(&self, o: &PieceStats) -> PieceStats {
-        PieceStats {
-            active: self.active || o.active,
-            sees: self.sees || o.sees,
-            lo: self.lo.min(o.lo),
-            hi: self.hi.max(o.hi),
-            best: if o.best.0 < self.best.0 { o.best } else { self.best },
-            area: self.area + o.area,
-            area_moment: self.area_moment + o.area_moment,
-            volume: self.volume + o.volume,
-            volume_moment: self.volume_moment + o.volume_moment,
-            closed: self.closed && o.closed,
-        }
-    }
-}
-
-/// Per-piece geometry: bbox, area, volume, closedness (an XOR of hashed edges per piece is
-/// 0 exactly when, up to hash collisions, every edge occurs an even number of times).
-/// Visibility and the nearest bone come later, from [`mark_sources`].
-fn piece_stats(labels: &[u32], npieces: usize, wpos: &[DVec3], tris: &[[u32; 3]], mass: &[f64]) -> Vec<PieceStats> {
-    let mut pieces = vec![PieceStats::default(); npieces];
-    for (v, &l) in labels.iter().enumerate() {
-        let p = &mut pieces[l as usize];
-        p.active |= mass[v] > 0.0;
-        p.lo = p.lo.min(wpos[v]);
-        p.hi = p.hi.max(wpos[v]);
-    }
-    let mut xor = vec![0u64; npieces];
-    for t in tris {
-        let l = labels[t[0] as usize] as usize;
-        let p = &mut pieces[l];
-        let r = 0.5 * (p.lo + p.hi);
-        let [a, b, c] = t.map(|i| wpos[i as usize]);
-        let area = 0.5 * (b - a).cross(c - a).length();
-        p.area += area;
-        p.area_moment += area * (a + b + c) / 3.0;
-        let vol = (a - r).dot((b - r).cross(c - r)) / 6.0;
-        p.volume += vol;
-        p.volume_moment += vol * (r + a + b + c) / 4.0;
-        for k in 0..3 {
-            let (i, j) = (t[k].min(t[(k + 1) % 3]), t[k].max(t[(k + 1) % 3]));
-            xor[l] ^= splitmix64(((i as u64) << 32) | j as u64);
-        }
-    }
-    for (p, x) in pieces.iter_mut().zip(xor) {
-        p.closed = x == 0;
-    }
-    pieces
-}
-
-/// Per piece: does some vertex see a bone, and which bone is nearest to it.
-fn mark_sources(pieces: &mut [PieceStats], labels: &[u32], sources: &[Source]) {
-    for (s, &l) in sources.iter().zip(labels) {
-        let p = &mut pieces[l as usize];
-        p.sees |= s.count > 0;
-        if s.nearest_dist < p.best.0 {
-            p.best = (s.nearest_dist, s.nearest.bones[0]);
-        }
-    }
-}
-
-/// The segments standing for the bones on an imported rig (see [`HeatOptions::parents`]):
-/// per bone, its spans to children ([`crate::reach::child_segments`]) that lie inside a
-/// piece of the mesh (as in [`piece_contains_bone`]), plus head -> tail when a child starts
-/// at the tail or no span is inside. Returns `(segments, bone of each segment)`.
-fn reach_segments(
-    rm: &RayMesh,
-    bones: &[(DVec3, DVec3)],
-    parents: &[i32],
-    pieces: &[PieceStats],
-    labels: &[u32],
-    tris: &[[u32; 3]],
-) -> (Vec<(DVec3, DVec3)>, Vec<u32>) {
-    let heads: Vec<DVec3> = bones.iter().map(|s| s.0).collect();
-    let tails: Vec<DVec3> = bones.iter().map(|s| s.1).collect();
-    let (spans, tail_child) = crate::reach::child_segments(&heads, &tails, parents, REACH_TOLERANCE);
-    let inside: Vec<bool> = spans
-        .par_iter()
-        .map(|&(j, c)| {
-            let seg = [(heads[j], c)];
-            pieces.iter().enumerate().any(|(i, p)| p.active && piece_contains_bone(rm, i as u32, p, &seg, labels, tris))
-        })
-        .collect();
-    let (mut segs, mut owner) = (Vec::new(), Vec::new());
-    for j in 0..bones.len() {
-        let mine: Vec<DVec3> =
-            spans.iter().zip(&inside).filter(|(s, &ins)| s.0 == j && ins).map(|(s, _)| s.1).collect();
-        if mine.is_empty() || tail_child[j] {
-            segs.push(bones[j]);
-            owner.push(j as u32);
-        }
-        for c in mine {
-            segs.push((heads[j], c));
-            owner.push(j as u32);
-        }
-    }
-    (segs, owner)
-}
-
-#[inline]
-fn splitmix64(x: u64) -> u64 {
-    let mut z = x.wrapping_add(0x9E37_79B9_7F4A_7C15);
-    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    z ^ (z >> 31)
-}
-
-/// Does some bone lie inside piece `piece`? A bone is inside when at least
-/// [`BONE_INSIDE_SAMPLES`] of its [`BONE_SAMPLES`] are, and a point is inside when the rays
-/// from it along a majority of [`PARITY_DIRS`] (3 for a closed piece, 7 for an open one)
-/// cross the piece's own triangles an odd number of times.
-fn piece_contains_bone(
-    rm: &RayMesh,
-    piece: u32,
-    stats: &PieceStats,
-    bones: &[(DVec3, DVec3)],
-    labels: &[u32],
-    tris: &[[u32; 3]],
-) -> bool {
-    let ndirs = if stats.closed { 3 } else { 7 };
-    let dirs: Vec<Vec3> = PARITY_DIRS[..ndirs].iter().map(|d| Vec3::from_array(*d).normalize()).collect();
-    let pad = DVec3::splat(1e-6);
-    let (lo, hi) = (stats.lo - pad, stats.hi + pad);
-    let own = |k: u32| labels[tris[k as usize][0] as usize] == piece;
-    bones.iter().any(|(h, t)| {
-        let mut count = 0;
-        for (n, &s) in BONE_SAMPLES.iter().enumerate() {
-            if count + (BONE_SAMPLES.len() - n) < BONE_INSIDE_SAMPLES {
-                break;
-            }
-            let p = *h + (*t - *h) * s;
-            if p.cmpge(lo).all() && p.cmple(hi).all() && rm.odd_parity_count(p.as_vec3(), &dirs, 1e-4, own) > ndirs / 2
-            {
-                count += 1;
-            }
-        }
-        count >= BONE_INSIDE_SAMPLES
-    })
-}
-
-/// A numeric Cholesky factor `A = L L^T` (faer, supernodal or simplicial, AMD ordering).
-struct Factor {
-    symbolic: SymbolicCholesky<usize>,
-    values: Vec<f64>,
-}
-
-impl Factor {
-    /// Solve `A X = B` in place for the column-major `(n, k)` block `cols`, columns split
-    /// across the rayon pool (each worker solves sequentially: many cheap supernodes make
-    /// fine-grained parallelism inside one solve a loss).
-    fn solve_columns(&self, cols: &mut [f64], n: usize) {
-        let k = cols.len() / n.max(1);
-        if k == 0 {
-            return;
-        }
-        let threads = rayon::current_num_threads().max(1);
-        let per = k.div_ceil(threads).max(1);
-        cols.par_chunks_mut(per * n).for_each(|chunk| {
-            let kc = chunk.len() / n;
-            let llt = LltRef::<usize, f64>::new(&self.symbolic, &self.values);
-            let req = self.symbolic.solve_in_place_scratch::<f64>(kc, Par::Seq);
-            let Ok(mut buf) = MemBuffer::try_new(req) else {
-                // Out of memory for scratch: NaN is clipped to 0 and those vertices fall back
-                // to their nearest bone (never a crash).
-                chunk.fill(f64::NAN);
-                return;
-            };
-            llt.solve_in_place_with_conj(
-                Conj::No,
-                MatMut::from_column_major_slice_mut(chunk, n, kc),
-                Par::Seq,
-                MemStack::new(&mut buf),
-            );
-        });
-    }
-}
-
-/// Symbolic analysis (AMD ordering, elimination tree, supernodes) of the lower pattern.
-fn symbolic_factor(a: SymbolicSparseColMatRef<'_, usize>) -> Option<SymbolicCholesky<usize>> {
-    factorize_symbolic_cholesky(a, Side::Lower, SymmetricOrdering::Amd, Default::default()).ok()
-}
-
-/// Numeric factorization; `None` on a non-positive pivot or allocation failure.
-// The Err hands the symbolic factorization back for a retry; boxing it would allocate on the
-// out-of-memory path (and `Factor`, the Ok side, is as large anyway).
-#[allow(clippy::result_large_err)]
-fn numeric_factor(
-    symbolic: SymbolicCholesky<usize>,
-    a: SparseColMatRef<'_, usize, f64>,
-) -> std::result::Result<Factor, SymbolicCholesky<usize>> {
-    let par = Par::rayon(0);
-    let mut values = Vec::new();
-    if values.try_reserve_exact(symbolic.len_val()).is_err() {
-        return Err(symbolic);
-    }
-    values.resize(symbolic.len_val(), 0.0);
-    let req = symbolic.factorize_numeric_llt_scratch::<f64>(par, Default::default());
-    let Ok(mut buf) = MemBuffer::try_new(req) else { return Err(symbolic) };
-    let ok = symbolic
-        .factorize_numeric_llt::<f64>(
-            &mut values,
-            a,
-            Side::Lower,
-            LltRegularization { dynamic_regularization_delta: 0.0, dynamic_regularization_epsilon: 0.0 },
-            par,
-            MemStack::new(&mut buf),
-            Default::default(),
-        )
-        .is_ok();
-    if ok {
-        Ok(Factor { symbolic, values })
-    } else {
-        Err(symbolic)
-    }
-}
-
-/// Nearest visible bone(s) of the point `x` (unit frame) with unit normal `normal` (zero:
-/// none). `scratch` is `(2 b,)`.
-///
-/// Bones are ranked by the normal-weighted distance `d / ((cos + 1.001) / 2)` (Blender's bone
-/// heat), `cos` the cosine between the normal and the direction from the bone's closest point
-/// to `x`: a bone behind the surface keeps its distance, one beside it counts double, one in
-/// front of it (outside the body) is all but excluded. The heat source uses that distance too.
-/// `nearest` is the nearest bone by plain distance.
-fn nearest_visible_bone(
-    x: DVec3,
-    normal: DVec3,
-    bones: &[(DVec3, DVec3)],
-    sight: Option<Sight>,
-    scratch: &mut [f64],
-) -> Source {
-    let b = bones.len();
-    let (dist, euclid) = scratch.split_at_mut(b);
-    let mut src =
-        Source { bones: [u32::MAX; MAX_TIES], count: 0, dist: 0.0, nearest: Ties::one(0), nearest_dist: f64::INFINITY };
-    for (j, (h, t)) in bones.iter().enumerate() {
-        let (s, d) = closest_point_on_segment(x, *h, *t);
-        euclid[j] = d;
-        dist[j] = d;
-        if d > 0.0 && normal != DVec3::ZERO {
-            let cos = (x - (*h + (*t - *h) * s)).dot(normal) / d;
-            dist[j] = d / (0.5 * (cos + 1.001));
-        }
-        src.nearest_dist = src.nearest_dist.min(d);
-    }
-    src.nearest = least(euclid);
-    // Walk the bones in increasing (distance, index) order without sorting.
-    let mut prev = (f64::NEG_INFINITY, usize::MAX);
-    let mut first: Option<f64> = None;
-    for step in 0..b {
-        let mut cur = (f64::INFINITY, usize::MAX);
-        for (j, &d) in dist.iter().enumerate() {
-            let after_prev = d > prev.0 || (d == prev.0 && (prev.1 == usize::MAX || j > prev.1));
-            if after_prev && (d < cur.0 || (d == cur.0 && j < cur.1)) {
-                cur = (d, j);
-            }
-        }
-        if cur.1 == usize::MAX {
-            break;
-        }
-        if let Some(d0) = first {
-            if cur.0 > d0 * TIE_RATIO + 1e-12 || src.count as usize == MAX_TIES {
-                break;
-            }
-        }
-        if first.is_none() && step >= MAX_VISIBILITY_TESTS {
-            break;
-        }
-        if is_visible(x, bones[cur.1], euclid[cur.1], sight) {
-            if first.is_none() {
-                first = Some(cur.0);
-                src.dist = cur.0;
-            }
-            src.bones[src.count as usize] = cur.1 as u32;
-            src.count += 1;
-        }
-        prev = cur;
-    }
-    src
-}
-
-/// Is the straight segment from the bone's closest point to `x` free of the surface?
-/// The segment starts at the bone and stops at `(1 - 1e-4) d - 1e-6` so the faces around
-/// the vertex itself do not count.
-fn is_visible(x: DVec3, bone: (DVec3, DVec3), d: f64, sight: Option<Sight>) -> bool {
-    let Some(Sight { rays, tri_piece, piece, normal }) = sight else { return true };
-    let stop = (1.0 - 1e-4) - 1e-6 / d.max(1e-300);
-    if !(stop > 0.0) {
-        return true;
-    }
-    let (t, _) = closest_point_on_segment(x, bone.0, bone.1);
-    let from = bone.0 + (bone.1 - bone.0) * t;
-    let to = from + (x - from) * stop;
-    match tri_piece {
-        // Through its own piece a vertex sees only bones behind its surface, inside the piece.
-        Some(tp) => {
-            (x - from).dot(normal) >= 0.0
-                && !rays.segment_blocked_where(from.as_vec3(), to.as_vec3(), |k| tp[k as usize] == piece)
-        }
-        None => !rays.segment_blocked(from.as_vec3(), to.as_vec3()),
-    }
-}
-
-/// What a vertex's visibility test looks through: every triangle of the mesh, or only those
-/// of the vertex's own piece (`tri_piece[k]`, the piece of triangle `k`, equal to `piece`).
-/// A vertex of a mesh in several pieces that sees no bone through the whole mesh looks again
-/// through its own piece: a coat or an armour layer in the same object as the body sees no
-/// bone through the body beneath it, bar a few vertices where a bone's end pokes out, and heat
-/// from those few spread over the whole layer (a creature's coat bound to its hands, feet and
-/// tail tip, as by Blender's Ctrl+P). Vertices that see a bone keep it, so parts pushed into
-/// each other still hide bones from each other as before. Only pieces that hold a bone (as
-/// for rigid accessories) look again, so a piece beside the body with no bone in it still sees
-/// none, and through its own piece a vertex sees only bones behind its surface (against its
-/// outward `normal`, unless that is zero).
-#[derive(Clone, Copy)]
-struct Sight<'a> {
-    rays: &'a RayMesh,
-    tri_piece: Option<&'a [u32]>,
-    piece: u32,
-    normal: DVec3,
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -1159,36 +620,5 @@ mod tests {
             assert!(idx[0] >= 0);
             assert!((w.iter().sum::<f32>() - 1.0).abs() < 1e-5);
         }
-    }
-}
-
-#[cfg(test)]
-mod visibility_tests {
-    use super::*;
-
-    /// A bone outside the mesh that is nearer than the inner bone but hidden behind a wall
-    /// must not be chosen; with visibility off it is.
-    #[test]
-    fn hidden_bone_is_skipped() {
-        let v: Vec<[f32; 3]> = (0..8).map(|i| [(i & 1) as f32, ((i >> 1) & 1) as f32, ((i >> 2) & 1) as f32]).collect();
-        let q = [[0, 1, 3, 2], [4, 6, 7, 5], [0, 4, 5, 1], [2, 3, 7, 6], [0, 2, 6, 4], [1, 5, 7, 3]];
-        let t: Vec<[u32; 3]> = q.iter().flat_map(|q| [[q[0], q[1], q[2]], [q[0], q[2], q[3]]]).collect();
-        let rm = RayMesh::new(&v, &t);
-        let bones = [
-            (DVec3::new(1.2, 0.5, 0.2), DVec3::new(1.2, 0.5, 0.8)), // outside, nearer
-            (DVec3::new(0.5, 0.5, 0.2), DVec3::new(0.5, 0.5, 0.8)), // inside
-        ];
-        let mut scratch = vec![0.0; 4];
-        let p = DVec3::new(0.9, 0.5, 0.5);
-        let whole = Some(Sight { rays: &rm, tri_piece: None, piece: 0, normal: DVec3::ZERO });
-        let s = nearest_visible_bone(p, DVec3::ZERO, &bones, whole, &mut scratch);
-        assert_eq!((s.count, s.bones[0], s.nearest), (1, 1, Ties::one(0)));
-        assert!((s.dist - 0.4).abs() < 1e-9);
-        let s = nearest_visible_bone(p, DVec3::ZERO, &bones, None, &mut scratch);
-        assert_eq!((s.count, s.bones[0]), (1, 0));
-        // Equidistant bones tie.
-        let tie = [bones[1], (DVec3::new(0.5, 0.5, 0.8), DVec3::new(0.5, 0.5, 0.2))];
-        let s = nearest_visible_bone(p, DVec3::ZERO, &tie, whole, &mut scratch);
-        assert_eq!((s.count, s.bones[0], s.bones[1]), (2, 0, 1));
     }
 }

@@ -22,10 +22,13 @@ pub mod weld;
 
 // Skinning weights.
 pub mod bilinear;
+mod cholesky;
 pub mod heat;
 pub mod idw;
 pub mod influence;
+mod pieces;
 pub mod reach;
+mod sources;
 pub mod symmetry;
 
 // Posing.

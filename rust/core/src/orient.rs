@@ -1,7 +1,9 @@
 //! Consistent face winding (libigl's `bfs_orient`): imported and hand-edited meshes often
 //! carry flipped faces, whose vertex normals then point inward and would hide the bones
-//! behind them from Blender's normal-weighted bone distance.
+//! behind them from Blender's normal-weighted bone distance; and the outward vertex normals
+//! that distance uses.
 
+use glam::DVec3;
 use rayon::prelude::*;
 
 /// No neighbour across an edge.
@@ -112,6 +114,31 @@ pub fn orient_faces(n: usize, triangles: &[[u32; 3]]) -> (Vec<[u32; 3]>, usize) 
         .map(|(t, &s)| if s == 2 { [t[0], t[2], t[1]] } else { *t })
         .collect();
     (out, flipped)
+}
+
+/// Unit area-weighted vertex normals (zero for vertices in no triangle), oriented outward
+/// per piece: a piece whose signed volume is negative has its normals flipped.
+pub(crate) fn vertex_normals(wpos: &[DVec3], tris: &[[u32; 3]], labels: &[u32], npieces: usize) -> Vec<DVec3> {
+    let mut n = vec![DVec3::ZERO; wpos.len()];
+    let mut vol = vec![0.0f64; npieces];
+    let mut lo = vec![DVec3::splat(f64::INFINITY); npieces];
+    for (v, &l) in labels.iter().enumerate() {
+        lo[l as usize] = lo[l as usize].min(wpos[v]);
+    }
+    for t in tris {
+        let [a, b, c] = t.map(|i| wpos[i as usize]);
+        let f = (b - a).cross(c - a);
+        for &i in t {
+            n[i as usize] += f;
+        }
+        let r = lo[labels[t[0] as usize] as usize];
+        vol[labels[t[0] as usize] as usize] += (a - r).dot((b - r).cross(c - r));
+    }
+    n.par_iter_mut().zip(labels.par_iter()).with_min_len(4096).for_each(|(n, &l)| {
+        let s = if vol[l as usize] < 0.0 { -1.0 } else { 1.0 };
+        *n = (*n * s).normalize_or_zero();
+    });
+    n
 }
 
 #[cfg(test)]

@@ -6,8 +6,14 @@
 //! really spans from its head to the heads of its children; [`child_segments`] lists those
 //! spans, and [`crate::heat`] uses the ones lying inside the mesh in place of head -> tail.
 
+use crate::pieces::{piece_contains_bone, PieceStats};
+use crate::visibility::RayMesh;
 use crate::{Error, Result};
 use glam::DVec3;
+use rayon::prelude::*;
+
+/// Distance (unit frame) under which a child's head counts as starting at a bone's tail or head.
+const REACH_TOLERANCE: f64 = 1e-5;
 
 /// Check a parent list for `b` bones: `(b,)`, each `-1` (root) or another bone's index.
 pub fn validate_parents(parents: &[i32], b: usize) -> Result<()> {
@@ -51,6 +57,44 @@ pub fn child_segments(heads: &[DVec3], tails: &[DVec3], parents: &[i32], tol: f6
         }
     }
     (spans, tail_child)
+}
+
+/// The segments standing for the bones on an imported rig (see [`crate::heat::HeatOptions::parents`]):
+/// per bone, its spans to children ([`crate::reach::child_segments`]) that lie inside a
+/// piece of the mesh (as in [`piece_contains_bone`]), plus head -> tail when a child starts
+/// at the tail or no span is inside. Returns `(segments, bone of each segment)`.
+pub(crate) fn reach_segments(
+    rm: &RayMesh,
+    bones: &[(DVec3, DVec3)],
+    parents: &[i32],
+    pieces: &[PieceStats],
+    labels: &[u32],
+    tris: &[[u32; 3]],
+) -> (Vec<(DVec3, DVec3)>, Vec<u32>) {
+    let heads: Vec<DVec3> = bones.iter().map(|s| s.0).collect();
+    let tails: Vec<DVec3> = bones.iter().map(|s| s.1).collect();
+    let (spans, tail_child) = crate::reach::child_segments(&heads, &tails, parents, REACH_TOLERANCE);
+    let inside: Vec<bool> = spans
+        .par_iter()
+        .map(|&(j, c)| {
+            let seg = [(heads[j], c)];
+            pieces.iter().enumerate().any(|(i, p)| p.active && piece_contains_bone(rm, i as u32, p, &seg, labels, tris))
+        })
+        .collect();
+    let (mut segs, mut owner) = (Vec::new(), Vec::new());
+    for j in 0..bones.len() {
+        let mine: Vec<DVec3> =
+            spans.iter().zip(&inside).filter(|(s, &ins)| s.0 == j && ins).map(|(s, _)| s.1).collect();
+        if mine.is_empty() || tail_child[j] {
+            segs.push(bones[j]);
+            owner.push(j as u32);
+        }
+        for c in mine {
+            segs.push((heads[j], c));
+            owner.push(j as u32);
+        }
+    }
+    (segs, owner)
 }
 
 #[cfg(test)]

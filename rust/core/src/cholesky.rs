@@ -1,0 +1,108 @@
+//! Sparse Cholesky factorization of the heat system with faer: symbolic analysis (AMD
+//! ordering, elimination tree, supernodes) once, numeric `A = L L^T` retried with more
+//! diagonal regularization when a pivot is not positive, and solves of many right-hand sides
+//! against the one factor, split across the rayon pool.
+
+use faer::dyn_stack::{MemBuffer, MemStack};
+use faer::linalg::cholesky::llt::factor::LltRegularization;
+use faer::sparse::linalg::cholesky::{factorize_symbolic_cholesky, LltRef, SymbolicCholesky, SymmetricOrdering};
+use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
+use faer::{Conj, MatMut, Par, Side};
+use rayon::prelude::*;
+
+/// A numeric Cholesky factor `A = L L^T` (faer, supernodal or simplicial, AMD ordering).
+pub(crate) struct Factor {
+    symbolic: SymbolicCholesky<usize>,
+    values: Vec<f64>,
+}
+
+impl Factor {
+    /// Solve `A X = B` in place for the column-major `(n, k)` block `cols`, columns split
+    /// across the rayon pool (each worker solves sequentially: many cheap supernodes make
+    /// fine-grained parallelism inside one solve a loss).
+    pub(crate) fn solve_columns(&self, cols: &mut [f64], n: usize) {
+        let k = cols.len() / n.max(1);
+        if k == 0 {
+            return;
+        }
+        let threads = rayon::current_num_threads().max(1);
+        let per = k.div_ceil(threads).max(1);
+        cols.par_chunks_mut(per * n).for_each(|chunk| {
+            let kc = chunk.len() / n;
+            let llt = LltRef::<usize, f64>::new(&self.symbolic, &self.values);
+            let req = self.symbolic.solve_in_place_scratch::<f64>(kc, Par::Seq);
+            let Ok(mut buf) = MemBuffer::try_new(req) else {
+                // Out of memory for scratch: NaN is clipped to 0 and those vertices fall back
+                // to their nearest bone (never a crash).
+                chunk.fill(f64::NAN);
+                return;
+            };
+            llt.solve_in_place_with_conj(
+                Conj::No,
+                MatMut::from_column_major_slice_mut(chunk, n, kc),
+                Par::Seq,
+                MemStack::new(&mut buf),
+            );
+        });
+    }
+}
+
+/// Symbolic analysis (AMD ordering, elimination tree, supernodes) of the lower pattern.
+pub(crate) fn symbolic_factor(a: SymbolicSparseColMatRef<'_, usize>) -> Option<SymbolicCholesky<usize>> {
+    factorize_symbolic_cholesky(a, Side::Lower, SymmetricOrdering::Amd, Default::default()).ok()
+}
+
+/// Numeric factor of the matrix with lower pattern `pattern` (analysed as `symbolic`) and the
+/// values `values(r)`, for each regularization `r` of `regularizations` in turn until one
+/// factors: that factor and the index of its `r`, or `None` when every attempt fails (a
+/// non-positive pivot, or out of memory).
+pub(crate) fn factor_first(
+    symbolic: SymbolicCholesky<usize>,
+    pattern: SymbolicSparseColMatRef<'_, usize>,
+    regularizations: &[f64],
+    values: impl Fn(f64) -> Vec<f64>,
+) -> Option<(Factor, usize)> {
+    let mut symbolic = symbolic;
+    for (attempt, &r) in regularizations.iter().enumerate() {
+        let vals = values(r);
+        match numeric_factor(symbolic, SparseColMatRef::new(pattern, &vals)) {
+            Ok(f) => return Some((f, attempt)),
+            Err(s) => symbolic = s,
+        }
+    }
+    None
+}
+
+/// Numeric factorization; `None` on a non-positive pivot or allocation failure.
+// The Err hands the symbolic factorization back for a retry; boxing it would allocate on the
+// out-of-memory path (and `Factor`, the Ok side, is as large anyway).
+#[allow(clippy::result_large_err)]
+fn numeric_factor(
+    symbolic: SymbolicCholesky<usize>,
+    a: SparseColMatRef<'_, usize, f64>,
+) -> std::result::Result<Factor, SymbolicCholesky<usize>> {
+    let par = Par::rayon(0);
+    let mut values = Vec::new();
+    if values.try_reserve_exact(symbolic.len_val()).is_err() {
+        return Err(symbolic);
+    }
+    values.resize(symbolic.len_val(), 0.0);
+    let req = symbolic.factorize_numeric_llt_scratch::<f64>(par, Default::default());
+    let Ok(mut buf) = MemBuffer::try_new(req) else { return Err(symbolic) };
+    let ok = symbolic
+        .factorize_numeric_llt::<f64>(
+            &mut values,
+            a,
+            Side::Lower,
+            LltRegularization { dynamic_regularization_delta: 0.0, dynamic_regularization_epsilon: 0.0 },
+            par,
+            MemStack::new(&mut buf),
+            Default::default(),
+        )
+        .is_ok();
+    if ok {
+        Ok(Factor { symbolic, values })
+    } else {
+        Err(symbolic)
+    }
+}

@@ -1,0 +1,265 @@
+//! Connected pieces of the welded mesh, for the robustness rules of [`crate::heat`]: each
+//! piece's geometry (bounding box, area, enclosed volume, closed or not), whether a bone lies
+//! inside it (ray parity), and which pieces are bound rigidly to one bone: accessories with no
+//! bone inside (an eye, a button, a held prop) and small pieces that see no bone.
+
+use crate::sources::{nearest_bones, Source, Ties};
+use crate::visibility::RayMesh;
+use glam::{DVec3, Vec3};
+
+/// Fixed generic directions of the ray-parity inside test: the first 3 for closed pieces
+/// (majority 2 of 3), all 7 for open ones (majority 4 of 7, see [`crate::heat::heat_weights`]).
+const PARITY_DIRS: [[f32; 3]; 7] = [
+    [0.48, 0.62, 0.62],
+    [-0.70, 0.31, 0.64],
+    [0.21, -0.89, 0.40],
+    [-0.37, -0.52, -0.77],
+    [0.83, 0.12, -0.54],
+    [-0.15, 0.95, -0.27],
+    [-0.91, -0.33, 0.25],
+];
+/// Positions along a bone (fractions head -> tail) tested by the inside test; a bone is
+/// inside a piece when at least [`BONE_INSIDE_SAMPLES`] of them are.
+const BONE_SAMPLES: [f64; 5] = [0.0, 0.25, 0.5, 0.75, 1.0];
+/// See [`BONE_SAMPLES`]: a majority, so a fingertip poking into a held prop does not count.
+const BONE_INSIDE_SAMPLES: usize = 3;
+/// An accessory is at most this fraction of the skeleton's bbox diagonal.
+const ACCESSORY_SIZE: f64 = 0.5;
+/// Geometry of one connected piece (welded, unit frame).
+#[derive(Clone, Debug)]
+pub(crate) struct PieceStats {
+    /// Has a vertex with positive mass (a usable triangle).
+    pub(crate) active: bool,
+    /// Some vertex sees a bone.
+    pub(crate) sees: bool,
+    pub(crate) lo: DVec3,
+    pub(crate) hi: DVec3,
+    /// Nearest (distance, bone) over the piece's vertices, ignoring visibility.
+    pub(crate) best: (f64, u32),
+    pub(crate) area: f64,
+    /// Sum of triangle area times centroid.
+    area_moment: DVec3,
+    /// Signed enclosed volume and its first moment (meaningful when closed).
+    volume: f64,
+    volume_moment: DVec3,
+    /// Every edge is used by an even number of the piece's triangles.
+    closed: bool,
+}
+
+impl Default for PieceStats {
+    fn default() -> Self {
+        PieceStats {
+            active: false,
+            sees: false,
+            lo: DVec3::splat(f64::INFINITY),
+            hi: DVec3::splat(f64::NEG_INFINITY),
+            best: (f64::INFINITY, 0),
+            area: 0.0,
+            area_moment: DVec3::ZERO,
+            volume: 0.0,
+            volume_moment: DVec3::ZERO,
+            closed: true,
+        }
+    }
+}
+
+impl PieceStats {
+    /// Bounding-box diagonal.
+    pub(crate) fn size(&self) -> f64 {
+        if self.hi.x >= self.lo.x {
+            (self.hi - self.lo).length()
+        } else {
+            0.0
+        }
+    }
+
+    /// Centre of mass: of the enclosed volume for a closed piece with a volume, else of the
+    /// surface area, else of the bounding box.
+    pub(crate) fn centre(&self) -> DVec3 {
+        if self.closed && self.volume.abs() > 1e-9 * self.area.powf(1.5) {
+            self.volume_moment / self.volume
+        } else if self.area > 0.0 {
+            self.area_moment / self.area
+        } else {
+            0.5 * (self.lo + self.hi)
+        }
+    }
+
+    /// Two pieces as one body (volume terms of closed pieces do not depend on the reference
+    /// point, so they add).
+    fn merged(&self, o: &PieceStats) -> PieceStats {
+        PieceStats {
+            active: self.active || o.active,
+            sees: self.sees || o.sees,
+            lo: self.lo.min(o.lo),
+            hi: self.hi.max(o.hi),
+            best: if o.best.0 < self.best.0 { o.best } else { self.best },
+            area: self.area + o.area,
+            area_moment: self.area_moment + o.area_moment,
+            volume: self.volume + o.volume,
+            volume_moment: self.volume_moment + o.volume_moment,
+            closed: self.closed && o.closed,
+        }
+    }
+}
+
+/// Per-piece geometry: bbox, area, volume, closedness (an XOR of hashed edges per piece is
+/// 0 exactly when, up to hash collisions, every edge occurs an even number of times).
+/// Visibility and the nearest bone come later, from [`mark_sources`].
+pub(crate) fn piece_stats(
+    labels: &[u32],
+    npieces: usize,
+    wpos: &[DVec3],
+    tris: &[[u32; 3]],
+    mass: &[f64],
+) -> Vec<PieceStats> {
+    let mut pieces = vec![PieceStats::default(); npieces];
+    for (v, &l) in labels.iter().enumerate() {
+        let p = &mut pieces[l as usize];
+        p.active |= mass[v] > 0.0;
+        p.lo = p.lo.min(wpos[v]);
+        p.hi = p.hi.max(wpos[v]);
+    }
+    let mut xor = vec![0u64; npieces];
+    for t in tris {
+        let l = labels[t[0] as usize] as usize;
+        let p = &mut pieces[l];
+        let r = 0.5 * (p.lo + p.hi);
+        let [a, b, c] = t.map(|i| wpos[i as usize]);
+        let area = 0.5 * (b - a).cross(c - a).length();
+        p.area += area;
+        p.area_moment += area * (a + b + c) / 3.0;
+        let vol = (a - r).dot((b - r).cross(c - r)) / 6.0;
+        p.volume += vol;
+        p.volume_moment += vol * (r + a + b + c) / 4.0;
+        for k in 0..3 {
+            let (i, j) = (t[k].min(t[(k + 1) % 3]), t[k].max(t[(k + 1) % 3]));
+            xor[l] ^= splitmix64(((i as u64) << 32) | j as u64);
+        }
+    }
+    for (p, x) in pieces.iter_mut().zip(xor) {
+        p.closed = x == 0;
+    }
+    pieces
+}
+
+/// Per piece: does some vertex see a bone, and which bone is nearest to it.
+pub(crate) fn mark_sources(pieces: &mut [PieceStats], labels: &[u32], sources: &[Source]) {
+    for (s, &l) in sources.iter().zip(labels) {
+        let p = &mut pieces[l as usize];
+        p.sees |= s.count > 0;
+        if s.nearest_dist < p.best.0 {
+            p.best = (s.nearest_dist, s.nearest.bones[0]);
+        }
+    }
+}
+
+/// What [`rigid_pieces`] counted, for [`crate::heat::HeatReport`].
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct PieceCounts {
+    /// Pieces with a usable triangle.
+    pub(crate) pieces: usize,
+    /// Of those, pieces where no vertex sees a bone.
+    pub(crate) fallback: usize,
+    /// Of those, pieces bound rigidly.
+    pub(crate) rigid: usize,
+    /// Of those, pieces with no bone inside (0 without `accessories`).
+    pub(crate) boneless: usize,
+}
+
+/// The bone(s) each piece is bound to rigidly, `None` for pieces solved by heat (the rules
+/// are in the doc of [`crate::heat::heat_weights`]). `accessories`: apply the accessory rules
+/// (`inside[i]`: piece `i` holds a bone); with or without them, a piece that sees no bone and
+/// is no larger than its nearest bone (`bone_len`, per bone) is rigid on that bone.
+pub(crate) fn rigid_pieces(
+    pieces: &[PieceStats],
+    inside: &[bool],
+    segs: &[(DVec3, DVec3)],
+    owner: &[u32],
+    bone_len: &[f64],
+    accessories: bool,
+) -> (Vec<Option<Ties>>, PieceCounts) {
+    let npieces = pieces.len();
+    let mut rigid: Vec<Option<Ties>> = vec![None; npieces];
+    let mut counts = PieceCounts::default();
+    if accessories {
+        let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
+        for (h, t) in segs {
+            lo = lo.min(h.min(*t));
+            hi = hi.max(h.max(*t));
+        }
+        let max_size = ACCESSORY_SIZE * (hi - lo).length();
+        let active: Vec<usize> = (0..npieces).filter(|&i| pieces[i].active).collect();
+        counts.boneless = active.iter().filter(|&&i| !inside[i]).count();
+        let largest = active.iter().copied().max_by(|&a, &b| pieces[a].area.total_cmp(&pieces[b].area));
+        let union = active.iter().fold(PieceStats::default(), |u, &i| u.merged(&pieces[i]));
+        if !active.is_empty() && active.iter().all(|&i| !inside[i]) && union.size() <= max_size {
+            // A prop (the whole mesh holds no bone): one rigid body on one bone.
+            let ties = nearest_bones(union.centre(), segs).owned(owner);
+            for &i in &active {
+                rigid[i] = Some(ties);
+            }
+        } else {
+            for &i in &active {
+                if !inside[i] && Some(i) != largest && pieces[i].size() <= max_size {
+                    rigid[i] = Some(nearest_bones(pieces[i].centre(), segs).owned(owner));
+                }
+            }
+        }
+    }
+    for (i, p) in pieces.iter().enumerate() {
+        if !p.active {
+            continue;
+        }
+        counts.pieces += 1;
+        if !p.sees {
+            counts.fallback += 1;
+            if rigid[i].is_none() && p.size() <= bone_len[p.best.1 as usize] {
+                rigid[i] = Some(Ties::one(p.best.1));
+            }
+        }
+        counts.rigid += rigid[i].is_some() as usize;
+    }
+    (rigid, counts)
+}
+
+#[inline]
+fn splitmix64(x: u64) -> u64 {
+    let mut z = x.wrapping_add(0x9E37_79B9_7F4A_7C15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^ (z >> 31)
+}
+
+/// Does some bone lie inside piece `piece`? A bone is inside when at least
+/// [`BONE_INSIDE_SAMPLES`] of its [`BONE_SAMPLES`] are, and a point is inside when the rays
+/// from it along a majority of [`PARITY_DIRS`] (3 for a closed piece, 7 for an open one)
+/// cross the piece's own triangles an odd number of times.
+pub(crate) fn piece_contains_bone(
+    rm: &RayMesh,
+    piece: u32,
+    stats: &PieceStats,
+    bones: &[(DVec3, DVec3)],
+    labels: &[u32],
+    tris: &[[u32; 3]],
+) -> bool {
+    let ndirs = if stats.closed { 3 } else { 7 };
+    let dirs: Vec<Vec3> = PARITY_DIRS[..ndirs].iter().map(|d| Vec3::from_array(*d).normalize()).collect();
+    let pad = DVec3::splat(1e-6);
+    let (lo, hi) = (stats.lo - pad, stats.hi + pad);
+    let own = |k: u32| labels[tris[k as usize][0] as usize] == piece;
+    bones.iter().any(|(h, t)| {
+        let mut count = 0;
+        for (n, &s) in BONE_SAMPLES.iter().enumerate() {
+            if count + (BONE_SAMPLES.len() - n) < BONE_INSIDE_SAMPLES {
+                break;
+            }
+            let p = *h + (*t - *h) * s;
+            if p.cmpge(lo).all() && p.cmple(hi).all() && rm.odd_parity_count(p.as_vec3(), &dirs, 1e-4, own) > ndirs / 2
+            {
+                count += 1;
+            }
+        }
+        count >= BONE_INSIDE_SAMPLES
+    })
+}

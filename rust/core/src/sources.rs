@@ -1,0 +1,275 @@
+//! Heat sources of the bone-heat solve ([`crate::heat`]): for every vertex, its nearest
+//! *visible* bone(s) (Baran & Popovic 2007, section 4: `p_j,i = 1` and `H_ii = c / d_i^2` come
+//! from the nearest bone whose straight line to the vertex stays inside the mesh), ranked by
+//! Blender's normal-weighted distance, with near-ties sharing, and the nearest bone by plain
+//! distance for the fallbacks.
+
+use crate::segment::closest_point_on_segment;
+use crate::visibility::RayMesh;
+use glam::DVec3;
+use rayon::prelude::*;
+
+/// Relative distance within which two visible bones tie (Pinocchio uses 1.0001).
+pub const TIE_RATIO: f64 = 1.0001;
+/// Up to this many tied bones share a vertex's heat source.
+pub(crate) const MAX_TIES: usize = 4;
+/// A vertex whose this many nearest bones are all hidden is treated as seeing none (bounds
+/// the ray casts for bone-less pieces; Pinocchio tests every bone).
+pub const MAX_VISIBILITY_TESTS: usize = 12;
+
+/// Per welded vertex: its heat source.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Source {
+    /// Nearest visible bones (ties), `u32::MAX` padded.
+    pub(crate) bones: [u32; MAX_TIES],
+    /// Number of valid entries of `bones`; 0 = sees no bone.
+    pub(crate) count: u8,
+    /// Distance to the nearest visible bone(s).
+    pub(crate) dist: f64,
+    /// Nearest bone(s) by distance, ignoring visibility (ties within [`TIE_RATIO`], lowest
+    /// indices first, so a vertex on a symmetric rig's mirror plane shares a left/right pair),
+    /// and their distance.
+    pub(crate) nearest: Ties,
+    pub(crate) nearest_dist: f64,
+}
+
+/// The heat source of every welded vertex: `wpos`, outward `normals` (zero: none) and piece
+/// `labels` per vertex; the segments `segs` standing for the bones and each one's bone
+/// (`owner`); `rays` for the visibility test (`None`: every bone is visible). A vertex that
+/// sees no bone, in a mesh of several pieces (`tri_piece`, the piece of each triangle) whose
+/// own piece holds a bone (`inside`), looks again through its own piece only (see [`Sight`]).
+/// Returned in bones, not segments.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn heat_sources(
+    wpos: &[DVec3],
+    normals: &[DVec3],
+    labels: &[u32],
+    segs: &[(DVec3, DVec3)],
+    owner: &[u32],
+    rays: Option<&RayMesh>,
+    tri_piece: Option<&[u32]>,
+    inside: &[bool],
+) -> Vec<Source> {
+    let mut sources: Vec<Source> = Vec::with_capacity(wpos.len());
+    wpos.par_iter()
+        .with_min_len(256)
+        .zip(normals.par_iter())
+        .zip(labels.par_iter())
+        .map_init(
+            || vec![0.0f64; 2 * segs.len()],
+            |dist, ((x, n), &piece)| {
+                let whole = rays.map(|rays| Sight { rays, tri_piece: None, piece, normal: *n });
+                let s = nearest_visible_bone(*x, *n, segs, whole, dist);
+                if s.count > 0 || tri_piece.is_none() || !inside[piece as usize] {
+                    return s.owned(owner);
+                }
+                let own = rays.map(|rays| Sight { rays, tri_piece, piece, normal: *n });
+                nearest_visible_bone(*x, *n, segs, own, dist).owned(owner)
+            },
+        )
+        .collect_into_vec(&mut sources);
+    sources
+}
+
+/// Up to [`MAX_TIES`] bones sharing one role equally.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct Ties {
+    pub(crate) bones: [u32; MAX_TIES],
+    pub(crate) count: u8,
+}
+
+impl Ties {
+    pub(crate) fn one(j: u32) -> Ties {
+        Ties { bones: [j, u32::MAX, u32::MAX, u32::MAX], count: 1 }
+    }
+
+    /// Segment indices mapped to their bones (`owner`), duplicates merged.
+    pub(crate) fn owned(self, owner: &[u32]) -> Ties {
+        let (bones, count) = owned_ties(self.bones, self.count, owner);
+        Ties { bones, count }
+    }
+}
+
+/// The first `count` segment indices of `ties` mapped through `owner`, duplicates merged,
+/// order kept; `u32::MAX` padded.
+fn owned_ties(ties: [u32; MAX_TIES], count: u8, owner: &[u32]) -> ([u32; MAX_TIES], u8) {
+    let mut out = [u32::MAX; MAX_TIES];
+    let mut n = 0u8;
+    for &j in &ties[..count as usize] {
+        let o = owner[j as usize];
+        if !out[..n as usize].contains(&o) {
+            out[n as usize] = o;
+            n += 1;
+        }
+    }
+    (out, n)
+}
+
+impl Source {
+    /// The same source in bones: segment indices mapped through `owner` (ties of one bone's
+    /// segments merged).
+    fn owned(self, owner: &[u32]) -> Source {
+        let (bones, count) = owned_ties(self.bones, self.count, owner);
+        Source { bones, count, nearest: self.nearest.owned(owner), ..self }
+    }
+}
+
+/// The bone(s) nearest to the point `p` (ties within [`TIE_RATIO`], lowest indices first).
+pub(crate) fn nearest_bones(p: DVec3, bones: &[(DVec3, DVec3)]) -> Ties {
+    let d: Vec<f64> = bones.iter().map(|(h, t)| closest_point_on_segment(p, *h, *t).1).collect();
+    least(&d)
+}
+
+/// The indices of the least of the distances `d` (ties within [`TIE_RATIO`], lowest first; 0
+/// when there is none).
+fn least(d: &[f64]) -> Ties {
+    let best = d.iter().copied().fold(f64::INFINITY, f64::min);
+    let mut out = Ties { bones: [u32::MAX; MAX_TIES], count: 0 };
+    for (j, &dj) in d.iter().enumerate() {
+        if dj <= best * TIE_RATIO + 1e-12 && (out.count as usize) < MAX_TIES {
+            out.bones[out.count as usize] = j as u32;
+            out.count += 1;
+        }
+    }
+    if out.count == 0 {
+        out = Ties::one(0);
+    }
+    out
+}
+
+/// Nearest visible bone(s) of the point `x` (unit frame) with unit normal `normal` (zero:
+/// none). `scratch` is `(2 b,)`.
+///
+/// Bones are ranked by the normal-weighted distance `d / ((cos + 1.001) / 2)` (Blender's bone
+/// heat), `cos` the cosine between the normal and the direction from the bone's closest point
+/// to `x`: a bone behind the surface keeps its distance, one beside it counts double, one in
+/// front of it (outside the body) is all but excluded. The heat source uses that distance too.
+/// `nearest` is the nearest bone by plain distance.
+fn nearest_visible_bone(
+    x: DVec3,
+    normal: DVec3,
+    bones: &[(DVec3, DVec3)],
+    sight: Option<Sight>,
+    scratch: &mut [f64],
+) -> Source {
+    let b = bones.len();
+    let (dist, euclid) = scratch.split_at_mut(b);
+    let mut src =
+        Source { bones: [u32::MAX; MAX_TIES], count: 0, dist: 0.0, nearest: Ties::one(0), nearest_dist: f64::INFINITY };
+    for (j, (h, t)) in bones.iter().enumerate() {
+        let (s, d) = closest_point_on_segment(x, *h, *t);
+        euclid[j] = d;
+        dist[j] = d;
+        if d > 0.0 && normal != DVec3::ZERO {
+            let cos = (x - (*h + (*t - *h) * s)).dot(normal) / d;
+            dist[j] = d / (0.5 * (cos + 1.001));
+        }
+        src.nearest_dist = src.nearest_dist.min(d);
+    }
+    src.nearest = least(euclid);
+    // Walk the bones in increasing (distance, index) order without sorting.
+    let mut prev = (f64::NEG_INFINITY, usize::MAX);
+    let mut first: Option<f64> = None;
+    for step in 0..b {
+        let mut cur = (f64::INFINITY, usize::MAX);
+        for (j, &d) in dist.iter().enumerate() {
+            let after_prev = d > prev.0 || (d == prev.0 && (prev.1 == usize::MAX || j > prev.1));
+            if after_prev && (d < cur.0 || (d == cur.0 && j < cur.1)) {
+                cur = (d, j);
+            }
+        }
+        if cur.1 == usize::MAX {
+            break;
+        }
+        if let Some(d0) = first {
+            if cur.0 > d0 * TIE_RATIO + 1e-12 || src.count as usize == MAX_TIES {
+                break;
+            }
+        }
+        if first.is_none() && step >= MAX_VISIBILITY_TESTS {
+            break;
+        }
+        if is_visible(x, bones[cur.1], euclid[cur.1], sight) {
+            if first.is_none() {
+                first = Some(cur.0);
+                src.dist = cur.0;
+            }
+            src.bones[src.count as usize] = cur.1 as u32;
+            src.count += 1;
+        }
+        prev = cur;
+    }
+    src
+}
+
+/// Is the straight segment from the bone's closest point to `x` free of the surface?
+/// The segment starts at the bone and stops at `(1 - 1e-4) d - 1e-6` so the faces around
+/// the vertex itself do not count.
+fn is_visible(x: DVec3, bone: (DVec3, DVec3), d: f64, sight: Option<Sight>) -> bool {
+    let Some(Sight { rays, tri_piece, piece, normal }) = sight else { return true };
+    let stop = (1.0 - 1e-4) - 1e-6 / d.max(1e-300);
+    if !(stop > 0.0) {
+        return true;
+    }
+    let (t, _) = closest_point_on_segment(x, bone.0, bone.1);
+    let from = bone.0 + (bone.1 - bone.0) * t;
+    let to = from + (x - from) * stop;
+    match tri_piece {
+        // Through its own piece a vertex sees only bones behind its surface, inside the piece.
+        Some(tp) => {
+            (x - from).dot(normal) >= 0.0
+                && !rays.segment_blocked_where(from.as_vec3(), to.as_vec3(), |k| tp[k as usize] == piece)
+        }
+        None => !rays.segment_blocked(from.as_vec3(), to.as_vec3()),
+    }
+}
+
+/// What a vertex's visibility test looks through: every triangle of the mesh, or only those
+/// of the vertex's own piece (`tri_piece[k]`, the piece of triangle `k`, equal to `piece`).
+/// A vertex of a mesh in several pieces that sees no bone through the whole mesh looks again
+/// through its own piece: a coat or an armour layer in the same object as the body sees no
+/// bone through the body beneath it, bar a few vertices where a bone's end pokes out, and heat
+/// from those few spread over the whole layer (a creature's coat bound to its hands, feet and
+/// tail tip, as by Blender's Ctrl+P). Vertices that see a bone keep it, so parts pushed into
+/// each other still hide bones from each other as before. Only pieces that hold a bone (as
+/// for rigid accessories) look again, so a piece beside the body with no bone in it still sees
+/// none, and through its own piece a vertex sees only bones behind its surface (against its
+/// outward `normal`, unless that is zero).
+#[derive(Clone, Copy)]
+struct Sight<'a> {
+    rays: &'a RayMesh,
+    tri_piece: Option<&'a [u32]>,
+    piece: u32,
+    normal: DVec3,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A bone outside the mesh that is nearer than the inner bone but hidden behind a wall
+    /// must not be chosen; with visibility off it is.
+    #[test]
+    fn hidden_bone_is_skipped() {
+        let v: Vec<[f32; 3]> = (0..8).map(|i| [(i & 1) as f32, ((i >> 1) & 1) as f32, ((i >> 2) & 1) as f32]).collect();
+        let q = [[0, 1, 3, 2], [4, 6, 7, 5], [0, 4, 5, 1], [2, 3, 7, 6], [0, 2, 6, 4], [1, 5, 7, 3]];
+        let t: Vec<[u32; 3]> = q.iter().flat_map(|q| [[q[0], q[1], q[2]], [q[0], q[2], q[3]]]).collect();
+        let rm = RayMesh::new(&v, &t);
+        let bones = [
+            (DVec3::new(1.2, 0.5, 0.2), DVec3::new(1.2, 0.5, 0.8)), // outside, nearer
+            (DVec3::new(0.5, 0.5, 0.2), DVec3::new(0.5, 0.5, 0.8)), // inside
+        ];
+        let mut scratch = vec![0.0; 4];
+        let p = DVec3::new(0.9, 0.5, 0.5);
+        let whole = Some(Sight { rays: &rm, tri_piece: None, piece: 0, normal: DVec3::ZERO });
+        let s = nearest_visible_bone(p, DVec3::ZERO, &bones, whole, &mut scratch);
+        assert_eq!((s.count, s.bones[0], s.nearest), (1, 1, Ties::one(0)));
+        assert!((s.dist - 0.4).abs() < 1e-9);
+        let s = nearest_visible_bone(p, DVec3::ZERO, &bones, None, &mut scratch);
+        assert_eq!((s.count, s.bones[0]), (1, 0));
+        // Equidistant bones tie.
+        let tie = [bones[1], (DVec3::new(0.5, 0.5, 0.8), DVec3::new(0.5, 0.5, 0.2))];
+        let s = nearest_visible_bone(p, DVec3::ZERO, &tie, whole, &mut scratch);
+        assert_eq!((s.count, s.bones[0], s.bones[1]), (2, 0, 1));
+    }
+}
