@@ -384,79 +384,246 @@ fn mirror_normal(points: &[Vec3], centre: Vec3) -> Vec3 {
 /// [`Error::NoBones`] naming what is missing when no legs or no head can be found.
 pub fn detect_roles(heads: &[[f32; 3]], tails: &[[f32; 3]], parents: &[i32], names: &[String]) -> Result<Roles> {
     validate(heads, tails, parents, names)?;
-    let n = heads.len();
-    let real_parents = parents;
-    let (joined, riders) = {
-        let all: Vec<Vec3> = heads.iter().chain(tails).map(|&p| v(p)).collect();
-        let zmin = all.iter().map(|p| p.z).fold(f32::INFINITY, f32::min);
-        let zmax = all.iter().map(|p| p.z).fold(f32::NEG_INFINITY, f32::max);
-        let lo = all.iter().fold(Vec3::splat(f32::INFINITY), |a, &p| a.min(p));
-        let hi = all.iter().fold(Vec3::splat(f32::NEG_INFINITY), |a, &p| a.max(p));
-        let mut has_child = vec![false; n];
-        for &p in parents.iter().filter(|&&p| p >= 0) {
-            has_child[p as usize] = true;
-        }
-        let ground_leaf: Vec<bool> = (0..n)
-            .map(|b| !has_child[b] && heads[b][2].min(tails[b][2]) - zmin <= GROUND_FRACTION * (zmax - zmin))
-            .collect();
-        let mut joined = joined_parents(heads, tails, parents, &ground_leaf, 1e-3 * (hi - lo).length());
-        let low_z = zmin + GROUND_FRACTION * (zmax - zmin);
-        let riders =
-            foot_riders(heads, tails, &joined, low_z, (RIDER_REACH * (zmax - zmin), RIDER_LIFT * (zmax - zmin)));
-        for &[r, e] in &riders {
-            joined[r] = e as i32;
-        }
-        (joined, riders)
-    };
-    let parents = &joined[..];
-    let tree = build_tree(parents);
-    let kids = &tree.children;
-    let h = |b: usize| v(heads[b]);
-    let t = |b: usize| v(tails[b]);
-
-    let pts: Vec<Vec3> = tree.order.iter().flat_map(|&b| [h(b), t(b)]).collect();
-    let ground = pts.iter().map(|p| p.z).fold(f32::INFINITY, f32::min);
-    let top = pts.iter().map(|p| p.z).fold(f32::NEG_INFINITY, f32::max);
-    let height = top - ground;
-    let lo = pts.iter().fold(Vec3::splat(f32::INFINITY), |a, &p| a.min(p));
-    let hi = pts.iter().fold(Vec3::splat(f32::NEG_INFINITY), |a, &p| a.max(p));
-    let size = (hi - lo).length();
-    if !(height > 1e-6 * size.max(1e-30)) || height <= 0.0 {
-        return Err(Error::NoBones(
-            "no legs: the skeleton is flat (no height along +Z), so no chain reaches down to the ground".into(),
+    let (joined, riders) = joined_hierarchy(heads, tails, parents);
+    let rig = Rig::new(heads, tails, names, &joined)?;
+    let legs = find_legs(&rig)?;
+    let mid = Midplane::of(&rig);
+    let head_leaf = head_leaf(&rig, &legs, &mid)?;
+    let axis = rig.ancestors(head_leaf);
+    let mut on_axis = vec![false; rig.n()];
+    for &b in &axis {
+        on_axis[b] = true;
+    }
+    let reach = rig.reaches();
+    let arm_chains = arm_chains(&rig, &legs, &mid, &axis, &on_axis, &reach);
+    let trunk = split_axis(&rig, &legs, &axis, &on_axis, &arm_chains, head_leaf)?;
+    let mut notes = Vec::new();
+    if !riders.is_empty() {
+        let mut feet: Vec<String> =
+            riders.iter().map(|&[r, _]| names.get(r).cloned().unwrap_or_else(|| format!("bone {r}"))).collect();
+        feet.sort();
+        notes.push(format!(
+            "feet hanging off the root bone, not their legs (an IK rig without its constraints): {}; \
+             a walk moves them with their legs by location keys",
+            feet.join(", ")
         ));
     }
+    let (forward, left) = body_axes(&rig, &legs, &mid, trunk.head, &mut notes);
+    let (leg_limbs, plan) = leg_limbs(&rig, &legs, mid.centre, forward, left);
+    let arms: Vec<Limb> = arm_chains
+        .iter()
+        .filter(|(i, _)| *i <= trunk.spine_end)
+        .map(|(_, c)| Limb { bones: c.clone(), side: limb_side(&rig, mid.centre, c, left), group: 0 })
+        .collect();
+    let is_arm_top = |b: usize| arm_chains.iter().any(|(_, c)| c[0] == b);
+    let tail = find_tail(&rig, &legs, &mid, &trunk, &on_axis, is_arm_top, &reach, forward);
 
-    // ---- legs: bottom-up foot counts over the main tree
-    let mut low = vec![f32::INFINITY; n]; // lowest z in the subtree
+    // does moving the root bone move every role bone (one real tree)?
+    let real_root = |mut b: usize| {
+        while parents[b] >= 0 {
+            b = parents[b] as usize;
+        }
+        b
+    };
+    let root = rig.tree.root;
+    let single_tree = trunk
+        .spine
+        .iter()
+        .chain(&trunk.neck)
+        .chain(&tail)
+        .chain([&trunk.head])
+        .chain(leg_limbs.iter().flat_map(|l| &l.bones))
+        .all(|&b| real_root(b) == root);
+    let leg_length =
+        leg_limbs.iter().map(|l| rig.h(l.bones[0]).z - legs.low[l.bones[0]]).sum::<f32>() / leg_limbs.len() as f32;
+    Ok(Roles {
+        root,
+        spine: trunk.spine,
+        neck: trunk.neck,
+        head: trunk.head,
+        head_extras: trunk.head_extras,
+        tail,
+        legs: leg_limbs,
+        arms,
+        plan,
+        up: Vec3::Z.to_array(),
+        forward: forward.to_array(),
+        left: left.to_array(),
+        ground: rig.ground,
+        height: rig.height,
+        leg_length,
+        single_tree,
+        riders,
+        notes,
+    })
+}
+
+/// Step 1's hierarchy: separate trees joined where they touch ([`joined_parents`]), then feet
+/// hanging off a root made children of their leg ([`foot_riders`]). Returns the joined
+/// parents and the riders.
+fn joined_hierarchy(heads: &[[f32; 3]], tails: &[[f32; 3]], parents: &[i32]) -> (Vec<i32>, Vec<[usize; 2]>) {
+    let n = heads.len();
+    let all: Vec<Vec3> = heads.iter().chain(tails).map(|&p| v(p)).collect();
+    let zmin = all.iter().map(|p| p.z).fold(f32::INFINITY, f32::min);
+    let zmax = all.iter().map(|p| p.z).fold(f32::NEG_INFINITY, f32::max);
+    let lo = all.iter().fold(Vec3::splat(f32::INFINITY), |a, &p| a.min(p));
+    let hi = all.iter().fold(Vec3::splat(f32::NEG_INFINITY), |a, &p| a.max(p));
+    let mut has_child = vec![false; n];
+    for &p in parents.iter().filter(|&&p| p >= 0) {
+        has_child[p as usize] = true;
+    }
+    let ground_leaf: Vec<bool> = (0..n)
+        .map(|b| !has_child[b] && heads[b][2].min(tails[b][2]) - zmin <= GROUND_FRACTION * (zmax - zmin))
+        .collect();
+    let mut joined = joined_parents(heads, tails, parents, &ground_leaf, 1e-3 * (hi - lo).length());
+    let low_z = zmin + GROUND_FRACTION * (zmax - zmin);
+    let riders = foot_riders(heads, tails, &joined, low_z, (RIDER_REACH * (zmax - zmin), RIDER_LIFT * (zmax - zmin)));
+    for &[r, e] in &riders {
+        joined[r] = e as i32;
+    }
+    (joined, riders)
+}
+
+/// The skeleton as [`detect_roles`] reads it: bone ends, names, the joined hierarchy and its
+/// main tree, and that tree's vertical extent.
+struct Rig<'a> {
+    heads: &'a [[f32; 3]],
+    tails: &'a [[f32; 3]],
+    names: &'a [String],
+    /// Joined parents ([`joined_hierarchy`]).
+    parents: &'a [i32],
+    tree: Tree,
+    /// Head and tail of every main-tree bone, in tree order.
+    pts: Vec<Vec3>,
+    /// Lowest z of the main tree, and its height above that.
+    ground: f32,
+    height: f32,
+}
+
+impl<'a> Rig<'a> {
+    /// The main tree of `parents`; an error when it is flat (no height along +Z).
+    fn new(heads: &'a [[f32; 3]], tails: &'a [[f32; 3]], names: &'a [String], parents: &'a [i32]) -> Result<Self> {
+        let tree = build_tree(parents);
+        let pts: Vec<Vec3> = tree.order.iter().flat_map(|&b| [v(heads[b]), v(tails[b])]).collect();
+        let ground = pts.iter().map(|p| p.z).fold(f32::INFINITY, f32::min);
+        let top = pts.iter().map(|p| p.z).fold(f32::NEG_INFINITY, f32::max);
+        let height = top - ground;
+        let lo = pts.iter().fold(Vec3::splat(f32::INFINITY), |a, &p| a.min(p));
+        let hi = pts.iter().fold(Vec3::splat(f32::NEG_INFINITY), |a, &p| a.max(p));
+        let size = (hi - lo).length();
+        if !(height > 1e-6 * size.max(1e-30)) || height <= 0.0 {
+            return Err(Error::NoBones(
+                "no legs: the skeleton is flat (no height along +Z), so no chain reaches down to the ground".into(),
+            ));
+        }
+        Ok(Rig { heads, tails, names, parents, tree, pts, ground, height })
+    }
+
+    fn n(&self) -> usize {
+        self.heads.len()
+    }
+
+    fn h(&self, b: usize) -> Vec3 {
+        v(self.heads[b])
+    }
+
+    fn t(&self, b: usize) -> Vec3 {
+        v(self.tails[b])
+    }
+
+    fn kids(&self, b: usize) -> &[usize] {
+        &self.tree.children[b]
+    }
+
+    /// The path from the root down to `b`, root first.
+    fn ancestors(&self, b: usize) -> Vec<usize> {
+        let mut path = vec![b];
+        let mut cur = self.parents[b];
+        while cur >= 0 {
+            path.push(cur as usize);
+            cur = self.parents[cur as usize];
+        }
+        path.reverse();
+        path
+    }
+
+    /// Per bone, the length of the longest chain from its head down; a bone spans at least to
+    /// its child's head (glTF importers invent short tails for joints).
+    fn reaches(&self) -> Vec<f32> {
+        let mut reach = vec![0.0f32; self.n()];
+        for &b in self.tree.order.iter().rev() {
+            let own = (self.t(b) - self.h(b)).length();
+            reach[b] =
+                self.kids(b).iter().map(|&c| own.max((self.h(c) - self.h(b)).length()) + reach[c]).fold(own, f32::max);
+        }
+        reach
+    }
+
+    /// The chain from `top` down, following the child with the longest `reach` below it; and
+    /// the reach of `top`.
+    fn chain_down(&self, reach: &[f32], top: usize) -> (Vec<usize>, f32) {
+        let mut chain = vec![top];
+        let mut cur = top;
+        while let Some(&c) = self
+            .kids(cur)
+            .iter()
+            .max_by(|&&a, &&b| reach[a].partial_cmp(&reach[b]).unwrap_or(std::cmp::Ordering::Equal))
+        {
+            chain.push(c);
+            cur = c;
+        }
+        (chain, reach[top])
+    }
+}
+
+/// The legs of step 3.
+struct Legs {
+    /// Lowest z in each bone's subtree.
+    low: Vec<f32>,
+    /// Each leg's top bone, and its chain from there down to the foot.
+    tops: Vec<usize>,
+    chains: Vec<Vec<usize>>,
+    /// Bones in some leg's subtree.
+    member: Vec<bool>,
+}
+
+/// Step 3: bottom-up foot counts over the main tree; an error when no two chains reach the ground.
+fn find_legs(rig: &Rig) -> Result<Legs> {
+    let (n, ground, height) = (rig.n(), rig.ground, rig.height);
+    let order = &rig.tree.order;
+    let mut low = vec![f32::INFINITY; n];
     let mut feet = vec![0usize; n];
     let mut long_kids: Vec<Vec<usize>> = vec![Vec::new(); n];
-    for &b in tree.order.iter().rev() {
-        low[b] = h(b).z.min(t(b).z);
-        for &c in &kids[b] {
+    for &b in order.iter().rev() {
+        low[b] = rig.h(b).z.min(rig.t(b).z);
+        for &c in rig.kids(b) {
             low[b] = low[b].min(low[c]);
         }
-        if kids[b].is_empty() {
+        if rig.kids(b).is_empty() {
             let near = low[b] - ground <= GROUND_FRACTION * height;
-            feet[b] = usize::from(near && !lower(names, b).contains("tail"));
+            feet[b] = usize::from(near && !lower(rig.names, b).contains("tail"));
             continue;
         }
-        let longs: Vec<usize> =
-            kids[b].iter().copied().filter(|&c| feet[c] > 0 && h(c).z - low[c] >= LONG_FRACTION * height).collect();
+        let longs: Vec<usize> = rig
+            .kids(b)
+            .iter()
+            .copied()
+            .filter(|&c| feet[c] > 0 && rig.h(c).z - low[c] >= LONG_FRACTION * height)
+            .collect();
         feet[b] = match longs.len() {
-            0 => usize::from(kids[b].iter().any(|&c| feet[c] > 0)),
+            0 => usize::from(rig.kids(b).iter().any(|&c| feet[c] > 0)),
             1 => feet[longs[0]],
             _ => longs.iter().map(|&c| feet[c]).sum(),
         };
         long_kids[b] = longs;
     }
-    let mut leg_tops = Vec::new();
-    for &b in &tree.order {
+    let mut tops = Vec::new();
+    for &b in order {
         if long_kids[b].len() >= 2 {
-            leg_tops.extend(long_kids[b].iter().copied().filter(|&c| feet[c] == 1));
+            tops.extend(long_kids[b].iter().copied().filter(|&c| feet[c] == 1));
         }
     }
-    if leg_tops.is_empty() {
+    if tops.is_empty() {
         return Err(Error::NoBones(format!(
             "no legs: no two bone chains branch off the body and reach down to the lowest point \
              (within {:.0}% of the skeleton's height)",
@@ -467,9 +634,9 @@ pub fn detect_roles(heads: &[[f32; 3]], tails: &[[f32; 3]], parents: &[i32], nam
         let mut chain = vec![top];
         let mut cur = top;
         loop {
-            let next = kids[cur].iter().copied().filter(|&c| feet[c] > 0).max_by(|&a, &b| {
-                let ka = (h(cur).z - low[a], (t(a) - h(a)).length());
-                let kb = (h(cur).z - low[b], (t(b) - h(b)).length());
+            let next = rig.kids(cur).iter().copied().filter(|&c| feet[c] > 0).max_by(|&a, &b| {
+                let ka = (rig.h(cur).z - low[a], (rig.t(a) - rig.h(a)).length());
+                let kb = (rig.h(cur).z - low[b], (rig.t(b) - rig.h(b)).length());
                 ka.partial_cmp(&kb).unwrap_or(std::cmp::Ordering::Equal)
             });
             match next {
@@ -482,116 +649,127 @@ pub fn detect_roles(heads: &[[f32; 3]], tails: &[[f32; 3]], parents: &[i32], nam
         }
         chain
     };
-    let leg_chains: Vec<Vec<usize>> = leg_tops.iter().map(|&b| leg_chain(b)).collect();
-    let mut in_leg = vec![false; n];
-    for &top in &leg_tops {
-        for b in subtree(kids, top) {
-            in_leg[b] = true;
+    let chains: Vec<Vec<usize>> = tops.iter().map(|&b| leg_chain(b)).collect();
+    let mut member = vec![false; n];
+    for &top in &tops {
+        for b in subtree(&rig.tree.children, top) {
+            member[b] = true;
         }
     }
+    Ok(Legs { low, tops, chains, member })
+}
 
-    // ---- sagittal plane and midline
-    let centre = pts.iter().copied().sum::<Vec3>() / pts.len() as f32;
-    let normal = mirror_normal(&pts, centre);
-    let lateral = |p: Vec3| (p - centre).dot(normal);
-    let tol = MIDLINE_FRACTION * height;
-    let midline = |b: usize| lateral(h(b)).abs() <= tol && lateral(t(b)).abs() <= tol;
+/// Step 2: the sagittal plane (through `centre`, horizontal unit `normal`) and the midline
+/// tolerance `tol`.
+struct Midplane {
+    centre: Vec3,
+    normal: Vec3,
+    tol: f32,
+}
 
-    // ---- head leaf and body axis
-    let ancestors = |b: usize| {
-        let mut path = vec![b];
-        let mut cur = parents[b];
-        while cur >= 0 {
-            path.push(cur as usize);
-            cur = parents[cur as usize];
-        }
-        path.reverse();
-        path
-    };
+impl Midplane {
+    fn of(rig: &Rig) -> Midplane {
+        let centre = rig.pts.iter().copied().sum::<Vec3>() / rig.pts.len() as f32;
+        Midplane { centre, normal: mirror_normal(&rig.pts, centre), tol: MIDLINE_FRACTION * rig.height }
+    }
+
+    /// Signed distance of `p` from the plane.
+    fn lateral(&self, p: Vec3) -> f32 {
+        (p - self.centre).dot(self.normal)
+    }
+
+    /// Both ends of bone `b` lie within the tolerance of the plane.
+    fn holds(&self, rig: &Rig, b: usize) -> bool {
+        self.lateral(rig.h(b)).abs() <= self.tol && self.lateral(rig.t(b)).abs() <= self.tol
+    }
+}
+
+/// Step 4's end of the body axis: the highest midline end outside the legs (a midline bone
+/// with no midline bone below it: a jaw, a head whose children are all paired, a tail tip),
+/// names of the head on its way scoring higher and a tail lower.
+fn head_leaf(rig: &Rig, legs: &Legs, mid: &Midplane) -> Result<usize> {
     const HEAD_WORDS: [&str; 5] = ["head", "neck", "jaw", "skull", "face"];
-    // midline ends: midline bones with no midline bone below them (a jaw, a head whose
-    // children are all paired, a tail tip)
-    let mut midline_below = vec![false; n];
-    for &b in tree.order.iter().rev() {
-        midline_below[b] = kids[b].iter().any(|&c| midline(c) || midline_below[c]);
+    let order = &rig.tree.order;
+    let mut midline_below = vec![false; rig.n()];
+    for &b in order.iter().rev() {
+        midline_below[b] = rig.kids(b).iter().any(|&c| mid.holds(rig, c) || midline_below[c]);
     }
-    let head_leaf = tree
-        .order
+    order
         .iter()
         .copied()
-        .filter(|&b| !midline_below[b] && !in_leg[b] && midline(b) && b != tree.root)
+        .filter(|&b| !midline_below[b] && !legs.member[b] && mid.holds(rig, b) && b != rig.tree.root)
         .map(|b| {
-            let mut score = (h(b).z.max(t(b).z) - ground) / height;
-            let path = ancestors(b);
-            if path.iter().rev().take(4).any(|&a| HEAD_WORDS.iter().any(|w| lower(names, a).contains(w))) {
+            let mut score = (rig.h(b).z.max(rig.t(b).z) - rig.ground) / rig.height;
+            let path = rig.ancestors(b);
+            if path.iter().rev().take(4).any(|&a| HEAD_WORDS.iter().any(|w| lower(rig.names, a).contains(w))) {
                 score += 1.0;
             }
-            if lower(names, b).contains("tail") {
+            if lower(rig.names, b).contains("tail") {
                 score -= 1.0;
             }
             (b, score)
         })
         .max_by(|a, b| a.1.partial_cmp(&b.1).unwrap_or(std::cmp::Ordering::Equal))
-        .map(|(b, _)| b);
-    let Some(head_leaf) = head_leaf else {
-        return Err(Error::NoBones("no head: no bone chain runs along the body's middle away from the legs".into()));
-    };
-    let axis = ancestors(head_leaf);
-    let on_axis = {
-        let mut f = vec![false; n];
-        for &b in &axis {
-            f[b] = true;
-        }
-        f
-    };
+        .map(|(b, _)| b)
+        .ok_or_else(|| Error::NoBones("no head: no bone chain runs along the body's middle away from the legs".into()))
+}
 
-    // ---- arms: paired non-midline chains hanging off the axis
-    let chain_down = |top: usize| {
-        // follow the child with the longest chain below it; a bone spans at least to its
-        // child's head (glTF importers invent short tails for joints)
-        let mut reach = vec![0.0f32; n];
-        for &b in tree.order.iter().rev() {
-            let own = (t(b) - h(b)).length();
-            reach[b] = kids[b].iter().map(|&c| own.max((h(c) - h(b)).length()) + reach[c]).fold(own, f32::max);
-        }
-        let mut chain = vec![top];
-        let mut cur = top;
-        while let Some(&c) =
-            kids[cur].iter().max_by(|&&a, &&b| reach[a].partial_cmp(&reach[b]).unwrap_or(std::cmp::Ordering::Equal))
-        {
-            chain.push(c);
-            cur = c;
-        }
-        (chain, reach[top])
-    };
-    let mut arm_cands: Vec<(usize, Vec<usize>)> = Vec::new(); // (axis index, chain)
+/// Step 6's arms: paired non-midline chains hanging off the `axis`, as (axis index, chain).
+fn arm_chains(
+    rig: &Rig,
+    legs: &Legs,
+    mid: &Midplane,
+    axis: &[usize],
+    on_axis: &[bool],
+    reach: &[f32],
+) -> Vec<(usize, Vec<usize>)> {
+    let height = rig.height;
+    let mut cands: Vec<(usize, Vec<usize>)> = Vec::new();
     for (i, &a) in axis.iter().enumerate() {
-        for &c in &kids[a] {
-            if on_axis[c] || in_leg[c] || midline(c) {
+        for &c in rig.kids(a) {
+            if on_axis[c] || legs.member[c] || mid.holds(rig, c) {
                 continue;
             }
-            let (chain, reach) = chain_down(c);
+            let (chain, reach) = rig.chain_down(reach, c);
             // arms hang from their shoulder or reach sideways (a T-posed arm may rise a little
             // with its clavicle and fingers), unlike horns and ears, which point up
-            let top_z = chain.iter().map(|&b| h(b).z.max(t(b).z)).fold(f32::NEG_INFINITY, f32::max);
-            let below = top_z - h(c).z.max(h(a).z) <= (0.05 * height).max(ARM_RISE * reach);
+            let top_z = chain.iter().map(|&b| rig.h(b).z.max(rig.t(b).z)).fold(f32::NEG_INFINITY, f32::max);
+            let below = top_z - rig.h(c).z.max(rig.h(a).z) <= (0.05 * height).max(ARM_RISE * reach);
             if chain.len() >= 2 && reach >= ARM_FRACTION * height && below {
-                arm_cands.push((i, chain));
+                cands.push((i, chain));
             }
         }
     }
     // keep those with a partner on the other side of the plane
-    let arm_side = |chain: &Vec<usize>| lateral(t(*chain.last().unwrap())).signum();
-    let arm_chains: Vec<(usize, Vec<usize>)> = arm_cands
-        .iter()
-        .filter(|(_, c)| arm_cands.iter().any(|(_, d)| arm_side(d) == -arm_side(c) && arm_side(c) != 0.0))
-        .cloned()
-        .collect();
-    let is_arm_top = |b: usize| arm_chains.iter().any(|(_, c)| c[0] == b);
+    let side = |chain: &Vec<usize>| mid.lateral(rig.t(*chain.last().unwrap())).signum();
+    cands.iter().filter(|(_, c)| cands.iter().any(|(_, d)| side(d) == -side(c) && side(c) != 0.0)).cloned().collect()
+}
 
-    // ---- head bone on the axis
+/// Step 4's split of the body axis.
+struct Trunk {
+    spine: Vec<usize>,
+    neck: Vec<usize>,
+    head: usize,
+    head_extras: Vec<usize>,
+    /// Index on the axis of the spine's last axis bone (arms hang off the axis up to here).
+    spine_end: usize,
+    /// Bones carrying a leg (a leg's ancestors).
+    leg_carrier: Vec<bool>,
+}
+
+/// Split the `axis` (root -> `head_leaf`) into spine, neck and head (step 4).
+fn split_axis(
+    rig: &Rig,
+    legs: &Legs,
+    axis: &[usize],
+    on_axis: &[bool],
+    arm_chains: &[(usize, Vec<usize>)],
+    head_leaf: usize,
+) -> Result<Trunk> {
+    let (kids, parents) = (&rig.tree.children, rig.parents);
+    let is_arm_top = |b: usize| arm_chains.iter().any(|(_, c)| c[0] == b);
     let named_head = axis.iter().position(|&b| {
-        let s = lower(names, b);
+        let s = lower(rig.names, b);
         s.contains("head") && !s.ends_with("end") && !s.contains("top")
     });
     let leaf_parent = parents[head_leaf];
@@ -600,7 +778,7 @@ pub fn detect_roles(heads: &[[f32; 3]], tails: &[[f32; 3]], parents: &[i32], nam
         None => {
             let siblings_non_limb = kids[head_leaf].is_empty()
                 && leaf_parent >= 0
-                && kids[leaf_parent as usize].iter().any(|&c| c != head_leaf && !in_leg[c] && !is_arm_top(c));
+                && kids[leaf_parent as usize].iter().any(|&c| c != head_leaf && !legs.member[c] && !is_arm_top(c));
             if siblings_non_limb {
                 axis.len() - 2
             } else {
@@ -610,11 +788,11 @@ pub fn detect_roles(heads: &[[f32; 3]], tails: &[[f32; 3]], parents: &[i32], nam
     };
     // deepest axis bone carrying a limb, before the head
     let carries_limb = |b: usize| {
-        kids[b].iter().any(|&c| leg_tops.contains(&c) || is_arm_top(c))
-            || leg_tops.iter().any(|&top| {
+        kids[b].iter().any(|&c| legs.tops.contains(&c) || is_arm_top(c))
+            || legs.tops.iter().any(|&top| {
                 // a leg hanging off a side branch (e.g. hips beside the spine) counts at the
                 // axis bone the branch leaves from
-                let p = ancestors(top);
+                let p = rig.ancestors(top);
                 let last_on_axis = p.iter().rev().find(|&&x| on_axis[x]).copied();
                 last_on_axis == Some(b)
             })
@@ -631,45 +809,38 @@ pub fn detect_roles(heads: &[[f32; 3]], tails: &[[f32; 3]], parents: &[i32], nam
     }
     let mut spine: Vec<usize> = axis[..=s_idx].to_vec();
     // bones carrying legs off the axis (a body chain running back to the hips) join the spine
-    let mut leg_carrier = vec![false; n];
-    for &top in &leg_tops {
+    let mut leg_carrier = vec![false; rig.n()];
+    for &top in &legs.tops {
         let mut cur = parents[top];
         while cur >= 0 && !leg_carrier[cur as usize] {
             leg_carrier[cur as usize] = true;
             cur = parents[cur as usize];
         }
     }
-    for &b in &tree.order {
-        if leg_carrier[b] && !on_axis[b] && !in_leg[b] {
+    for &b in &rig.tree.order {
+        if leg_carrier[b] && !on_axis[b] && !legs.member[b] {
             spine.push(b);
         }
     }
-    let neck: Vec<usize> = axis[s_idx + 1..hi_idx].to_vec();
     let head = axis[hi_idx];
     let mut head_extras = subtree(kids, head).split_off(1);
     head_extras.sort_unstable();
+    Ok(Trunk { spine, neck: axis[s_idx + 1..hi_idx].to_vec(), head, head_extras, spine_end: s_idx, leg_carrier })
+}
 
-    // ---- forward, left
-    let up = Vec3::Z;
-    let mut notes = Vec::new();
-    if !riders.is_empty() {
-        let mut feet: Vec<String> =
-            riders.iter().map(|&[r, _]| names.get(r).cloned().unwrap_or_else(|| format!("bone {r}"))).collect();
-        feet.sort();
-        notes.push(format!(
-            "feet hanging off the root bone, not their legs (an IK rig without its constraints): {}; \
-             a walk moves them with their legs by location keys",
-            feet.join(", ")
-        ));
-    }
-    let along = up.cross(normal).normalize();
-    let leg_top_mean = leg_tops.iter().map(|&b| h(b)).sum::<Vec3>() / leg_tops.len() as f32;
-    let mut to_head = h(head) - leg_top_mean;
+/// Step 5: forward (horizontal, in the sagittal plane, from the legs to the head; bipeds:
+/// along the feet; else Blender's -Y) and left = up x forward, checked against the legs'
+/// .L/.R names; remarks go to `notes`.
+fn body_axes(rig: &Rig, legs: &Legs, mid: &Midplane, head: usize, notes: &mut Vec<String>) -> (Vec3, Vec3) {
+    let (up, height) = (Vec3::Z, rig.height);
+    let along = up.cross(mid.normal).normalize();
+    let leg_top_mean = legs.tops.iter().map(|&b| rig.h(b)).sum::<Vec3>() / legs.tops.len() as f32;
+    let mut to_head = rig.h(head) - leg_top_mean;
     to_head.z = 0.0;
     let mut forward = if to_head.dot(along).abs() >= 0.1 * height {
         along * to_head.dot(along).signum()
     } else {
-        let feet_dir: Vec3 = leg_chains.iter().map(|c| t(*c.last().unwrap()) - h(*c.last().unwrap())).sum();
+        let feet_dir: Vec3 = legs.chains.iter().map(|c| rig.t(*c.last().unwrap()) - rig.h(*c.last().unwrap())).sum();
         let d = feet_dir.dot(along);
         if d.abs() >= 0.02 * height {
             along * d.signum()
@@ -680,20 +851,10 @@ pub fn detect_roles(heads: &[[f32; 3]], tails: &[[f32; 3]], parents: &[i32], nam
         }
     };
     let mut left = up.cross(forward).normalize();
-
-    // ---- sides from geometry, checked against names
-    let limb_side = |chain: &[usize], left: Vec3| {
-        let m = chain.iter().map(|&b| (h(b) + t(b)) * 0.5).sum::<Vec3>() / chain.len() as f32;
-        if (m - centre).dot(left) >= 0.0 {
-            Side::Left
-        } else {
-            Side::Right
-        }
-    };
     let (mut agree, mut disagree) = (0, 0);
-    for c in &leg_chains {
-        let geo = limb_side(c, left);
-        if let Some(named) = c.iter().find_map(|&b| names.get(b).and_then(|s| name_side(s))) {
+    for c in &legs.chains {
+        let geo = limb_side(rig, mid.centre, c, left);
+        if let Some(named) = c.iter().find_map(|&b| rig.names.get(b).and_then(|s| name_side(s))) {
             if named == geo {
                 agree += 1
             } else {
@@ -710,88 +871,80 @@ pub fn detect_roles(heads: &[[f32; 3]], tails: &[[f32; 3]], parents: &[i32], nam
         notes
             .push(format!("{disagree} leg(s) named for the other side than where they are; roles follow the geometry"));
     }
+    (forward, left)
+}
 
-    // ---- leg groups along the spine (front first)
-    let proj: Vec<f32> = leg_tops.iter().map(|&b| h(b).dot(forward)).collect();
-    let mut order: Vec<usize> = (0..leg_tops.len()).collect();
+/// The side of the body (from `centre`, along `left`) a limb's bones lie on, on average.
+fn limb_side(rig: &Rig, centre: Vec3, chain: &[usize], left: Vec3) -> Side {
+    let m = chain.iter().map(|&b| (rig.h(b) + rig.t(b)) * 0.5).sum::<Vec3>() / chain.len() as f32;
+    if (m - centre).dot(left) >= 0.0 {
+        Side::Left
+    } else {
+        Side::Right
+    }
+}
+
+/// Step 5's legs as limbs, grouped along `forward` (front first) with their sides, and the
+/// body plan they make.
+fn leg_limbs(rig: &Rig, legs: &Legs, centre: Vec3, forward: Vec3, left: Vec3) -> (Vec<Limb>, BodyPlan) {
+    let proj: Vec<f32> = legs.tops.iter().map(|&b| rig.h(b).dot(forward)).collect();
+    let mut order: Vec<usize> = (0..legs.tops.len()).collect();
     order.sort_by(|&a, &b| proj[b].partial_cmp(&proj[a]).unwrap_or(std::cmp::Ordering::Equal));
-    let mut group_of = vec![0usize; leg_tops.len()];
+    let mut group_of = vec![0usize; legs.tops.len()];
     let mut g = 0;
     for w in 1..order.len() {
-        if proj[order[w - 1]] - proj[order[w]] > 0.15 * height {
+        if proj[order[w - 1]] - proj[order[w]] > 0.15 * rig.height {
             g += 1;
         }
         group_of[order[w]] = g;
     }
     let groups = g + 1;
-    let mut legs: Vec<Limb> = order
+    let mut limbs: Vec<Limb> = order
         .iter()
-        .map(|&i| Limb { bones: leg_chains[i].clone(), side: limb_side(&leg_chains[i], left), group: group_of[i] })
+        .map(|&i| Limb {
+            bones: legs.chains[i].clone(),
+            side: limb_side(rig, centre, &legs.chains[i], left),
+            group: group_of[i],
+        })
         .collect();
-    legs.sort_by_key(|l| (l.group, l.side == Side::Right));
-    let arms: Vec<Limb> = arm_chains
-        .iter()
-        .filter(|(i, _)| *i <= s_idx)
-        .map(|(_, c)| Limb { bones: c.clone(), side: limb_side(c, left), group: 0 })
-        .collect();
-    let plan = match (legs.len(), groups) {
+    limbs.sort_by_key(|l| (l.group, l.side == Side::Right));
+    let plan = match (limbs.len(), groups) {
         (2, _) => BodyPlan::Biped,
-        (4, 2) if legs.iter().filter(|l| l.group == 0).count() == 2 => BodyPlan::Quadruped,
+        (4, 2) if limbs.iter().filter(|l| l.group == 0).count() == 2 => BodyPlan::Quadruped,
         _ => BodyPlan::Multiped,
     };
+    (limbs, plan)
+}
 
-    // ---- tail: a midline chain off the spine pointing backwards
+/// Step 6's tail: the midline chain off the spine pointing furthest backwards (more than
+/// 0.05 h), not on the axis, a leg, a leg carrier or an arm.
+#[allow(clippy::too_many_arguments)]
+fn find_tail(
+    rig: &Rig,
+    legs: &Legs,
+    mid: &Midplane,
+    trunk: &Trunk,
+    on_axis: &[bool],
+    is_arm_top: impl Fn(usize) -> bool,
+    reach: &[f32],
+    forward: Vec3,
+) -> Vec<usize> {
     let mut tail = Vec::new();
     let mut best = 0.0f32;
-    for &sb in &spine {
-        for &c in &kids[sb] {
-            if on_axis[c] || in_leg[c] || leg_carrier[c] || is_arm_top(c) || !midline(c) {
+    for &sb in &trunk.spine {
+        for &c in rig.kids(sb) {
+            if on_axis[c] || legs.member[c] || trunk.leg_carrier[c] || is_arm_top(c) || !mid.holds(rig, c) {
                 continue;
             }
-            let (chain, _) = chain_down(c);
-            let back = (h(c) - t(*chain.last().unwrap())).dot(forward);
-            if back > best && back > 0.05 * height {
+            let (chain, _) = rig.chain_down(reach, c);
+            let back = (rig.h(c) - rig.t(*chain.last().unwrap())).dot(forward);
+            if back > best && back > 0.05 * rig.height {
                 best = back;
-                tail = chain.into_iter().filter(|&b| midline(b)).collect();
+                tail = chain.into_iter().filter(|&b| mid.holds(rig, b)).collect();
             }
         }
     }
-
-    // does moving the root bone move every role bone (one real tree)?
-    let real_root = |mut b: usize| {
-        while real_parents[b] >= 0 {
-            b = real_parents[b] as usize;
-        }
-        b
-    };
-    let single_tree = spine
-        .iter()
-        .chain(&neck)
-        .chain(&tail)
-        .chain([&head])
-        .chain(legs.iter().flat_map(|l| &l.bones))
-        .all(|&b| real_root(b) == tree.root);
-    let leg_length = legs.iter().map(|l| h(l.bones[0]).z - low[l.bones[0]]).sum::<f32>() / legs.len() as f32;
-    Ok(Roles {
-        root: tree.root,
-        spine,
-        neck,
-        head,
-        head_extras,
-        tail,
-        legs,
-        arms,
-        plan,
-        up: up.to_array(),
-        forward: forward.to_array(),
-        left: left.to_array(),
-        ground,
-        height,
-        leg_length,
-        single_tree,
-        riders,
-        notes,
-    })
+    tail
 }
 
 #[cfg(test)]
