@@ -442,6 +442,141 @@ pub fn fit_joints(
     movable: &[bool],
     opts: &FitOptions,
 ) -> Result<(Vec<[f32; 3]>, FitReport)> {
+    validate(vertices, triangles, joints, bones, movable, opts)?;
+    let nj = joints.len();
+    let frame = Frame::of_mesh(vertices, triangles);
+    let sym = opts.symmetry.as_ref().map(|s| Mirror::new(s, nj, &frame)).transpose()?;
+    let mut p: Vec<DVec3> = joints.iter().map(|j| frame.to_unit(*j)).collect();
+    if let (Some(m), Some(s)) = (&sym, &opts.symmetry) {
+        m.check_plane(&p, s.plane)?;
+    }
+
+    let unit_v = frame.normalize(vertices);
+    let (open_edges, nonmanifold_edges, pieces) = topology(&unit_v, triangles);
+    let unit: Vec<[f32; 3]> = unit_v.iter().map(|p| p.as_vec3().to_array()).collect();
+    let rm = Solid::new(&unit, triangles, WELD, DEDUP);
+    if rm.rays.triangle_count() == 0 {
+        return Err(Error::EmptyMesh("every triangle of the mesh is degenerate".into()));
+    }
+
+    let mirrored_surface = sym.as_ref().map(|m| mirrored_share(&rm.rays, &unit, m.axis, m.plane));
+    let outside_before: Vec<bool> = p.par_iter().map(|q| !inside(&rm, *q)).collect();
+    let start = p.clone();
+    let mut incident: Vec<Vec<usize>> = vec![Vec::new(); nj];
+    for (e, b) in bones.iter().enumerate() {
+        incident[b[0] as usize].push(e);
+        incident[b[1] as usize].push(e);
+    }
+    let symmetrize = |p: &mut Vec<DVec3>| {
+        if let Some(m) = &sym {
+            m.symmetrize(p, movable);
+        }
+    };
+
+    let fractions: Vec<f64> = (0..opts.samples)
+        .map(|s| if opts.samples == 1 { 0.5 } else { 0.2 + 0.6 * s as f64 / (opts.samples - 1) as f64 })
+        .collect();
+    let mut rounds = 0;
+    symmetrize(&mut p);
+    for _ in 0..opts.rounds {
+        rounds += 1;
+        // 1. Centre line per bone.
+        let lines: Vec<Option<Line>> = bones
+            .par_iter()
+            .map(|b| {
+                let junction = incident[b[0] as usize].len() >= 3;
+                centre_line(&rm, p[b[0] as usize], p[b[1] as usize], junction, &fractions, opts)
+            })
+            .collect();
+        // 2. Each joint: nearest point to its bones' centre lines, pulled to itself.
+        let mut next = p.clone();
+        for j in (0..nj).filter(|&j| movable[j]) {
+            let free_end = incident[j].len() == 1 && bones[incident[j][0]][1] as usize == j;
+            let mine = incident[j].iter().filter_map(|&e| lines[e].as_ref());
+            if let Some(c) = place_joint(p[j], mine, free_end, opts.stiffness) {
+                next[j] = c;
+            }
+        }
+        // Never wander off: a rough joint is near its place (MAX_MOVE of the diagonal).
+        for (q, q0) in next.iter_mut().zip(&start) {
+            let d = *q - *q0;
+            if d.length() > opts.max_move {
+                *q = *q0 + d * (opts.max_move / d.length());
+            }
+        }
+        symmetrize(&mut next);
+        let step = p.iter().zip(&next).map(|(a, b)| (*a - *b).length()).fold(0.0, f64::max);
+        p = next;
+        if step < opts.tolerance {
+            break;
+        }
+    }
+
+    // 3. Joints still outside: middle of the nearest chord (centre-line joints stay on the plane).
+    let outside: Vec<bool> = p.par_iter().map(|q| !inside(&rm, *q)).collect();
+    let pulled: Vec<Option<DVec3>> = (0..nj)
+        .into_par_iter()
+        .map(|j| {
+            if !outside[j] || !movable[j] {
+                return None;
+            }
+            let plane = sym.as_ref().and_then(|m| (m.mirror[j] == Some(j)).then_some(m.axis));
+            let others = incident[j].iter().map(|&e| p[(bones[e][0] + bones[e][1]) as usize - j]);
+            pull_inside(&rm, p[j], plane, &toward(&unit_v, p[j], others))
+        })
+        .collect();
+    for j in 0..nj {
+        if let Some(c) = pulled[j] {
+            p[j] = c;
+        }
+    }
+    if let Some(m) = &sym {
+        for j in 0..nj {
+            let Some(k) = m.mirror[j] else { continue };
+            if k != j && movable[j] && pulled[j].is_some() && pulled[k].is_none() {
+                // The pulled side wins; its partner follows exactly.
+                if movable[k] {
+                    p[k] = mirror_point(p[j], m.axis, m.plane);
+                }
+            }
+        }
+        symmetrize(&mut p);
+    }
+    let outside_after: Vec<bool> = p.par_iter().map(|q| !inside(&rm, *q)).collect();
+
+    let mut out: Vec<[f32; 3]> = p
+        .iter()
+        .zip(joints)
+        .zip(movable)
+        .map(|((q, j), &mv)| if mv { frame.from_unit(*q).as_vec3().to_array() } else { *j })
+        .collect();
+    if let (Some(s), Some(m)) = (&opts.symmetry, &sym) {
+        exact_mirrors(&mut out, s, &m.mirror, movable);
+    }
+    let max_move = out.iter().zip(joints).map(|(a, b)| (to_dvec(*a) - to_dvec(*b)).length()).fold(0.0, f64::max);
+    let report = FitReport {
+        outside_before,
+        outside_after,
+        rounds,
+        max_move,
+        open_edges,
+        nonmanifold_edges,
+        pieces,
+        mirrored_surface,
+    };
+    Ok((out, report))
+}
+
+/// Check the inputs and options of [`fit_joints`] (its errors but the mesh's degeneracy and
+/// the symmetry's).
+fn validate(
+    vertices: &[[f32; 3]],
+    triangles: &[[u32; 3]],
+    joints: &[[f32; 3]],
+    bones: &[[u32; 2]],
+    movable: &[bool],
+    opts: &FitOptions,
+) -> Result<()> {
     validate_mesh(vertices, triangles, true)?;
     let nj = joints.len();
     if nj == 0 {
@@ -474,324 +609,223 @@ pub fn fit_joints(
                  max_move > 0 and stub_ratio >= 0"
         )));
     }
-    let frame = Frame::of_mesh(vertices, triangles);
-    let sym = match &opts.symmetry {
-        None => None,
-        Some(s) => {
-            if s.axis > 2 {
-                return Err(Error::InvalidArgument(format!("symmetry axis must be 0, 1 or 2, got {}", s.axis)));
-            }
-            if s.mirror.len() != nj {
-                return Err(Error::Shape(format!("{} mirror indices for {nj} joints", s.mirror.len())));
-            }
-            if !s.plane.is_finite() {
-                return Err(Error::NonFinite { what: "symmetry plane", count: 1 });
-            }
-            let raw: Vec<Option<usize>> =
-                s.mirror.iter().map(|&m| (m >= 0 && (m as usize) < nj).then_some(m as usize)).collect();
-            // Only keep pairs that agree both ways; the others are free.
-            let mirror: Vec<Option<usize>> = (0..nj).map(|i| raw[i].filter(|&m| raw[m] == Some(i))).collect();
-            let plane = (s.plane - frame.centre[s.axis]) / frame.diagonal;
-            Some((s.axis, plane, mirror))
-        }
-    };
+    Ok(())
+}
 
-    let mut p: Vec<DVec3> = joints.iter().map(|j| frame.to_unit(*j)).collect();
-    if let Some((axis, plane, mirror)) = &sym {
+/// [`Symmetry`] in the unit frame: the axis, the plane's coordinate on it, and each joint's
+/// mirror partner where the pair agrees both ways (itself for centre-line joints).
+struct Mirror {
+    axis: usize,
+    plane: f64,
+    mirror: Vec<Option<usize>>,
+}
+
+impl Mirror {
+    fn new(s: &Symmetry, nj: usize, frame: &Frame) -> Result<Mirror> {
+        if s.axis > 2 {
+            return Err(Error::InvalidArgument(format!("symmetry axis must be 0, 1 or 2, got {}", s.axis)));
+        }
+        if s.mirror.len() != nj {
+            return Err(Error::Shape(format!("{} mirror indices for {nj} joints", s.mirror.len())));
+        }
+        if !s.plane.is_finite() {
+            return Err(Error::NonFinite { what: "symmetry plane", count: 1 });
+        }
+        let raw: Vec<Option<usize>> =
+            s.mirror.iter().map(|&m| (m >= 0 && (m as usize) < nj).then_some(m as usize)).collect();
+        // Only keep pairs that agree both ways; the others are free.
+        let mirror: Vec<Option<usize>> = (0..nj).map(|i| raw[i].filter(|&m| raw[m] == Some(i))).collect();
+        Ok(Mirror { axis: s.axis, plane: (s.plane - frame.centre[s.axis]) / frame.diagonal, mirror })
+    }
+
+    /// Refuse a plane the joints `p` are far from mirrored across (see [`MIRROR_MISMATCH`]);
+    /// `input_plane` names it in the error.
+    fn check_plane(&self, p: &[DVec3], input_plane: f64) -> Result<()> {
         // Half the distance to the mirror image's partner: how far symmetrizing moves a joint.
-        let moves: Vec<f64> = (0..nj)
-            .filter_map(|i| mirror[i].map(|m| 0.5 * (p[i] - mirror_point(p[m], *axis, *plane)).length()))
+        let moves: Vec<f64> = (0..p.len())
+            .filter_map(|i| self.mirror[i].map(|m| 0.5 * (p[i] - mirror_point(p[m], self.axis, self.plane)).length()))
             .collect();
         let mean = moves.iter().sum::<f64>() / moves.len().max(1) as f64;
         if mean > MIRROR_MISMATCH {
-            let s = opts.symmetry.as_ref().map_or(0.0, |s| s.plane);
             return Err(Error::InvalidArgument(format!(
-                "symmetry: the joints are far from mirror images across {} = {s}: each would move {:.0} % of \
+                "symmetry: the joints are far from mirror images across {} = {input_plane}: each would move {:.0} % of \
                  the mesh size on average to meet its mirror (at most {:.0} % expected). Is that the \
                  character's mirror plane? Fit without symmetry",
-                ["x", "y", "z"][*axis],
+                ["x", "y", "z"][self.axis],
                 100.0 * mean,
                 100.0 * MIRROR_MISMATCH
             )));
         }
+        Ok(())
     }
 
-    let unit_v = frame.normalize(vertices);
-    let (open_edges, nonmanifold_edges, pieces) = topology(&unit_v, triangles);
-    let unit: Vec<[f32; 3]> = unit_v.iter().map(|p| p.as_vec3().to_array()).collect();
-    let rm = Solid::new(&unit, triangles, WELD, DEDUP);
-    if rm.rays.triangle_count() == 0 {
-        return Err(Error::EmptyMesh("every triangle of the mesh is degenerate".into()));
-    }
-
-    let mirrored_surface = sym.as_ref().map(|(axis, plane, _)| mirrored_share(&rm.rays, &unit, *axis, *plane));
-    let outside_before: Vec<bool> = p.par_iter().map(|q| !inside(&rm, *q)).collect();
-    let start = p.clone();
-    let mut incident: Vec<Vec<usize>> = vec![Vec::new(); nj];
-    for (e, b) in bones.iter().enumerate() {
-        incident[b[0] as usize].push(e);
-        incident[b[1] as usize].push(e);
-    }
-
-    let symmetrize = |p: &mut Vec<DVec3>| {
-        if let Some((axis, plane, mirror)) = &sym {
-            let old = p.clone();
-            for i in 0..nj {
-                let Some(m) = mirror[i] else { continue };
-                if !movable[i] {
-                    continue;
-                }
-                p[i] = if m == i {
-                    let mut q = old[i];
-                    q[*axis] = *plane;
-                    q
-                } else if movable[m] {
-                    (old[i] + mirror_point(old[m], *axis, *plane)) * 0.5
-                } else {
-                    mirror_point(old[m], *axis, *plane)
-                };
-            }
-        }
-    };
-
-    let fractions: Vec<f64> = (0..opts.samples)
-        .map(|s| if opts.samples == 1 { 0.5 } else { 0.2 + 0.6 * s as f64 / (opts.samples - 1) as f64 })
-        .collect();
-    let mut rounds = 0;
-    symmetrize(&mut p);
-    for _ in 0..opts.rounds {
-        rounds += 1;
-        // 1. Centre line per bone: (point at the head, unit direction), None if not inside.
-        let lines: Vec<Option<(DVec3, DVec3, Option<DVec3>)>> = bones
-            .par_iter()
-            .map(|b| {
-                let (a, t) = (p[b[0] as usize], p[b[1] as usize]);
-                let axis = t - a;
-                let len = axis.length();
-                if !(len > 1e-9) {
-                    return None;
-                }
-                let d = axis / len;
-                let reach = (0.5 * len).clamp(0.03, 0.1);
-                let mut pts = Vec::new();
-                for &s in &fractions {
-                    let q = a + axis * s;
-                    if let Some((c, r)) = centre_in_plane(&rm, q, d, opts.rays, reach) {
-                        let off = c - q;
-                        let off = off - d * off.dot(d);
-                        if off.length() > reach {
-                            continue; // a section of some other part of the body
-                        }
-                        pts.push((s, off, r));
-                    }
-                }
-                // Too few sections (see `min_sections`): no centre line.
-                if pts.len() < opts.min_sections.clamp(1, opts.samples) {
-                    return None;
-                }
-                // A stub branching off a junction (shorter than its thinnest section is wide:
-                // the link from a pelvis to a hip, from a chest to a shoulder) lies inside a
-                // body part; its sections are slices of that body, so it has no centre line.
-                let thinnest = pts.iter().map(|x| x.2).fold(f64::INFINITY, f64::min);
-                let branch = incident[b[0] as usize].len() >= 3;
-                if branch && opts.stub_ratio > 0.0 && thinnest > opts.stub_ratio * len {
-                    return None;
-                }
-                // Weighted least squares of the offset, linear in s, weights 1 / r^2: thin
-                // sections (the limb itself) outweigh sections through the body it joins.
-                let ws: Vec<f64> = pts.iter().map(|x| 1.0 / (x.2 * x.2).max(1e-8)).collect();
-                let wsum: f64 = ws.iter().sum();
-                let sm = pts.iter().zip(&ws).map(|(x, w)| x.0 * w).sum::<f64>() / wsum;
-                let om = pts.iter().zip(&ws).map(|(x, w)| x.1 * *w).sum::<DVec3>() / wsum;
-                let sxx: f64 = pts.iter().zip(&ws).map(|(x, w)| w * (x.0 - sm) * (x.0 - sm)).sum();
-                let beta = if sxx > 1e-12 * wsum {
-                    pts.iter().zip(&ws).map(|(x, w)| x.1 * (w * (x.0 - sm))).sum::<DVec3>() / sxx
-                } else {
-                    DVec3::ZERO
-                };
-                let alpha = om - beta * sm;
-                let head = a + alpha;
-                let tail = t + alpha + beta;
-                let dir = (tail - head).normalize_or_zero();
-                if dir == DVec3::ZERO {
-                    return None;
-                }
-                // Free end: from the outermost sample centre, the medial axis of a rounded end
-                // stops one local radius short of the tip.
-                let mut tip = None;
-                if opts.tip {
-                    let s_last = pts.last().map(|x| x.0).unwrap_or(0.0);
-                    if s_last >= 0.5 {
-                        let x0 = head + (tail - head) * s_last;
-                        if let Some((x0, r)) = centre_in_plane(&rm, x0, dir, opts.rays, 0.0) {
-                            if let Some(&f) = hits(&rm, x0, dir).first() {
-                                let f = f as f64;
-                                let remaining = (1.0 - s_last) * (tail - head).length();
-                                if r > 0.0 && f > r && f < remaining + 3.0 * r {
-                                    tip = Some(x0 + dir * (f - TIP_MARGIN * r));
-                                }
-                            }
-                        }
-                    }
-                }
-                Some((head, dir, tip))
-            })
-            .collect();
-        // 2. Each joint: nearest point to its bones' centre lines, pulled to itself.
-        let mut next = p.clone();
-        for j in 0..nj {
-            if !movable[j] {
+    /// Movable paired joints to the mean of themselves and their partner's mirror image (the
+    /// image alone when the partner is fixed), centre-line joints onto the plane.
+    fn symmetrize(&self, p: &mut [DVec3], movable: &[bool]) {
+        let old = p.to_vec();
+        for i in 0..p.len() {
+            let Some(m) = self.mirror[i] else { continue };
+            if !movable[i] {
                 continue;
             }
-            let mut m = DMat3::ZERO;
-            let mut rhs = DVec3::ZERO;
-            let mut used = 0;
-            for &e in &incident[j] {
-                if let Some((o, u, _)) = lines[e] {
-                    let proj = DMat3::IDENTITY - DMat3::from_cols(u * u.x, u * u.y, u * u.z);
-                    m += proj;
-                    rhs += proj * o;
-                    used += 1;
-                }
-            }
-            if used > 0 {
-                // Least squares to the lines, only along directions they pin down (eigenvalue
-                // above `stiffness`); along the others (a straight limb) the joint
-                // keeps its place, which makes the fit a fixed point (idempotent).
-                let g = rhs - m * p[j];
-                let (vals, vecs) = sym_eigen(m);
-                let mut c = p[j];
-                for k in 0..3 {
-                    if vals[k] > opts.stiffness {
-                        c += vecs[k] * (vecs[k].dot(g) / vals[k]);
-                    }
-                }
-                // A limb's free end (a bone's tail and nothing else): at the end of the medial axis.
-                if incident[j].len() == 1 && bones[incident[j][0]][1] as usize == j {
-                    if let Some((_, _, Some(tip))) = lines[incident[j][0]] {
-                        c = tip;
-                    }
-                }
-                if c.is_finite() {
-                    next[j] = c;
-                }
-            }
-        }
-        // Never wander off: a rough joint is near its place (MAX_MOVE of the diagonal).
-        for (q, q0) in next.iter_mut().zip(&start) {
-            let d = *q - *q0;
-            if d.length() > opts.max_move {
-                *q = *q0 + d * (opts.max_move / d.length());
-            }
-        }
-        symmetrize(&mut next);
-        let step = p.iter().zip(&next).map(|(a, b)| (*a - *b).length()).fold(0.0, f64::max);
-        p = next;
-        if step < opts.tolerance {
-            break;
+            p[i] = if m == i {
+                let mut q = old[i];
+                q[self.axis] = self.plane;
+                q
+            } else if movable[m] {
+                (old[i] + mirror_point(old[m], self.axis, self.plane)) * 0.5
+            } else {
+                mirror_point(old[m], self.axis, self.plane)
+            };
         }
     }
-
-    // 3. Joints still outside: middle of the nearest chord (centre-line joints stay on the plane).
-    let outside: Vec<bool> = p.par_iter().map(|q| !inside(&rm, *q)).collect();
-    let pulled: Vec<Option<DVec3>> = (0..nj)
-        .into_par_iter()
-        .map(|j| {
-            if !outside[j] || !movable[j] {
-                return None;
-            }
-            let plane = sym.as_ref().and_then(|(axis, _, m)| (m[j] == Some(j)).then_some(*axis));
-            // The 24 nearest vertices (brute force: few joints are outside).
-            let mut near: Vec<(f64, DVec3)> = unit_v.iter().map(|v| ((*v - p[j]).length_squared(), *v)).collect();
-            let k = near.len().min(24);
-            if k > 0 && k < near.len() {
-                near.select_nth_unstable_by(k - 1, |a, b| a.0.total_cmp(&b.0));
-            }
-            let toward: Vec<DVec3> = near[..k]
-                .iter()
-                .map(|x| x.1)
-                .chain(incident[j].iter().map(|&e| p[(bones[e][0] + bones[e][1]) as usize - j]))
-                .collect();
-            pull_inside(&rm, p[j], plane, &toward)
-        })
-        .collect();
-    for j in 0..nj {
-        if let Some(c) = pulled[j] {
-            p[j] = c;
-        }
-    }
-    if let Some((axis, plane, mirror)) = &sym {
-        for j in 0..nj {
-            let Some(m) = mirror[j] else { continue };
-            if m != j && movable[j] && pulled[j].is_some() && pulled[m].is_none() {
-                // The pulled side wins; its partner follows exactly.
-                if movable[m] {
-                    p[m] = mirror_point(p[j], *axis, *plane);
-                }
-            }
-        }
-        symmetrize(&mut p);
-    }
-    let outside_after: Vec<bool> = p.par_iter().map(|q| !inside(&rm, *q)).collect();
-
-    let mut out: Vec<[f32; 3]> = p
-        .iter()
-        .zip(joints)
-        .zip(movable)
-        .map(|((q, j), &mv)| if mv { frame.from_unit(*q).as_vec3().to_array() } else { *j })
-        .collect();
-    // Exact mirror images in input units (the unit frame round trip is not exact).
-    if let (Some(s), Some((_, _, mirror))) = (&opts.symmetry, &sym) {
-        for j in 0..nj {
-            let Some(m) = mirror[j] else { continue };
-            if !movable[j] {
-                continue;
-            }
-            if m == j {
-                out[j][s.axis] = s.plane as f32;
-            } else if j < m || !movable[m] {
-                let mut q = out[if movable[m] { j } else { m }];
-                q[s.axis] = (2.0 * s.plane - q[s.axis] as f64) as f32;
-                if movable[m] {
-                    out[m] = q;
-                } else {
-                    out[j] = q;
-                }
-            }
-        }
-    }
-    finish(
-        out,
-        joints,
-        outside_before,
-        outside_after,
-        rounds,
-        (open_edges, nonmanifold_edges, pieces),
-        mirrored_surface,
-    )
 }
 
-fn finish(
-    out: Vec<[f32; 3]>,
-    joints: &[[f32; 3]],
-    outside_before: Vec<bool>,
-    outside_after: Vec<bool>,
-    rounds: usize,
-    (open_edges, nonmanifold_edges, pieces): (usize, usize, usize),
-    mirrored_surface: Option<f64>,
-) -> Result<(Vec<[f32; 3]>, FitReport)> {
-    let max_move = out.iter().zip(joints).map(|(a, b)| (to_dvec(*a) - to_dvec(*b)).length()).fold(0.0, f64::max);
-    let report = FitReport {
-        outside_before,
-        outside_after,
-        rounds,
-        max_move,
-        open_edges,
-        nonmanifold_edges,
-        pieces,
-        mirrored_surface,
+/// A bone's centre line: a point at the head, the unit direction, and for a limb's free end
+/// where the medial axis of its rounded tip stops.
+struct Line {
+    head: DVec3,
+    dir: DVec3,
+    tip: Option<DVec3>,
+}
+
+/// The centre line of the bone from joint `a` to joint `t` (unit frame): cross-sections at
+/// `fractions` along it, kept when their centre is within the section reach of the bone, then
+/// a weighted least-squares line of their offsets (weights `1 / r^2`: thin sections, the limb
+/// itself, outweigh sections through the body it joins). `None` with too few sections
+/// ([`FitOptions::min_sections`]) or for a stub leaving a `junction` ([`FitOptions::stub_ratio`]).
+fn centre_line(rm: &Solid, a: DVec3, t: DVec3, junction: bool, fractions: &[f64], opts: &FitOptions) -> Option<Line> {
+    let axis = t - a;
+    let len = axis.length();
+    if !(len > 1e-9) {
+        return None;
+    }
+    let d = axis / len;
+    let reach = (0.5 * len).clamp(0.03, 0.1);
+    let mut pts = Vec::new();
+    for &s in fractions {
+        let q = a + axis * s;
+        if let Some((c, r)) = centre_in_plane(rm, q, d, opts.rays, reach) {
+            let off = c - q;
+            let off = off - d * off.dot(d);
+            if off.length() > reach {
+                continue; // a section of some other part of the body
+            }
+            pts.push((s, off, r));
+        }
+    }
+    // Too few sections (see `min_sections`): no centre line.
+    if pts.len() < opts.min_sections.clamp(1, opts.samples) {
+        return None;
+    }
+    // A stub branching off a junction (shorter than its thinnest section is wide: the link
+    // from a pelvis to a hip, from a chest to a shoulder) lies inside a body part; its
+    // sections are slices of that body, so it has no centre line.
+    let thinnest = pts.iter().map(|x| x.2).fold(f64::INFINITY, f64::min);
+    if junction && opts.stub_ratio > 0.0 && thinnest > opts.stub_ratio * len {
+        return None;
+    }
+    let ws: Vec<f64> = pts.iter().map(|x| 1.0 / (x.2 * x.2).max(1e-8)).collect();
+    let wsum: f64 = ws.iter().sum();
+    let sm = pts.iter().zip(&ws).map(|(x, w)| x.0 * w).sum::<f64>() / wsum;
+    let om = pts.iter().zip(&ws).map(|(x, w)| x.1 * *w).sum::<DVec3>() / wsum;
+    let sxx: f64 = pts.iter().zip(&ws).map(|(x, w)| w * (x.0 - sm) * (x.0 - sm)).sum();
+    let beta = if sxx > 1e-12 * wsum {
+        pts.iter().zip(&ws).map(|(x, w)| x.1 * (w * (x.0 - sm))).sum::<DVec3>() / sxx
+    } else {
+        DVec3::ZERO
     };
-    Ok((out, report))
+    let alpha = om - beta * sm;
+    let head = a + alpha;
+    let tail = t + alpha + beta;
+    let dir = (tail - head).normalize_or_zero();
+    if dir == DVec3::ZERO {
+        return None;
+    }
+    let s_last = pts.last().map(|x| x.0).unwrap_or(0.0);
+    let tip = if opts.tip && s_last >= 0.5 { free_tip(rm, head, tail, dir, s_last, opts.rays) } else { None };
+    Some(Line { head, dir, tip })
+}
+
+/// Free end: from the centre of the section at `s_last` along the line `head` -> `tail`, the
+/// medial axis of a rounded end stops [`TIP_MARGIN`] local radii short of the tip.
+fn free_tip(rm: &Solid, head: DVec3, tail: DVec3, dir: DVec3, s_last: f64, rays: usize) -> Option<DVec3> {
+    let x0 = head + (tail - head) * s_last;
+    let (x0, r) = centre_in_plane(rm, x0, dir, rays, 0.0)?;
+    let f = *hits(rm, x0, dir).first()? as f64;
+    let remaining = (1.0 - s_last) * (tail - head).length();
+    (r > 0.0 && f > r && f < remaining + 3.0 * r).then(|| x0 + dir * (f - TIP_MARGIN * r))
+}
+
+/// Where a joint at `p` goes: least squares to its bones' centre `lines`, only along the
+/// directions they pin down (eigenvalue of the summed projectors above `stiffness`); along the
+/// others (a straight limb) it keeps its place, which makes the fit a fixed point
+/// (idempotent). A limb's `free_end` (a bone's tail and nothing else) goes to its line's tip
+/// when there is one. `None` without a line, or for a non-finite result.
+fn place_joint<'l>(p: DVec3, lines: impl Iterator<Item = &'l Line>, free_end: bool, stiffness: f64) -> Option<DVec3> {
+    let mut m = DMat3::ZERO;
+    let mut rhs = DVec3::ZERO;
+    let mut used = 0;
+    let mut tip = None;
+    for line in lines {
+        let u = line.dir;
+        let proj = DMat3::IDENTITY - DMat3::from_cols(u * u.x, u * u.y, u * u.z);
+        m += proj;
+        rhs += proj * line.head;
+        used += 1;
+        tip = line.tip;
+    }
+    if used == 0 {
+        return None;
+    }
+    let g = rhs - m * p;
+    let (vals, vecs) = sym_eigen(m);
+    let mut c = p;
+    for k in 0..3 {
+        if vals[k] > stiffness {
+            c += vecs[k] * (vecs[k].dot(g) / vals[k]);
+        }
+    }
+    if free_end {
+        if let Some(t) = tip {
+            c = t;
+        }
+    }
+    c.is_finite().then_some(c)
+}
+
+/// Points a joint at `p` outside the mesh may be pulled toward: the 24 nearest vertices
+/// (brute force: few joints are outside) and the joints at the other ends of its bones.
+fn toward(unit_v: &[DVec3], p: DVec3, others: impl Iterator<Item = DVec3>) -> Vec<DVec3> {
+    let mut near: Vec<(f64, DVec3)> = unit_v.iter().map(|v| ((*v - p).length_squared(), *v)).collect();
+    let k = near.len().min(24);
+    if k > 0 && k < near.len() {
+        near.select_nth_unstable_by(k - 1, |a, b| a.0.total_cmp(&b.0));
+    }
+    near[..k].iter().map(|x| x.1).chain(others).collect()
+}
+
+/// Exact mirror images in input units (the unit frame round trip is not exact): centre-line
+/// joints onto `s.plane`, each movable pair's second joint the image of its first (of the fixed
+/// one when its partner cannot move).
+fn exact_mirrors(out: &mut [[f32; 3]], s: &Symmetry, mirror: &[Option<usize>], movable: &[bool]) {
+    for j in 0..out.len() {
+        let Some(m) = mirror[j] else { continue };
+        if !movable[j] {
+            continue;
+        }
+        if m == j {
+            out[j][s.axis] = s.plane as f32;
+        } else if j < m || !movable[m] {
+            let mut q = out[if movable[m] { j } else { m }];
+            q[s.axis] = (2.0 * s.plane - q[s.axis] as f64) as f32;
+            if movable[m] {
+                out[m] = q;
+            } else {
+                out[j] = q;
+            }
+        }
+    }
 }
 
 /// Share of the (unit-frame) vertices, at most [`MIRROR_SAMPLES`] evenly strided, whose mirror
