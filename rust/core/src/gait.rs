@@ -448,27 +448,28 @@ fn head_shake(
     })
 }
 
-fn gait(
-    heads: &[[f32; 3]],
-    tails: &[[f32; 3]],
-    parents: &[i32],
-    rest: &[[f32; 9]],
-    roles: &Roles,
-    p: &GaitParams,
-) -> Result<Clip> {
-    let n = heads.len();
+/// Timing and amplitudes of a walk or run.
+struct Cadence {
+    /// Frames per cycle, and in the clip.
+    fpc: f32,
+    frames: usize,
+    /// Share of a cycle a foot is on the ground.
+    duty: f32,
+    /// Ground covered per cycle, in the skeleton's units.
+    stride: f32,
+    hip_amp: f32,
+    knee_amp: f32,
+    knee_stance: f32,
+    ankle_amp: f32,
+}
+
+/// The cadence follows a pendulum of the leg's length (assumed in metres; clamped so rigs in
+/// other units, centimetres or a 60-unit cow, still get a plausible one); the stride a fixed
+/// number of leg lengths.
+fn cadence(roles: &Roles, p: &GaitParams) -> Result<Cadence> {
     let run = p.motion == Motion::Run;
-    let biped = roles.plan == BodyPlan::Biped;
     let quad = roles.plan == BodyPlan::Quadruped;
     let l = roles.leg_length.max(1e-6);
-    let up = Vec3::from(roles.up);
-    let fwd = Vec3::from(roles.forward);
-    let right = fwd.cross(up).normalize();
-    let hv = |b: usize| Vec3::from(heads[b]);
-
-    // timing and amplitudes
-    // pendulum scaling, assuming metres; clamped so rigs in other units (centimetres, a
-    // 60-unit cow) still get a plausible cadence
     let pendulum = (l / 0.9).sqrt().clamp(0.6, 1.6);
     let period = if run { 0.6 } else { 1.05 } * pendulum / p.speed;
     let fpc = (period * p.fps).round().max(8.0);
@@ -480,21 +481,36 @@ fn gait(
         (true, false) => 0.35,
     };
     let stride = if run { 2.6 } else { 1.3 } * l * p.stride;
-    let hip_amp = (stride * duty / (2.0 * l)).min(0.9).asin();
-    let knee_amp = if run { 80f32 } else { 45.0 }.to_radians();
-    let knee_stance = if run { 15f32 } else { 6.0 }.to_radians();
-    let ankle_amp = if run { 30f32 } else { 20.0 }.to_radians();
-    let phases = leg_phases(roles, p.motion);
+    Ok(Cadence {
+        fpc,
+        frames,
+        duty,
+        stride,
+        hip_amp: (stride * duty / (2.0 * l)).min(0.9).asin(),
+        knee_amp: if run { 80f32 } else { 45.0 }.to_radians(),
+        knee_stance: if run { 15f32 } else { 6.0 }.to_radians(),
+        ankle_amp: if run { 30f32 } else { 20.0 }.to_radians(),
+    })
+}
 
-    // per-leg joints and flex directions
-    struct LegJoints {
-        hip: usize,
-        knee: Option<(usize, f32)>,
-        ankle: Option<(usize, f32)>,
-    }
-    /// An arm: its swinging bone, its elbow (bone, flex sign) if any, and its side.
-    type ArmJoints = (usize, Option<(usize, f32)>, Side);
-    let legs: Vec<LegJoints> = roles
+/// A leg's swinging bone (hip), and its knee and ankle as (bone, flex sign) if any.
+struct LegJoints {
+    hip: usize,
+    knee: Option<(usize, f32)>,
+    ankle: Option<(usize, f32)>,
+}
+
+/// An arm's swinging bone, its elbow (bone, flex sign) if any, and its side.
+struct ArmJoints {
+    swing: usize,
+    elbow: Option<(usize, f32)>,
+    side: Side,
+}
+
+/// The joints that bend in each leg, from its first bone pointing down; flex signs about `right`.
+fn leg_joints(heads: &[[f32; 3]], tails: &[[f32; 3]], roles: &Roles, right: Vec3) -> Vec<LegJoints> {
+    let hv = |b: usize| Vec3::from(heads[b]);
+    roles
         .legs
         .iter()
         .map(|limb| {
@@ -504,31 +520,162 @@ fn gait(
             let ankle = bones.get(2).map(|&b| (b, flex_sign(heads, tails, b, hv(bones[1]), right, 1.0)));
             LegJoints { hip: bones[0], knee, ankle }
         })
-        .collect();
-    let arms: Vec<ArmJoints> = roles
+        .collect()
+}
+
+/// The joints that swing in each arm: the longer of its first two bones, each measured to the
+/// next bone's head (an imported rig's tails are stubs of one length, so the clavicle-or-upper-
+/// arm choice went by rounding, and by scale), and the elbow below it.
+fn arm_joints(heads: &[[f32; 3]], tails: &[[f32; 3]], roles: &Roles, right: Vec3) -> Vec<ArmJoints> {
+    let hv = |b: usize| Vec3::from(heads[b]);
+    roles
         .arms
         .iter()
         .map(|a| {
-            // a bone's span reaches the next bone's head: an imported rig's tails are stubs of
-            // one length (so the clavicle-or-upper-arm choice went by rounding, and by scale)
             let span = |k: usize| (hv(a.bones[k + 1]) - hv(a.bones[k])).length();
             let i0 = if a.bones.len() >= 3 && span(0) < span(1) { 1 } else { 0 };
             let elbow = a.bones.get(i0 + 1).map(|&b| (b, flex_sign(heads, tails, b, hv(a.bones[i0]), right, 1.0)));
-            (a.bones[i0], elbow, a.side)
+            ArmJoints { swing: a.bones[i0], elbow, side: a.side }
         })
-        .collect();
+        .collect()
+}
+
+/// Pose the legs at cycle fraction `phi`: stance (hip sweeps back, knee barely bends) then
+/// swing (hip forward, knee and ankle lift), the ankle keeping the foot level. Returns the
+/// hip angles of the left and right legs, for the arms.
+fn pose_legs(
+    poser: &mut Poser,
+    roles: &Roles,
+    legs: &[LegJoints],
+    phases: &[f32],
+    c: &Cadence,
+    phi: f32,
+    right: Vec3,
+) -> (f32, f32) {
+    let (mut left_hip, mut right_hip) = (0.0, 0.0);
+    for (leg, (joints, &offset)) in roles.legs.iter().zip(legs.iter().zip(phases)) {
+        let ph = (phi + offset).fract();
+        let (theta, knee, ankle) = if ph < c.duty {
+            let s = ph / c.duty;
+            (c.hip_amp * (1.0 - 2.0 * s), c.knee_stance * (PI * s).sin(), 0.0)
+        } else {
+            let s = (ph - c.duty) / (1.0 - c.duty);
+            (-c.hip_amp * (PI * s).cos(), c.knee_amp * (PI * s).sin(), c.ankle_amp * (PI * s).sin())
+        };
+        if leg.side == Side::Left {
+            left_hip = theta
+        } else {
+            right_hip = theta
+        }
+        poser.rotate(joints.hip, right, theta);
+        let mut bend = theta;
+        if let Some((b, sign)) = joints.knee {
+            poser.rotate(b, right, sign * knee);
+            bend += sign * knee;
+        }
+        if let Some((b, sign)) = joints.ankle {
+            poser.rotate(b, right, -bend + sign * ankle);
+        }
+    }
+    (left_hip, right_hip)
+}
+
+/// Arms swing against the leg of their side (`hips`: left, right), elbows bent.
+fn pose_arms(poser: &mut Poser, arms: &[ArmJoints], (left_hip, right_hip): (f32, f32), run: bool, right: Vec3) {
+    for arm in arms {
+        let leg = if arm.side == Side::Left { left_hip } else { right_hip };
+        poser.rotate(arm.swing, right, -if run { 0.8 } else { 0.6 } * leg);
+        if let Some((b, sign)) = arm.elbow {
+            let flex = if run { 70f32 } else { 12.0 }.to_radians();
+            poser.rotate(b, right, sign * (flex + 0.3 * leg.abs()));
+        }
+    }
+}
+
+/// The body at cycle angle `w`: the `sway` spine bones yaw, roll and pitch (by gait and body
+/// plan), the neck bobs, the head steadies, the tail swings.
+fn pose_body(
+    poser: &mut Poser,
+    roles: &Roles,
+    sway: &[usize],
+    w: f32,
+    run: bool,
+    (up, fwd, right): (Vec3, Vec3, Vec3),
+) {
+    let quad = roles.plan == BodyPlan::Quadruped;
+    let biped = roles.plan == BodyPlan::Biped;
+    let per = |total: f32, count: usize| if count == 0 { 0.0 } else { total / count as f32 };
+    let (yaw, roll, pitch) = match (run, quad, biped) {
+        (false, _, true) => (5f32.to_radians() * w.sin(), 3f32.to_radians() * w.sin(), 0.0),
+        (false, _, _) => (4f32.to_radians() * w.sin(), 2f32.to_radians() * w.sin(), 0.0),
+        (true, true, _) => (0.0, 0.0, 8f32.to_radians() * w.sin()),
+        (true, _, true) => (8f32.to_radians() * w.sin(), 0.0, -8f32.to_radians()),
+        (true, _, _) => (3f32.to_radians() * w.sin(), 0.0, 4f32.to_radians() * w.sin()),
+    };
+    for &b in sway {
+        poser.rotate(b, up, per(yaw, sway.len()));
+        poser.rotate(b, fwd, per(roll, sway.len()));
+        poser.rotate(b, right, per(pitch, sway.len()));
+    }
+    let bob = if run && quad {
+        -10f32.to_radians() * (w + 0.5 * PI).sin()
+    } else {
+        (if run { 5f32 } else { 3.0 }).to_radians() * (2.0 * w).sin()
+    };
+    for &b in &roles.neck {
+        poser.rotate(b, right, per(bob, roles.neck.len()));
+        poser.rotate(b, up, per(-0.6 * yaw, roles.neck.len()));
+    }
+    poser.rotate(roles.head, right, -0.5 * bob - if run && biped { -0.5 * pitch } else { 0.0 });
+    let nt = roles.tail.len().max(1) as f32;
+    for (j, &b) in roles.tail.iter().enumerate() {
+        let a = (if run { 12f32 } else { 10.0 }).to_radians() * (0.5 + 0.5 * j as f32 / nt) / nt * 3.0;
+        let s = (w - 0.6 * (j + 1) as f32).sin();
+        if run {
+            // up and back to rest, never down: a low tail swung down went through the ground
+            // (the Fox's tail tip 3.9 units below it, 5 % of its height)
+            poser.rotate(b, right, -a * 0.5 * (1.0 + s))
+        } else {
+            poser.rotate(b, up, a * s)
+        }
+    }
+    if sway.is_empty() && roles.neck.is_empty() {
+        poser.touch(roles.head);
+    }
+}
+
+/// A walk or run cycle (see the module doc): legs, arms and body posed frame by frame, the
+/// body lifted so that no foot goes below its rest height, feet riding on the root carried by
+/// their legs.
+fn gait(
+    heads: &[[f32; 3]],
+    tails: &[[f32; 3]],
+    parents: &[i32],
+    rest: &[[f32; 9]],
+    roles: &Roles,
+    p: &GaitParams,
+) -> Result<Clip> {
+    let n = heads.len();
+    let run = p.motion == Motion::Run;
+    let up = Vec3::from(roles.up);
+    let fwd = Vec3::from(roles.forward);
+    let right = fwd.cross(up).normalize();
+    let hv = |b: usize| Vec3::from(heads[b]);
+    let c = cadence(roles, p)?;
+    let phases = leg_phases(roles, p.motion);
+    let legs = leg_joints(heads, tails, roles, right);
+    let arms = arm_joints(heads, tails, roles, right);
     // spine bones that sway: all but the root when there are others
     let sway: Vec<usize> = if roles.spine.len() > 1 {
         roles.spine.iter().copied().filter(|&b| b != roles.root).collect()
     } else {
         roles.spine.clone()
     };
-    let per = |total: f32, count: usize| if count == 0 { 0.0 } else { total / count as f32 };
 
     let mut poser = new_poser(rest);
-    let mut rotations = Vec::with_capacity(frames * n);
-    let mut locations = vec![[0.0; 3]; frames * n];
-    let mut root_offset = Vec::with_capacity(frames);
+    let mut rotations = Vec::with_capacity(c.frames * n);
+    let mut locations = vec![[0.0; 3]; c.frames * n];
+    let mut root_offset = Vec::with_capacity(c.frames);
     // forward kinematics with the feet that ride on the root carried by their legs
     let mut carried = parents.to_vec();
     for &[r, e] in &roles.riders {
@@ -539,82 +686,12 @@ fn gait(
     // front leg bones end at the wrist, 6 units above its hind feet's).
     let feet: Vec<usize> = roles.legs.iter().map(|l| *l.bones.last().unwrap()).collect();
     let rest_low: Vec<f32> = feet.iter().map(|&b| heads[b][2].min(tails[b][2])).collect();
-    let mut left_hip = 0.0;
-    let mut right_hip = 0.0;
-    for k in 0..frames {
+    for k in 0..c.frames {
         poser.q.fill(Quat::IDENTITY);
-        let phi = k as f32 / fpc;
-        let w = TAU * phi;
-        for (leg, (joints, &offset)) in roles.legs.iter().zip(legs.iter().zip(&phases)) {
-            let ph = (phi + offset).fract();
-            let (theta, knee, ankle) = if ph < duty {
-                let s = ph / duty;
-                (hip_amp * (1.0 - 2.0 * s), knee_stance * (PI * s).sin(), 0.0)
-            } else {
-                let s = (ph - duty) / (1.0 - duty);
-                (-hip_amp * (PI * s).cos(), knee_amp * (PI * s).sin(), ankle_amp * (PI * s).sin())
-            };
-            if leg.side == Side::Left {
-                left_hip = theta
-            } else {
-                right_hip = theta
-            }
-            poser.rotate(joints.hip, right, theta);
-            let mut bend = theta;
-            if let Some((b, sign)) = joints.knee {
-                poser.rotate(b, right, sign * knee);
-                bend += sign * knee;
-            }
-            if let Some((b, sign)) = joints.ankle {
-                poser.rotate(b, right, -bend + sign * ankle);
-            }
-        }
-        for &(arm, elbow, side) in &arms {
-            let leg = if side == Side::Left { left_hip } else { right_hip };
-            poser.rotate(arm, right, -if run { 0.8 } else { 0.6 } * leg);
-            if let Some((b, sign)) = elbow {
-                let flex = if run { 70f32 } else { 12.0 }.to_radians();
-                poser.rotate(b, right, sign * (flex + 0.3 * leg.abs()));
-            }
-        }
-        // body
-        let (yaw, roll, pitch) = match (run, quad, biped) {
-            (false, _, true) => (5f32.to_radians() * w.sin(), 3f32.to_radians() * w.sin(), 0.0),
-            (false, _, _) => (4f32.to_radians() * w.sin(), 2f32.to_radians() * w.sin(), 0.0),
-            (true, true, _) => (0.0, 0.0, 8f32.to_radians() * w.sin()),
-            (true, _, true) => (8f32.to_radians() * w.sin(), 0.0, -8f32.to_radians()),
-            (true, _, _) => (3f32.to_radians() * w.sin(), 0.0, 4f32.to_radians() * w.sin()),
-        };
-        for &b in &sway {
-            poser.rotate(b, up, per(yaw, sway.len()));
-            poser.rotate(b, fwd, per(roll, sway.len()));
-            poser.rotate(b, right, per(pitch, sway.len()));
-        }
-        let bob = if run && quad {
-            -10f32.to_radians() * (w + 0.5 * PI).sin()
-        } else {
-            (if run { 5f32 } else { 3.0 }).to_radians() * (2.0 * w).sin()
-        };
-        for &b in &roles.neck {
-            poser.rotate(b, right, per(bob, roles.neck.len()));
-            poser.rotate(b, up, per(-0.6 * yaw, roles.neck.len()));
-        }
-        poser.rotate(roles.head, right, -0.5 * bob - if run && biped { -0.5 * pitch } else { 0.0 });
-        let nt = roles.tail.len().max(1) as f32;
-        for (j, &b) in roles.tail.iter().enumerate() {
-            let a = (if run { 12f32 } else { 10.0 }).to_radians() * (0.5 + 0.5 * j as f32 / nt) / nt * 3.0;
-            let s = (w - 0.6 * (j + 1) as f32).sin();
-            if run {
-                // up and back to rest, never down: a low tail swung down went through the ground
-                // (the Fox's tail tip 3.9 units below it, 5 % of its height)
-                poser.rotate(b, right, -a * 0.5 * (1.0 + s))
-            } else {
-                poser.rotate(b, up, a * s)
-            }
-        }
-        if sway.is_empty() && roles.neck.is_empty() {
-            poser.touch(roles.head);
-        }
+        let phi = k as f32 / c.fpc;
+        let hips = pose_legs(&mut poser, roles, &legs, &phases, &c, phi, right);
+        pose_arms(&mut poser, &arms, hips, run, right);
+        pose_body(&mut poser, roles, &sway, TAU * phi, run, (up, fwd, right));
         let mut local: Vec<[f32; 4]> = poser.q.iter().map(|&q| to_wxyz(q)).collect();
         let on_legs = posed_frames(heads, &carried, &poser.rest, &local, &[], [0.0; 3]);
         let posed_low = |b: usize| {
@@ -622,7 +699,7 @@ fn gait(
             on_legs.1[b].z.min(tail.z)
         };
         let lift = feet.iter().zip(&rest_low).map(|(&b, &r)| r - posed_low(b)).fold(f32::NEG_INFINITY, f32::max);
-        let travel = if p.root_motion { stride * phi } else { 0.0 };
+        let travel = if p.root_motion { c.stride * phi } else { 0.0 };
         root_offset.push((fwd * travel + up * lift).to_array());
         if !roles.riders.is_empty() {
             let real = posed_frames(heads, parents, &poser.rest, &local, &[], [0.0; 3]);
@@ -641,7 +718,7 @@ fn gait(
     animated.sort_unstable();
     animated.dedup();
     Ok(Clip {
-        frames,
+        frames: c.frames,
         bone_count: n,
         rotations,
         root_offset,
@@ -649,7 +726,7 @@ fn gait(
         locations,
         located,
         moves_root: true,
-        frames_per_cycle: fpc,
+        frames_per_cycle: c.fpc,
     })
 }
 
