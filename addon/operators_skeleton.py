@@ -95,6 +95,32 @@ def _fit_graph(ends, real, parents, follow, names):
     return keep, bones, mirror
 
 
+def _movable_joints(mode: str, bones, pose_sel: dict, ends: np.ndarray, nj: int) -> tuple[np.ndarray, np.ndarray]:
+    """(movable, controls) (nj,) bools: the selected joints (bone ends selected in Edit Mode,
+    ends of bones selected in Pose Mode); with none selected, every joint of a deform bone,
+    and the joints only non-deform bones use (IK and pole targets, a root on the ground:
+    controls, which place no weight) are the ``controls`` that keep their place."""
+    sel = np.zeros(nj, dtype=bool)
+    if mode == "EDIT":
+        for i, eb in enumerate(bones):
+            sel[ends[i, 0]] |= eb.select_head
+            sel[ends[i, 1]] |= eb.select_tail
+    elif mode == "POSE":
+        for i, eb in enumerate(bones):
+            if pose_sel.get(eb.name):
+                sel[ends[i]] = True
+    controls = np.zeros(nj, dtype=bool)
+    if sel.any():
+        return sel, controls
+    deform = np.zeros(nj, dtype=bool)
+    for i, eb in enumerate(bones):
+        if eb.use_deform:
+            deform[ends[i]] = True
+    if deform.any():
+        return deform, ~deform
+    return np.ones(nj, dtype=bool), controls
+
+
 class MINISKELETON_OT_fit_skeleton(bpy.types.Operator):
     """Move the selected joints (none selected: the deform bones' joints) to the middle of the selected meshes"""
 
@@ -196,27 +222,7 @@ class MINISKELETON_OT_fit_skeleton(bpy.types.Operator):
             joints, ends = rig_io.joint_graph(heads, tails, parents, connected, 1e-6 * max(size, 1e-30))
             nj = len(joints)
 
-            sel = np.zeros(nj, dtype=bool)
-            if mode == "EDIT":
-                for i, eb in enumerate(bones):
-                    sel[ends[i, 0]] |= eb.select_head
-                    sel[ends[i, 1]] |= eb.select_tail
-            elif mode == "POSE":
-                for i, n in enumerate(names):
-                    if pose_sel.get(n):
-                        sel[ends[i]] = True
-            movable = sel if sel.any() else np.ones(nj, dtype=bool)
-            # With nothing selected, joints that only non-deform bones use (IK targets, pole
-            # targets, a root on the ground: controls, which place no weight) keep their place.
-            controls = np.zeros(nj, dtype=bool)
-            if not sel.any():
-                deform = np.zeros(nj, dtype=bool)
-                for i, eb in enumerate(bones):
-                    if eb.use_deform:
-                        deform[ends[i]] = True
-                if deform.any():
-                    controls = ~deform
-                    movable = deform
+            movable, controls = _movable_joints(mode, bones, pose_sel, ends, nj)
 
             joints_f = joints @ stretch  # S is symmetric
             inside = core.points_inside(verts, tris, joints_f.astype(np.float32))
@@ -254,14 +260,19 @@ class MINISKELETON_OT_fit_skeleton(bpy.types.Operator):
                     new_tails[i] = h + (tails[i] - heads[i])  # and never collapse a bone (Blender deletes it)
             rig_io.place_bone_ends(bones, new_heads, new_tails, zaxes)
 
+        self._report_fit(rep, movable[fit_j], controls[fit_j], nj)
+        return {"FINISHED"}
+
+    def _report_fit(self, rep: dict, movable: np.ndarray, kept: np.ndarray, joints: int):
+        """Warnings on the mesh and the symmetry, then the counts; ``movable`` and ``kept``
+        (controls left in place, counted apart) are over the ``len(movable)`` joints fitted of
+        the armature's ``joints``."""
         if rep["open_edges"] or rep["nonmanifold_edges"]:
             self.report({"WARNING"}, f"The mesh is not closed ({rep['open_edges']} open edges, "
                         f"{rep['nonmanifold_edges']} non-manifold edges): inside tests may be wrong")
         if rep["pieces"] > 1:
             self.report({"WARNING"}, f"The mesh has {rep['pieces']} separate pieces: each joint was "
                         "fitted into the piece around it")
-        # outside counts over the joints fitted; controls left outside are named apart
-        kept = controls[fit_j]
         before = int((rep["outside_before_mask"] & ~kept).sum())
         after = int((rep["outside_after_mask"] & ~kept).sum())
         mirrored = rep.get("mirrored_surface")
@@ -271,12 +282,12 @@ class MINISKELETON_OT_fit_skeleton(bpy.types.Operator):
                         "the mesh's middle), so mirrored joints can end outside; fit without Symmetry, or put "
                         "the armature's origin on the mesh's mirror plane")
         level = {"WARNING"} if after else {"INFO"}
-        extra = f" ({nj - len(fit_j)} invented tails followed their bones)" if len(fit_j) < nj else ""
+        fitted = len(movable)
+        extra = f" ({joints - fitted} invented tails followed their bones)" if fitted < joints else ""
         controls_note = (f"; {int(kept.sum())} joints of non-deform bones (controls such as IK and pole "
                          "targets) kept in place: select them to fit them too") if kept.any() else ""
-        self.report(level, f"Fitted {int(movable[fit_j].sum())} of {len(fit_j)} joints{extra}: outside the mesh "
+        self.report(level, f"Fitted {int(movable.sum())} of {fitted} joints{extra}: outside the mesh "
                     f"before {before}, after {after}{controls_note}")
-        return {"FINISHED"}
 
 
 class MINISKELETON_OT_restore_skeleton(bpy.types.Operator):
