@@ -11,7 +11,9 @@ nothing is written.
 
 from __future__ import annotations
 
+import concurrent.futures
 import dataclasses
+import os
 import time
 from typing import NamedTuple
 
@@ -431,40 +433,82 @@ def compute_weights(core, settings: dict, bones, inputs, progress):
     """Weights of every mesh, nothing written: (results [(mesh, indices, weights)], notes).
     No bpy calls (meshes are passed through untouched), so it may run on a worker thread.
     ``progress(f)`` gets the overall fraction and returns False to cancel (the core then
-    raises ``Cancelled``). Other errors are raised as ``WeightsError`` for the status bar."""
+    raises ``Cancelled``). Other errors are raised as ``WeightsError`` for the status bar.
+
+    Meshes that meet along a seam are solved together (``seam_groups``). Many small groups (a
+    figure kit-built of separate objects) are solved on a pool of threads, since the core
+    releases the GIL and a small solve uses one core; ``progress`` is then called from this
+    thread only, between groups."""
     results, notes = [], []
-    groups = seam_groups(core, inputs) if settings["method"] == "HEAT" else [[m] for m in range(len(inputs))]
+    try:
+        groups = seam_groups(core, inputs) if settings["method"] == "HEAT" else [[m] for m in range(len(inputs))]
+    except (ValueError, RuntimeError) as err:
+        raise WeightsError(f"Meshes {mesh_io.name_list([name for _, name, _, _ in inputs])}: {err}; "
+                           "nothing was changed") from err
+    sizes = [sum(len(inputs[m][2]) for m in members) for members in groups]
+    threads = min(POOL_THREADS, len(groups))
+    if threads > 1 and max(sizes) <= POOL_VERTICES:
+        with concurrent.futures.ThreadPoolExecutor(threads) as pool:
+            solving = [pool.submit(_solve_group, core, settings, bones, inputs, members, None)
+                       for members in groups]
+            try:
+                for g, job in enumerate(solving):
+                    _gather(inputs, groups[g], job.result(), settings, results, notes)
+                    if not progress((g + 1) / len(groups)):
+                        raise core.Cancelled("cancelled by the progress callback")
+            finally:
+                for job in solving:
+                    job.cancel()
+        return results, notes
     for g, members in enumerate(groups):
         def step(f, g=g):
             return progress((g + f) / len(groups))
-        name = " + ".join(inputs[m][1] for m in members)
-        counts = [len(inputs[m][2]) for m in members]
-        if settings["method"] == "HEAT":
-            verts, tris = mesh_io.stack_meshes((inputs[m][2], inputs[m][3]) for m in members)
-        else:
-            verts, tris = np.concatenate([inputs[m][2] for m in members]), None
-        try:
-            i, w, report = mesh_weights(core, settings, verts, tris, bones, step)
-        except (ValueError, RuntimeError) as err:
-            raise WeightsError(f"Mesh '{name}': {err}; nothing was changed") from err
-        if report and (report.get("fallback_pieces") or report.get("rigid_pieces")):
-            notes.append(f"{name}: of {report['pieces']} pieces, "
-                         f"{report['fallback_pieces']} saw no bone (nearest bone used), "
-                         f"{report['rigid_pieces']} bound rigidly (no bone inside)")
-        if report and report.get("flipped_faces"):
-            notes.append(f"{name}: {report['flipped_faces']} triangles are wound against their neighbours "
-                         "(flipped normals); the weights ignore that, the mesh is unchanged (Mesh > Normals "
-                         "> Recalculate Outside fixes them)")
-        if report and settings["mirror"] is not None and report["mirrored_vertices"] < 0.9 * len(verts):
-            notes.append(f"{name}: Symmetry X: only {report['mirrored_vertices'] / max(len(verts), 1):.0%} of "
-                         "the vertices have a mirror twin across the armature's X = 0 plane; the others "
-                         "keep their own weights")
-        if report and report.get("factorization_failed"):
-            notes.append(f"{name}: heat solve failed, nearest-bone weights used")
-        ends = np.cumsum(counts)
-        for m, end, n in zip(members, ends, counts):
-            results.append((inputs[m][0], i[end - n:end], w[end - n:end]))
+        _gather(inputs, members, _solve_group(core, settings, bones, inputs, members, step), settings,
+                results, notes)
     return results, notes
+
+
+# Seam groups of at most this many vertices each go to a pool of this many threads when there
+# are several (400 objects of 74 vertices on 2 cores: 0.53 s serial, 0.42 s pooled).
+POOL_VERTICES = 20_000
+POOL_THREADS = os.cpu_count() or 1
+
+
+def _solve_group(core, settings: dict, bones, inputs, members: list[int], progress):
+    """One seam group's meshes stacked and solved: (indices, weights, heat report or None)."""
+    name = " + ".join(inputs[m][1] for m in members)
+    if settings["method"] == "HEAT":
+        verts, tris = mesh_io.stack_meshes((inputs[m][2], inputs[m][3]) for m in members)
+    else:
+        verts, tris = np.concatenate([inputs[m][2] for m in members]), None
+    try:
+        return mesh_weights(core, settings, verts, tris, bones, progress)
+    except (ValueError, RuntimeError) as err:
+        raise WeightsError(f"Mesh '{name}': {err}; nothing was changed") from err
+
+
+def _gather(inputs, members: list[int], solved, settings: dict, results: list, notes: list):
+    """Append one group's per-mesh rows to ``results`` and its heat report's remarks to ``notes``."""
+    i, w, report = solved
+    name = " + ".join(inputs[m][1] for m in members)
+    counts = [len(inputs[m][2]) for m in members]
+    if report and (report.get("fallback_pieces") or report.get("rigid_pieces")):
+        notes.append(f"{name}: of {report['pieces']} pieces, "
+                     f"{report['fallback_pieces']} saw no bone (nearest bone used), "
+                     f"{report['rigid_pieces']} bound rigidly (no bone inside)")
+    if report and report.get("flipped_faces"):
+        notes.append(f"{name}: {report['flipped_faces']} triangles are wound against their neighbours "
+                     "(flipped normals); the weights ignore that, the mesh is unchanged (Mesh > Normals "
+                     "> Recalculate Outside fixes them)")
+    if report and settings["mirror"] is not None and report["mirrored_vertices"] < 0.9 * sum(counts):
+        notes.append(f"{name}: Symmetry X: only {report['mirrored_vertices'] / max(sum(counts), 1):.0%} of "
+                     "the vertices have a mirror twin across the armature's X = 0 plane; the others "
+                     "keep their own weights")
+    if report and report.get("factorization_failed"):
+        notes.append(f"{name}: heat solve failed, nearest-bone weights used")
+    ends = np.cumsum(counts)
+    for m, end, n in zip(members, ends, counts):
+        results.append((inputs[m][0], i[end - n:end], w[end - n:end]))
 
 
 def seam_groups(core, inputs) -> list[list[int]]:

@@ -135,7 +135,8 @@ def measure(bpy, core, label, mesh, rig, v, t, heads, tails, args):
 
 def measure_parts(bpy, core, count, args):
     """Blender's ARMATURE_AUTO (once) and our Heat (median of repeats) on ``count`` separate
-    small objects stacked along a 20-bone chain: (count, vertices, Blender s, ours s)."""
+    small objects stacked along a 20-bone chain: (count, vertices, Blender s, ours s, ours on
+    one thread s)."""
     blender_session.reset_scene()
     height = 8.0
     parts = []
@@ -148,9 +149,20 @@ def measure_parts(bpy, core, count, args):
     if not args.no_blender:
         select(bpy, parts, rig)
         blender_s, _ = timed(lambda: bpy.ops.object.parent_set(type="ARMATURE_AUTO"))
-    ours_s = ours_heat(bpy, parts, rig, args.repeats)
+    # Ours as shipped (small solves on a pool of threads) and on one thread, alternating.
+    weights_ops = importlib.import_module(blender_session.ADDON_MODULE + ".operators_weights")
+    threads = weights_ops.POOL_THREADS
+    pooled, serial = [], []
+    try:
+        for _ in range(max(args.repeats, 1)):
+            for runs, n in ((serial, 1), (pooled, threads)):
+                weights_ops.POOL_THREADS = n
+                runs.append(ours_heat(bpy, parts, rig, 1))
+    finally:
+        weights_ops.POOL_THREADS = threads
     print(f"done {count} parts", flush=True)
-    return count, sum(len(ob.data.vertices) for ob in parts), blender_s, ours_s
+    return (count, sum(len(ob.data.vertices) for ob in parts), blender_s, float(np.median(pooled)),
+            float(np.median(serial)))
 
 
 def main(argv=None):
@@ -213,11 +225,12 @@ def main(argv=None):
     parts = [measure_parts(bpy, core, int(c), args) for c in args.parts.split(",") if c]
     if parts:
         print()
-        print("| separate objects | vertices | bones | Blender ARMATURE_AUTO s | ours HEAT s | speed-up |")
-        print("|---:|---:|---:|---:|---:|---:|")
-        for count, n, bs, os_ in parts:
+        print("| separate objects | vertices | bones | Blender ARMATURE_AUTO s | ours HEAT s | speed-up "
+              "| ours on one thread s |")
+        print("|---:|---:|---:|---:|---:|---:|---:|")
+        for count, n, bs, os_, one in parts:
             ratio = f"{bs / os_:.2f}x" if bs else "-"
-            print(f"| {count} | {n} | 20 | {bs if bs is None else f'{bs:.2f}'} | {os_:.3f} | {ratio} |")
+            print(f"| {count} | {n} | 20 | {bs if bs is None else f'{bs:.2f}'} | {os_:.3f} | {ratio} | {one:.3f} |")
 
 
 if __name__ == "__main__":

@@ -901,6 +901,61 @@ def test_weights_job_reports_bad_input_as_an_error():
     assert isinstance(job.error, ow.WeightsError) and name in str(job.error)
 
 
+def test_many_small_meshes_solved_on_threads_get_the_serial_weights_and_notes(monkeypatch):
+    """A figure of many small objects is solved on a pool of threads: the same weights and
+    notes, in the same order, as one object after the other; progress is reported from the
+    calling thread only (it may touch Blender's UI), cancelling stops between objects, and an
+    error names its mesh."""
+    import threading
+
+    import miniskeleton_core as core
+
+    ow = _weights_module()
+    mesh_io = importlib.import_module("bl_ext.user_default.miniskeleton.mesh_io")
+    obs = [B.cylinder(name=f"Part{i}", radius=0.3, height=0.5, rings=4, segments=8, location=(0.0, 0.0, 0.35 * i))
+           for i in range(10)]
+    obs.append(B.cylinder(name="Upper", radius=0.3, height=0.5, rings=4, segments=8, location=(0.0, 0.0, 4.0)))
+    obs.append(B.cylinder(name="Lower", radius=0.3, height=0.5, rings=4, segments=8, location=(0.0, 0.0, 3.5)))
+    arm = B.chain()
+    bones = mesh_io.armature_bones(arm)
+    inputs = [(ob, ob.name, mesh_io.mesh_world_vertices(ob), mesh_io.mesh_triangles(ob)) for ob in obs]
+    flipped = inputs[3][3].copy()
+    flipped[: len(flipped) // 2] = flipped[: len(flipped) // 2, ::-1]
+    inputs[3] = inputs[3][:3] + (flipped,)
+    settings = dict(method="HEAT", k=4, power=2.0, nearest=3, falloff="gaussian", sigma=None,
+                    visibility=True, mirror=None, parents=None)
+    solved_on = []
+    solve = ow.mesh_weights
+    monkeypatch.setattr(ow, "mesh_weights", lambda *a: solved_on.append(threading.current_thread()) or solve(*a))
+
+    monkeypatch.setattr(ow, "POOL_THREADS", 1)
+    serial_results, serial_notes = ow.compute_weights(core, settings, bones, inputs, lambda f: True)
+    assert set(solved_on) == {threading.main_thread()}
+    monkeypatch.setattr(ow, "POOL_THREADS", 2)
+    solved_on.clear()
+    reported_on, fractions = set(), []
+    results, notes = ow.compute_weights(
+        core, settings, bones, inputs,
+        lambda f: reported_on.add(threading.current_thread()) or fractions.append(f) or True)
+    assert threading.main_thread() not in solved_on and len(solved_on) == 11  # Upper + Lower: one seam group
+    assert reported_on == {threading.main_thread()}
+    assert fractions == sorted(fractions) and fractions[-1] == pytest.approx(1.0)
+    assert [r[0] for r in results] == [r[0] for r in serial_results] == obs
+    for (_, i, w), (_, si, sw) in zip(results, serial_results):
+        assert np.array_equal(i, si) and np.array_equal(w, sw)
+    assert notes == serial_notes and any("Part3" in n and "wound against" in n for n in notes)
+
+    with pytest.raises(core.Cancelled):
+        ow.compute_weights(core, settings, bones, inputs, lambda f: f < 0.2)
+    bad = list(inputs)
+    bad[5] = inputs[5][:3] + (np.full_like(inputs[5][3], len(inputs[5][2])),)  # Part6's first vertex once stacked
+    with pytest.raises(ow.WeightsError, match="Mesh 'Part5'"):
+        ow.compute_weights(core, settings, bones, bad, lambda f: True)
+    bad[5] = inputs[5][:3] + (np.full_like(inputs[5][3], 10_000),)  # out of range even stacked
+    with pytest.raises(ow.WeightsError, match="nothing was changed"):
+        ow.compute_weights(core, settings, bones, bad, lambda f: True)
+
+
 def test_invoke_without_a_window_runs_directly():
     ob = B.cylinder()
     arm = B.chain()
