@@ -27,7 +27,7 @@
 use crate::cholesky::{factor_first, symbolic_factor};
 use crate::cotan::{cotan_laplacian, stiffness_lower_csc, triangle_cotangents};
 use crate::idw::bones_in_frame;
-use crate::influence::{top_k_row, Influences};
+use crate::influence::{insert_ranked, normalize_pruned, Influences};
 use crate::islands::connected_components;
 use crate::mesh::{count_non_finite, validate_bones, validate_mesh, Frame};
 use crate::orient::{orient_faces, vertex_normals};
@@ -98,6 +98,10 @@ pub struct HeatOptions {
     /// polyline head -> its points -> tail in the solve, as Blender's bone heat splits a
     /// B-Bone into its segments. Replaces the bone's other segments. Default `None`.
     pub curves: Option<BoneCurves>,
+    /// Most bones solved at once (their weights are held densely, vertices x bones `f64`); 0
+    /// picks the block by a memory budget ([`BLOCK_BYTES`]: one block up to 206k vertices
+    /// with 300 bones). The weights do not depend on it. Default 0.
+    pub block_bones: usize,
 }
 
 /// Interior points of bent bones, see [`HeatOptions::curves`].
@@ -124,6 +128,7 @@ impl Default for HeatOptions {
             normal_distance: true,
             parents: None,
             curves: None,
+            block_bones: 0,
         }
     }
 }
@@ -159,8 +164,8 @@ pub struct HeatReport {
     /// Wall-clock seconds per stage, in order: "prepare" (validate, normalize, weld, faces),
     /// "bvh|laplacian+symbolic" (wall time of two overlapped tasks, followed by their own
     /// durations: "bvh"; "laplacian" = pieces, cotangents, normals, sparse pattern; "symbolic"),
-    /// "rays" (nearest visible bone), "assemble", "factor", "solve", "finish" (clip, rigid,
-    /// symmetry, top-k), "total".
+    /// "rays" (nearest visible bone), "assemble", "factor", "solve" (the solves and the clip),
+    /// "finish" (right-hand sides, rigid pieces, symmetry, top-k, copy back), "total".
     pub timings: Vec<(&'static str, f64)>,
 }
 
@@ -360,7 +365,8 @@ pub fn heat_weights(
     });
     report.isolated_vertices = (0..vertices.len()).filter(|&v| mass[map[v] as usize] <= 0.0).count();
 
-    // 7. Assemble A = L + M H (+ regularization), RHS = M H P (column-major, nw x b).
+    // 7. Assemble A = L + M H (+ regularization); the right-hand sides M H P are made per
+    //    block of bones below.
     let c = HEAT_SCALE * opts.heat_constant as f64;
     let heat: Vec<f64> = sources
         .par_iter()
@@ -369,7 +375,6 @@ pub fn heat_weights(
         .map(|(s, &m)| if m > 0.0 && s.count > 0 { m * c / s.dist.max(MIN_DISTANCE).powi(2) } else { 0.0 })
         .collect();
     drop(cot.edges);
-    let mut x = source_columns(&sources, &heat, b);
     let values_for = |r: f64| -> Vec<f64> {
         let mut vals = csc.values.clone();
         for v in 0..nw {
@@ -381,71 +386,87 @@ pub fn heat_weights(
     lap(&mut report, "assemble");
     tick(0.3)?;
 
-    // 8. Factor once, solve all bones.
+    // 8. Factor once.
     let llt = symbolic.and_then(|s| factor_first(s, symbolic_mat, &REGULARIZATION, values_for));
     report.regularized = matches!(llt, Some((_, attempt)) if attempt > 0);
+    report.factorization_failed = llt.is_none();
     lap(&mut report, "factor");
     tick(0.6)?;
-    match &llt {
-        Some((llt, _)) => {
-            let threads = rayon::current_num_threads().max(1);
-            // One block of columns per worker, all solved at once: faer's supernodal solve
-            // is BLAS-3 in the right-hand sides (a triangular solve and a matmul per supernode
-            // on the whole block), so wider blocks stream the factor fewer times and run the
-            // dense kernels more efficiently (measured at 206k vertices / 40 bones on 2
-            // threads: 2 rounds of 10 columns per worker 0.32-0.34 s, 1 round of 20 0.27 s,
-            // 40 columns in one call with faer's own parallelism 0.59 s).
-            let chunk = b.div_ceil(threads).max(1) * threads;
-            let mut done = 0usize;
-            for cols in x.chunks_mut(chunk * nw) {
-                llt.solve_columns(cols, nw);
-                done += cols.len() / nw;
-                tick(0.6 + 0.3 * done as f32 / b as f32)?;
+
+    // 9-11. Per block of bones (all of them unless the dense block would pass BLOCK_BYTES):
+    //       solve (or, if the factorization failed, the nearest-bone sources), clip, rigid
+    //       pieces and isolated vertices, symmetry, and merge into each vertex's top k.
+    let vm = match &opts.symmetry {
+        Some(s) => Some(mirror_map(&wpos, s.axis, -frame.centre[s.axis] / frame.diagonal, s.tolerance as f64)?),
+        None => None,
+    };
+    if let Some(vm) = &vm {
+        report.mirrored_vertices = map.iter().filter(|&&w| vm[w as usize] >= 0).count();
+    }
+    let threads = rayon::current_num_threads().max(1);
+    let blocks = bone_blocks(b, nw, opts.block_bones, threads, opts.symmetry.as_ref().map(|s| &s.bone_mirror[..]));
+    let mut best = RunningTopK::new(nw, opts.max_influences.min(b));
+    let (mut t_solve, mut done) = (0.0, 0usize);
+    for block in &blocks {
+        let mut x = source_columns(&sources, &heat, block);
+        let s = Instant::now();
+        match &llt {
+            // One block of columns per worker, all solved at once: faer's supernodal solve is
+            // BLAS-3 in the right-hand sides (a triangular solve and a matmul per supernode on
+            // the whole block), so wider blocks stream the factor fewer times and run the dense
+            // kernels more efficiently (measured at 206k vertices / 40 bones on 2 threads: 2
+            // rounds of 10 columns per worker 0.32-0.34 s, 1 round of 20 0.27 s, 40 columns in
+            // one call with faer's own parallelism 0.59 s).
+            Some((llt, _)) => {
+                llt.solve_columns(&mut x, nw);
+                // Clip; non-finite (should not happen) counts as 0.
+                x.par_iter_mut().with_min_len(8192).for_each(|w| {
+                    *w = if w.is_finite() { w.clamp(0.0, 1.0) } else { 0.0 };
+                });
             }
-            // Clip; non-finite (should not happen) counts as 0.
-            x.par_iter_mut().with_min_len(8192).for_each(|w| {
-                *w = if w.is_finite() { w.clamp(0.0, 1.0) } else { 0.0 };
-            });
+            None => nearest_columns(&mut x, &sources, block),
         }
-        None => {
-            report.factorization_failed = true;
-            x.par_iter_mut().for_each(|w| *w = 0.0);
-            for (v, s) in sources.iter().enumerate() {
-                for &j in &s.bones[..s.count as usize] {
-                    x[j as usize * nw + v] = 1.0 / s.count as f64;
+        t_solve += s.elapsed().as_secs_f64();
+        // Rigid pieces and isolated vertices: 100% to one bone (or shared by exact ties).
+        for v in 0..nw {
+            let ties = if mass[v] <= 0.0 { Some(sources[v].nearest) } else { rigid[labels[v] as usize] };
+            if let Some(t) = ties {
+                for (col, &j) in block.iter().enumerate() {
+                    let on = t.bones[..t.count as usize].contains(&(j as u32));
+                    x[col * nw + v] = if on { 1.0 / t.count as f64 } else { 0.0 };
                 }
             }
         }
+        // Symmetry (mirror plane: input coordinate 0 on the axis); blocks hold mirror pairs.
+        if let (Some(s), Some(vm)) = (&opts.symmetry, &vm) {
+            let local: Vec<i32> = block
+                .iter()
+                .map(|&j| match s.bone_mirror[j] {
+                    m if m >= 0 => block.iter().position(|&i| i == m as usize).map_or(-1, |p| p as i32),
+                    _ => -1,
+                })
+                .collect();
+            symmetrize_columns(&mut x, nw, vm, &local);
+        }
+        best.merge(&x, block, opts.weight_limit_start, opts.weight_limit_end);
+        done += block.len();
+        tick(0.6 + 0.3 * done as f32 / b as f32)?;
     }
     drop(llt);
+    // "solve" is the solves and the clip alone; the blocks' other work counts in "finish".
     lap(&mut report, "solve");
-
-    // 9. Rigid pieces and isolated vertices: 100% to one bone (or shared by exact ties).
-    for v in 0..nw {
-        let ties = if mass[v] <= 0.0 { Some(sources[v].nearest) } else { rigid[labels[v] as usize] };
-        if let Some(t) = ties {
-            for j in 0..b {
-                x[j * nw + v] = 0.0;
-            }
-            for &j in &t.bones[..t.count as usize] {
-                x[j as usize * nw + v] = 1.0 / t.count as f64;
-            }
-        }
+    let bookkeeping = report.timings.last().map_or(0.0, |t| t.1) - t_solve;
+    if let Some(t) = report.timings.last_mut() {
+        t.1 = t_solve;
     }
 
-    // 10. Symmetry (mirror plane: input coordinate 0 on the axis).
-    if let Some(s) = &opts.symmetry {
-        let plane = -frame.centre[s.axis] / frame.diagonal;
-        let vm = mirror_map(&wpos, s.axis, plane, s.tolerance as f64)?;
-        symmetrize_columns(&mut x, nw, &vm, &s.bone_mirror);
-        report.mirrored_vertices = map.iter().filter(|&&w| vm[w as usize] >= 0).count();
-    }
-
-    // 11. Top-k per welded vertex, then copy to every input vertex.
-    let welded = top_k_columns(&x, nw, b, opts, &sources);
-    drop(x);
+    // 12. Normalize each vertex's top k, then copy to every input vertex.
+    let welded = best.finish(opts.min_weight, &sources);
     let out = unweld(&welded, &map);
     lap(&mut report, "finish");
+    if let Some(t) = report.timings.last_mut() {
+        t.1 += bookkeeping;
+    }
     report.timings.push(("total", t0.elapsed().as_secs_f64()));
     tick(1.0)?;
     Ok((out, report))
@@ -507,44 +528,141 @@ fn validate(
     Ok(())
 }
 
-/// The right-hand sides `M H P`, column-major `(n, b)`: each vertex's heat `heat[v]`
-/// (`M_ii H_ii`) shared equally among its source bones.
-fn source_columns(sources: &[Source], heat: &[f64], b: usize) -> Vec<f64> {
+/// Bytes of dense weights (`f64`, vertices x bones) solved at once: the bones go in blocks of
+/// at most this much (but at least one column per thread), so memory stays bounded on a mesh
+/// of millions of vertices with hundreds of bones (1M x 300 would take 2.4 GB at once). Meshes
+/// up to 206k vertices and 300 bones (or 1M and 60) are one block, as fast as before.
+pub const BLOCK_BYTES: usize = 512 << 20;
+
+/// The bones in blocks of at most `cap` bones (0: as many `nw`-vertex columns as fit in
+/// [`BLOCK_BYTES`], at least `threads`), in increasing order; with `mirror`, a bone and its
+/// mirror partner share a block (symmetry averages their columns).
+fn bone_blocks(b: usize, nw: usize, cap: usize, threads: usize, mirror: Option<&[i32]>) -> Vec<Vec<usize>> {
+    let cap = if cap > 0 { cap } else { (BLOCK_BYTES / (8 * nw.max(1))).max(threads).max(1) };
+    let mut blocks: Vec<Vec<usize>> = Vec::new();
+    let mut placed = vec![false; b];
+    for j in 0..b {
+        if placed[j] {
+            continue;
+        }
+        let partner = mirror.and_then(|m| usize::try_from(m[j]).ok()).filter(|&m| m != j && m < b && !placed[m]);
+        let unit: Vec<usize> = std::iter::once(j).chain(partner).collect();
+        match blocks.last_mut() {
+            Some(last) if last.len() + unit.len() <= cap => last.extend(&unit),
+            _ => blocks.push(unit.clone()),
+        }
+        for u in unit {
+            placed[u] = true;
+        }
+    }
+    for block in &mut blocks {
+        block.sort_unstable();
+    }
+    blocks
+}
+
+/// The right-hand sides `M H P` of the bones in `block`, column-major `(n, block.len())`:
+/// each vertex's heat `heat[v]` (`M_ii H_ii`) shared equally among its source bones.
+fn source_columns(sources: &[Source], heat: &[f64], block: &[usize]) -> Vec<f64> {
     let nw = sources.len();
-    let mut x = vec![0.0f64; nw * b];
+    let col = block_columns(block);
+    let mut x = vec![0.0f64; nw * block.len()];
     for (v, s) in sources.iter().enumerate() {
         if heat[v] > 0.0 {
             let share = heat[v] / s.count as f64;
             for &j in &s.bones[..s.count as usize] {
-                x[j as usize * nw + v] += share;
+                if let Some(c) = col(j) {
+                    x[c * nw + v] += share;
+                }
             }
         }
     }
     x
 }
 
-/// Per vertex of the column-major `(n, b)` weights `x`: Blender's small-weight ramp
-/// ([`weight_limit`]), then the top `max_influences`, pruned and normalized ([`top_k_row`]).
-/// A row whose weights all fall below the ramp keeps them unramped; an empty row takes the
-/// vertex's nearest bone.
-fn top_k_columns(x: &[f64], nw: usize, b: usize, opts: &HeatOptions, sources: &[Source]) -> Influences {
-    let (ls, le) = (opts.weight_limit_start, opts.weight_limit_end);
-    let mut welded = Influences::empty(nw, opts.max_influences.min(b));
-    let k = welded.k;
-    welded.indices.par_chunks_mut(k).zip(welded.weights.par_chunks_mut(k)).enumerate().with_min_len(1024).for_each(
-        |(v, (idx, w))| {
-            let mut used = top_k_row(|j| weight_limit(x[j * nw + v] as f32, ls, le), b, opts.min_weight, idx, w);
-            if used == 0 {
-                // Every weight fell below the ramp (many equal bones): keep them unramped.
-                used = top_k_row(|j| x[j * nw + v] as f32, b, opts.min_weight, idx, w);
+/// Where the factorization failed: each vertex's heat source bones share it equally (the
+/// nearest-bone weights), for the bones of `block`.
+fn nearest_columns(x: &mut [f64], sources: &[Source], block: &[usize]) {
+    let nw = sources.len();
+    let col = block_columns(block);
+    x.par_iter_mut().for_each(|w| *w = 0.0);
+    for (v, s) in sources.iter().enumerate() {
+        for &j in &s.bones[..s.count as usize] {
+            if let Some(c) = col(j) {
+                x[c * nw + v] = 1.0 / s.count as f64;
             }
-            if used == 0 {
-                idx[0] = sources[v].nearest.bones[0] as i32;
-                w[0] = 1.0;
-            }
-        },
-    );
-    welded
+        }
+    }
+}
+
+/// Bone `j`'s column in `block` (sorted), if it is there.
+fn block_columns(block: &[usize]) -> impl Fn(u32) -> Option<usize> + '_ {
+    move |j| block.binary_search(&(j as usize)).ok()
+}
+
+/// Each welded vertex's `k` largest weights so far, over the blocks of bones merged: after
+/// Blender's small-weight ramp ([`weight_limit`]), and unramped for the rows whose weights all
+/// fall below the ramp. Ranked as [`top_k_row`](crate::influence::top_k_row) ranks them, whatever the order of the
+/// blocks.
+struct RunningTopK {
+    k: usize,
+    ramped: Influences,
+    ramped_used: Vec<usize>,
+    raw: Influences,
+    raw_used: Vec<usize>,
+}
+
+impl RunningTopK {
+    fn new(nw: usize, k: usize) -> RunningTopK {
+        let (ramped, raw) = (Influences::empty(nw, k), Influences::empty(nw, k));
+        RunningTopK { k: ramped.k, ramped, ramped_used: vec![0; nw], raw, raw_used: vec![0; nw] }
+    }
+
+    /// Merge the column-major `(n, block.len())` weights `x` of the bones of `block`.
+    fn merge(&mut self, x: &[f64], block: &[usize], start: f32, end: f32) {
+        let (k, nw) = (self.k, self.ramped_used.len());
+        let rows = self.ramped.indices.par_chunks_mut(k).zip(self.ramped.weights.par_chunks_mut(k));
+        let raw_rows = self.raw.indices.par_chunks_mut(k).zip(self.raw.weights.par_chunks_mut(k));
+        rows.zip(self.ramped_used.par_iter_mut())
+            .zip(raw_rows.zip(self.raw_used.par_iter_mut()))
+            .enumerate()
+            .with_min_len(1024)
+            .for_each(|(v, (((idx, w), used), ((ridx, rw), rused)))| {
+                for (c, &j) in block.iter().enumerate() {
+                    let value = x[c * nw + v] as f32;
+                    *used = insert_ranked(j as i32, weight_limit(value, start, end), idx, w, *used);
+                    *rused = insert_ranked(j as i32, value, ridx, rw, *rused);
+                }
+            });
+    }
+
+    /// Each row normalized and pruned ([`normalize_pruned`]); a row whose weights all fell below
+    /// the ramp keeps them unramped, an empty row takes the vertex's nearest bone.
+    fn finish(mut self, min_weight: f32, sources: &[Source]) -> Influences {
+        let k = self.k;
+        let raw = &self.raw;
+        let (raw_used, ramped_used) = (&self.raw_used, &self.ramped_used);
+        self.ramped
+            .indices
+            .par_chunks_mut(k)
+            .zip(self.ramped.weights.par_chunks_mut(k))
+            .enumerate()
+            .with_min_len(1024)
+            .for_each(|(v, (idx, w))| {
+                if ramped_used[v] > 0 {
+                    normalize_pruned(idx, w, ramped_used[v], min_weight);
+                } else if raw_used[v] > 0 {
+                    let (ri, rw) = raw.row(v);
+                    idx.copy_from_slice(ri);
+                    w.copy_from_slice(rw);
+                    normalize_pruned(idx, w, raw_used[v], min_weight);
+                } else {
+                    idx[0] = sources[v].nearest.bones[0] as i32;
+                    w[0] = 1.0;
+                }
+            });
+        self.ramped
+    }
 }
 
 /// The rows of `welded` copied to every input vertex (`map[i]`: the welded vertex of input `i`).

@@ -71,35 +71,51 @@ pub fn top_k_row(
     }
     let mut used = 0usize;
     for j in 0..b {
-        let w = value(j);
-        if !(w > 0.0) || !w.is_finite() {
-            continue;
-        }
-        if used == k && w <= out_w[k - 1] {
-            continue;
-        }
-        // Insertion into the descending list; strict '>' keeps lower bone indices first on ties.
-        let mut pos = if used < k { used } else { k - 1 };
-        while pos > 0 && w > out_w[pos - 1] {
-            out_w[pos] = out_w[pos - 1];
-            out_idx[pos] = out_idx[pos - 1];
-            pos -= 1;
-        }
-        out_w[pos] = w;
-        out_idx[pos] = j as i32;
-        used = (used + 1).min(k);
+        used = insert_ranked(j as i32, value(j), &mut out_idx[..k], &mut out_w[..k], used);
     }
+    normalize_pruned(&mut out_idx[..k], &mut out_w[..k], used, min_weight)
+}
+
+/// Insert `(j, w)` into the list of the `used` largest values so far, `idx` / `ws` (its
+/// capacity is their length), kept in decreasing weight and, on equal weights, increasing
+/// index, so the list does not depend on the order the values come in. NaN, infinite,
+/// negative and zero values are ignored. Returns the new number of used slots.
+#[inline]
+pub fn insert_ranked(j: i32, w: f32, idx: &mut [i32], ws: &mut [f32], used: usize) -> usize {
+    let k = idx.len().min(ws.len());
+    if !(w > 0.0) || !w.is_finite() || k == 0 {
+        return used;
+    }
+    let before = |a: (f32, i32), b: (f32, i32)| a.0 > b.0 || (a.0 == b.0 && a.1 < b.1);
+    if used == k && !before((w, j), (ws[k - 1], idx[k - 1])) {
+        return used;
+    }
+    let mut pos = if used < k { used } else { k - 1 };
+    while pos > 0 && before((w, j), (ws[pos - 1], idx[pos - 1])) {
+        ws[pos] = ws[pos - 1];
+        idx[pos] = idx[pos - 1];
+        pos -= 1;
+    }
+    ws[pos] = w;
+    idx[pos] = j;
+    (used + 1).min(k)
+}
+
+/// Normalize the first `used` entries of a sorted list (from [`insert_ranked`]) to sum 1,
+/// drop those below `min_weight` (never the first; the others from the first that falls
+/// below), set the dropped slots to `-1` / `0` and renormalize. Returns the slots kept.
+pub fn normalize_pruned(idx: &mut [i32], ws: &mut [f32], used: usize, min_weight: f32) -> usize {
     if used == 0 {
         return 0;
     }
-    let sum: f32 = out_w[..used].iter().sum();
-    let keep = 1 + out_w[1..used].iter().take_while(|&&w| w / sum >= min_weight).count();
+    let sum: f32 = ws[..used].iter().sum();
+    let keep = 1 + ws[1..used].iter().take_while(|&&w| w / sum >= min_weight).count();
     for s in keep..used {
-        out_w[s] = 0.0;
-        out_idx[s] = -1;
+        ws[s] = 0.0;
+        idx[s] = -1;
     }
-    let sum: f32 = out_w[..keep].iter().sum();
-    out_w[..keep].iter_mut().for_each(|w| *w /= sum);
+    let sum: f32 = ws[..keep].iter().sum();
+    ws[..keep].iter_mut().for_each(|w| *w /= sum);
     keep
 }
 

@@ -628,3 +628,25 @@ fn a_coat_over_the_body_is_weighted_as_it_would_be_alone() {
         }
     }
 }
+
+/// Bones are solved in blocks when their dense weights would not fit the memory budget; the
+/// blocks (and the order they come in) change nothing: symmetry pairs share a block, rigid
+/// pieces and the per-vertex top k are the same.
+#[test]
+fn bones_solved_in_blocks_give_the_same_weights() {
+    let (mut m, (mut h, mut t)) = horizontal();
+    h.push([0.0, 0.3, 0.0]); // an 'arm' outside the body, and a prop around its tip
+    t.push([0.0, 0.62, 0.0]);
+    add_box(&mut m, [0.0, 0.68, 0.0], [0.05, 0.07, 0.05], false);
+    let b = (h, t);
+    let sym = Some(Symmetry { axis: 0, bone_mirror: vec![3, 2, 1, 0, 4], tolerance: 1e-4 });
+    for symmetry in [None, sym] {
+        let whole = HeatOptions { symmetry: symmetry.clone(), max_influences: 3, ..Default::default() };
+        let (all, rep) = heat(&m, &b, &whole);
+        assert_eq!(rep.rigid_pieces, 1, "{rep:?}");
+        for block_bones in [1, 2, 3] {
+            let (blocks, _) = heat(&m, &b, &HeatOptions { block_bones, ..whole.clone() });
+            assert_eq!(blocks, all, "{block_bones} bones at a time, symmetry {:?}", symmetry.is_some());
+        }
+    }
+}
