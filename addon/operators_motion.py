@@ -201,61 +201,20 @@ class MINISKELETON_OT_add_motion(bpy.types.Operator):
         layout.prop(self, "blend")
 
     def execute(self, context):
-        import miniskeleton_core as core
-
-        arm = motion_armature(context)
-        if arm is None:
-            self.report({"ERROR"}, "No armature: make the armature (or a mesh it deforms) active")
+        checked = self._armature(context)
+        if checked is None:
             return {"CANCELLED"}
-        if arm.mode == "EDIT":
-            self.report({"ERROR"}, f"Armature '{arm.name}' is in Edit Mode: switch to Object or Pose Mode")
-            return {"CANCELLED"}
-        locked = mesh_io.read_only(arm, mesh_io.keyed_action(arm))
-        if locked:
-            self.report({"ERROR"}, locked)
-            return {"CANCELLED"}
-        unplaced = mesh_io.unplaced(arm)
-        if unplaced:
-            self.report({"ERROR"}, unplaced)
-            return {"CANCELLED"}
-        scale = max(mesh_io.extent(arm), 1e-30)
-        bones = mesh_io.armature_bones(arm, min_length=1e-6 * scale)
-        if len(bones.names) < 3:
-            self.report({"ERROR"}, f"Armature '{arm.name}' has too few deform bones for a motion")
-            return {"CANCELLED"}
+        arm, bones = checked
         scene = context.scene
         fps = scene.render.fps / scene.render.fps_base
-        heads, tails, rest = motion_skeleton(arm, bones)
-        # The cadence follows the leg length in metres: the core gets the skeleton in metres,
-        # by the scene's Unit Scale (in a centimetre scene, 0.01, a creature walked at the
-        # slowest cadence, as if its legs were metres long).
-        metres = scene_metres(scene)
-        heads, tails = heads * metres, tails * metres
-        # The core works in single precision and squares lengths: a skeleton over about 1e19
-        # units overflowed ("the skeleton is flat"). One larger than 1e6 m or smaller than
-        # 1e-3 m is given at that size, by a power of two (exact), and the offsets scaled back;
-        # the cadence is clamped there all the same.
-        size = float(np.linalg.norm(np.ptp(np.concatenate([heads, tails]).astype(np.float64), axis=0)))
-        unit_size = 1.0
-        if size > 1e6:
-            unit_size = 2.0 ** math.floor(math.log2(size / 1e6))
-        elif 0.0 < size < 1e-3:
-            unit_size = 2.0 ** math.ceil(math.log2(size / 1e-3))
         try:
-            out = core.make_motion(
-                heads / unit_size, tails / unit_size, bones.parents, rest, self.motion,
-                names=bones.names, fps=fps, cycles=self.cycles, duration=self.duration,
-                amplitude=self.amplitude, stride=self.stride, speed=self.speed,
-                root_motion=self.root_motion)
+            out = self._motion(arm, bones, scene, fps)
         except ValueError as err:
             self.report({"ERROR"}, f"{arm.name}: {err}")
             return {"CANCELLED"}
-        for key in ("root_offset", "locations"):   # back in world units
-            out[key] = np.asarray(out[key], dtype=np.float64) * (unit_size / metres)
         roles = out["roles"]
-        lines = describe_roles(roles, bones.names)
         print(f"[MiniSkeleton] roles of '{arm.name}':")
-        for line in lines:
+        for line in describe_roles(roles, bones.names):
             print(f"[MiniSkeleton]   {line}")
 
         last = last_key_frame(arm) if self.append else None
@@ -273,12 +232,71 @@ class MINISKELETON_OT_add_motion(bpy.types.Operator):
         self.report({"INFO"}, f"{label} ({roles['plan']}): frames {start}-{end}; head "
                     f"{bones.names[roles['head']]}, legs {legs}; spine "
                     f"{', '.join(bones.names[i] for i in roles['spine'])} (full list in the console)")
+        self._warn(arm, {bones.names[int(b)] for b in out["animated"]})
+        return {"FINISHED"}
+
+    def _armature(self, context):
+        """(armature, its deform bones) to animate, or None (reported)."""
+        arm = motion_armature(context)
+        if arm is None:
+            self.report({"ERROR"}, "No armature: make the armature (or a mesh it deforms) active")
+            return None
+        if arm.mode == "EDIT":
+            self.report({"ERROR"}, f"Armature '{arm.name}' is in Edit Mode: switch to Object or Pose Mode")
+            return None
+        locked = mesh_io.read_only(arm, mesh_io.keyed_action(arm))
+        if locked:
+            self.report({"ERROR"}, locked)
+            return None
+        unplaced = mesh_io.unplaced(arm)
+        if unplaced:
+            self.report({"ERROR"}, unplaced)
+            return None
+        scale = max(mesh_io.extent(arm), 1e-30)
+        bones = mesh_io.armature_bones(arm, min_length=1e-6 * scale)
+        if len(bones.names) < 3:
+            self.report({"ERROR"}, f"Armature '{arm.name}' has too few deform bones for a motion")
+            return None
+        return arm, bones
+
+    def _motion(self, arm, bones, scene, fps: float) -> dict:
+        """The core's motion (``make_motion``) with its offsets in the armature's world units;
+        ValueError when the core finds no legs or no head."""
+        import miniskeleton_core as core
+
+        heads, tails, rest = motion_skeleton(arm, bones)
+        # The cadence follows the leg length in metres: the core gets the skeleton in metres,
+        # by the scene's Unit Scale (in a centimetre scene, 0.01, a creature walked at the
+        # slowest cadence, as if its legs were metres long).
+        metres = scene_metres(scene)
+        heads, tails = heads * metres, tails * metres
+        # The core works in single precision and squares lengths: a skeleton over about 1e19
+        # units overflowed ("the skeleton is flat"). One larger than 1e6 m or smaller than
+        # 1e-3 m is given at that size, by a power of two (exact), and the offsets scaled back;
+        # the cadence is clamped there all the same.
+        size = float(np.linalg.norm(np.ptp(np.concatenate([heads, tails]).astype(np.float64), axis=0)))
+        unit_size = 1.0
+        if size > 1e6:
+            unit_size = 2.0 ** math.floor(math.log2(size / 1e6))
+        elif 0.0 < size < 1e-3:
+            unit_size = 2.0 ** math.ceil(math.log2(size / 1e-3))
+        out = core.make_motion(
+            heads / unit_size, tails / unit_size, bones.parents, rest, self.motion,
+            names=bones.names, fps=fps, cycles=self.cycles, duration=self.duration,
+            amplitude=self.amplitude, stride=self.stride, speed=self.speed,
+            root_motion=self.root_motion)
+        for key in ("root_offset", "locations"):   # back in world units
+            out[key] = np.asarray(out[key], dtype=np.float64) * (unit_size / metres)
+        return out
+
+    def _warn(self, arm, keyed: set[str]):
+        """Warnings on what keeps the ``keyed`` bones' motion from showing as keyed: uneven
+        scale, rotation drivers, Rest Position, constraints."""
         scale = mesh_io.axis_scales(arm.matrix_world)   # a mirror's negative scale is even
         if max(scale) > 1.001 * min(scale):
             self.report({"WARNING"}, f"Armature '{arm.name}' is scaled unevenly ({scale[0]:.3g}, {scale[1]:.3g}, "
                         f"{scale[2]:.3g}): its bones shear as they turn, so the motion looks stretched; "
                         "apply the scale first (Ctrl+A > Scale)")
-        keyed = {bones.names[int(b)] for b in out["animated"]}
         driven = sorted(driven_rotation_bones(arm) & keyed)
         if driven:
             self.report({"WARNING"}, f"{len(driven)} keyed bone(s) have rotation drivers, which "
@@ -293,7 +311,6 @@ class MINISKELETON_OT_add_motion(bpy.types.Operator):
             self.report({"WARNING"}, f"{len(held)} keyed bone(s) follow constraints that override their keys: "
                         f"{mesh_io.name_list(named, 6)}; mute those constraints (or set their influence to 0) "
                         "to see the motion")
-        return {"FINISHED"}
 
     def write_keys(self, context, arm, names, out, start) -> int:
         scene = context.scene
