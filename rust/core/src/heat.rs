@@ -24,7 +24,7 @@
 //! (the spans of imported rigs' bones), `cholesky` (factor and solves), and
 //! [`crate::orient`] (winding and outward normals).
 
-use crate::cholesky::{factor_first, symbolic_factor};
+use crate::cholesky::{factor_first, symbolic_factor, Factor};
 use crate::cotan::{cotan_laplacian, stiffness_lower_csc, triangle_cotangents};
 use crate::idw::bones_in_frame;
 use crate::influence::{insert_ranked, normalize_pruned, Influences};
@@ -33,7 +33,7 @@ use crate::mesh::{count_non_finite, validate_bones, validate_mesh, Frame};
 use crate::orient::{orient_faces, vertex_normals};
 use crate::pieces::{mark_sources, piece_contains_bone, piece_stats, rigid_pieces};
 use crate::reach::reach_segments;
-use crate::sources::{heat_sources, Source};
+use crate::sources::{heat_sources, Source, Ties};
 use crate::symmetry::{mirror_map, symmetrize_columns, validate_bone_mirror};
 use crate::visibility::RayMesh;
 use crate::weld::weld;
@@ -204,8 +204,8 @@ const REGULARIZATION: [f64; 3] = [1e-10, 1e-6, 1e-3];
 /// of a piece holding a bone looks again through that piece's triangles only, at bones behind
 /// its surface;
 /// ties within [`TIE_RATIO`] share); fallback pieces and isolated vertices use the nearest
-/// bone; factor `L + M H` once and solve all bones; clip to `[0, 1]`; rigid pieces;
-/// symmetry; small-weight ramp ([`weight_limit`]), top-k and normalization per vertex; copy
+/// bone; factor `L + M H` once and solve all bones (in blocks, [`HeatOptions::block_bones`]);
+/// clip to `[0, 1]`; rigid pieces; symmetry; small-weight ramp ([`weight_limit`]), top-k and normalization per vertex; copy
 /// back to every input vertex.
 ///
 /// Rigid accessories (`opts.rigid_accessories`): a bone is *inside* a piece when at least 3 of
@@ -407,47 +407,11 @@ pub fn heat_weights(
     let blocks = bone_blocks(b, nw, opts.block_bones, threads, opts.symmetry.as_ref().map(|s| &s.bone_mirror[..]));
     let mut best = RunningTopK::new(nw, opts.max_influences.min(b));
     let (mut t_solve, mut done) = (0.0, 0usize);
+    let sym = opts.symmetry.as_ref().zip(vm.as_deref());
     for block in &blocks {
-        let mut x = source_columns(&sources, &heat, block);
-        let s = Instant::now();
-        match &llt {
-            // One block of columns per worker, all solved at once: faer's supernodal solve is
-            // BLAS-3 in the right-hand sides (a triangular solve and a matmul per supernode on
-            // the whole block), so wider blocks stream the factor fewer times and run the dense
-            // kernels more efficiently (measured at 206k vertices / 40 bones on 2 threads: 2
-            // rounds of 10 columns per worker 0.32-0.34 s, 1 round of 20 0.27 s, 40 columns in
-            // one call with faer's own parallelism 0.59 s).
-            Some((llt, _)) => {
-                llt.solve_columns(&mut x, nw);
-                // Clip; non-finite (should not happen) counts as 0.
-                x.par_iter_mut().with_min_len(8192).for_each(|w| {
-                    *w = if w.is_finite() { w.clamp(0.0, 1.0) } else { 0.0 };
-                });
-            }
-            None => nearest_columns(&mut x, &sources, block),
-        }
-        t_solve += s.elapsed().as_secs_f64();
-        // Rigid pieces and isolated vertices: 100% to one bone (or shared by exact ties).
-        for v in 0..nw {
-            let ties = if mass[v] <= 0.0 { Some(sources[v].nearest) } else { rigid[labels[v] as usize] };
-            if let Some(t) = ties {
-                for (col, &j) in block.iter().enumerate() {
-                    let on = t.bones[..t.count as usize].contains(&(j as u32));
-                    x[col * nw + v] = if on { 1.0 / t.count as f64 } else { 0.0 };
-                }
-            }
-        }
-        // Symmetry (mirror plane: input coordinate 0 on the axis); blocks hold mirror pairs.
-        if let (Some(s), Some(vm)) = (&opts.symmetry, &vm) {
-            let local: Vec<i32> = block
-                .iter()
-                .map(|&j| match s.bone_mirror[j] {
-                    m if m >= 0 => block.iter().position(|&i| i == m as usize).map_or(-1, |p| p as i32),
-                    _ => -1,
-                })
-                .collect();
-            symmetrize_columns(&mut x, nw, vm, &local);
-        }
+        let rows = Rows { sources: &sources, heat: &heat, mass, labels: &labels, rigid: &rigid };
+        let (x, secs) = block_weights(block, &rows, llt.as_ref().map(|f| &f.0), sym);
+        t_solve += secs;
         best.merge(&x, block, opts.weight_limit_start, opts.weight_limit_end);
         done += block.len();
         tick(0.6 + 0.3 * done as f32 / b as f32)?;
@@ -593,6 +557,72 @@ fn nearest_columns(x: &mut [f64], sources: &[Source], block: &[usize]) {
             }
         }
     }
+}
+
+/// Per welded vertex, what [`block_weights`] needs: its heat source, its heat `M_ii H_ii`,
+/// its mass (0: in no usable triangle, isolated), its piece, and each piece's rigid bone(s).
+struct Rows<'a> {
+    sources: &'a [Source],
+    heat: &'a [f64],
+    mass: &'a [f64],
+    labels: &'a [u32],
+    rigid: &'a [Option<Ties>],
+}
+
+/// The weights of the bones of `block`, column-major `(n, block.len())`, and the seconds spent
+/// solving: solved against the factor `llt` and clipped to `[0, 1]` (without a factor, the
+/// nearest-bone sources), then rigid pieces and isolated vertices at 100% on their bone(s),
+/// then averaged with the mirror images (`sym`: the symmetry and the vertex mirror map; a
+/// block holds every bone's mirror partner).
+fn block_weights(
+    block: &[usize],
+    rows: &Rows,
+    llt: Option<&Factor>,
+    sym: Option<(&Symmetry, &[i32])>,
+) -> (Vec<f64>, f64) {
+    let nw = rows.sources.len();
+    let mut x = source_columns(rows.sources, rows.heat, block);
+    let s = Instant::now();
+    match llt {
+        // One block of columns per worker, all solved at once: faer's supernodal solve is
+        // BLAS-3 in the right-hand sides (a triangular solve and a matmul per supernode on the
+        // whole block), so wider blocks stream the factor fewer times and run the dense kernels
+        // more efficiently (measured at 206k vertices / 40 bones on 2 threads: 2 rounds of 10
+        // columns per worker 0.32-0.34 s, 1 round of 20 0.27 s, 40 columns in one call with
+        // faer's own parallelism 0.59 s).
+        Some(llt) => {
+            llt.solve_columns(&mut x, nw);
+            // Clip; non-finite (should not happen) counts as 0.
+            x.par_iter_mut().with_min_len(8192).for_each(|w| {
+                *w = if w.is_finite() { w.clamp(0.0, 1.0) } else { 0.0 };
+            });
+        }
+        None => nearest_columns(&mut x, rows.sources, block),
+    }
+    let secs = s.elapsed().as_secs_f64();
+    // Rigid pieces and isolated vertices: 100% to one bone (or shared by exact ties).
+    for v in 0..nw {
+        let ties =
+            if rows.mass[v] <= 0.0 { Some(rows.sources[v].nearest) } else { rows.rigid[rows.labels[v] as usize] };
+        if let Some(t) = ties {
+            for (col, &j) in block.iter().enumerate() {
+                let on = t.bones[..t.count as usize].contains(&(j as u32));
+                x[col * nw + v] = if on { 1.0 / t.count as f64 } else { 0.0 };
+            }
+        }
+    }
+    // Symmetry (mirror plane: input coordinate 0 on the axis).
+    if let Some((s, vm)) = sym {
+        let local: Vec<i32> = block
+            .iter()
+            .map(|&j| match s.bone_mirror[j] {
+                m if m >= 0 => block.iter().position(|&i| i == m as usize).map_or(-1, |p| p as i32),
+                _ => -1,
+            })
+            .collect();
+        symmetrize_columns(&mut x, nw, vm, &local);
+    }
+    (x, secs)
 }
 
 /// Bone `j`'s column in `block` (sorted), if it is there.
