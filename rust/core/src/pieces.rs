@@ -25,6 +25,7 @@ const BONE_SAMPLES: [f64; 5] = [0.0, 0.25, 0.5, 0.75, 1.0];
 const BONE_INSIDE_SAMPLES: usize = 3;
 /// An accessory is at most this fraction of the skeleton's bbox diagonal.
 const ACCESSORY_SIZE: f64 = 0.5;
+
 /// Geometry of one connected piece (welded, unit frame).
 #[derive(Clone, Debug)]
 pub(crate) struct PieceStats {
@@ -32,11 +33,11 @@ pub(crate) struct PieceStats {
     pub(crate) active: bool,
     /// Some vertex sees a bone.
     pub(crate) sees: bool,
-    pub(crate) lo: DVec3,
-    pub(crate) hi: DVec3,
+    lo: DVec3,
+    hi: DVec3,
     /// Nearest (distance, bone) over the piece's vertices, ignoring visibility.
-    pub(crate) best: (f64, u32),
-    pub(crate) area: f64,
+    best: (f64, u32),
+    area: f64,
     /// Sum of triangle area times centroid.
     area_moment: DVec3,
     /// Signed enclosed volume and its first moment (meaningful when closed).

@@ -1,5 +1,5 @@
 //! Heat sources of the bone-heat solve ([`crate::heat`]): for every vertex, its nearest
-//! *visible* bone(s) (Baran & Popovic 2007, section 4: `p_j,i = 1` and `H_ii = c / d_i^2` come
+//! *visible* bone(s) (Baran & Popovic 2007, skin attachment: `p_j,i = 1` and `H_ii = c / d_i^2` come
 //! from the nearest bone whose straight line to the vertex stays inside the mesh), ranked by
 //! Blender's normal-weighted distance, with near-ties sharing, and the nearest bone by plain
 //! distance for the fallbacks.
