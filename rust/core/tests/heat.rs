@@ -650,3 +650,29 @@ fn bones_solved_in_blocks_give_the_same_weights() {
         }
     }
 }
+
+/// Bones no vertex has as its heat source (far outside the mesh) change nothing: the other
+/// bones keep their weights exactly and these get none (their solves are skipped, and the
+/// solved columns go back to their own bones).
+#[test]
+fn bones_no_vertex_sees_change_nothing() {
+    let (m, (h, t)) = cylinder();
+    let (plain, _) = heat(&m, &(h.clone(), t.clone()), &HeatOptions::default());
+    let far = |i: usize| ([3.0 + i as f32, 0.0, 0.5], [3.0 + i as f32, 0.0, 1.5]);
+    // bones 0..4 of the chain at 0, 2, 3, 5; far ones at 1, 4, 6
+    let order = [Some(0), None, Some(1), Some(2), None, Some(3), None];
+    let (mut hh, mut tt) = (Vec::new(), Vec::new());
+    for (i, o) in order.iter().enumerate() {
+        let (a, b) = o.map_or_else(|| far(i), |j| (h[j], t[j]));
+        hh.push(a);
+        tt.push(b);
+    }
+    let (mixed, _) = heat(&m, &(hh, tt), &HeatOptions::default());
+    let to_chain = |j: i32| if j < 0 { -1 } else { order[j as usize].map_or(99, |c| c as i32) };
+    for v in 0..plain.n() {
+        let (pi, pw) = plain.row(v);
+        let (mi, mw) = mixed.row(v);
+        assert_eq!(mi.iter().map(|&j| to_chain(j)).collect::<Vec<_>>(), pi, "vertex {v}");
+        assert_eq!(mw, pw, "vertex {v}");
+    }
+}
