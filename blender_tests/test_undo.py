@@ -104,6 +104,7 @@ CASES = {
     "auto_weights": (lambda tmp: _creature() and {}, lambda: bpy.ops.object.miniskeleton_auto_weights),
     "fit": (lambda tmp: _creature() and {}, lambda: bpy.ops.armature.miniskeleton_fit_skeleton),
     "restore": (lambda tmp: _creature_fitted() or {}, lambda: bpy.ops.armature.miniskeleton_restore_skeleton),
+    "snapshot": (lambda tmp: _creature_fitted() or {}, lambda: bpy.ops.armature.miniskeleton_snapshot_skeleton),
     "add_motion": (lambda tmp: _creature_posed() or dict(motion="WALK"), lambda: bpy.ops.pose.miniskeleton_add_motion),
     "import_npz": (lambda tmp: _creature_bundle(str(tmp / "rig.npz")) or dict(filepath=str(tmp / "rig.npz")),
                    lambda: bpy.ops.import_scene.miniskeleton_npz),
