@@ -1,7 +1,8 @@
 """Ctrl+Z and Ctrl+Shift+Z around every operator that changes the scene: one undo step takes
 the whole change back (objects, transforms, parents, modifiers, vertex groups and weights,
 bones, the armature's stored original, poses, actions, images, materials, the scene's frame
-range, engine, camera and world), and redo puts it back."""
+range, engine, camera and world), and redo puts it back; and what each one made survives
+saving the .blend and opening it again."""
 
 from __future__ import annotations
 
@@ -129,3 +130,17 @@ def test_one_undo_takes_an_operator_back_and_redo_puts_it_again(case, tmp_path):
     assert fingerprint() == before
     bpy.ops.ed.redo()
     assert fingerprint() == after
+
+
+@pytest.mark.parametrize("case", sorted(CASES))
+def test_what_an_operator_made_survives_save_and_reload(case, tmp_path):
+    setup, operator = CASES[case]
+    options = setup(tmp_path)
+    assert operator()(**options) == {"FINISHED"}
+    if bpy.context.object is not None and bpy.context.object.mode != "OBJECT":
+        bpy.ops.object.mode_set(mode="OBJECT")
+    made = fingerprint()
+    path = str(tmp_path / f"{case}.blend")
+    bpy.ops.wm.save_as_mainfile(filepath=path)
+    bpy.ops.wm.open_mainfile(filepath=path)
+    assert fingerprint() == made
