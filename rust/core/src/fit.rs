@@ -478,16 +478,27 @@ pub fn fit_joints(
         .collect();
     let mut rounds = 0;
     symmetrize(&mut p);
+    // Each bone's centre line depends only on its two joints: kept from the last round for the
+    // bones whose joints did not move (a rig's joints settle, and a hair strand outside the
+    // mesh never moves: a 4022-bone rig recast every line of every round).
+    let mut lines: Vec<Option<Line>> = Vec::new();
+    let mut lines_at: Vec<DVec3> = Vec::new();
     for _ in 0..opts.rounds {
         rounds += 1;
         // 1. Centre line per bone.
-        let lines: Vec<Option<Line>> = bones
+        lines = bones
             .par_iter()
-            .map(|b| {
+            .enumerate()
+            .map(|(e, b)| {
+                let (a, t) = (p[b[0] as usize], p[b[1] as usize]);
+                if !lines_at.is_empty() && lines_at[b[0] as usize] == a && lines_at[b[1] as usize] == t {
+                    return lines[e].clone();
+                }
                 let junction = incident[b[0] as usize].len() >= 3;
-                centre_line(&rm, p[b[0] as usize], p[b[1] as usize], junction, &fractions, opts)
+                centre_line(&rm, a, t, junction, &fractions, opts)
             })
             .collect();
+        lines_at = p.clone();
         // 2. Each joint: nearest point to its bones' centre lines, pulled to itself.
         let mut next = p.clone();
         for j in (0..nj).filter(|&j| movable[j]) {
@@ -683,6 +694,7 @@ impl Mirror {
 
 /// A bone's centre line: a point at the head, the unit direction, and for a limb's free end
 /// where the medial axis of its rounded tip stops.
+#[derive(Clone)]
 struct Line {
     head: DVec3,
     dir: DVec3,
