@@ -613,12 +613,10 @@ fn block_weights(
     }
     // Symmetry (mirror plane: input coordinate 0 on the axis).
     if let Some((s, vm)) = sym {
+        let col = block_columns(block);
         let local: Vec<i32> = block
             .iter()
-            .map(|&j| match s.bone_mirror[j] {
-                m if m >= 0 => block.iter().position(|&i| i == m as usize).map_or(-1, |p| p as i32),
-                _ => -1,
-            })
+            .map(|&j| u32::try_from(s.bone_mirror[j]).ok().and_then(&col).map_or(-1, |c| c as i32))
             .collect();
         symmetrize_columns(&mut x, nw, vm, &local);
     }
@@ -662,7 +660,6 @@ fn block_columns(block: &[usize]) -> impl Fn(u32) -> Option<usize> + '_ {
 /// fall below the ramp. Ranked as [`top_k_row`](crate::influence::top_k_row) ranks them, whatever the order of the
 /// blocks.
 struct RunningTopK {
-    k: usize,
     ramped: Influences,
     ramped_used: Vec<usize>,
     raw: Influences,
@@ -672,12 +669,12 @@ struct RunningTopK {
 impl RunningTopK {
     fn new(nw: usize, k: usize) -> RunningTopK {
         let (ramped, raw) = (Influences::empty(nw, k), Influences::empty(nw, k));
-        RunningTopK { k: ramped.k, ramped, ramped_used: vec![0; nw], raw, raw_used: vec![0; nw] }
+        RunningTopK { ramped, ramped_used: vec![0; nw], raw, raw_used: vec![0; nw] }
     }
 
     /// Merge the column-major `(n, block.len())` weights `x` of the bones of `block`.
     fn merge(&mut self, x: &[f64], block: &[usize], start: f32, end: f32) {
-        let (k, nw) = (self.k, self.ramped_used.len());
+        let (k, nw) = (self.ramped.k, self.ramped_used.len());
         let rows = self.ramped.indices.par_chunks_mut(k).zip(self.ramped.weights.par_chunks_mut(k));
         let raw_rows = self.raw.indices.par_chunks_mut(k).zip(self.raw.weights.par_chunks_mut(k));
         rows.zip(self.ramped_used.par_iter_mut())
@@ -696,7 +693,7 @@ impl RunningTopK {
     /// Each row normalized and pruned ([`normalize_pruned`]); a row whose weights all fell below
     /// the ramp keeps them unramped, an empty row takes the vertex's nearest bone.
     fn finish(mut self, min_weight: f32, sources: &[Source]) -> Influences {
-        let k = self.k;
+        let k = self.ramped.k;
         let raw = &self.raw;
         let (raw_used, ramped_used) = (&self.raw_used, &self.ramped_used);
         self.ramped
