@@ -225,12 +225,6 @@ class MINISKELETON_OT_fit_skeleton(bpy.types.Operator):
             movable, controls = _movable_joints(mode, bones, pose_sel, ends, nj)
 
             joints_f = joints @ stretch  # S is symmetric
-            inside = core.points_inside(verts, tris, joints_f.astype(np.float32))
-            if not inside.any():
-                self.report({"ERROR"}, f"All {nj} joints of '{arm.name}' are outside the selected mesh(es): "
-                            "is this the right mesh, and are both objects placed over each other?")
-                return {"CANCELLED"}
-
             real = ends[:, 0] != ends[:, 1]
             follow = self.tails == "FOLLOW" or (self.tails == "AUTO" and mesh_io.invented_tails(bones))
             fit_j, fit_bones, mirror = _fit_graph(ends, real, parents, follow, names)
@@ -243,6 +237,11 @@ class MINISKELETON_OT_fit_skeleton(bpy.types.Operator):
                                            max_move=self.max_move / 100.0, **kw)
             except (ValueError, RuntimeError) as err:
                 self.report({"ERROR"}, f"Fit failed: {err}; nothing was changed")
+                return {"CANCELLED"}
+            if rep["outside_before_mask"].all():
+                self.report({"ERROR"}, f"All {len(fit_j)} joints of '{arm.name}' are outside the selected "
+                            "mesh(es): is this the right mesh, and are both objects placed over each other? "
+                            "Nothing was changed")
                 return {"CANCELLED"}
             new = joints.copy()
             new[fit_j] = np.linalg.solve(stretch, np.asarray(sub, dtype=np.float64).T).T

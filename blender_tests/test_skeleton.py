@@ -880,8 +880,11 @@ def test_bad_inputs_are_reported(capfd):
         bpy.ops.armature.miniskeleton_fit_skeleton()
     far = builders.chain("Far", count=3, location=(10, 0, 0))
     builders.select_for_parenting([ob], far)
-    with pytest.raises(RuntimeError, match="outside"):
+    rest = [(tuple(b.head_local), tuple(b.tail_local)) for b in far.data.bones]
+    with pytest.raises(RuntimeError, match="All 4 joints of 'Far' are outside.*Nothing was changed"):
         bpy.ops.armature.miniskeleton_fit_skeleton()
+    assert [(tuple(b.head_local), tuple(b.tail_local)) for b in far.data.bones] == rest
+    assert rig_io.load_snapshot(far.data) is None  # no original stored: nothing was changed
     flat = builders.mesh_object("Points", [(0, 0, 0), (1, 0, 0), (0, 1, 0)], [])
     builders.select_for_parenting([flat], arm)
     with pytest.raises(RuntimeError, match="no faces"):

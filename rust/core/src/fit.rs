@@ -452,9 +452,11 @@ pub fn fit_joints(
     }
 
     let unit_v = frame.normalize(vertices);
-    let (open_edges, nonmanifold_edges, pieces) = topology(&unit_v, triangles);
     let unit: Vec<[f32; 3]> = unit_v.iter().map(|p| p.as_vec3().to_array()).collect();
-    let rm = Solid::new(&unit, triangles, WELD, DEDUP);
+    // Both are mostly serial (weld, components, parry's BVH build): side by side they take the
+    // time of the longer (1M vertices: 0.44 s and 1.13 s, 1.55 s one after the other).
+    let ((open_edges, nonmanifold_edges, pieces), rm) =
+        rayon::join(|| topology(&unit_v, triangles), || Solid::new(&unit, triangles, WELD, DEDUP));
     if rm.rays.triangle_count() == 0 {
         return Err(Error::EmptyMesh("every triangle of the mesh is degenerate".into()));
     }
