@@ -166,45 +166,13 @@ pub fn inside(solid: &Solid, p: DVec3) -> bool {
     solid.inside(p, FAR)
 }
 
-/// Eigenvalues and unit eigenvectors of a symmetric 3x3 matrix (cyclic Jacobi rotations).
-fn sym_eigen(m: DMat3) -> ([f64; 3], [DVec3; 3]) {
-    let mut a = [[0.0f64; 3]; 3];
-    for (r, row) in a.iter_mut().enumerate() {
-        for (c, x) in row.iter_mut().enumerate() {
-            *x = m.col(c)[r];
-        }
-    }
-    let mut v = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0f64]];
-    for _ in 0..32 {
-        let off = a[0][1].abs() + a[0][2].abs() + a[1][2].abs();
-        if off < 1e-15 {
-            break;
-        }
-        for (p, q) in [(0, 1), (0, 2), (1, 2)] {
-            if a[p][q].abs() < 1e-300 {
-                continue;
-            }
-            let theta = (a[q][q] - a[p][p]) / (2.0 * a[p][q]);
-            let t = theta.signum() / (theta.abs() + (theta * theta + 1.0).sqrt());
-            let t = if theta == 0.0 { 1.0 } else { t };
-            let (c, s) = (1.0 / (t * t + 1.0).sqrt(), t / (t * t + 1.0).sqrt());
-            for row in a.iter_mut() {
-                let (akp, akq) = (row[p], row[q]);
-                row[p] = c * akp - s * akq;
-                row[q] = s * akp + c * akq;
-            }
-            let (ap, aq) = (a[p], a[q]);
-            a[p] = std::array::from_fn(|k| c * ap[k] - s * aq[k]);
-            a[q] = std::array::from_fn(|k| s * ap[k] + c * aq[k]);
-            for row in v.iter_mut() {
-                let (vp, vq) = (row[p], row[q]);
-                row[p] = c * vp - s * vq;
-                row[q] = s * vp + c * vq;
-            }
-        }
-    }
-    let col = |k: usize| DVec3::new(v[0][k], v[1][k], v[2][k]);
-    ([a[0][0], a[1][1], a[2][2]], [col(0), col(1), col(2)])
+/// Eigenvalues (ascending) and unit eigenvectors of a symmetric 3x3 matrix (faer's
+/// self-adjoint eigendecomposition); `None` if it does not converge (a non-finite matrix).
+fn sym_eigen(m: DMat3) -> Option<([f64; 3], [DVec3; 3])> {
+    let a = faer::Mat::<f64>::from_fn(3, 3, |r, c| m.col(c)[r]);
+    let evd = a.self_adjoint_eigen(faer::Side::Lower).ok()?;
+    let (s, u) = (evd.S(), evd.U());
+    Some((std::array::from_fn(|k| s[k]), std::array::from_fn(|k| DVec3::new(u[(0, k)], u[(1, k)], u[(2, k)]))))
 }
 
 /// Two unit vectors completing `d` (unit) to an orthonormal basis.
@@ -793,7 +761,7 @@ fn place_joint<'l>(p: DVec3, lines: impl Iterator<Item = &'l Line>, free_end: bo
         return None;
     }
     let g = rhs - m * p;
-    let (vals, vecs) = sym_eigen(m);
+    let (vals, vecs) = sym_eigen(m)?;
     let mut c = p;
     for k in 0..3 {
         if vals[k] > stiffness {
@@ -860,7 +828,7 @@ mod tests {
     #[test]
     fn eigen_decomposes() {
         let m = DMat3::from_cols(DVec3::new(2.0, 1.0, 0.0), DVec3::new(1.0, 2.0, 0.5), DVec3::new(0.0, 0.5, 1.0));
-        let (vals, vecs) = sym_eigen(m);
+        let (vals, vecs) = sym_eigen(m).unwrap();
         for k in 0..3 {
             assert!((m * vecs[k] - vecs[k] * vals[k]).length() < 1e-9, "{k}: {vals:?}");
             assert!((vecs[k].length() - 1.0).abs() < 1e-9);
