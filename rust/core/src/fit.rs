@@ -19,8 +19,9 @@
 //! nearest chord of the mesh.
 //!
 //! Everything runs in the unit frame of the mesh (bounding-box diagonal 1, see
-//! [`crate::mesh::Frame`]), so tolerances are scale-free. Rays: [`Solid::hits`], which reads
-//! a mesh of parts pushed into each other (kit-built and game models) as their union.
+//! [`crate::mesh::Frame`]), so tolerances are scale-free. The sections, centre lines and
+//! inside tests are in `sections.rs`; their rays read a mesh of parts pushed into each other
+//! (kit-built and game models) as their union ([`Solid::hits`]).
 //!
 //! See also: `symmetry.rs` (mirror maps), Baran & Popovic 2007 (Pinocchio's embedding also
 //! centres joints in the medial surface; this is a much simpler local version).
@@ -28,6 +29,7 @@
 //! unreliable on meshes with large holes.
 
 use crate::mesh::{to_dvec, validate_mesh, Frame};
+use crate::sections::{centre_line, inside, pull_inside, Line};
 use crate::solid::Solid;
 use crate::symmetry::mirror_point;
 use crate::{Error, Result};
@@ -137,10 +139,6 @@ impl FitReport {
     }
 }
 
-/// A free limb end goes this many local radii short of the tip of the mesh beyond it.
-const TIP_MARGIN: f64 = 0.3;
-/// Joints pulled inside go this far (unit frame) past the surface, at most half the chord.
-const PULL_DEPTH: f64 = 0.005;
 /// With symmetry, the joints may have to move at most this far on average (fraction of the
 /// diagonal) to meet their mirror images; farther, and the plane is not the rig's own (a
 /// character facing +X, an armature origin off the body), so the fit refuses.
@@ -153,19 +151,6 @@ pub const MIRROR_NEAR: f64 = 0.01;
 const DEDUP: f32 = 1e-6;
 /// Vertices this close (unit frame) are one: pieces and mesh checks are taken after welding.
 const WELD: f64 = 1e-6;
-/// Rays never need to be longer than this in the unit frame (the mesh fits in diagonal 1).
-const FAR: f32 = 4.0;
-
-/// Where the ray from `p` along `dir` enters or leaves the mesh (the union of its pieces).
-fn hits(solid: &Solid, p: DVec3, dir: DVec3) -> Vec<f32> {
-    solid.hits(p.as_vec3(), dir.as_vec3(), FAR)
-}
-
-/// Ray-parity inside test in the unit frame ([`Solid::inside`]: inside some piece).
-pub fn inside(solid: &Solid, p: DVec3) -> bool {
-    solid.inside(p, FAR)
-}
-
 /// Eigenvalues (ascending) and unit eigenvectors of a symmetric 3x3 matrix (faer's
 /// self-adjoint eigendecomposition); `None` if it does not converge (a non-finite matrix).
 fn sym_eigen(m: DMat3) -> Option<([f64; 3], [DVec3; 3])> {
@@ -173,158 +158,6 @@ fn sym_eigen(m: DMat3) -> Option<([f64; 3], [DVec3; 3])> {
     let evd = a.self_adjoint_eigen(faer::Side::Lower).ok()?;
     let (s, u) = (evd.S(), evd.U());
     Some((std::array::from_fn(|k| s[k]), std::array::from_fn(|k| DVec3::new(u[(0, k)], u[(1, k)], u[(2, k)]))))
-}
-
-/// Two unit vectors completing `d` (unit) to an orthonormal basis.
-fn basis(d: DVec3) -> (DVec3, DVec3) {
-    let a = if d.x.abs() < 0.6 {
-        DVec3::X
-    } else if d.y.abs() < 0.6 {
-        DVec3::Y
-    } else {
-        DVec3::Z
-    };
-    let u = d.cross(a).normalize();
-    (u, d.cross(u))
-}
-
-/// Move `q` (unit frame) to the centre of the mesh cross-section by the plane through `q` with
-/// normal `d` (unit). `None` when the point is outside and no chord in the plane reaches in.
-fn centre_in_plane(rm: &Solid, q0: DVec3, d: DVec3, lines: usize, reach: f64) -> Option<(DVec3, f64)> {
-    let (u, v) = basis(d);
-    let dirs: Vec<DVec3> = (0..lines)
-        .map(|k| {
-            let a = std::f64::consts::PI * (k as f64 + 0.5) / lines as f64;
-            u * a.cos() + v * a.sin()
-        })
-        .collect();
-    let mut q = q0;
-    let mut moved_in = false;
-    let mut radius = 0.0;
-    for _ in 0..24 {
-        let mut chords = Vec::with_capacity(lines); // (w, forward first hit, backward first hit)
-        let mut odd = 0;
-        let mut entries: Vec<(f64, DVec3)> = Vec::new(); // (entry distance, chord midpoint) if outside
-        for &w in &dirs {
-            let f = hits(rm, q, w);
-            let b = hits(rm, q, -w);
-            odd += (f.len() % 2) + (b.len() % 2);
-            if let (Some(&hf), Some(&hb)) = (f.first(), b.first()) {
-                chords.push((w, hf as f64, hb as f64));
-            }
-            for (h, s) in [(&f, 1.0), (&b, -1.0)] {
-                if h.len() >= 2 {
-                    entries.push((h[0] as f64, q + w * s * (h[0] as f64 + h[1] as f64) * 0.5));
-                }
-            }
-        }
-        if 2 * odd <= 2 * lines {
-            // Outside: jump to the middle of the nearest chord in the plane, once.
-            if moved_in {
-                return None;
-            }
-            let best = entries.iter().filter(|e| e.0 <= reach).min_by(|a, b| a.0.total_cmp(&b.0))?;
-            q = best.1;
-            moved_in = true;
-            continue;
-        }
-        if chords.is_empty() {
-            return Some((q, radius));
-        }
-        let mut half: Vec<f64> = chords.iter().map(|c| 0.5 * (c.1 + c.2)).collect();
-        half.sort_by(|a, b| a.total_cmp(b));
-        let r_med = half[half.len() / 2];
-        radius = r_med;
-        // Least squares: sum_k (w_k . delta - s_k)^2 over the chords not escaping into
-        // another part of the body (longer than 3x the median half-chord).
-        let (mut a11, mut a12, mut a22, mut b1, mut b2) = (0.0, 0.0, 0.0, 0.0, 0.0);
-        for &(w, hf, hb) in &chords {
-            if 0.5 * (hf + hb) > 3.0 * r_med {
-                continue;
-            }
-            let s = 0.5 * (hf - hb);
-            let (wu, wv) = (w.dot(u), w.dot(v));
-            a11 += wu * wu;
-            a12 += wu * wv;
-            a22 += wv * wv;
-            b1 += s * wu;
-            b2 += s * wv;
-        }
-        let det = a11 * a22 - a12 * a12;
-        if !(det > 1e-12) {
-            return Some((q, radius));
-        }
-        let (x, y) = ((a22 * b1 - a12 * b2) / det, (a11 * b2 - a12 * b1) / det);
-        let mut delta = u * x + v * y;
-        let len = delta.length();
-        if len > 0.5 * r_med {
-            delta *= 0.5 * r_med / len;
-        }
-        q += delta;
-        if delta.length() < 1e-7 {
-            break;
-        }
-    }
-    Some((q, radius))
-}
-
-/// Nearest point inside the mesh: middle of the nearest chord along rays over the sphere (or,
-/// with `plane = Some(axis)`, over the circle of directions with no `axis` component).
-fn pull_inside(rm: &Solid, p: DVec3, plane: Option<usize>, toward: &[DVec3]) -> Option<DVec3> {
-    let n = 96;
-    let mut best: Option<(f64, DVec3)> = None;
-    // Rays toward the nearest surface points first (thin parts slip between sphere directions),
-    // then over the sphere.
-    let extra: Vec<DVec3> = toward
-        .iter()
-        .map(|&t| {
-            // Aim a little off the vertex itself: a ray through a vertex or edge can report
-            // one crossing twice and break the chord pairing.
-            let jitter = DVec3::new((t.x * 1e4).sin(), (t.y * 1e4 + 1.0).sin(), (t.z * 1e4 + 2.0).sin());
-            let mut w = t + jitter * 1e-4 - p;
-            if let Some(axis) = plane {
-                w[axis] = 0.0;
-            }
-            w.normalize_or_zero()
-        })
-        .filter(|w| *w != DVec3::ZERO)
-        .collect();
-    for i in 0..n + extra.len() {
-        let w = if i >= n {
-            extra[i - n]
-        } else {
-            match plane {
-                None => {
-                    // Fibonacci sphere.
-                    let z = 1.0 - (2.0 * i as f64 + 1.0) / n as f64;
-                    let r = (1.0 - z * z).max(0.0).sqrt();
-                    let a = i as f64 * 2.399_963_229_728_653;
-                    DVec3::new(r * a.cos(), r * a.sin(), z)
-                }
-                Some(axis) => {
-                    let a = std::f64::consts::TAU * i as f64 / n as f64;
-                    let (u, v) = basis(DVec3::AXES[axis]);
-                    u * a.cos() + v * a.sin()
-                }
-            }
-        };
-        let h = hits(rm, p, w);
-        let mut k = 0;
-        // Pairs (entry, exit) along the ray; the first whose middle tests inside.
-        while k + 1 < h.len() {
-            let (t0, t1) = (h[k] as f64, h[k + 1] as f64);
-            if best.as_ref().is_none_or(|b| t0 < b.0) {
-                // Just past the entry (a long chord may run through a whole body part).
-                let c = p + w * (t0 + (0.5 * (t1 - t0)).min(PULL_DEPTH));
-                if inside(rm, c) {
-                    best = Some((t0, c));
-                    break;
-                }
-            }
-            k += 2;
-        }
-    }
-    best.map(|b| b.1)
 }
 
 /// Mesh checks in the unit frame: (open edges, non-manifold edges, pieces) after welding.
@@ -660,83 +493,6 @@ impl Mirror {
             };
         }
     }
-}
-
-/// A bone's centre line: a point at the head, the unit direction, and for a limb's free end
-/// where the medial axis of its rounded tip stops.
-#[derive(Clone)]
-struct Line {
-    head: DVec3,
-    dir: DVec3,
-    tip: Option<DVec3>,
-}
-
-/// The centre line of the bone from joint `a` to joint `t` (unit frame): cross-sections at
-/// `fractions` along it, kept when their centre is within the section reach of the bone, then
-/// a weighted least-squares line of their offsets (weights `1 / r^2`: thin sections, the limb
-/// itself, outweigh sections through the body it joins). `None` with too few sections
-/// ([`FitOptions::min_sections`]) or for a stub leaving a `junction` ([`FitOptions::stub_ratio`]).
-fn centre_line(rm: &Solid, a: DVec3, t: DVec3, junction: bool, fractions: &[f64], opts: &FitOptions) -> Option<Line> {
-    let axis = t - a;
-    let len = axis.length();
-    if !(len > 1e-9) {
-        return None;
-    }
-    let d = axis / len;
-    let reach = (0.5 * len).clamp(0.03, 0.1);
-    let mut pts = Vec::new();
-    for &s in fractions {
-        let q = a + axis * s;
-        if let Some((c, r)) = centre_in_plane(rm, q, d, opts.rays, reach) {
-            let off = c - q;
-            let off = off - d * off.dot(d);
-            if off.length() > reach {
-                continue; // a section of some other part of the body
-            }
-            pts.push((s, off, r));
-        }
-    }
-    // Too few sections (see `min_sections`): no centre line.
-    if pts.len() < opts.min_sections.clamp(1, opts.samples) {
-        return None;
-    }
-    // A stub branching off a junction (shorter than its thinnest section is wide: the link
-    // from a pelvis to a hip, from a chest to a shoulder) lies inside a body part; its
-    // sections are slices of that body, so it has no centre line.
-    let thinnest = pts.iter().map(|x| x.2).fold(f64::INFINITY, f64::min);
-    if junction && opts.stub_ratio > 0.0 && thinnest > opts.stub_ratio * len {
-        return None;
-    }
-    let ws: Vec<f64> = pts.iter().map(|x| 1.0 / (x.2 * x.2).max(1e-8)).collect();
-    let wsum: f64 = ws.iter().sum();
-    let sm = pts.iter().zip(&ws).map(|(x, w)| x.0 * w).sum::<f64>() / wsum;
-    let om = pts.iter().zip(&ws).map(|(x, w)| x.1 * *w).sum::<DVec3>() / wsum;
-    let sxx: f64 = pts.iter().zip(&ws).map(|(x, w)| w * (x.0 - sm) * (x.0 - sm)).sum();
-    let beta = if sxx > 1e-12 * wsum {
-        pts.iter().zip(&ws).map(|(x, w)| x.1 * (w * (x.0 - sm))).sum::<DVec3>() / sxx
-    } else {
-        DVec3::ZERO
-    };
-    let alpha = om - beta * sm;
-    let head = a + alpha;
-    let tail = t + alpha + beta;
-    let dir = (tail - head).normalize_or_zero();
-    if dir == DVec3::ZERO {
-        return None;
-    }
-    let s_last = pts.last().map(|x| x.0).unwrap_or(0.0);
-    let tip = if opts.tip && s_last >= 0.5 { free_tip(rm, head, tail, dir, s_last, opts.rays) } else { None };
-    Some(Line { head, dir, tip })
-}
-
-/// Free end: from the centre of the section at `s_last` along the line `head` -> `tail`, the
-/// medial axis of a rounded end stops [`TIP_MARGIN`] local radii short of the tip.
-fn free_tip(rm: &Solid, head: DVec3, tail: DVec3, dir: DVec3, s_last: f64, rays: usize) -> Option<DVec3> {
-    let x0 = head + (tail - head) * s_last;
-    let (x0, r) = centre_in_plane(rm, x0, dir, rays, 0.0)?;
-    let f = *hits(rm, x0, dir).first()? as f64;
-    let remaining = (1.0 - s_last) * (tail - head).length();
-    (r > 0.0 && f > r && f < remaining + 3.0 * r).then(|| x0 + dir * (f - TIP_MARGIN * r))
 }
 
 /// Where a joint at `p` goes: least squares to its bones' centre `lines`, only along the

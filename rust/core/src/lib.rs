@@ -37,6 +37,7 @@ pub mod lbs;
 
 // Skeleton.
 pub mod fit;
+mod sections;
 
 // Motion.
 pub mod gait;
