@@ -46,8 +46,8 @@ pub const JOINT_TOLERANCE: f64 = 1e-4;
 /// Per vertex: the `K = nearest` closest bone segments get a radial share
 /// `s = (falloff(d) - falloff(d_K+1)) / falloff(d_min)` (minus the share the next, `K+1`-th
 /// bone would get, so that a bone fades to 0 before it leaves the `K` nearest and weights stay
-/// continuous; raw shares are kept if this would leave nothing). Along a bone with closest-point parameter `t in [0, 1]`
-/// the nearer joint is the tail if `t > 0.5`, else the head; the neighbour across it is the
+/// continuous; raw shares are kept if this would leave nothing). Along a bone with
+/// closest-point parameter `t in [0, 1]` the nearer joint is the tail if `t > 0.5`, else the head; the neighbour across it is the
 /// connected child (`parents[c] == bone` and `|head_c - tail| < JOINT_TOLERANCE` diagonals; of
 /// several, the one nearest the vertex) or the connected parent (whose tail touches this
 /// head). The neighbour gets `s * (t - 0.5)` (tail side) or `s * (0.5 - t)` (head side) and

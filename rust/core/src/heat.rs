@@ -205,8 +205,8 @@ const REGULARIZATION: [f64; 3] = [1e-10, 1e-6, 1e-3];
 /// its surface;
 /// ties within [`TIE_RATIO`] share); fallback pieces and isolated vertices use the nearest
 /// bone; factor `L + M H` once and solve all bones (in blocks, [`HeatOptions::block_bones`]);
-/// clip to `[0, 1]`; rigid pieces; symmetry; small-weight ramp ([`weight_limit`]), top-k and normalization per vertex; copy
-/// back to every input vertex.
+/// clip to `[0, 1]`; rigid pieces; symmetry; small-weight ramp ([`weight_limit`]), top-k and
+/// normalization per vertex; copy back to every input vertex.
 ///
 /// Rigid accessories (`opts.rigid_accessories`): a bone is *inside* a piece when at least 3 of
 /// 5 points along it (head, quarters, tail) are, so a fingertip poking into a held prop does

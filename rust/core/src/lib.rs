@@ -41,4 +41,5 @@ mod sections;
 
 // Motion.
 pub mod gait;
+mod hierarchy;
 pub mod roles;

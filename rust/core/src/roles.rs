@@ -34,8 +34,8 @@
 //!    spine that points backwards, not carrying legs.
 //!
 //! Rigs made of several root chains that meet at shared joints (common in hand-made and
-//! glTF rigs) are joined first: see `joined_parents`. Feet that hang off the root instead of
-//! their leg (game rigs exported from an IK set-up) then ride on their leg: see `foot_riders`.
+//! glTF rigs) are joined first, and feet that hang off the root instead of their leg (game rigs
+//! exported from an IK set-up) then ride on their leg: see `hierarchy.rs`.
 //!
 //! Known limitations: assumes +Z up and a roughly symmetric rest pose; legs must reach the
 //! ground in the rest pose; control rigs (IK targets, mechanism bones) should be filtered out
@@ -44,6 +44,7 @@
 //! See also: `gait.rs`, which turns these roles into head-shake, walk and run cycles.
 
 use crate::error::{Error, Result};
+use crate::hierarchy::{build_tree, joined_hierarchy, subtree, Tree};
 use glam::Vec3;
 
 /// Which side of the body a limb is on (the character's own left/right).
@@ -110,18 +111,14 @@ pub struct Roles {
     pub notes: Vec<String>,
 }
 
-const GROUND_FRACTION: f32 = 0.2;
+/// A leaf bone ending this low (fraction of the height above the lowest point) is a foot.
+pub(crate) const GROUND_FRACTION: f32 = 0.2;
 const LONG_FRACTION: f32 = 0.2;
 const MIDLINE_FRACTION: f32 = 0.05;
 const ARM_FRACTION: f32 = 0.2;
 /// How far an arm may rise above its shoulder, as a fraction of its reach (a T-posed arm with a
 /// raised clavicle and fingers rises ~0.1; ears and horns, which point up, ~1).
 const ARM_RISE: f32 = 0.25;
-/// How far a foot riding on the root may lie from the end of its leg chain, as fractions of the
-/// height: horizontally, and below it (RobotExpressive's shins end at the knee, 0.3 above).
-const RIDER_REACH: f32 = 0.1;
-const RIDER_LIFT: f32 = 0.5;
-
 fn v(p: [f32; 3]) -> Vec3 {
     Vec3::from_array(p)
 }
@@ -147,13 +144,6 @@ pub fn name_side(name: &str) -> Option<Side> {
         return Some(Side::Right);
     }
     None
-}
-
-struct Tree {
-    children: Vec<Vec<usize>>,
-    /// Main-tree bones in depth-first pre-order (parents before children).
-    order: Vec<usize>,
-    root: usize,
 }
 
 fn validate(heads: &[[f32; 3]], tails: &[[f32; 3]], parents: &[i32], names: &[String]) -> Result<()> {
@@ -192,150 +182,6 @@ fn validate(heads: &[[f32; 3]], tails: &[[f32; 3]], parents: &[i32], names: &[St
         }
     }
     Ok(())
-}
-
-/// Parents with separate trees joined where they touch: rigs made of several root chains
-/// (a neck tree, leg trees, a body tree meeting at shared joints) become one tree. A root whose
-/// head lies on another tree's bone tail becomes that bone's child; a root whose head coincides
-/// with another tree's bone head joins that bone's parent (or that bone). Trees holding more
-/// ground leaves (feet), then more bones, win the root. `tol` is the coincidence distance.
-fn joined_parents(heads: &[[f32; 3]], tails: &[[f32; 3]], parents: &[i32], ground_leaf: &[bool], tol: f32) -> Vec<i32> {
-    let n = parents.len();
-    let mut eff = parents.to_vec();
-    let root_of = |eff: &[i32], mut b: usize| {
-        while eff[b] >= 0 {
-            b = eff[b] as usize;
-        }
-        b
-    };
-    let close = |a: [f32; 3], b: [f32; 3]| (v(a) - v(b)).length() <= tol;
-    // tails first
-    for r in 0..n {
-        if eff[r] >= 0 {
-            continue;
-        }
-        let cand = (0..n).filter(|&b| root_of(&eff, b) != r && close(heads[r], tails[b])).min_by(|&a, &b| {
-            let da = (v(heads[r]) - v(tails[a])).length();
-            let db = (v(heads[r]) - v(tails[b])).length();
-            da.partial_cmp(&db).unwrap_or(std::cmp::Ordering::Equal)
-        });
-        if let Some(b) = cand {
-            eff[r] = b as i32;
-        }
-    }
-    // then shared heads, weakest trees first
-    let strength = |eff: &[i32], root: usize| {
-        let members: Vec<usize> = (0..n).filter(|&b| root_of(eff, b) == root).collect();
-        (members.iter().filter(|&&b| ground_leaf[b]).count(), members.len())
-    };
-    let mut roots: Vec<usize> = (0..n).filter(|&b| eff[b] < 0).collect();
-    roots.sort_by_key(|&r| strength(&eff, r));
-    for r in roots {
-        let best = (0..n)
-            .filter(|&b| root_of(&eff, b) != r && close(heads[r], heads[b]))
-            .max_by_key(|&b| strength(&eff, root_of(&eff, b)));
-        if let Some(b) = best {
-            eff[r] = if eff[b] >= 0 { eff[b] } else { b as i32 };
-        }
-    }
-    eff
-}
-
-/// Feet that ride on the root: game rigs exported from an IK set-up (Quaternius characters,
-/// RobotExpressive) parent each foot to the ground root bone, and their leg chain stops at the
-/// ankle (or, with an invented tail, at the knee). A bone hanging off a root (or a root itself)
-/// whose whole subtree lies at or below `low_z` rides on the leaf bone of another branch whose
-/// tail is above its head: horizontally within `reach`, and at most `lift` higher (not the head
-/// of a narrow character). Returns (rider, carrier) pairs, nearest first, each bone used once.
-fn foot_riders(
-    heads: &[[f32; 3]],
-    tails: &[[f32; 3]],
-    parents: &[i32],
-    low_z: f32,
-    (reach, lift): (f32, f32),
-) -> Vec<[usize; 2]> {
-    let n = parents.len();
-    let tree = build_tree(parents);
-    let kids = &tree.children;
-    let ancestor_of = |a: usize, mut b: usize| {
-        while parents[b] >= 0 {
-            b = parents[b] as usize;
-            if b == a {
-                return true;
-            }
-        }
-        false
-    };
-    let mut cands: Vec<(f32, usize, usize)> = Vec::new();
-    for r in 0..n {
-        if parents[r] >= 0 && parents[parents[r] as usize] >= 0 {
-            continue; // not off a root
-        }
-        let below = subtree(kids, r);
-        if below.iter().any(|&b| heads[b][2].max(tails[b][2]) > low_z) {
-            continue;
-        }
-        let foot = v(heads[r]);
-        for e in 0..n {
-            if !kids[e].is_empty() || parents[e] < 0 || below.contains(&e) || ancestor_of(e, r) {
-                continue;
-            }
-            let end = v(tails[e]);
-            let d = end - foot;
-            if d.z > 0.0 && d.z <= lift && d.truncate().length() <= reach {
-                cands.push((d.length(), r, e));
-            }
-        }
-    }
-    cands.sort_by(|a, b| a.0.partial_cmp(&b.0).unwrap_or(std::cmp::Ordering::Equal));
-    let mut used = vec![false; n];
-    let mut out = Vec::new();
-    for (_, r, e) in cands {
-        if !used[r] && !used[e] {
-            used[r] = true;
-            used[e] = true;
-            out.push([r, e]);
-        }
-    }
-    out
-}
-
-/// `root` and every bone below it (`kids`: each bone's children), `root` first.
-fn subtree(kids: &[Vec<usize>], root: usize) -> Vec<usize> {
-    let mut out = vec![root];
-    let mut i = 0;
-    while i < out.len() {
-        out.extend(&kids[out[i]]);
-        i += 1;
-    }
-    out
-}
-
-fn build_tree(parents: &[i32]) -> Tree {
-    let n = parents.len();
-    let mut children = vec![Vec::new(); n];
-    for (b, &p) in parents.iter().enumerate() {
-        if p >= 0 {
-            children[p as usize].push(b);
-        }
-    }
-    let preorder = |r: usize| {
-        let mut out = Vec::new();
-        let mut stack = vec![r];
-        while let Some(b) = stack.pop() {
-            out.push(b);
-            stack.extend(children[b].iter().rev());
-        }
-        out
-    };
-    let mut best: Vec<usize> = Vec::new();
-    for r in (0..n).filter(|&b| parents[b] < 0) {
-        let o = preorder(r);
-        if o.len() > best.len() {
-            best = o;
-        }
-    }
-    Tree { root: best[0], children, order: best }
 }
 
 /// Most points the mirror-plane scan compares: each score is quadratic in them (4000 bones took
@@ -458,39 +304,13 @@ pub fn detect_roles(heads: &[[f32; 3]], tails: &[[f32; 3]], parents: &[i32], nam
     })
 }
 
-/// Step 1's hierarchy: separate trees joined where they touch ([`joined_parents`]), then feet
-/// hanging off a root made children of their leg ([`foot_riders`]). Returns the joined
-/// parents and the riders.
-fn joined_hierarchy(heads: &[[f32; 3]], tails: &[[f32; 3]], parents: &[i32]) -> (Vec<i32>, Vec<[usize; 2]>) {
-    let n = heads.len();
-    let all: Vec<Vec3> = heads.iter().chain(tails).map(|&p| v(p)).collect();
-    let zmin = all.iter().map(|p| p.z).fold(f32::INFINITY, f32::min);
-    let zmax = all.iter().map(|p| p.z).fold(f32::NEG_INFINITY, f32::max);
-    let lo = all.iter().fold(Vec3::splat(f32::INFINITY), |a, &p| a.min(p));
-    let hi = all.iter().fold(Vec3::splat(f32::NEG_INFINITY), |a, &p| a.max(p));
-    let mut has_child = vec![false; n];
-    for &p in parents.iter().filter(|&&p| p >= 0) {
-        has_child[p as usize] = true;
-    }
-    let ground_leaf: Vec<bool> = (0..n)
-        .map(|b| !has_child[b] && heads[b][2].min(tails[b][2]) - zmin <= GROUND_FRACTION * (zmax - zmin))
-        .collect();
-    let mut joined = joined_parents(heads, tails, parents, &ground_leaf, 1e-3 * (hi - lo).length());
-    let low_z = zmin + GROUND_FRACTION * (zmax - zmin);
-    let riders = foot_riders(heads, tails, &joined, low_z, (RIDER_REACH * (zmax - zmin), RIDER_LIFT * (zmax - zmin)));
-    for &[r, e] in &riders {
-        joined[r] = e as i32;
-    }
-    (joined, riders)
-}
-
 /// The skeleton as [`detect_roles`] reads it: bone ends, names, the joined hierarchy and its
 /// main tree, and that tree's vertical extent.
 struct Rig<'a> {
     heads: &'a [[f32; 3]],
     tails: &'a [[f32; 3]],
     names: &'a [String],
-    /// Joined parents ([`joined_hierarchy`]).
+    /// Joined parents ([`crate::hierarchy::joined_hierarchy`]).
     parents: &'a [i32],
     tree: Tree,
     /// Head and tail of every main-tree bone, in tree order.
