@@ -1,0 +1,223 @@
+"""Filming a character for Make Video: which objects to frame, a camera that frames (or
+follows) their motion over the frame range, a light, the render engine and H.264 MP4 output,
+and the scene's render settings put back afterwards. Rendering itself is Blender's."""
+
+from __future__ import annotations
+
+import math
+from contextlib import contextmanager
+from pathlib import Path
+
+import bpy
+from mathutils import Quaternion, Vector
+
+ENGINES = [
+    ("WORKBENCH", "Workbench", "Fast solid shading, any machine"),
+    ("EEVEE", "EEVEE", "Real-time renderer (needs a GPU context)"),
+    ("CYCLES", "Cycles", "Path tracer on the CPU (slow)"),
+    ("SCENE", "Scene's Own", "Keep the scene's engine and its settings (e.g. a Shadow Theatre preset)"),
+]
+
+
+def character_objects(scene) -> list[bpy.types.Object]:
+    """What the camera should frame: visible meshes an armature deforms (else all visible
+    meshes, else the armatures). Ground planes and props without a rig are left out."""
+    meshes = [ob for ob in scene.objects if ob.type == "MESH" and ob.visible_get()]
+    rigged = [ob for ob in meshes if any(m.type == "ARMATURE" and m.object for m in ob.modifiers)
+              or (ob.parent is not None and ob.parent.type == "ARMATURE")]
+    return rigged or meshes or [ob for ob in scene.objects if ob.type == "ARMATURE"]
+
+
+def motion_boxes(scene, objects, samples: int = 24) -> list[tuple[int, Vector, Vector]]:
+    """World bounding boxes (frame, lo, hi) of ``objects`` at ``samples`` frames spread evenly
+    over the frame range (start and end included). Corners that are NaN or infinite (an object
+    or a bone with a broken transform) are left out, and so are frames with none left."""
+    current = scene.frame_current
+    n = scene.frame_end - scene.frame_start + 1
+    frames = sorted({scene.frame_start + round(i * (n - 1) / max(samples - 1, 1))
+                     for i in range(min(samples, n))})
+    boxes = []
+    for f in frames:
+        scene.frame_set(f)
+        dg = bpy.context.evaluated_depsgraph_get()
+        lo = Vector((math.inf,) * 3)
+        hi = Vector((-math.inf,) * 3)
+        for ob in objects:
+            ev = ob.evaluated_get(dg)
+            for c in ev.bound_box:
+                p = ev.matrix_world @ Vector(c)
+                if all(map(math.isfinite, p)):
+                    lo = Vector(map(min, lo, p))
+                    hi = Vector(map(max, hi, p))
+        if lo.x <= hi.x:
+            boxes.append((f, lo, hi))
+    scene.frame_set(current)
+    return boxes
+
+
+def union_box(boxes) -> tuple[Vector, Vector]:
+    lo = Vector(map(min, *(b[1] for b in boxes))) if len(boxes) > 1 else boxes[0][1].copy()
+    hi = Vector(map(max, *(b[2] for b in boxes))) if len(boxes) > 1 else boxes[0][2].copy()
+    return lo, hi
+
+
+def _fit_distance(lo: Vector, hi: Vector, rot: Quaternion, angle: float, aspect: float) -> float:
+    """Distance along the view axis at which the box (lo, hi) fits the frame (with a margin)."""
+    right, up, back = (rot @ Vector(a) for a in ((1, 0, 0), (0, 1, 0), (0, 0, 1)))
+    tx = math.tan(angle / 2) if aspect >= 1 else math.tan(angle / 2) * aspect
+    ty = tx / aspect
+    centre, dist, margin = (lo + hi) / 2, 0.0, 0.88
+    for i in range(8):
+        c = Vector((hi.x if i & 1 else lo.x, hi.y if i & 2 else lo.y, hi.z if i & 4 else lo.z)) - centre
+        x, y, z = c.dot(right), c.dot(up), c.dot(back)
+        dist = max(dist, z + abs(x) / (tx * margin), z + abs(y) / (ty * margin))
+    return dist
+
+
+def _new_camera(scene) -> bpy.types.Object:
+    data = bpy.data.cameras.new("MiniSkeletonCamera")
+    data.lens = 40
+    cam = bpy.data.objects.new("MiniSkeletonCamera", data)
+    scene.collection.objects.link(cam)
+    scene.camera = cam
+    return cam
+
+
+def _clip_for(cam: bpy.types.Object, dist: float) -> None:
+    cam.data.clip_end = max(cam.data.clip_end, dist * 4)
+    cam.data.clip_start = min(cam.data.clip_start, dist / 100)
+
+
+def add_camera(scene, lo: Vector, hi: Vector, aspect: float) -> bpy.types.Object:
+    """A fixed camera looking at the box (lo, hi) from the front-side, the whole box in view."""
+    size = hi - lo
+    if size.y > 1.5 * size.x:      # long travel along Y: look from the side
+        view = Vector((1.0, -0.35, 0.4))
+    elif size.x > 1.5 * size.y:    # along X
+        view = Vector((0.35, -1.0, 0.4))
+    else:
+        view = Vector((1.2, -1.8, 0.7))
+    rot = (-view.normalized()).to_track_quat("-Z", "Y")
+    cam = _new_camera(scene)
+    dist = _fit_distance(lo, hi, rot, cam.data.angle, aspect)
+    _clip_for(cam, dist)
+    cam.location = (lo + hi) / 2 + rot @ Vector((0, 0, dist))
+    cam.rotation_euler = rot.to_euler()
+    return cam
+
+
+def add_follow_camera(scene, boxes, aspect: float) -> bpy.types.Object:
+    """A camera that travels along with the character (front three-quarter view of the way it
+    moves), far enough that its largest box fits; keyed at the sampled frames."""
+    lo, hi = union_box(boxes)
+    c0 = (boxes[0][1] + boxes[0][2]) / 2
+    c1 = (boxes[-1][1] + boxes[-1][2]) / 2
+    travel = Vector((c1.x - c0.x, c1.y - c0.y, 0.0))
+    if travel.length < 1e-3 * max((hi - lo).length, 1e-9):
+        return add_camera(scene, lo, hi, aspect)
+    t = travel.normalized()
+    side = Vector((-t.y, t.x, 0.0))            # left of the direction of travel
+    view = side + 0.6 * t + Vector((0, 0, 0.35))
+    rot = (-view.normalized()).to_track_quat("-Z", "Y")
+    half = Vector(map(max, *((b[2] - b[1]) / 2 for b in boxes))) if len(boxes) > 1 else \
+        (boxes[0][2] - boxes[0][1]) / 2
+    cam = _new_camera(scene)
+    dist = _fit_distance(-half, half, rot, cam.data.angle, aspect)
+    _clip_for(cam, dist)
+    cam.rotation_euler = rot.to_euler()
+    mid_z = (lo.z + hi.z) / 2
+    for f, blo, bhi in boxes:
+        c = (blo + bhi) / 2
+        c.z = mid_z                                # no bobbing camera
+        cam.location = c + rot @ Vector((0, 0, dist))
+        cam.keyframe_insert("location", frame=f)
+    return cam
+
+
+def add_light(scene) -> bpy.types.Object:
+    data = bpy.data.lights.new("MiniSkeletonSun", "SUN")
+    data.energy = 3.0
+    sun = bpy.data.objects.new("MiniSkeletonSun", data)
+    sun.rotation_euler = (math.radians(50), math.radians(10), math.radians(30))
+    scene.collection.objects.link(sun)
+    return sun
+
+
+def set_engine(scene, engine: str) -> None:
+    """Pick the render engine with settings that suit a character video; SCENE changes nothing."""
+    if engine == "SCENE":
+        return
+    if engine == "WORKBENCH":
+        scene.render.engine = "BLENDER_WORKBENCH"
+        shading = scene.display.shading
+        shading.light = "STUDIO"
+        shading.color_type = "MATERIAL"
+        shading.show_shadows = True
+        shading.show_cavity = True
+    elif engine == "EEVEE":
+        for name in ("BLENDER_EEVEE_NEXT", "BLENDER_EEVEE"):  # 4.2-4.4 / 5.0
+            try:
+                scene.render.engine = name
+                break
+            except TypeError:
+                continue
+    else:
+        scene.render.engine = "CYCLES"
+        scene.cycles.device = "CPU"
+        scene.cycles.samples = 32
+
+
+def set_mp4(scene, path: Path) -> None:
+    """H.264 in MP4. Blender 5.0 first needs media_type = 'VIDEO' before FFMPEG is accepted."""
+    im = scene.render.image_settings
+    if hasattr(im, "media_type"):
+        im.media_type = "VIDEO"
+    im.file_format = "FFMPEG"
+    ff = scene.render.ffmpeg
+    ff.format = "MPEG4"
+    ff.codec = "H264"
+    ff.constant_rate_factor = "MEDIUM"
+    ff.ffmpeg_preset = "GOOD"
+    ff.gopsize = max(1, round(scene.render.fps / scene.render.fps_base))
+    ff.audio_codec = "NONE"
+    scene.render.use_file_extension = True
+    scene.render.filepath = str(path)
+
+
+# What Make Video sets on the scene for its render, put back afterwards (in this order: 5.0's
+# media_type before file_format), as Blender's own Render Animation leaves the settings alone.
+_VIDEO_SETTINGS = (
+    ("render", ("engine", "resolution_x", "resolution_y", "resolution_percentage", "fps", "fps_base",
+                "filepath", "use_file_extension")),
+    ("render.image_settings", ("media_type", "file_format")),
+    ("render.ffmpeg", ("format", "codec", "constant_rate_factor", "ffmpeg_preset", "gopsize", "audio_codec")),
+    ("display.shading", ("light", "color_type", "show_shadows", "show_cavity")),
+    ("cycles", ("device", "samples")),
+)
+
+
+@contextmanager
+def kept_render_settings(scene):
+    """The scene's render settings (``_VIDEO_SETTINGS``) as they were when the block ends."""
+    saved = []
+    for path, names in _VIDEO_SETTINGS:
+        try:
+            owner = scene.path_resolve(path)
+        except ValueError:   # e.g. no Cycles settings without the Cycles add-on
+            continue
+        saved += [(owner, n, getattr(owner, n)) for n in names if hasattr(owner, n)]
+    try:
+        yield
+    finally:
+        for owner, name, value in saved:
+            try:
+                setattr(owner, name, value)
+            except (TypeError, ValueError, AttributeError):
+                pass   # a value this build no longer offers: leave the video's
+
+
+def default_video_path(scene) -> Path:
+    if bpy.data.filepath:
+        blend = Path(bpy.data.filepath)
+        return blend.with_suffix(".mp4")
+    return Path.cwd() / "out" / f"{bpy.path.clean_name(scene.name)}.mp4"
