@@ -21,20 +21,23 @@
 //! This module holds the options, the report and the order of the steps; the steps with
 //! their own rules are in their own modules: `sources` (each vertex's nearest visible
 //! bones), `pieces` (per-piece geometry, the inside test, rigid pieces), [`crate::reach`]
-//! (the spans of imported rigs' bones), `cholesky` (factor and solves), and
-//! [`crate::orient`] (winding and outward normals).
+//! (the spans of imported rigs' bones), `cholesky` (factor and solves), `blocks` (the bones
+//! solved in blocks of columns, each vertex's running top k), and [`crate::orient`] (winding
+//! and outward normals).
 
-use crate::cholesky::{factor_first, symbolic_factor, Factor};
+pub use crate::blocks::BLOCK_BYTES;
+use crate::blocks::{block_weights, bone_blocks, Rows, RunningTopK};
+use crate::cholesky::{factor_first, symbolic_factor};
 use crate::cotan::{cotan_laplacian, stiffness_lower_csc, triangle_cotangents};
 use crate::idw::bones_in_frame;
-use crate::influence::{insert_ranked, normalize_pruned, Influences};
+use crate::influence::Influences;
 use crate::islands::connected_components;
 use crate::mesh::{count_non_finite, validate_bones, validate_mesh, Frame};
 use crate::orient::{orient_faces, vertex_normals};
 use crate::pieces::{mark_sources, piece_contains_bone, piece_stats, rigid_pieces};
 use crate::reach::reach_segments;
-use crate::sources::{heat_sources, Source, Ties};
-use crate::symmetry::{mirror_map, symmetrize_columns, validate_bone_mirror};
+use crate::sources::heat_sources;
+use crate::symmetry::{mirror_map, validate_bone_mirror};
 use crate::visibility::RayMesh;
 use crate::weld::weld;
 use crate::{Error, Result};
@@ -490,233 +493,6 @@ fn validate(
         return Err(Error::InvalidArgument("too many bones or vertices (limit 2^32 - 1)".into()));
     }
     Ok(())
-}
-
-/// Bytes of dense weights (`f64`, vertices x bones) solved at once: the bones go in blocks of
-/// at most this much (but at least one column per thread), so memory stays bounded on a mesh
-/// of millions of vertices with hundreds of bones (1M x 300 would take 2.4 GB at once). Meshes
-/// up to 206k vertices and 300 bones (or 1M and 60) are one block, as fast as before.
-pub const BLOCK_BYTES: usize = 512 << 20;
-
-/// The bones in blocks of at most `cap` bones (0: as many `nw`-vertex columns as fit in
-/// [`BLOCK_BYTES`], at least `threads`), in increasing order; with `mirror`, a bone and its
-/// mirror partner share a block (symmetry averages their columns).
-fn bone_blocks(b: usize, nw: usize, cap: usize, threads: usize, mirror: Option<&[i32]>) -> Vec<Vec<usize>> {
-    let cap = if cap > 0 { cap } else { (BLOCK_BYTES / (8 * nw.max(1))).max(threads).max(1) };
-    let mut blocks: Vec<Vec<usize>> = Vec::new();
-    let mut placed = vec![false; b];
-    for j in 0..b {
-        if placed[j] {
-            continue;
-        }
-        let partner = mirror.and_then(|m| usize::try_from(m[j]).ok()).filter(|&m| m != j && m < b && !placed[m]);
-        let unit: Vec<usize> = std::iter::once(j).chain(partner).collect();
-        match blocks.last_mut() {
-            Some(last) if last.len() + unit.len() <= cap => last.extend(&unit),
-            _ => blocks.push(unit.clone()),
-        }
-        for u in unit {
-            placed[u] = true;
-        }
-    }
-    for block in &mut blocks {
-        block.sort_unstable();
-    }
-    blocks
-}
-
-/// The right-hand sides `M H P` of the bones in `block`, column-major `(n, block.len())`:
-/// each vertex's heat `heat[v]` (`M_ii H_ii`) shared equally among its source bones.
-fn source_columns(sources: &[Source], heat: &[f64], block: &[usize]) -> Vec<f64> {
-    let nw = sources.len();
-    let col = block_columns(block);
-    let mut x = vec![0.0f64; nw * block.len()];
-    for (v, s) in sources.iter().enumerate() {
-        if heat[v] > 0.0 {
-            let share = heat[v] / s.count as f64;
-            for &j in &s.bones[..s.count as usize] {
-                if let Some(c) = col(j) {
-                    x[c * nw + v] += share;
-                }
-            }
-        }
-    }
-    x
-}
-
-/// Where the factorization failed: each vertex's heat source bones share it equally (the
-/// nearest-bone weights), for the bones of `block`.
-fn nearest_columns(x: &mut [f64], sources: &[Source], block: &[usize]) {
-    let nw = sources.len();
-    let col = block_columns(block);
-    x.par_iter_mut().for_each(|w| *w = 0.0);
-    for (v, s) in sources.iter().enumerate() {
-        for &j in &s.bones[..s.count as usize] {
-            if let Some(c) = col(j) {
-                x[c * nw + v] = 1.0 / s.count as f64;
-            }
-        }
-    }
-}
-
-/// Per welded vertex, what [`block_weights`] needs: its heat source, its heat `M_ii H_ii`,
-/// its mass (0: in no usable triangle, isolated), its piece, and each piece's rigid bone(s).
-struct Rows<'a> {
-    sources: &'a [Source],
-    heat: &'a [f64],
-    mass: &'a [f64],
-    labels: &'a [u32],
-    rigid: &'a [Option<Ties>],
-}
-
-/// The weights of the bones of `block`, column-major `(n, block.len())`, and the seconds spent
-/// solving: solved against the factor `llt` and clipped to `[0, 1]` (without a factor, the
-/// nearest-bone sources), then rigid pieces and isolated vertices at 100% on their bone(s),
-/// then averaged with the mirror images (`sym`: the symmetry and the vertex mirror map; a
-/// block holds every bone's mirror partner).
-fn block_weights(
-    block: &[usize],
-    rows: &Rows,
-    llt: Option<&Factor>,
-    sym: Option<(&Symmetry, &[i32])>,
-) -> (Vec<f64>, f64) {
-    let nw = rows.sources.len();
-    let mut x = source_columns(rows.sources, rows.heat, block);
-    let s = Instant::now();
-    match llt {
-        // One block of columns per worker, all solved at once: faer's supernodal solve is
-        // BLAS-3 in the right-hand sides (a triangular solve and a matmul per supernode on the
-        // whole block), so wider blocks stream the factor fewer times and run the dense kernels
-        // more efficiently (measured at 206k vertices / 40 bones on 2 threads: 2 rounds of 10
-        // columns per worker 0.32-0.34 s, 1 round of 20 0.27 s, 40 columns in one call with
-        // faer's own parallelism 0.59 s).
-        Some(llt) => {
-            solve_live_columns(llt, &mut x, nw);
-            // Clip; non-finite (should not happen) counts as 0.
-            x.par_iter_mut().with_min_len(8192).for_each(|w| {
-                *w = if w.is_finite() { w.clamp(0.0, 1.0) } else { 0.0 };
-            });
-        }
-        None => nearest_columns(&mut x, rows.sources, block),
-    }
-    let secs = s.elapsed().as_secs_f64();
-    // Rigid pieces and isolated vertices: 100% to one bone (or shared by exact ties).
-    for v in 0..nw {
-        let ties =
-            if rows.mass[v] <= 0.0 { Some(rows.sources[v].nearest) } else { rows.rigid[rows.labels[v] as usize] };
-        if let Some(t) = ties {
-            for (col, &j) in block.iter().enumerate() {
-                let on = t.bones[..t.count as usize].contains(&(j as u32));
-                x[col * nw + v] = if on { 1.0 / t.count as f64 } else { 0.0 };
-            }
-        }
-    }
-    // Symmetry (mirror plane: input coordinate 0 on the axis).
-    if let Some((s, vm)) = sym {
-        let col = block_columns(block);
-        let local: Vec<i32> = block
-            .iter()
-            .map(|&j| u32::try_from(s.bone_mirror[j]).ok().and_then(&col).map_or(-1, |c| c as i32))
-            .collect();
-        symmetrize_columns(&mut x, nw, vm, &local);
-    }
-    (x, secs)
-}
-
-/// Solve `A X = B` for the column-major `(n, k)` block `x` against the factor, skipping the
-/// columns of `B` that are zero (a bone no vertex has as its heat source: a hair strand above a
-/// body, the rig's other meshes' bones), whose solution is zero: the columns that are not are
-/// moved to the front, solved together, and moved back.
-fn solve_live_columns(llt: &Factor, x: &mut [f64], nw: usize) {
-    let k = x.len() / nw.max(1);
-    let live: Vec<usize> = (0..k).filter(|&c| x[c * nw..(c + 1) * nw].iter().any(|&v| v != 0.0)).collect();
-    if live.len() == k {
-        llt.solve_columns(x, nw);
-        return;
-    }
-    for (to, &from) in live.iter().enumerate() {
-        x.copy_within(from * nw..(from + 1) * nw, to * nw);
-    }
-    llt.solve_columns(&mut x[..live.len() * nw], nw);
-    for (to, &from) in live.iter().enumerate().rev() {
-        x.copy_within(to * nw..(to + 1) * nw, from * nw);
-    }
-    let mut is_live = vec![false; k];
-    for &c in &live {
-        is_live[c] = true;
-    }
-    for c in (0..k).filter(|&c| !is_live[c]) {
-        x[c * nw..(c + 1) * nw].fill(0.0);
-    }
-}
-
-/// Bone `j`'s column in `block` (sorted), if it is there.
-fn block_columns(block: &[usize]) -> impl Fn(u32) -> Option<usize> + '_ {
-    move |j| block.binary_search(&(j as usize)).ok()
-}
-
-/// Each welded vertex's `k` largest weights so far, over the blocks of bones merged: after
-/// Blender's small-weight ramp ([`weight_limit`]), and unramped for the rows whose weights all
-/// fall below the ramp. Ranked as [`top_k_row`](crate::influence::top_k_row) ranks them, whatever the order of the
-/// blocks.
-struct RunningTopK {
-    ramped: Influences,
-    ramped_used: Vec<usize>,
-    raw: Influences,
-    raw_used: Vec<usize>,
-}
-
-impl RunningTopK {
-    fn new(nw: usize, k: usize) -> RunningTopK {
-        let (ramped, raw) = (Influences::empty(nw, k), Influences::empty(nw, k));
-        RunningTopK { ramped, ramped_used: vec![0; nw], raw, raw_used: vec![0; nw] }
-    }
-
-    /// Merge the column-major `(n, block.len())` weights `x` of the bones of `block`.
-    fn merge(&mut self, x: &[f64], block: &[usize], start: f32, end: f32) {
-        let (k, nw) = (self.ramped.k, self.ramped_used.len());
-        let rows = self.ramped.indices.par_chunks_mut(k).zip(self.ramped.weights.par_chunks_mut(k));
-        let raw_rows = self.raw.indices.par_chunks_mut(k).zip(self.raw.weights.par_chunks_mut(k));
-        rows.zip(self.ramped_used.par_iter_mut())
-            .zip(raw_rows.zip(self.raw_used.par_iter_mut()))
-            .enumerate()
-            .with_min_len(1024)
-            .for_each(|(v, (((idx, w), used), ((ridx, rw), rused)))| {
-                for (c, &j) in block.iter().enumerate() {
-                    let value = x[c * nw + v] as f32;
-                    *used = insert_ranked(j as i32, weight_limit(value, start, end), idx, w, *used);
-                    *rused = insert_ranked(j as i32, value, ridx, rw, *rused);
-                }
-            });
-    }
-
-    /// Each row normalized and pruned ([`normalize_pruned`]); a row whose weights all fell below
-    /// the ramp keeps them unramped, an empty row takes the vertex's nearest bone.
-    fn finish(mut self, min_weight: f32, sources: &[Source]) -> Influences {
-        let k = self.ramped.k;
-        let raw = &self.raw;
-        let (raw_used, ramped_used) = (&self.raw_used, &self.ramped_used);
-        self.ramped
-            .indices
-            .par_chunks_mut(k)
-            .zip(self.ramped.weights.par_chunks_mut(k))
-            .enumerate()
-            .with_min_len(1024)
-            .for_each(|(v, (idx, w))| {
-                if ramped_used[v] > 0 {
-                    normalize_pruned(idx, w, ramped_used[v], min_weight);
-                } else if raw_used[v] > 0 {
-                    let (ri, rw) = raw.row(v);
-                    idx.copy_from_slice(ri);
-                    w.copy_from_slice(rw);
-                    normalize_pruned(idx, w, raw_used[v], min_weight);
-                } else {
-                    idx[0] = sources[v].nearest.bones[0] as i32;
-                    w[0] = 1.0;
-                }
-            });
-        self.ramped
-    }
 }
 
 /// The rows of `welded` copied to every input vertex (`map[i]`: the welded vertex of input `i`).

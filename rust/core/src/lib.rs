@@ -22,6 +22,7 @@ pub mod weld;
 
 // Skinning weights.
 pub mod bilinear;
+mod blocks;
 mod cholesky;
 pub mod heat;
 pub mod idw;
