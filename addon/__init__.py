@@ -1,10 +1,11 @@
 """MiniSkeleton: automatic skinning, skeleton fitting and puppet IK backed by a Rust core.
 
 This file only registers; see operators_*.py (operators), ui.py (menus and panels),
-mesh_io.py (Blender data to arrays and back) and keys.py (keyframes in bulk).
+mesh_io.py (Blender data to arrays and back), keys.py (keyframes in bulk) and puppet_live.py
+(the handlers that solve shadow puppets live).
 """
 
-from . import operators_motion, operators_puppet, operators_skeleton, operators_weights, ui
+from . import operators_motion, operators_puppet, operators_skeleton, operators_weights, puppet_live, ui
 
 _modules = (operators_weights, operators_skeleton, operators_motion, operators_puppet, ui)
 
@@ -16,13 +17,13 @@ def register() -> None:
         for cls in mod.classes:
             bpy.utils.register_class(cls)
     ui.register_menus()
-    operators_puppet.register_handlers()
+    puppet_live.register_handlers()
 
 
 def unregister() -> None:
     import bpy
 
-    operators_puppet.unregister_handlers()
+    puppet_live.unregister_handlers()
     ui.unregister_menus()
     for mod in reversed(_modules):
         for cls in reversed(mod.classes):

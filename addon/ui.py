@@ -50,7 +50,7 @@ class MINISKELETON_PT_puppet(SidebarPanel, bpy.types.Panel):
     bl_label = "Puppet"
     bl_idname = "MINISKELETON_PT_puppet"
     def draw(self, context):
-        from .operators_puppet import LIVE_KEY, puppet_rig
+        from .puppet_rig import LIVE_KEY, puppet_rig
 
         layout = self.layout
         col = layout.column(align=True)

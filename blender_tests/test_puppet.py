@@ -14,7 +14,8 @@ from mathutils import Vector
 import blender_session
 import builders as B
 
-P = importlib.import_module("bl_ext.user_default.miniskeleton.operators_puppet")
+R = importlib.import_module("bl_ext.user_default.miniskeleton.puppet_rig")
+L = importlib.import_module("bl_ext.user_default.miniskeleton.puppet_live")
 T = importlib.import_module("bl_ext.user_default.miniskeleton.puppet")
 K = importlib.import_module("bl_ext.user_default.miniskeleton.keys")
 
@@ -37,10 +38,10 @@ def settle():
 
 def add(kind):
     assert bpy.ops.object.miniskeleton_add_puppet(type=kind) == {"FINISHED"}
-    rig = P.puppet_rig(bpy.context.active_object)
+    rig = R.puppet_rig(bpy.context.active_object)
     assert rig is not None
     settle()
-    return rig, P.puppet_rods(rig)
+    return rig, R.puppet_rods(rig)
 
 
 def tip_world(rig, bone):
@@ -63,7 +64,7 @@ def reach(rig, names):
 def random_reachable(rig, names, rng, n):
     """World tips of ``names`` for n random in-limit poses (so every target is reachable),
     computed by Blender itself with live solving off."""
-    rig[P.LIVE_KEY] = False
+    rig[R.LIVE_KEY] = False
     out = []
     for _ in range(n):
         for name in names:
@@ -71,7 +72,7 @@ def random_reachable(rig, names, rng, n):
             pb.rotation_euler.z = rng.uniform(pb.ik_min_z, pb.ik_max_z)
         bpy.context.view_layer.update()
         out.append(tip_world(rig, names[-1]).copy())
-    rig[P.LIVE_KEY] = True
+    rig[R.LIVE_KEY] = True
     return out
 
 
@@ -107,7 +108,7 @@ def test_template_builds_with_bones_rods_locks_and_parts(kind):
             assert rig.data.bones[child].parent.name == parent
     assert set(rods) == RODS[kind]
     for role, rod in rods.items():
-        assert rod[P.ROLE_KEY] == role and P.puppet_rig(rod) == rig
+        assert rod[R.ROLE_KEY] == role and R.puppet_rig(rod) == rig
     main = rods[tpl.main_rod().role]
     assert rig.parent == main                    # the main rod carries the figure
     if kind == "PROP":
@@ -133,7 +134,7 @@ def test_template_builds_with_bones_rods_locks_and_parts(kind):
         assert tuple(rig.pose.bones["abdomen"].lock_rotation) == (True, False, False)    # 2 DOF
         assert rig.pose.bones["forearm.R"].ik_min_z == 0.0       # an elbow does not bend backwards
 
-    parts = [ob for ob in bpy.data.objects if ob.get(P.PART_KEY)]
+    parts = [ob for ob in bpy.data.objects if ob.get(R.PART_KEY)]
     assert sorted(ob.parent_bone for ob in parts) == sorted(names)
     assert all(ob.parent == rig and ob.parent_type == "BONE" and len(ob.data.polygons) == 1 for ob in parts)
     # The part sits on its bone: its centre is near the bone's segment.
@@ -150,9 +151,9 @@ def test_add_menu_and_panel():
     funcs = bpy.types.VIEW3D_MT_armature_add._dyn_ui_initialize()
     assert any(getattr(f, "__module__", "").endswith("miniskeleton.ui") for f in funcs)
     assert bpy.types.MINISKELETON_PT_puppet.bl_category == "MiniSkeleton"
-    assert P._on_depsgraph_update in bpy.app.handlers.depsgraph_update_post
-    assert P._on_frame_change in bpy.app.handlers.frame_change_post
-    assert P.update_scene_puppets(bpy.context.scene) == 0      # no puppet: nothing to do
+    assert L._on_depsgraph_update in bpy.app.handlers.depsgraph_update_post
+    assert L._on_frame_change in bpy.app.handlers.frame_change_post
+    assert L.update_scene_puppets(bpy.context.scene) == 0      # no puppet: nothing to do
 
 
 # ---------------------------------------------------------------------------- live IK
@@ -258,7 +259,7 @@ def test_strip_head_and_tail_reach_their_rods():
     rng = np.random.default_rng(11)
     mid = T.STRIP_SEGMENTS // 2
     for _ in range(4):
-        rig[P.LIVE_KEY] = False
+        rig[R.LIVE_KEY] = False
         for n in names[1:]:
             pb = rig.pose.bones[n]
             pb.rotation_euler.z = rng.uniform(0.5 * pb.ik_min_z, 0.5 * pb.ik_max_z)
@@ -266,7 +267,7 @@ def test_strip_head_and_tail_reach_their_rods():
         middle, tail = tip_world(rig, names[mid - 1]).copy(), tip_world(rig, names[-1]).copy()
         for n in names:
             rig.pose.bones[n].rotation_euler.z = 0.0
-        rig[P.LIVE_KEY] = True
+        rig[R.LIVE_KEY] = True
         rods["middle"].matrix_world.translation = middle
         move_rod(rods["tail"], tail.x, tail.z)
         tol = 2e-3 * reach(rig, names)
@@ -331,13 +332,13 @@ def test_bake_keys_reproduce_the_live_pose_without_the_addon():
 
     bpy.context.view_layer.objects.active = rig
     assert bpy.ops.object.miniskeleton_bake_puppet() == {"FINISHED"}
-    assert rig.get(P.LIVE_KEY) is False or rig.get(P.LIVE_KEY) == 0
+    assert rig.get(R.LIVE_KEY) is False or rig.get(R.LIVE_KEY) == 0
     assert rig.animation_data is not None and rig.animation_data.action is not None
 
     # Without the add-on (no handler at all), the keys alone give the same pose.
     bpy.ops.preferences.addon_disable(module=blender_session.ADDON_MODULE)
     try:
-        assert P._on_frame_change not in bpy.app.handlers.frame_change_post
+        assert L._on_frame_change not in bpy.app.handlers.frame_change_post
         for pb in rig.pose.bones:
             pb.rotation_euler = (0, 0, 0)
         for f in (9, 2, 5, 1, 7):
@@ -437,7 +438,7 @@ def test_bake_reports_progress_frame_by_frame_on_the_scene_frame_step():
     scene = bpy.context.scene
     scene.frame_start, scene.frame_end, scene.frame_step = 3, 11, 2
     done = []
-    assert P.bake_puppet(scene, rig, progress=done.append) == 5
+    assert L.bake_puppet(scene, rig, progress=done.append) == 5
     assert done == [1, 2, 3, 4, 5]
     assert {kp.co[0] for fc in K.action_fcurves(rig) for kp in fc.keyframe_points} == {3, 5, 7, 9, 11}
 
@@ -446,7 +447,7 @@ def test_a_puppet_linked_from_a_library_is_refused_clearly(tmp_path):
     """A puppet linked from another .blend with its parts cannot take keys or new part images:
     Bake and Set Part Image say so and change nothing."""
     rig, _ = add("THREE_ROD")
-    head = next(ob for ob in rig.children if ob.get(P.PART_KEY) == "head")
+    head = next(ob for ob in rig.children if ob.get(R.PART_KEY) == "head")
     library = str(tmp_path / "puppet.blend")
     bpy.data.libraries.write(library, {rig, head})
     with bpy.data.libraries.load(library, link=True) as (_, linked):
@@ -474,7 +475,7 @@ def test_a_puppet_playing_a_linked_action_is_not_baked(tmp_path):
     with pytest.raises(RuntimeError, match=r"Action 'Show' is linked from a.blend"):
         bpy.ops.object.miniskeleton_bake_puppet()
     # refused before baking: live solving (switched off by a bake) is still on
-    assert rig.animation_data.action.name == "Show" and rig.get(P.LIVE_KEY, True)
+    assert rig.animation_data.action.name == "Show" and rig.get(R.LIVE_KEY, True)
 
 def pose_of(rig):
     return {pb.name: tuple(pb.rotation_euler) for pb in rig.pose.bones}
@@ -506,7 +507,7 @@ def test_a_rod_or_rig_without_a_finite_place_keeps_the_pose_and_is_not_baked(cap
     with pytest.raises(RuntimeError, match=r"At frame 2: Puppet 'FiveRodPuppet': rod\(s\) "
                        r"FiveRodPuppet.rod.hand.R have no finite place .*nothing was baked"):
         bpy.ops.object.miniskeleton_bake_puppet()
-    assert rig.animation_data is None and pose_of(rig) == posed and rig.get(P.LIVE_KEY, True)
+    assert rig.animation_data is None and pose_of(rig) == posed and rig.get(R.LIVE_KEY, True)
     assert scene.frame_current == 5
 
     hand.animation_data_clear()
@@ -573,7 +574,7 @@ def test_set_part_image(tmp_path):
     path = face_png(tmp_path)
     bpy.context.view_layer.objects.active = rig
     assert bpy.ops.object.miniskeleton_set_part_image(filepath=path, bone="head") == {"FINISHED"}
-    part = next(ob for ob in rig.children if ob.get(P.PART_KEY) == "head")
+    part = next(ob for ob in rig.children if ob.get(R.PART_KEY) == "head")
     assert len(part.data.vertices) == 4 and part.parent_bone == "head"
     xs = [v.co.x for v in part.data.vertices]
     ys = [v.co.y for v in part.data.vertices]
@@ -587,7 +588,7 @@ def test_set_part_image_on_a_part_in_edit_mode_is_an_error(tmp_path):
     """A part in Edit Mode cannot take a new mesh: the operator reported success and the part
     kept its cut-out. Now a clear error, and nothing changes."""
     rig, _ = add("THREE_ROD")
-    part = next(ob for ob in rig.children if ob.get(P.PART_KEY) == "head")
+    part = next(ob for ob in rig.children if ob.get(R.PART_KEY) == "head")
     mesh, meshes = part.data, len(bpy.data.meshes)
     B.set_active(part)
     bpy.ops.object.mode_set(mode="EDIT")
@@ -600,7 +601,7 @@ def test_set_part_image_on_a_part_in_edit_mode_is_an_error(tmp_path):
 def test_set_part_image_of_a_file_that_is_not_an_image_is_an_error(tmp_path):
     """Blender "loads" any file as an image of size 0 x 0 (a pink texture): refuse it instead."""
     rig, _ = add("THREE_ROD")
-    part = next(ob for ob in rig.children if ob.get(P.PART_KEY) == "head")
+    part = next(ob for ob in rig.children if ob.get(R.PART_KEY) == "head")
     mesh, images = part.data, len(bpy.data.images)
     bad = tmp_path / "face.png"
     bad.write_text("not a PNG")

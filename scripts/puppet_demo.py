@@ -30,11 +30,11 @@ CYCLE = 24          # frames per step cycle / wave
 def build(kind):
     import bpy
 
-    P = importlib.import_module(f"{blender_session.ADDON_MODULE}.operators_puppet")
+    R = importlib.import_module(f"{blender_session.ADDON_MODULE}.puppet_rig")
     if bpy.ops.object.miniskeleton_add_puppet(type=kind) != {"FINISHED"}:
         raise SystemExit(f"adding the {kind} puppet failed")
-    rig = P.puppet_rig(bpy.context.active_object)
-    return rig, P.puppet_rods(rig)
+    rig = R.puppet_rig(bpy.context.active_object)
+    return rig, R.puppet_rods(rig)
 
 
 def _key(ob, frame, loc=None, rot_y=None):

@@ -1,0 +1,122 @@
+"""The Shadow Theatre scene preset: a glowing screen behind the puppets, a warm backlight and
+an orthographic camera on the audience side, with render settings for the shadow-play look."""
+
+from __future__ import annotations
+
+import math
+
+import bpy
+import numpy as np
+from mathutils import Vector
+
+from .puppet_rig import THEATRE_KEY, puppet_rig, scene_puppets
+
+SCREEN = (1.0, 0.62, 0.28, 1.0)
+
+
+# ---------------------------------------------------------------------------- shadow theatre
+
+
+def _puppet_bounds(scene):
+    """(min, max) of the puppets' parts and props in world (x, z); a default box if none."""
+    pts = []
+    dg = bpy.context.evaluated_depsgraph_get()
+    for rig in scene_puppets(scene):
+        for ob in [o for o in scene.objects if puppet_rig(o) == rig and o.type == "MESH"]:
+            ev = ob.evaluated_get(dg)
+            pts += [ev.matrix_world @ Vector(c) for c in ev.bound_box]
+    if not pts:
+        return np.array([-1.0, 0.0]), np.array([1.0, 2.0])
+    xz = np.array([(p.x, p.z) for p in pts])
+    return xz.min(0), xz.max(0)
+
+
+def _theatre_object(scene, name, data):
+    ob = bpy.data.objects.get(name)
+    if ob is None or ob.get(THEATRE_KEY) is None:
+        ob = bpy.data.objects.new(name, data)
+        scene.collection.objects.link(ob)
+        ob[THEATRE_KEY] = True
+    elif ob.name not in scene.objects:
+        scene.collection.objects.link(ob)
+    return ob
+
+
+def build_shadow_theatre(context, engine="WORKBENCH", margin=0.1):
+    """Screen behind the puppets (XZ plane, +Y), a warm area light behind the screen facing
+    the audience, an orthographic camera on the audience side (-Y); render settings for the
+    shadow-play look. Running it again refits the same objects."""
+    scene = context.scene
+    lo, hi = _puppet_bounds(scene)
+    centre = (lo + hi) / 2
+    aspect = scene.render.resolution_x / max(scene.render.resolution_y, 1)
+    span = (hi - lo) * (1 + 2 * margin)
+    height = max(span[1], span[0] / aspect, 1e-3) * 1.1     # a little room to walk and wave
+    width = height * aspect
+
+    me = bpy.data.meshes.new("ShadowScreen")
+    me.from_pydata([(-width / 2, 0, -height / 2), (width / 2, 0, -height / 2),
+                    (width / 2, 0, height / 2), (-width / 2, 0, height / 2)], [], [(0, 1, 2, 3)])
+    screen = _theatre_object(scene, "ShadowScreen", me)
+    if screen.data != me:
+        old = screen.data
+        screen.data = me
+        if old.users == 0:
+            bpy.data.meshes.remove(old)
+    screen.location = (centre[0], 0.25 * height / 2, centre[1])
+    mat = bpy.data.materials.get("MiniSkeleton Shadow Screen")
+    if mat is None:
+        mat = bpy.data.materials.new("MiniSkeleton Shadow Screen")
+        mat.diffuse_color = SCREEN
+        if mat.node_tree is None:
+            mat.use_nodes = True
+        nt = mat.node_tree
+        for n in list(nt.nodes):
+            if n.type != "OUTPUT_MATERIAL":
+                nt.nodes.remove(n)
+        out = next(n for n in nt.nodes if n.type == "OUTPUT_MATERIAL")
+        trans = nt.nodes.new("ShaderNodeBsdfTranslucent")
+        trans.inputs["Color"].default_value = SCREEN
+        emit = nt.nodes.new("ShaderNodeEmission")
+        emit.inputs["Color"].default_value = SCREEN
+        emit.inputs["Strength"].default_value = 1.2
+        add = nt.nodes.new("ShaderNodeAddShader")
+        nt.links.new(trans.outputs[0], add.inputs[0])
+        nt.links.new(emit.outputs[0], add.inputs[1])
+        nt.links.new(add.outputs[0], out.inputs["Surface"])
+    screen.data.materials.append(mat)
+
+    light_data = bpy.data.lights.get("ShadowBacklight") or bpy.data.lights.new("ShadowBacklight", "AREA")
+    light_data.color = (1.0, 0.7, 0.4)
+    light_data.energy = 300.0 * height * height
+    if light_data.type == "AREA":
+        light_data.shape = "RECTANGLE"
+        light_data.size, light_data.size_y = width, height
+    light = _theatre_object(scene, "ShadowBacklight", light_data)
+    light.location = (centre[0], height, centre[1])
+    light.rotation_euler = (-math.pi / 2, 0.0, 0.0)       # shines along -Y, through the screen
+
+    cam_data = bpy.data.cameras.get("ShadowCamera") or bpy.data.cameras.new("ShadowCamera")
+    cam_data.type = "ORTHO"
+    cam_data.ortho_scale = max(width, height)
+    cam_data.clip_end = 10 * height + 100
+    cam = _theatre_object(scene, "ShadowCamera", cam_data)
+    cam.location = (centre[0], -4.0 * height, centre[1])
+    cam.rotation_euler = (math.pi / 2, 0.0, 0.0)          # looks along +Y at the screen
+    scene.camera = cam
+
+    if scene.world is None:
+        scene.world = bpy.data.worlds.new("ShadowTheatre")
+    scene.world.color = (0.02, 0.012, 0.008)
+    if engine == "EEVEE":
+        items = {i.identifier for i in bpy.types.RenderSettings.bl_rna.properties["engine"].enum_items}
+        scene.render.engine = "BLENDER_EEVEE_NEXT" if "BLENDER_EEVEE_NEXT" in items else "BLENDER_EEVEE"
+    else:
+        scene.render.engine = "BLENDER_WORKBENCH"
+    shading = scene.display.shading
+    shading.light = "FLAT"
+    shading.color_type = "TEXTURE"      # image parts show their picture, the rest their colour
+    shading.show_shadows = False
+    shading.show_cavity = False
+    scene.view_settings.view_transform = "Standard"
+    return screen, light, cam
