@@ -128,7 +128,7 @@ def _part(rig, bdef: puppet.BoneDef, size, coll, mat):
     return ob
 
 
-def build_puppet(context, kind: str, location=(0.0, 0.0, 0.0), size: float = 1.0) -> bpy.types.Object:
+def build_puppet(context: bpy.types.Context, kind: str, location=(0.0, 0.0, 0.0), size: float = 1.0) -> bpy.types.Object:
     """Create the puppet ``kind`` (see puppet.KINDS) with its feet at ``location``; returns
     the armature. Objects go into a new collection inside the active one."""
     tpl = puppet.template(kind)
@@ -220,7 +220,7 @@ def build_puppet(context, kind: str, location=(0.0, 0.0, 0.0), size: float = 1.0
 # ---------------------------------------------------------------------------- part images
 
 
-def set_part_image(rig, bone_name, image):
+def set_part_image(rig: bpy.types.Object, bone_name: str, image: bpy.types.Image) -> bpy.types.Object:
     """Give the bone's part a plane with ``image`` (its aspect kept, alpha cut out), sized to
     the bone's length and centred on it. ``image`` has pixels (the operator refuses 0 x 0)."""
     part = next((ob for ob in rig.children if ob.get(PART_KEY) == bone_name), None)

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import math
 import traceback
+from typing import Callable
 
 import bpy
 from bpy.app.handlers import persistent
@@ -250,7 +251,7 @@ def _signature(rig, rods):
     return tuple(vals)
 
 
-def update_scene_puppets(scene, force=False) -> int:
+def update_scene_puppets(scene: bpy.types.Scene, force: bool = False) -> int:
     """Solve every live puppet of ``scene`` whose rods or bones changed; returns how many."""
     if _state["busy"]:
         return 0
@@ -318,12 +319,13 @@ def unregister_handlers() -> None:
 # ---------------------------------------------------------------------------- baking
 
 
-def scene_frames(scene) -> list[int]:
+def scene_frames(scene: bpy.types.Scene) -> list[int]:
     """The frames of the scene's range, by its frame step."""
     return list(range(scene.frame_start, scene.frame_end + 1, max(scene.frame_step, 1)))
 
 
-def bake_puppet(scene, rig, frames=None, progress=None) -> int:
+def bake_puppet(scene: bpy.types.Scene, rig: bpy.types.Object, frames: list[int] | None = None,
+                progress: Callable[[int], object] | None = None) -> int:
     """Key the rotation of every movable bone on each frame (scene range by default), in the
     bone's rotation mode (``rotation_euler`` as the puppet makes them); ``progress(done)`` is
     called with the number of frames baked after each one. PuppetError (naming the frame) when

@@ -45,6 +45,7 @@ def puppet_poll(op: type[bpy.types.Operator], context: bpy.types.Context) -> boo
 
 
 def scene_puppets(scene: bpy.types.Scene) -> list[bpy.types.Object]:
+    """The puppet armatures of ``scene`` (made by Add Puppet: they carry ``KIND_KEY``)."""
     return [ob for ob in scene.objects if ob.type == "ARMATURE" and ob.get(KIND_KEY)]
 
 

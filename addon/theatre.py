@@ -42,7 +42,8 @@ def _theatre_object(scene, name, data):
     return ob
 
 
-def build_shadow_theatre(context, engine="WORKBENCH", margin=0.1):
+def build_shadow_theatre(context: bpy.types.Context, engine: str = "WORKBENCH", margin: float = 0.1
+                         ) -> tuple[bpy.types.Object, bpy.types.Object, bpy.types.Object]:
     """Screen behind the puppets (XZ plane, +Y), a warm area light behind the screen facing
     the audience, an orthographic camera on the audience side (-Y); render settings for the
     shadow-play look. Running it again refits the same objects."""
