@@ -20,8 +20,10 @@ import json
 import zipfile
 from collections import Counter
 from contextlib import contextmanager
+from itertools import chain
 from pathlib import Path
 
+import bmesh
 import bpy
 import numpy as np
 
@@ -266,35 +268,60 @@ def world_bones(arm_ob):
     return names, h, t, parents, connected
 
 
-def read_weights(ob, bone_names: list[str]) -> list[list[tuple[int, float]]]:
-    """Per vertex: [(bone index, weight)] from ``ob``'s bone-named groups, weight > 0."""
+def read_weights(ob, bone_names: list[str]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Every weight > 0 in ``ob``'s bone-named groups: (vertex int64, bone int32, weight float32)
+    arrays, vertex by vertex, each vertex's weights in the order Blender stores them. Read through
+    a BMesh's deform layer, one call per vertex rather than one per weight (a 206k-vertex mesh
+    with 4 weights each: 0.89 -> 0.4 s)."""
     index = {n: i for i, n in enumerate(bone_names)}
-    gmap = {g.index: index[g.name] for g in ob.vertex_groups if g.name in index}
-    rows = []
-    for v in ob.data.vertices:
-        rows.append([(gmap[g.group], float(g.weight)) for g in v.groups if g.group in gmap and g.weight > 0])
-    return rows
+    bone_of = np.full(len(ob.vertex_groups), -1, dtype=np.int64)
+    for g in ob.vertex_groups:
+        bone_of[g.index] = index.get(g.name, -1)
+    found = (np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int32), np.zeros(0, dtype=np.float32))
+    if not (bone_of >= 0).any():
+        return found
+    bm = bmesh.new()
+    try:
+        bm.from_mesh(ob.data)
+        layer = bm.verts.layers.deform.active
+        rows = [v[layer].items() for v in bm.verts] if layer is not None else []
+    finally:
+        bm.free()
+    counts = np.fromiter(map(len, rows), dtype=np.int64, count=len(rows))
+    pairs = np.fromiter(chain.from_iterable(chain.from_iterable(rows)), dtype=np.float64,
+                        count=2 * int(counts.sum())).reshape(-1, 2)
+    vertex = np.repeat(np.arange(len(rows), dtype=np.int64), counts)
+    group, weight = pairs[:, 0].astype(np.int64), pairs[:, 1].astype(np.float32)
+    bone = np.where(group < len(bone_of), bone_of[np.minimum(group, len(bone_of) - 1)], -1)
+    keep = (bone >= 0) & (weight > 0)
+    return vertex[keep], bone[keep].astype(np.int32), weight[keep]
 
 
-def top_k(rows, max_influences: int = 0) -> tuple[np.ndarray, np.ndarray]:
-    """Rows of (bone, weight) to dense (n, k) indices int32 / weights float32, strongest first.
-    k = the largest row when ``max_influences`` is 0; else capped and renormalized."""
-    k = max((len(r) for r in rows), default=0)
+def top_k(vertex: np.ndarray, bone: np.ndarray, weight: np.ndarray, n: int,
+          max_influences: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """Weights as (vertex, bone, weight) entries (``read_weights``) to dense (n, k) indices int32
+    / weights float32, strongest first (equal weights in stored order). k = the most weights a
+    vertex has when ``max_influences`` is 0; else capped and renormalized."""
+    counts = np.bincount(vertex, minlength=n)
+    k = int(counts.max(initial=0))
     capped = 0 < max_influences < k
     if capped:
         k = max_influences
     k = max(k, 1)
-    idx = np.full((len(rows), k), -1, dtype=np.int32)
-    w = np.zeros((len(rows), k), dtype=np.float32)
-    for i, r in enumerate(rows):
-        r = sorted(r, key=lambda x: -x[1])[:k]
-        if capped and r:
-            s = sum(x[1] for x in r)
-            r = [(b, x / s) for b, x in r]
-        for s, (b, x) in enumerate(r):
-            idx[i, s] = b
-            w[i, s] = x
-    return idx, w
+    order = np.lexsort((np.arange(len(vertex)), -weight.astype(np.float64), vertex))
+    vertex, bone, weight = vertex[order], bone[order], weight[order]
+    rank = np.arange(len(vertex)) - np.repeat(np.cumsum(counts) - counts, counts)
+    kept = rank < k
+    idx = np.full((n, k), -1, dtype=np.int32)
+    w = np.zeros((n, k), dtype=np.float64)
+    idx[vertex[kept], rank[kept]] = bone[kept]
+    w[vertex[kept], rank[kept]] = weight[kept]
+    if capped:
+        total = np.zeros(n)
+        for slot in range(k):        # summed slot by slot, strongest first
+            total += w[:, slot]
+        w = np.divide(w, total[:, None], out=w, where=total[:, None] > 0)
+    return idx, w.astype(np.float32)
 
 
 def collect_rig(arm_ob, meshes, max_influences: int = 0) -> dict:
@@ -306,9 +333,12 @@ def collect_rig(arm_ob, meshes, max_influences: int = 0) -> dict:
     names, h, t, parents, _ = world_bones(arm_ob)
     verts, tris = mesh_io.stack_meshes((mesh_io.mesh_world_vertices(ob), mesh_io.mesh_triangles(ob))
                                        for ob in meshes)
-    rows = [row for ob in meshes for row in read_weights(ob, names)]
     counts = [len(ob.data.vertices) for ob in meshes]
-    idx, w = top_k(rows, max_influences)
+    read = [read_weights(ob, names) for ob in meshes]
+    starts = np.cumsum([0] + counts[:-1])
+    vertex = np.concatenate([r[0] + start for r, start in zip(read, starts)])
+    idx, w = top_k(vertex, np.concatenate([r[1] for r in read]), np.concatenate([r[2] for r in read]),
+                   sum(counts), max_influences)
     return {
         "format_version": np.int32(FORMAT_VERSION),
         "vertices": verts.astype(np.float32),
@@ -460,10 +490,9 @@ def rig_json(arm_ob, meshes) -> dict:
     count = np.zeros(len(names), dtype=np.int64)
     wmax = np.zeros(len(names), dtype=np.float64)
     for ob in meshes:
-        for r in read_weights(ob, names):
-            for b, w in r:
-                count[b] += 1
-                wmax[b] = max(wmax[b], w)
+        _, bone, weight = read_weights(ob, names)
+        count += np.bincount(bone, minlength=len(names))
+        np.maximum.at(wmax, bone, weight.astype(np.float64))
     return {
         "format": "miniskeleton-rig-debug",
         "version": FORMAT_VERSION,

@@ -797,6 +797,47 @@ def test_npz_import_restores_exactly_byte_names_and_stale_groups(tmp_path):
     assert (w[:, 0] == 1).all() and (w[:, 1] == 0).all() and w[0, 2] == 0.5
 
 
+def test_npz_export_reads_each_vertex_weights_as_blender_holds_them(tmp_path):
+    """Weights written by hand: strongest first, equal weights in the order they were given,
+    zero weights and groups not named after a bone left out, the second mesh's rows after the
+    first's, and a cap keeps the strongest and renormalizes them."""
+    arm = builders.chain("Rig", count=4)
+    a, b, c, d = [bone.name for bone in arm.data.bones]
+    quad = [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0)]
+    first = builders.mesh_object("First", quad, [(0, 1, 2, 3)])
+    second = builders.mesh_object("Second", quad, [(0, 1, 2, 3)], location=(2, 0, 0))
+    for ob in (first, second):
+        for name in (a, b, c, d, "not_a_bone"):
+            ob.vertex_groups.new(name=name)
+
+    def give(ob, vertex, pairs):
+        for name, w in pairs:
+            ob.vertex_groups[name].add([vertex], w, "REPLACE")
+
+    give(first, 0, [(c, 0.2), (a, 0.5), (b, 0.3)])
+    give(first, 1, [(d, 0.4), (b, 0.4), ("not_a_bone", 0.9), (a, 0.0)])
+    give(second, 2, [(b, 1.0)])                  # first's vertices 2, 3 and second's 0, 1, 3: none
+    builders.set_active(arm, selected=[first, second])
+    index = {n: i for i, n in enumerate((a, b, c, d))}
+    path = str(tmp_path / "rig.npz")
+    assert bpy.ops.export_scene.miniskeleton_npz(filepath=path) == {"FINISHED"}
+    with np.load(path) as f:
+        assert list(f["mesh_vertex_counts"]) == [4, 4]
+        assert f["indices"].shape == (8, 3)
+        assert f["indices"][0].tolist() == [index[a], index[b], index[c]]
+        assert np.allclose(f["weights"][0], [0.5, 0.3, 0.2])
+        assert f["indices"][1].tolist() == [index[d], index[b], -1]     # a tie keeps its order
+        assert f["weights"][1].tolist() == [np.float32(0.4), np.float32(0.4), 0.0]
+        assert f["indices"][6].tolist() == [index[b], -1, -1] and f["weights"][6][0] == 1.0
+        assert (f["indices"][[2, 3, 4, 5, 7]] == -1).all() and not f["weights"][[2, 3, 4, 5, 7]].any()
+    assert bpy.ops.export_scene.miniskeleton_npz(filepath=path, max_influences=2) == {"FINISHED"}
+    with np.load(path) as f:
+        assert f["indices"].shape == (8, 2)
+        assert f["indices"][0].tolist() == [index[a], index[b]]
+        assert np.allclose(f["weights"][0], [0.5 / 0.8, 0.3 / 0.8])
+        assert np.allclose(f["weights"][1], [0.5, 0.5]) and f["indices"][1].tolist() == [index[d], index[b]]
+
+
 def test_json_debug_export(tmp_path):
     ob, arm = bound_cylinder("IDW")
     path = tmp_path / "rig.json"
