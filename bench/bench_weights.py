@@ -150,7 +150,7 @@ def measure_parts(bpy, core, count, args):
         select(bpy, parts, rig)
         blender_s, _ = timed(lambda: bpy.ops.object.parent_set(type="ARMATURE_AUTO"))
     # Ours as shipped (small solves on a pool of threads) and on one thread, alternating.
-    weights_ops = importlib.import_module(blender_session.ADDON_MODULE + ".operators_weights")
+    weights_ops = importlib.import_module(blender_session.ADDON_MODULE + ".weights_compute")
     threads = weights_ops.POOL_THREADS
     pooled, serial = [], []
     try:
