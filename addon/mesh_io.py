@@ -1,10 +1,6 @@
 """Blender data to numpy arrays and back. No UI, no algorithms: those live in Rust.
 
-Reads use ``foreach_get``. Weights are written one of two ways, whichever is cheaper for the
-object (``write_vertex_groups``): a float point attribute converted to a vertex group by
-Blender's own C code (``geometry.attribute_convert``, ~5x faster than a bmesh loop on a big
-mesh), or ``VertexGroup.add`` calls for small meshes in scenes of many objects, where every
-operator call's depsgraph rebuild would dominate. Neither stores zero weights.
+Reads use ``foreach_get``; vertex groups are written by ``groups_io``.
 """
 
 from __future__ import annotations
@@ -16,9 +12,6 @@ from pathlib import Path
 
 import bpy
 import numpy as np
-
-_TMP_ATTR = "__miniskeleton_weights_tmp"
-
 
 @dataclass
 class Bones:
@@ -414,22 +407,6 @@ def bone_mirror_indices(names: list[str]) -> np.ndarray:
     return out
 
 
-def dense_weights(indices: np.ndarray, weights: np.ndarray, bones: int) -> np.ndarray:
-    """Top-k (indices, weights) rows to a dense (bones, n) float32 matrix, one contiguous row per bone."""
-    n = indices.shape[0]
-    dense = np.zeros((bones, n), dtype=np.float32)
-    valid = (indices >= 0) & (weights > 0)
-    rows, slots = np.nonzero(valid)
-    dense[indices[rows, slots], rows] = weights[rows, slots]
-    return dense
-
-
-# Costs measured with bpy 5.0 on the 2-core machine (scratch timings, see the README): an
-# operator call rebuilds the depsgraph's relations, ~0.1 ms + 15 us per object in the view
-# layer, and converts ~7.5 ns per vertex; ``VertexGroup.add`` costs ~1 us per call.
-_OP_CALL_S, _OP_PER_OBJECT_S, _OP_PER_VERTEX_S, _ADD_CALL_S = 1e-4, 1.5e-5, 7.5e-9, 1e-6
-
-
 def paint_mask(ob: bpy.types.Object) -> tuple[np.ndarray | None, str]:
     """The vertices to re-weight when ``ob`` is in Weight Paint mode with a selection mask on,
     as Blender's Weights > Assign Automatic from Bones does: ((n,) bool, the mask's name), or
@@ -446,161 +423,6 @@ def paint_mask(ob: bpy.types.Object) -> tuple[np.ndarray | None, str]:
     sizes, corners = mesh_polygons(ob)
     picked[corners[np.repeat(faces, sizes)]] = True
     return picked, "Face Selection"
-
-
-def write_vertex_groups(ob: bpy.types.Object, names: list[str], dense: np.ndarray,
-                        write: np.ndarray, only: np.ndarray | None = None) -> list[str]:
-    """Replace the vertex groups named ``names[b]`` where ``write[b]`` with row ``dense[b]``;
-    with ``only`` ((n,) bool, a Weight Paint mask), only those vertices' weights in them.
-
-    Groups not named after a written bone are untouched; locked groups are left as they are.
-    As after Blender's Ctrl+P, the last group written ends active and a rewritten group keeps
-    its place in the list; the mesh keeps its active attribute and its selection. Returns the
-    names of locked groups that were kept. Both ways give the same groups; the cheaper one for
-    this mesh and scene is used (one operator call per group costs a relations rebuild that
-    grows with the scene: ``bench_weights --parts 400`` took 104 s that way, 0.28 s now).
-    """
-    order = [g.name for g in ob.vertex_groups]
-    held = {b: _locked(ob, names[b]) for b in np.flatnonzero(write)}
-    groups = [b for b, is_locked in held.items() if not is_locked]
-    locked = [names[b] for b, is_locked in held.items() if is_locked]
-    calls = sum(int(np.count_nonzero(dense[b])) for b in groups)  # no copy of the rows
-    per_op = _OP_CALL_S + _OP_PER_OBJECT_S * len(bpy.context.view_layer.objects) \
-        + _OP_PER_VERTEX_S * dense.shape[1]
-    if only is not None:
-        _patch_groups(ob, names, dense, groups, only)
-    elif calls * _ADD_CALL_S < len(groups) * per_op:
-        _add_groups(ob, names, dense, groups)
-    else:
-        _convert_hidden(ob, names, dense, groups)
-    _keep_order(ob, order)
-    last = ob.vertex_groups.get(names[groups[-1]]) if groups else None
-    if last is not None:
-        ob.vertex_groups.active_index = last.index
-    return locked
-
-
-def _keep_order(ob, order):
-    """Put ``ob``'s groups back in the list ``order`` (their names before writing; new groups
-    follow in the order made), as Blender's Ctrl+P, which rewrites a group in its place, leaves
-    them. Rewriting makes a group anew at the end; one Sort by Name over temporary names that
-    sort in the wanted order moves them back (one remap of the weights: moving each group up
-    one step at a time took 2.7 s for 40 groups past 5 others at 103k vertices)."""
-    groups = ob.vertex_groups
-    index = {name: i for i, name in enumerate(order)}
-    now = [g.name for g in groups]
-    target = sorted(now, key=lambda name: index.get(name, len(order)))  # stable: new ones as made
-    if now == target:
-        return
-    tag = "miniskeleton_order_"
-    while any(name.startswith(tag) for name in now):
-        tag += "_"
-    rank = {name: k for k, name in enumerate(target)}
-    for g in list(groups):
-        g.name = f"{tag}{rank[g.name]:06d}"
-    try:
-        # Blender sorts no group of an object hidden from viewports.
-        with _viewport_hidden(ob, False), bpy.context.temp_override(object=ob, active_object=ob):
-            bpy.ops.object.vertex_group_sort(sort_type="NAME")
-    finally:
-        for g in list(groups):
-            g.name = target[int(g.name[len(tag):])]
-
-
-@contextmanager
-def _viewport_hidden(ob, hidden: bool):
-    """``ob`` with ``hide_viewport`` set to ``hidden`` for a while. Its own setting, and its
-    selection in every view layer (hiding deselects it), come back afterwards."""
-    if ob.hide_viewport == hidden:
-        yield
-        return
-    was = ob.hide_viewport
-    layers = [layer for scene in ob.users_scene for layer in scene.view_layers
-              if layer.objects.get(ob.name) == ob]
-    selected = [layer for layer in layers if ob.select_get(view_layer=layer)]
-    ob.hide_viewport = hidden
-    try:
-        yield
-    finally:
-        ob.hide_viewport = was
-        for layer in selected:
-            ob.select_set(True, view_layer=layer)
-
-
-def _convert_hidden(ob, names, dense, groups):
-    """``_convert_groups`` with ``ob`` hidden from viewports, keeping the active attribute."""
-    # Each bpy.ops call updates the view layer before and after it, which re-evaluates a visible
-    # mesh every time; hidden from viewports it is not evaluated at all (40 groups at 103k
-    # vertices: 0.17 s visible, 0.03 s hidden).
-    attrs = ob.data.attributes
-    active = attrs.active.name if attrs.active is not None else None
-    try:
-        with _viewport_hidden(ob, True):
-            _convert_groups(ob, names, dense, groups)
-    finally:
-        attrs.active = attrs.get(active) if active is not None else None
-
-
-def _locked(ob, name) -> bool:
-    group = ob.vertex_groups.get(name)
-    return group is not None and group.lock_weight
-
-
-def _replace_group(ob, name):
-    """Remove ``ob``'s unlocked group ``name`` if there is one (it is written anew)."""
-    old = ob.vertex_groups.get(name)
-    if old is not None:
-        ob.vertex_groups.remove(old)
-
-
-def _add_groups(ob, names, dense, groups):
-    """One ``VertexGroup.add`` per distinct weight of each group (a rigid part: one call)."""
-    made = []
-    for b in groups:
-        _replace_group(ob, names[b])
-        made.append(ob.vertex_groups.new(name=names[b]))
-    _add_runs(made, dense[groups], np.arange(dense.shape[1]))
-
-
-def _patch_groups(ob, names, dense, groups, only):
-    """Rewrite the masked vertices only: each group loses them, then gets their new weights
-    (one ``add`` per distinct weight); every other vertex keeps its weights exactly."""
-    picked = np.flatnonzero(only)
-    listed = picked.tolist()
-    made = []
-    for b in groups:
-        group = ob.vertex_groups.get(names[b]) or ob.vertex_groups.new(name=names[b])
-        group.remove(listed)
-        made.append(group)
-    _add_runs(made, dense[groups][:, picked], picked)
-
-
-def _add_runs(made, rows, verts_of):
-    """Add row ``g`` of ``rows`` (its non-zero weights, column j being vertex ``verts_of[j]``) to
-    group ``made[g]``, one ``add`` call per run of vertices with the same weight."""
-    member, cols = np.nonzero(rows)
-    values = rows[member, cols]
-    order = np.lexsort((values, member))  # by group, then by weight
-    member, verts, values = member[order], verts_of[cols[order]], values[order]
-    if len(verts) == 0:
-        return
-    cuts = (np.flatnonzero((np.diff(member) != 0) | (np.diff(values) != 0)) + 1).tolist()
-    starts, verts = [0] + cuts, verts.tolist()
-    for start, end, g, w in zip(starts, cuts + [len(verts)], member[starts].tolist(), values[starts].tolist()):
-        made[g].add(verts[start:end], w, "REPLACE")
-
-
-def _convert_groups(ob, names, dense, groups):
-    me = ob.data
-    with bpy.context.temp_override(object=ob, active_object=ob):
-        for b in groups:
-            _replace_group(ob, names[b])
-            attr = me.attributes.get(_TMP_ATTR) or me.attributes.new(_TMP_ATTR, "FLOAT", "POINT")
-            attr.data.foreach_set("value", dense[b])
-            me.attributes.active = attr
-            bpy.ops.geometry.attribute_convert(mode="VERTEX_GROUP")
-            group = ob.vertex_groups.get(_TMP_ATTR)
-            group.name = names[b]
 
 
 def ensure_armature_modifier(ob: bpy.types.Object, arm_ob: bpy.types.Object) -> bool:

@@ -19,7 +19,7 @@ import bpy
 import numpy as np
 from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty
 
-from . import mesh_io
+from . import groups_io, mesh_io
 from .weights_compute import BACKGROUND_VERTICES, WeightsError, WeightsJob, compute_weights
 
 METHODS = [
@@ -289,9 +289,9 @@ class MINISKELETON_OT_auto_weights(bpy.types.Operator):
         write = bones.selected if self.selected_bones_only else np.ones(len(bones.names), bool)
         kept_locked, partial = set(), []
         for ob, i, w in results:
-            dense = mesh_io.dense_weights(i, w, len(bones.names))
+            dense = groups_io.dense_weights(i, w, len(bones.names))
             picked, mask = masks.get(ob, (None, ""))
-            kept_locked.update(mesh_io.write_vertex_groups(ob, bones.names, dense, write, only=picked))
+            kept_locked.update(groups_io.write_vertex_groups(ob, bones.names, dense, write, only=picked))
             if picked is not None:
                 partial.append(f"only the {int(picked.sum())} of {len(picked)} vertices of '{ob.name}' "
                                f"selected for the Weight Paint {mask} mask")

@@ -27,7 +27,7 @@ import bmesh
 import bpy
 import numpy as np
 
-from . import mesh_io
+from . import groups_io, mesh_io
 
 FORMAT_VERSION = 1
 SNAPSHOT_KEY = "miniskeleton_original_rest_pose"
@@ -474,11 +474,11 @@ def apply_weights(rig: dict, meshes) -> int:
     for ob, start, count in targets:
         idx = rig["indices"][start:start + count]
         w = rig["weights"][start:start + count]
-        dense = mesh_io.dense_weights(idx, w, len(names))
+        dense = groups_io.dense_weights(idx, w, len(names))
         # The bundle's bones with weights here, and the mesh's groups of its other bones (emptied,
         # so the weights are the bundle's exactly; no empty group is added for the rest).
         write = dense.any(axis=1) | np.array([ob.vertex_groups.get(s) is not None for s in names])
-        mesh_io.write_vertex_groups(ob, names, dense, write)
+        groups_io.write_vertex_groups(ob, names, dense, write)
     return sum(t[2] for t in targets)
 
 

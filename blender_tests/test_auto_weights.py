@@ -11,6 +11,8 @@ import pytest
 import builders as B
 import creature
 
+groups_io = importlib.import_module("bl_ext.user_default.miniskeleton.groups_io")
+
 METHODS = ["HEAT", "BILINEAR", "IDW"]
 NAMES = [f"Bone{i}" for i in range(4)]
 
@@ -311,7 +313,7 @@ def test_a_subdivided_cage_is_weighted_on_its_smooth_surface_like_ctrl_p():
     assert bones.names == names
     m = np.array(body.matrix_world)
     i, w = core.heat_weights(limit @ m[:3, :3].T + m[:3, 3], mesh_io.mesh_triangles(body), bones.heads, bones.tails)
-    twin = mesh_io.dense_weights(i, w, len(names)).T  # (bones, n) -> (n, bones)
+    twin = groups_io.dense_weights(i, w, len(names)).T  # (bones, n) -> (n, bones)
 
     body, _ = setup({"levels": 2})
     assert bpy.ops.object.parent_set(type="ARMATURE_AUTO") == {"FINISHED"}
@@ -411,8 +413,7 @@ def test_group_writer_ways_write_the_same_groups(way, monkeypatch):
     small ones in busy scenes) replace a bone's group in its place in the list, keep locked and
     foreign groups, store no zero weight, write exact values, and keep the viewport visibility
     and the selection."""
-    mesh_io = importlib.import_module("bl_ext.user_default.miniskeleton.mesh_io")
-    monkeypatch.setattr(mesh_io, "_ADD_CALL_S", 0.0 if way == "add" else math.inf)
+    monkeypatch.setattr(groups_io, "_ADD_CALL_S", 0.0 if way == "add" else math.inf)
     ob = B.cylinder()
     n = len(ob.data.vertices)
     ob.vertex_groups.new(name="Mine").add([0, 1], 0.25, "REPLACE")
@@ -428,7 +429,7 @@ def test_group_writer_ways_write_the_same_groups(way, monkeypatch):
     for hidden in (True, False):
         ob.hide_viewport = hidden
         selected = ob.select_get()
-        kept = mesh_io.write_vertex_groups(ob, names, dense, np.ones(5, bool))
+        kept = groups_io.write_vertex_groups(ob, names, dense, np.ones(5, bool))
         assert kept == ["Held"] and ob.hide_viewport == hidden
         assert ob.select_get() == selected
         # B stays second, between the user's groups; the new ones follow in the bones' order
@@ -812,7 +813,7 @@ def test_weight_paint_assigns_the_selected_bones_and_leaves_hidden_ones_out(capf
     bones = mesh_io.armature_bones(arm)
     seen = [0, 1, 3]  # Bone2 is hidden: no heat source
     i, w = core.heat_weights(B.world_vertices(ob), mesh_io.mesh_triangles(ob), bones.heads[seen], bones.tails[seen])
-    np.testing.assert_allclose(after[:, 1], mesh_io.dense_weights(i, w, 3)[1], atol=1e-6)
+    np.testing.assert_allclose(after[:, 1], groups_io.dense_weights(i, w, 3)[1], atol=1e-6)
     z = np.array([v.co.z for v in ob.data.vertices])
     low_half = (z > 2.0) & (z < 2.3)  # of Bone2 (z 2.0 to 2.9)
     assert after[low_half, 1].min() > 0.8 and bound[low_half, 1].max() < 0.5  # Bone1 reaches in now
@@ -836,7 +837,7 @@ def test_weight_paint_assigns_the_selected_bones_and_leaves_hidden_ones_out(capf
     bpy.ops.object.mode_set(mode="OBJECT")
     # In Object Mode (Ctrl+P), as in Blender, hiding and selection change nothing.
     bind([ob], arm, method="HEAT")
-    np.testing.assert_allclose(B.weights_matrix(ob, NAMES), mesh_io.dense_weights(
+    np.testing.assert_allclose(B.weights_matrix(ob, NAMES), groups_io.dense_weights(
         *core.heat_weights(B.world_vertices(ob), mesh_io.mesh_triangles(ob), bones.heads, bones.tails), 4).T,
         atol=1e-6)
 
