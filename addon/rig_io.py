@@ -272,7 +272,7 @@ def read_weights(ob, bone_names: list[str]) -> tuple[np.ndarray, np.ndarray, np.
     """Every weight > 0 in ``ob``'s bone-named groups: (vertex int64, bone int32, weight float32)
     arrays, vertex by vertex, each vertex's weights in the order Blender stores them. Read through
     a BMesh's deform layer, one call per vertex rather than one per weight (a 206k-vertex mesh
-    with 4 weights each: 0.89 -> 0.4 s)."""
+    with 4 weights each: 0.89 s through ``MeshVertex.groups``, 0.65 s this way with the copy)."""
     index = {n: i for i, n in enumerate(bone_names)}
     bone_of = np.full(len(ob.vertex_groups), -1, dtype=np.int64)
     for g in ob.vertex_groups:
