@@ -7,7 +7,7 @@ with k = min(max_influences, number of bones). Index arrays (triangles, parents,
 ``lbs`` indices) may be any numeric dtype but must hold whole numbers in range, or ValueError.
 """
 
-from typing import Callable, Optional, Tuple
+from typing import Callable, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -68,6 +68,18 @@ def heat_weights_report(
     the only ones averaged), regularized, factorization_failed, timings (stage -> seconds).
     weld_tolerance and every other length are relative to the bounding box of the vertices that
     faces use (a stray loose vertex does not change them)."""
+
+def heat_weights_many(
+    meshes: Sequence[Tuple[ArrayLike, ArrayLike]], bone_heads: ArrayLike, bone_tails: ArrayLike, *,
+    max_influences: int = 4, min_weight: float = 1e-3, visibility: bool = True,
+    weld_tolerance: float = 1e-5, heat_constant: float = 1.0, bone_mirror: Optional[ArrayLike] = None,
+    symmetry_axis: int = 0, symmetry_tolerance: float = 1e-3, parents: Optional[ArrayLike] = None,
+    curve_points: Optional[ArrayLike] = None, curve_bones: Optional[ArrayLike] = None,
+) -> List[Union[Tuple[npt.NDArray[np.int32], npt.NDArray[np.float32], dict], Exception]]:
+    """heat_weights_report of several independent meshes [(vertices, triangles)] with the same bones
+    and options, solved in parallel in one call (many small meshes: a call each costs more than its
+    solve). One entry per mesh: its (indices, weights, report), or the exception it raised
+    (ValueError for bad input, ...), returned so that the others' results stand."""
 
 def touching_meshes(vertices: ArrayLike, mesh_of: ArrayLike, meshes: int, *,
                     triangles: Optional[ArrayLike] = None, tolerance: float = 1e-5,

@@ -128,7 +128,8 @@ def _part(rig, bdef: puppet.BoneDef, size, coll, mat):
     return ob
 
 
-def build_puppet(context: bpy.types.Context, kind: str, location=(0.0, 0.0, 0.0), size: float = 1.0) -> bpy.types.Object:
+def build_puppet(context: bpy.types.Context, kind: str, location=(0.0, 0.0, 0.0),
+                 size: float = 1.0) -> bpy.types.Object:
     """Create the puppet ``kind`` (see puppet.KINDS) with its feet at ``location``; returns
     the armature. Objects go into a new collection inside the active one."""
     tpl = puppet.template(kind)

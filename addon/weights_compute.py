@@ -1,12 +1,10 @@
 """Computing skin weights without touching Blender data: each mesh with the chosen method
 (Heat, Bilinear, IDW from the Rust core), meshes that meet along a seam solved as one surface,
-many small seam groups on a pool of threads, and a worker-thread job that the Auto Weights
-operator's modal loop watches (Esc cancels it). Nothing here writes to Blender."""
+many small seam groups solved together in one call to the core, and a worker-thread job that
+the Auto Weights operator's modal loop watches (Esc cancels it). Nothing here writes to
+Blender."""
 
 from __future__ import annotations
-
-import concurrent.futures
-import os
 
 import numpy as np
 
@@ -24,10 +22,14 @@ def mesh_weights(core, settings: dict, verts, tris, bones, progress):
             verts, bones.heads, bones.tails, bones.parents, max_influences=k, nearest=settings["nearest"],
             falloff=settings["falloff"], sigma=settings["sigma"], power=settings["power"])
         return i, w, None
-    return core.heat_weights_report(
-        verts, tris, bones.heads, bones.tails, max_influences=k, visibility=settings["visibility"],
-        bone_mirror=settings["mirror"], parents=settings["parents"],
-        curve_points=bones.curve_points, curve_bones=bones.curve_bones, progress=progress)
+    return core.heat_weights_report(verts, tris, bones.heads, bones.tails, progress=progress,
+                                    **_heat_options(settings, bones))
+
+
+def _heat_options(settings: dict, bones) -> dict:
+    """The keyword arguments of ``core.heat_weights_report`` and ``core.heat_weights_many``."""
+    return dict(max_influences=settings["k"], visibility=settings["visibility"], bone_mirror=settings["mirror"],
+                parents=settings["parents"], curve_points=bones.curve_points, curve_bones=bones.curve_bones)
 
 
 def compute_weights(core, settings: dict, bones, inputs, progress):
@@ -36,10 +38,9 @@ def compute_weights(core, settings: dict, bones, inputs, progress):
     ``progress(f)`` gets the overall fraction and returns False to cancel (the core then
     raises ``Cancelled``). Other errors are raised as ``WeightsError`` for the status bar.
 
-    Meshes that meet along a seam are solved together (``seam_groups``). Many small groups (a
-    figure kit-built of separate objects) are solved on a pool of threads, since the core
-    releases the GIL and a small solve uses one core; ``progress`` is then called from this
-    thread only, between groups."""
+    Meshes that meet along a seam are solved together (``seam_groups``). Small groups next to
+    each other (a figure kit-built of separate objects) go to the core together
+    (``_solve_batch``); ``progress`` is called from this thread only, between calls."""
     results, notes = [], []
     try:
         groups = seam_groups(core, inputs) if settings["method"] == "HEAT" else [[m] for m in range(len(inputs))]
@@ -47,51 +48,72 @@ def compute_weights(core, settings: dict, bones, inputs, progress):
         raise WeightsError(f"Meshes {mesh_io.name_list([name for _, name, _, _ in inputs])}: {err}; "
                            "nothing was changed") from err
     sizes = [sum(len(inputs[m][2]) for m in members) for members in groups]
-    threads = min(POOL_THREADS, len(groups))
-    if threads > 1 and max(sizes) <= POOL_VERTICES:
-        with concurrent.futures.ThreadPoolExecutor(threads) as pool:
-            solving = [pool.submit(_solve_group, core, settings, bones, inputs, members, None)
-                       for members in groups]
-            try:
-                for g, job in enumerate(solving):
-                    _gather(inputs, groups[g], job.result(), settings, results, notes)
-                    if not progress((g + 1) / len(groups)):
-                        raise core.Cancelled("cancelled by the progress callback")
-            finally:
-                for job in solving:
-                    job.cancel()
-        return results, notes
-    for g, members in enumerate(groups):
+    batched = settings["method"] == "HEAT" and len(groups) > 1
+    g = 0
+    while g < len(groups):
+        if batched and sizes[g] <= BATCH_VERTICES:
+            g = _solve_batch(core, settings, bones, inputs, groups, sizes, g, results, notes)
+            if not progress(g / len(groups)):
+                raise core.Cancelled("cancelled by the progress callback")
+            continue
+
         def step(f, g=g):
             return progress((g + f) / len(groups))
-        _gather(inputs, members, _solve_group(core, settings, bones, inputs, members, step), settings,
+        _gather(inputs, groups[g], _solve_group(core, settings, bones, inputs, groups[g], step), settings,
                 results, notes)
+        g += 1
     return results, notes
 
 
-# Seam groups of at most this many vertices each go to a pool of this many threads when there
-# are several (400 objects of 74 vertices on 2 cores: 0.53 s serial, 0.42 s pooled).
-POOL_VERTICES = 20_000
-POOL_THREADS = os.cpu_count() or 1
+# Heat solves seam groups of at most this many vertices each in calls of this many vertices in
+# all to ``core.heat_weights_many`` (both cores busy, progress and Esc between calls): 400
+# objects of 74 vertices on 2 cores, the core's part 0.10 s one call per object, 0.04 s batched.
+BATCH_VERTICES = 20_000
+CALL_VERTICES = 100_000
 
 
 def _solve_group(core, settings: dict, bones, inputs, members: list[int], progress):
     """One seam group's meshes stacked and solved: (indices, weights, heat report or None)."""
-    name = " + ".join(inputs[m][1] for m in members)
-    if settings["method"] == "HEAT":
-        verts, tris = mesh_io.stack_meshes((inputs[m][2], inputs[m][3]) for m in members)
-    else:
-        verts, tris = np.concatenate([inputs[m][2] for m in members]), None
+    verts, tris = _stacked(inputs, members, settings)
     try:
         return mesh_weights(core, settings, verts, tris, bones, progress)
     except (ValueError, RuntimeError) as err:
-        raise WeightsError(f"Mesh '{name}': {err}; nothing was changed") from err
+        raise WeightsError(f"Mesh '{_group_name(inputs, members)}': {err}; nothing was changed") from err
+
+
+def _stacked(inputs, members: list[int], settings: dict):
+    """A seam group's vertices and (Heat only) triangles, its meshes one after the other."""
+    if settings["method"] == "HEAT":
+        return mesh_io.stack_meshes((inputs[m][2], inputs[m][3]) for m in members)
+    return np.concatenate([inputs[m][2] for m in members]), None
+
+
+def _group_name(inputs, members: list[int]) -> str:
+    return " + ".join(inputs[m][1] for m in members)
+
+
+def _solve_batch(core, settings: dict, bones, inputs, groups: list[list[int]], sizes: list[int], start: int,
+                 results: list, notes: list) -> int:
+    """Heat of the small seam groups from ``start`` on (each at most ``BATCH_VERTICES``, up to
+    ``CALL_VERTICES`` in all) in one ``core.heat_weights_many`` call, gathered as one group after
+    the other would be; returns where the batch ended. A group's error names its mesh."""
+    end, total = start, 0
+    while end < len(groups) and sizes[end] <= BATCH_VERTICES and (end == start or total + sizes[end] <= CALL_VERTICES):
+        total += sizes[end]
+        end += 1
+    solved = core.heat_weights_many([_stacked(inputs, members, settings) for members in groups[start:end]],
+                                    bones.heads, bones.tails, **_heat_options(settings, bones))
+    for members, out in zip(groups[start:end], solved):
+        if isinstance(out, Exception):
+            raise WeightsError(f"Mesh '{_group_name(inputs, members)}': {out}; nothing was changed") from out
+        _gather(inputs, members, out, settings, results, notes)
+    return end
 
 
 def _gather(inputs, members: list[int], solved, settings: dict, results: list, notes: list):
     """Append one group's per-mesh rows to ``results`` and its heat report's remarks to ``notes``."""
     i, w, report = solved
-    name = " + ".join(inputs[m][1] for m in members)
+    name = _group_name(inputs, members)
     counts = [len(inputs[m][2]) for m in members]
     if report and (report.get("fallback_pieces") or report.get("rigid_pieces")):
         notes.append(f"{name}: of {report['pieces']} pieces, "

@@ -135,8 +135,8 @@ def measure(bpy, core, label, mesh, rig, v, t, heads, tails, args):
 
 def measure_parts(bpy, core, count, args):
     """Blender's ARMATURE_AUTO (once) and our Heat (median of repeats) on ``count`` separate
-    small objects stacked along a 20-bone chain: (count, vertices, Blender s, ours s, ours on
-    one thread s)."""
+    small objects stacked along a 20-bone chain: (count, vertices, Blender s, ours s, ours with
+    one core call per object s)."""
     blender_session.reset_scene()
     height = 8.0
     parts = []
@@ -149,19 +149,19 @@ def measure_parts(bpy, core, count, args):
     if not args.no_blender:
         select(bpy, parts, rig)
         blender_s, _ = timed(lambda: bpy.ops.object.parent_set(type="ARMATURE_AUTO"))
-    # Ours as shipped (small solves on a pool of threads) and on one thread, alternating.
+    # Ours as shipped (small objects to the core many per call) and one call per object, alternating.
     weights_ops = importlib.import_module(blender_session.ADDON_MODULE + ".weights_compute")
-    threads = weights_ops.POOL_THREADS
-    pooled, serial = [], []
+    batch = weights_ops.BATCH_VERTICES
+    batched, serial = [], []
     try:
         for _ in range(max(args.repeats, 1)):
-            for runs, n in ((serial, 1), (pooled, threads)):
-                weights_ops.POOL_THREADS = n
+            for runs, limit in ((serial, -1), (batched, batch)):
+                weights_ops.BATCH_VERTICES = limit
                 runs.append(ours_heat(bpy, parts, rig, 1))
     finally:
-        weights_ops.POOL_THREADS = threads
+        weights_ops.BATCH_VERTICES = batch
     print(f"done {count} parts", flush=True)
-    return (count, sum(len(ob.data.vertices) for ob in parts), blender_s, float(np.median(pooled)),
+    return (count, sum(len(ob.data.vertices) for ob in parts), blender_s, float(np.median(batched)),
             float(np.median(serial)))
 
 
@@ -226,7 +226,7 @@ def main(argv=None):
     if parts:
         print()
         print("| separate objects | vertices | bones | Blender ARMATURE_AUTO s | ours HEAT s | speed-up "
-              "| ours on one thread s |")
+              "| ours, a core call per object s |")
         print("|---:|---:|---:|---:|---:|---:|---:|")
         for count, n, bs, os_, one in parts:
             ratio = f"{bs / os_:.2f}x" if bs else "-"

@@ -902,43 +902,63 @@ def test_weights_job_reports_bad_input_as_an_error():
     assert isinstance(job.error, ow.WeightsError) and name in str(job.error)
 
 
-def test_many_small_meshes_solved_on_threads_get_the_serial_weights_and_notes(monkeypatch):
-    """A figure of many small objects is solved on a pool of threads: the same weights and
-    notes, in the same order, as one object after the other; progress is reported from the
-    calling thread only (it may touch Blender's UI), cancelling stops between objects, and an
-    error names its mesh."""
+def test_many_small_meshes_solved_in_batches_get_the_one_by_one_weights_and_notes(monkeypatch):
+    """A figure of many small objects goes to the core several objects per call: the same
+    weights and notes, in the same order, as one object after the other, and a big mesh among
+    them is solved on its own in its place; progress is reported from the calling thread only,
+    between calls (it may touch Blender's UI), cancelling stops between calls, and an error
+    names its mesh."""
     import threading
 
     import miniskeleton_core as core
 
     ow = _weights_module()
     mesh_io = importlib.import_module("bl_ext.user_default.miniskeleton.mesh_io")
-    obs = [B.cylinder(name=f"Part{i}", radius=0.3, height=0.5, rings=4, segments=8, location=(0.0, 0.0, 0.35 * i))
-           for i in range(10)]
-    obs.append(B.cylinder(name="Upper", radius=0.3, height=0.5, rings=4, segments=8, location=(0.0, 0.0, 4.0)))
-    obs.append(B.cylinder(name="Lower", radius=0.3, height=0.5, rings=4, segments=8, location=(0.0, 0.0, 3.5)))
+    part = dict(radius=0.3, height=0.5, rings=4, segments=8)
+    obs = [B.cylinder(name=f"Part{i}", location=(0.0, 0.0, 0.35 * i), **part) for i in range(6)]
+    obs.append(B.cylinder(name="Big", radius=0.27, height=0.5, rings=20, segments=16, location=(0.013, 0.0, 2.1)))
+    obs += [B.cylinder(name=f"Part{i}", location=(0.0, 0.0, 0.35 * i), **part) for i in range(6, 10)]
+    obs.append(B.cylinder(name="Upper", location=(0.0, 0.0, 4.0), **part))
+    obs.append(B.cylinder(name="Lower", location=(0.0, 0.0, 3.5), **part))  # one seam group with Upper
     arm = B.chain()
     bones = mesh_io.armature_bones(arm)
     inputs = [(ob, ob.name, mesh_io.mesh_world_vertices(ob), mesh_io.mesh_triangles(ob)) for ob in obs]
     flipped = inputs[3][3].copy()
     flipped[: len(flipped) // 2] = flipped[: len(flipped) // 2, ::-1]
     inputs[3] = inputs[3][:3] + (flipped,)
+    small = len(inputs[0][2])
+    monkeypatch.setattr(ow, "BATCH_VERTICES", 2 * small)        # Big (> 2 parts) is solved alone
+    monkeypatch.setattr(ow, "CALL_VERTICES", 3 * small)         # at most 3 parts per call
     settings = dict(method="HEAT", k=4, power=2.0, nearest=3, falloff="gaussian", sigma=None,
                     visibility=True, mirror=None, parents=None)
-    solved_on = []
-    solve = ow.mesh_weights
-    monkeypatch.setattr(ow, "mesh_weights", lambda *a: solved_on.append(threading.current_thread()) or solve(*a))
 
-    monkeypatch.setattr(ow, "POOL_THREADS", 1)
-    serial_results, serial_notes = ow.compute_weights(core, settings, bones, inputs, lambda f: True)
-    assert set(solved_on) == {threading.main_thread()}
-    monkeypatch.setattr(ow, "POOL_THREADS", 2)
-    solved_on.clear()
+    class Counted:
+        """The core, counting its calls and the meshes they carry."""
+        def __init__(self):
+            self.many, self.single = [], 0
+
+        def __getattr__(self, name):
+            return getattr(core, name)
+
+        def heat_weights_many(self, meshes, *a, **kw):
+            self.many.append(len(meshes))
+            return core.heat_weights_many(meshes, *a, **kw)
+
+        def heat_weights_report(self, *a, **kw):
+            self.single += 1
+            return core.heat_weights_report(*a, **kw)
+
+    one_by_one = Counted()
+    with monkeypatch.context() as m:
+        m.setattr(ow, "BATCH_VERTICES", -1)
+        serial_results, serial_notes = ow.compute_weights(one_by_one, settings, bones, inputs, lambda f: True)
+    assert one_by_one.many == [] and one_by_one.single == 12   # Upper + Lower: one group
+    batched = Counted()
     reported_on, fractions = set(), []
     results, notes = ow.compute_weights(
-        core, settings, bones, inputs,
+        batched, settings, bones, inputs,
         lambda f: reported_on.add(threading.current_thread()) or fractions.append(f) or True)
-    assert threading.main_thread() not in solved_on and len(solved_on) == 11  # Upper + Lower: one seam group
+    assert batched.many == [3, 3, 3, 2] and batched.single == 1  # parts 0-5 | Big | 6-9, Upper + Lower
     assert reported_on == {threading.main_thread()}
     assert fractions == sorted(fractions) and fractions[-1] == pytest.approx(1.0)
     assert [r[0] for r in results] == [r[0] for r in serial_results] == obs
@@ -946,10 +966,12 @@ def test_many_small_meshes_solved_on_threads_get_the_serial_weights_and_notes(mo
         assert np.array_equal(i, si) and np.array_equal(w, sw)
     assert notes == serial_notes and any("Part3" in n and "wound against" in n for n in notes)
 
+    stopped = Counted()
     with pytest.raises(core.Cancelled):
-        ow.compute_weights(core, settings, bones, inputs, lambda f: f < 0.2)
+        ow.compute_weights(stopped, settings, bones, inputs, lambda f: f < 0.2)
+    assert stopped.many == [3]              # 3 of 12 groups done (0.25): stopped before the next call
     bad = list(inputs)
-    bad[5] = inputs[5][:3] + (np.full_like(inputs[5][3], len(inputs[5][2])),)  # Part6's first vertex once stacked
+    bad[5] = inputs[5][:3] + (np.full_like(inputs[5][3], len(inputs[5][2])),)  # the next part's vertex once stacked
     with pytest.raises(ow.WeightsError, match="Mesh 'Part5'"):
         ow.compute_weights(core, settings, bones, bad, lambda f: True)
     bad[5] = inputs[5][:3] + (np.full_like(inputs[5][3], 10_000),)  # out of range even stacked

@@ -80,6 +80,31 @@ def test_heat_two_pieces_all_weighted_and_report(cyl):
     assert report["pieces"] == 2
 
 
+def test_heat_many_meshes_in_one_call_match_one_call_each(cyl):
+    """Independent meshes in one call get what one call each gives them (options included); a
+    bad mesh gets its own exception back and the others still get their weights."""
+    v, t, h, tl, p = cyl
+    meshes = [(v * 0.3 + [0.0, 0.0, z], t) for z in (0.0, 1.2, 2.4, 3.6)] + [(v, t)]
+    opts = dict(max_influences=3, parents=p, bone_mirror=np.arange(len(h), dtype=np.int32))
+    many = msc.heat_weights_many(meshes, h, tl, **opts)
+    assert len(many) == len(meshes)
+    for (mv, mt), (i, w, report) in zip(meshes, many):
+        i1, w1, report1 = msc.heat_weights_report(mv, mt, h, tl, **opts)
+        assert np.array_equal(i, i1) and np.array_equal(w, w1)
+        assert report["pieces"] == report1["pieces"] and set(report) == set(report1)
+    bad = list(meshes)
+    bad[1] = (meshes[1][0], np.full_like(t, 10_000))
+    bad[3] = (np.full_like(v, np.nan), t)
+    out = msc.heat_weights_many(bad, h, tl, **opts)
+    assert isinstance(out[1], ValueError) and "10000" in str(out[1])
+    assert isinstance(out[3], ValueError) and "NaN" in str(out[3])
+    for k in (0, 2, 4):
+        assert np.array_equal(out[k][0], many[k][0]) and np.array_equal(out[k][1], many[k][1])
+    assert msc.heat_weights_many([], h, tl) == []
+    with pytest.raises(ValueError, match="max_influences"):
+        msc.heat_weights_many(meshes, h, tl, max_influences=0)
+
+
 def test_heat_small_boneless_piece_is_rigid_on_nearest_bone(cyl):
     # An accessory (button, eye, held prop) with no bone inside moves as one rigid body.
     v, t, h, tl, p = cyl

@@ -439,6 +439,22 @@ pub fn heat_weights(
     Ok((out, report))
 }
 
+/// A mesh by reference: (vertices, triangles).
+pub type MeshRef<'a> = (&'a [[f32; 3]], &'a [[u32; 3]]);
+
+/// [`heat_weights`] of several independent meshes with the same bones and options, one mesh
+/// per rayon task, one result per mesh (a bad mesh fails alone). For many small meshes (a
+/// figure kit-built of separate objects) one call per mesh spends more in set-up and in
+/// crossing into the thread pool than in solving; here both cores stay busy.
+pub fn heat_weights_many(
+    meshes: &[MeshRef<'_>],
+    heads: &[[f32; 3]],
+    tails: &[[f32; 3]],
+    opts: &HeatOptions,
+) -> Vec<Result<(Influences, HeatReport)>> {
+    meshes.par_iter().map(|(v, t)| heat_weights(v, t, heads, tails, opts, None)).collect()
+}
+
 /// Check the inputs and options of [`heat_weights`].
 fn validate(
     vertices: &[[f32; 3]],

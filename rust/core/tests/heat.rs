@@ -1,6 +1,8 @@
 //! Integration tests of bone-heat weights (Baran & Popovic 2007) on generated meshes.
 
-use miniskeleton_core::heat::{heat_weights, BoneCurves, HeatOptions, HeatReport, Symmetry};
+use miniskeleton_core::heat::{
+    heat_weights, heat_weights_many, BoneCurves, HeatOptions, HeatReport, MeshRef, Symmetry,
+};
 use miniskeleton_core::influence::Influences;
 use miniskeleton_core::primitives::{bone_chain, capped_cylinder, split_flat};
 use miniskeleton_core::Error;
@@ -674,5 +676,29 @@ fn bones_no_vertex_sees_change_nothing() {
         let (mi, mw) = mixed.row(v);
         assert_eq!(mi.iter().map(|&j| to_chain(j)).collect::<Vec<_>>(), pi, "vertex {v}");
         assert_eq!(mw, pw, "vertex {v}");
+    }
+}
+
+#[test]
+fn many_meshes_in_one_call_get_what_one_call_each_gives_and_fail_alone() {
+    let (m, b) = cylinder();
+    let moved =
+        |dz: f32, s: f32| -> Mesh { (m.0.iter().map(|p| [p[0] * s, p[1] * s, p[2] * s + dz]).collect(), m.1.clone()) };
+    let meshes = [moved(0.0, 0.3), moved(0.8, 0.3), m.clone(), moved(1.6, 0.3)];
+    let bad_tris = [[0, 1, 10_000]];
+    let opts = HeatOptions { max_influences: 3, ..HeatOptions::default() };
+    let mut refs: Vec<MeshRef> = meshes.iter().map(|x| (&x.0[..], &x.1[..])).collect();
+    let many = heat_weights_many(&refs, &b.0, &b.1, &opts);
+    assert_eq!(many.len(), meshes.len());
+    for (x, got) in meshes.iter().zip(&many) {
+        let (want, _) = heat(x, &b, &opts);
+        let (inf, _) = got.as_ref().expect("a good mesh is solved");
+        assert_eq!((&inf.indices, &inf.weights), (&want.indices, &want.weights));
+    }
+    refs[1] = (&meshes[1].0[..], &bad_tris[..]);
+    let out = heat_weights_many(&refs, &b.0, &b.1, &opts);
+    assert!(matches!(out[1], Err(Error::BadIndex { index: 10_000, .. })), "{:?}", out[1].as_ref().err());
+    for k in [0, 2, 3] {
+        assert_eq!(out[k].as_ref().unwrap().0.weights, many[k].as_ref().unwrap().0.weights);
     }
 }

@@ -20,6 +20,7 @@ fn miniskeleton_core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(weights::bilinear_weights, m)?)?;
     m.add_function(wrap_pyfunction!(weights::heat_weights, m)?)?;
     m.add_function(wrap_pyfunction!(weights::heat_weights_report, m)?)?;
+    m.add_function(wrap_pyfunction!(weights::heat_weights_many, m)?)?;
     m.add_function(wrap_pyfunction!(weights::touching_meshes, m)?)?;
     m.add_function(wrap_pyfunction!(weights::catmull_clark_limit, m)?)?;
     m.add_function(wrap_pyfunction!(primitives::capped_cylinder, m)?)?;

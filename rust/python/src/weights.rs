@@ -1,9 +1,12 @@
 //! Bindings for `miniskeleton_core::{idw, bilinear, heat}`: skinning weights as dense top-k arrays.
 
 use crate::convert::{index_rows, indices, matrix, rows, IndexRows, Indices};
-use crate::error::guarded;
+use crate::error::{guarded, to_py};
 use miniskeleton_core::bilinear::{bilinear_weights as core_bilinear, BilinearOptions, Falloff};
-use miniskeleton_core::heat::{heat_weights as core_heat, BoneCurves, HeatOptions, HeatReport, Symmetry};
+use miniskeleton_core::heat::{
+    heat_weights as core_heat, heat_weights_many as core_heat_many, BoneCurves, HeatOptions, HeatReport, MeshRef,
+    Symmetry,
+};
 use miniskeleton_core::idw::{idw_weights as core_idw, IdwOptions};
 use miniskeleton_core::influence::Influences;
 use numpy::{AllowTypeChange, PyArray2, PyArrayLike2};
@@ -105,6 +108,52 @@ fn report_dict<'py>(py: Python<'py>, r: &HeatReport) -> PyResult<Bound<'py, PyDi
     Ok(d)
 }
 
+/// The heat options from the keyword arguments `heat_weights*` share.
+#[allow(clippy::too_many_arguments)]
+fn heat_options(
+    max_influences: usize,
+    min_weight: f32,
+    visibility: bool,
+    weld_tolerance: f32,
+    heat_constant: f32,
+    bone_mirror: Option<Indices<'_>>,
+    symmetry_axis: usize,
+    symmetry_tolerance: f32,
+    parents: Option<Indices<'_>>,
+    curve_points: Option<F32Rows<'_>>,
+    curve_bones: Option<Indices<'_>>,
+) -> PyResult<HeatOptions> {
+    if symmetry_axis > 2 {
+        return Err(PyValueError::new_err("symmetry_axis must be 0, 1 or 2"));
+    }
+    let curves = match (curve_points, curve_bones) {
+        (None, None) => None,
+        (Some(p), Some(j)) => {
+            Some(BoneCurves { points: rows::<f32, 3>(&p, "curve_points")?, bone: indices(&j, "curve_bones")? })
+        }
+        _ => return Err(PyValueError::new_err("curve_points and curve_bones go together")),
+    };
+    let symmetry = match bone_mirror {
+        Some(m) => Some(Symmetry {
+            axis: symmetry_axis,
+            bone_mirror: indices(&m, "bone_mirror")?,
+            tolerance: symmetry_tolerance,
+        }),
+        None => None,
+    };
+    Ok(HeatOptions {
+        max_influences: positive_k(max_influences)?,
+        min_weight,
+        visibility,
+        weld_tolerance,
+        heat_constant,
+        symmetry,
+        parents: parents.map(|p| indices(&p, "parents")).transpose()?,
+        curves,
+        ..HeatOptions::default()
+    })
+}
+
 /// Bone-heat weights (Baran & Popovic 2007) on the welded surface; returns (indices, weights).
 #[pyfunction]
 #[pyo3(signature = (vertices, triangles, bone_heads, bone_tails, *, max_influences=4, min_weight=1e-3,
@@ -183,35 +232,19 @@ pub fn heat_weights_report<'py>(
     let tri = index_rows::<u32, 3>(&triangles, "triangles")?;
     let h = rows::<f32, 3>(&bone_heads, "bone_heads")?;
     let t = rows::<f32, 3>(&bone_tails, "bone_tails")?;
-    if symmetry_axis > 2 {
-        return Err(PyValueError::new_err("symmetry_axis must be 0, 1 or 2"));
-    }
-    let curves = match (curve_points, curve_bones) {
-        (None, None) => None,
-        (Some(p), Some(j)) => {
-            Some(BoneCurves { points: rows::<f32, 3>(&p, "curve_points")?, bone: indices(&j, "curve_bones")? })
-        }
-        _ => return Err(PyValueError::new_err("curve_points and curve_bones go together")),
-    };
-    let symmetry = match bone_mirror {
-        Some(m) => Some(Symmetry {
-            axis: symmetry_axis,
-            bone_mirror: indices(&m, "bone_mirror")?,
-            tolerance: symmetry_tolerance,
-        }),
-        None => None,
-    };
-    let opts = HeatOptions {
-        max_influences: positive_k(max_influences)?,
+    let opts = heat_options(
+        max_influences,
         min_weight,
         visibility,
         weld_tolerance,
         heat_constant,
-        symmetry,
-        parents: parents.map(|p| indices(&p, "parents")).transpose()?,
-        curves,
-        ..HeatOptions::default()
-    };
+        bone_mirror,
+        symmetry_axis,
+        symmetry_tolerance,
+        parents,
+        curve_points,
+        curve_bones,
+    )?;
     if let Some(cb) = &progress {
         if !cb.bind(py).is_callable() {
             return Err(PyTypeError::new_err("progress must be a callable taking the fraction done"));
@@ -241,6 +274,67 @@ pub fn heat_weights_report<'py>(
     let (inf, report) = solved?;
     let (i, w) = to_pair(py, inf)?;
     Ok((i, w, report_dict(py, &report)?))
+}
+
+/// `heat_weights_report` of several independent meshes with the same bones and options, solved
+/// in parallel in one call (for many small meshes, where a call per mesh costs more than its
+/// solve). `meshes`: [(vertices (n,3), triangles (m,3))]. Returns one entry per mesh: the tuple
+/// (indices, weights, report), or the exception that mesh raised (`ValueError` for bad input,
+/// `RuntimeError` ...), returned rather than raised so that the other meshes' results stand.
+#[pyfunction]
+#[pyo3(signature = (meshes, bone_heads, bone_tails, *, max_influences=4, min_weight=1e-3,
+                    visibility=true, weld_tolerance=1e-5, heat_constant=1.0, bone_mirror=None,
+                    symmetry_axis=0, symmetry_tolerance=1e-3, parents=None, curve_points=None,
+                    curve_bones=None))]
+#[allow(clippy::too_many_arguments)]
+pub fn heat_weights_many<'py>(
+    py: Python<'py>,
+    meshes: Vec<(F32Rows<'py>, IndexRows<'py>)>,
+    bone_heads: F32Rows<'py>,
+    bone_tails: F32Rows<'py>,
+    max_influences: usize,
+    min_weight: f32,
+    visibility: bool,
+    weld_tolerance: f32,
+    heat_constant: f32,
+    bone_mirror: Option<Indices<'py>>,
+    symmetry_axis: usize,
+    symmetry_tolerance: f32,
+    parents: Option<Indices<'py>>,
+    curve_points: Option<F32Rows<'py>>,
+    curve_bones: Option<Indices<'py>>,
+) -> PyResult<Vec<Bound<'py, PyAny>>> {
+    let parsed = meshes
+        .iter()
+        .map(|(v, t)| Ok((rows::<f32, 3>(v, "vertices")?, index_rows::<u32, 3>(t, "triangles")?)))
+        .collect::<PyResult<Vec<_>>>()?;
+    let h = rows::<f32, 3>(&bone_heads, "bone_heads")?;
+    let t = rows::<f32, 3>(&bone_tails, "bone_tails")?;
+    let opts = heat_options(
+        max_influences,
+        min_weight,
+        visibility,
+        weld_tolerance,
+        heat_constant,
+        bone_mirror,
+        symmetry_axis,
+        symmetry_tolerance,
+        parents,
+        curve_points,
+        curve_bones,
+    )?;
+    let views: Vec<MeshRef> = parsed.iter().map(|(v, t)| (&v[..], &t[..])).collect();
+    let solved = guarded(py, || Ok(core_heat_many(&views, &h, &t, &opts)))?;
+    solved
+        .into_iter()
+        .map(|r| match r {
+            Ok((inf, report)) => {
+                let (i, w) = to_pair(py, inf)?;
+                Ok((i, w, report_dict(py, &report)?).into_pyobject(py)?.into_any())
+            }
+            Err(e) => Ok(to_py(e).into_value(py).into_bound(py).into_any()),
+        })
+        .collect()
 }
 
 /// Which meshes meet along a seam: `vertices` (n,3) of all meshes stacked, `mesh_of` (n,) the
