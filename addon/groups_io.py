@@ -1,4 +1,4 @@
-"""Vertex groups written from dense weights, keeping what the user made.
+"""Vertex groups written from top-k weights, keeping what the user made.
 
 Weights are written one of two ways, whichever is cheaper for the object
 (``write_vertex_groups``): a float point attribute converted to a vertex group by Blender's own
@@ -18,14 +18,27 @@ import numpy as np
 _TMP_ATTR = "__miniskeleton_weights_tmp"
 
 
-def dense_weights(indices: np.ndarray, weights: np.ndarray, bones: int) -> np.ndarray:
-    """Top-k (indices, weights) rows to a dense (bones, n) float32 matrix, one contiguous row per bone."""
-    n = indices.shape[0]
-    dense = np.zeros((bones, n), dtype=np.float32)
-    valid = (indices >= 0) & (weights > 0)
-    rows, slots = np.nonzero(valid)
-    dense[indices[rows, slots], rows] = weights[rows, slots]
-    return dense
+class BoneRows:
+    """Top-k weights (``indices``, ``weights`` (n, k), -1 / 0 for unused slots) read bone by bone:
+    each bone's vertices (ascending) and weights from one sort of the rows, never a dense
+    (bones, n) matrix (1M vertices and 1000 bones would take 4 GB)."""
+
+    def __init__(self, indices: np.ndarray, weights: np.ndarray, bones: int):
+        self.n = indices.shape[0]
+        verts, slots = np.nonzero((indices >= 0) & (weights > 0))
+        bone = indices[verts, slots]
+        order = np.argsort(bone, kind="stable")   # vertices stay ascending within a bone
+        self.verts = verts[order]
+        self.values = weights[verts, slots][order].astype(np.float32)
+        self.start = np.searchsorted(bone[order], np.arange(bones + 1))
+
+    def counts(self) -> np.ndarray:
+        """(bones,) how many vertices each bone weights."""
+        return np.diff(self.start)
+
+    def entries(self, b: int) -> tuple[np.ndarray, np.ndarray]:
+        """Bone ``b``'s vertices (ascending) and their weights."""
+        return self.verts[self.start[b]:self.start[b + 1]], self.values[self.start[b]:self.start[b + 1]]
 
 
 # Costs measured with bpy 5.0 on the 2-core machine (scratch timings, see the README): an
@@ -34,10 +47,10 @@ def dense_weights(indices: np.ndarray, weights: np.ndarray, bones: int) -> np.nd
 _OP_CALL_S, _OP_PER_OBJECT_S, _OP_PER_VERTEX_S, _ADD_CALL_S = 1e-4, 1.5e-5, 7.5e-9, 1e-6
 
 
-def write_vertex_groups(ob: bpy.types.Object, names: list[str], dense: np.ndarray,
+def write_vertex_groups(ob: bpy.types.Object, names: list[str], rows: BoneRows,
                         write: np.ndarray, only: np.ndarray | None = None) -> list[str]:
-    """Replace the vertex groups named ``names[b]`` where ``write[b]`` with row ``dense[b]``;
-    with ``only`` ((n,) bool, a Weight Paint mask), only those vertices' weights in them.
+    """Replace the vertex groups named ``names[b]`` where ``write[b]`` with bone ``b``'s weights
+    in ``rows``; with ``only`` ((n,) bool, a Weight Paint mask), only those vertices' weights.
 
     Groups not named after a written bone are untouched; locked groups are left as they are.
     As after Blender's Ctrl+P, the last group written ends active and a rewritten group keeps
@@ -50,15 +63,14 @@ def write_vertex_groups(ob: bpy.types.Object, names: list[str], dense: np.ndarra
     held = {b: _locked(ob, names[b]) for b in np.flatnonzero(write)}
     groups = [b for b, is_locked in held.items() if not is_locked]
     locked = [names[b] for b, is_locked in held.items() if is_locked]
-    calls = sum(int(np.count_nonzero(dense[b])) for b in groups)  # no copy of the rows
-    per_op = _OP_CALL_S + _OP_PER_OBJECT_S * len(bpy.context.view_layer.objects) \
-        + _OP_PER_VERTEX_S * dense.shape[1]
+    calls = int(rows.counts()[groups].sum())
+    per_op = _OP_CALL_S + _OP_PER_OBJECT_S * len(bpy.context.view_layer.objects) + _OP_PER_VERTEX_S * rows.n
     if only is not None:
-        _patch_groups(ob, names, dense, groups, only)
+        _patch_groups(ob, names, rows, groups, only)
     elif calls * _ADD_CALL_S < len(groups) * per_op:
-        _add_groups(ob, names, dense, groups)
+        _add_groups(ob, names, rows, groups)
     else:
-        _convert_hidden(ob, names, dense, groups)
+        _convert_hidden(ob, names, rows, groups)
     _keep_order(ob, order)
     last = ob.vertex_groups.get(names[groups[-1]]) if groups else None
     if last is not None:
@@ -113,7 +125,7 @@ def _viewport_hidden(ob, hidden: bool):
             ob.select_set(True, view_layer=layer)
 
 
-def _convert_hidden(ob, names, dense, groups):
+def _convert_hidden(ob, names, rows: BoneRows, groups):
     """``_convert_groups`` with ``ob`` hidden from viewports, keeping the active attribute."""
     # Each bpy.ops call updates the view layer before and after it, which re-evaluates a visible
     # mesh every time; hidden from viewports it is not evaluated at all (40 groups at 103k
@@ -122,7 +134,7 @@ def _convert_hidden(ob, names, dense, groups):
     active = attrs.active.name if attrs.active is not None else None
     try:
         with _viewport_hidden(ob, True):
-            _convert_groups(ob, names, dense, groups)
+            _convert_groups(ob, names, rows, groups)
     finally:
         attrs.active = attrs.get(active) if active is not None else None
 
@@ -139,35 +151,38 @@ def _replace_group(ob, name):
         ob.vertex_groups.remove(old)
 
 
-def _add_groups(ob, names, dense, groups):
+def _add_groups(ob, names, rows: BoneRows, groups):
     """One ``VertexGroup.add`` per distinct weight of each group (a rigid part: one call)."""
     made = []
     for b in groups:
         _replace_group(ob, names[b])
         made.append(ob.vertex_groups.new(name=names[b]))
-    _add_runs(made, dense[groups], np.arange(dense.shape[1]))
+    _add_runs(made, [rows.entries(b) for b in groups])
 
 
-def _patch_groups(ob, names, dense, groups, only):
+def _patch_groups(ob, names, rows: BoneRows, groups, only):
     """Rewrite the masked vertices only: each group loses them, then gets their new weights
     (one ``add`` per distinct weight); every other vertex keeps its weights exactly."""
-    picked = np.flatnonzero(only)
-    listed = picked.tolist()
+    listed = np.flatnonzero(only).tolist()
     made = []
     for b in groups:
         group = ob.vertex_groups.get(names[b]) or ob.vertex_groups.new(name=names[b])
         group.remove(listed)
         made.append(group)
-    _add_runs(made, dense[groups][:, picked], picked)
+    entries = [rows.entries(b) for b in groups]
+    _add_runs(made, [(v[only[v]], w[only[v]]) for v, w in entries])
 
 
-def _add_runs(made, rows, verts_of):
-    """Add row ``g`` of ``rows`` (its non-zero weights, column j being vertex ``verts_of[j]``) to
-    group ``made[g]``, one ``add`` call per run of vertices with the same weight."""
-    member, cols = np.nonzero(rows)
-    values = rows[member, cols]
-    order = np.lexsort((values, member))  # by group, then by weight
-    member, verts, values = member[order], verts_of[cols[order]], values[order]
+def _add_runs(made, entries):
+    """Add ``entries[g]`` ((vertices, weights) of one bone) to group ``made[g]``, one ``add``
+    call per run of vertices with the same weight."""
+    if not entries:
+        return
+    member = np.repeat(np.arange(len(entries)), [len(v) for v, _ in entries])
+    verts = np.concatenate([v for v, _ in entries])
+    values = np.concatenate([w for _, w in entries])
+    order = np.lexsort((values, member))  # by group, then by weight (then vertex)
+    member, verts, values = member[order], verts[order], values[order]
     if len(verts) == 0:
         return
     cuts = (np.flatnonzero((np.diff(member) != 0) | (np.diff(values) != 0)) + 1).tolist()
@@ -176,13 +191,17 @@ def _add_runs(made, rows, verts_of):
         made[g].add(verts[start:end], w, "REPLACE")
 
 
-def _convert_groups(ob, names, dense, groups):
+def _convert_groups(ob, names, rows: BoneRows, groups):
     me = ob.data
+    row = np.zeros(rows.n, dtype=np.float32)
     with bpy.context.temp_override(object=ob, active_object=ob):
         for b in groups:
             _replace_group(ob, names[b])
             attr = me.attributes.get(_TMP_ATTR) or me.attributes.new(_TMP_ATTR, "FLOAT", "POINT")
-            attr.data.foreach_set("value", dense[b])
+            verts, values = rows.entries(b)
+            row[verts] = values
+            attr.data.foreach_set("value", row)
+            row[verts] = 0.0
             me.attributes.active = attr
             bpy.ops.geometry.attribute_convert(mode="VERTEX_GROUP")
             group = ob.vertex_groups.get(_TMP_ATTR)

@@ -289,9 +289,9 @@ class MINISKELETON_OT_auto_weights(bpy.types.Operator):
         write = bones.selected if self.selected_bones_only else np.ones(len(bones.names), bool)
         kept_locked, partial = set(), []
         for ob, i, w in results:
-            dense = groups_io.dense_weights(i, w, len(bones.names))
+            rows = groups_io.BoneRows(i, w, len(bones.names))
             picked, mask = masks.get(ob, (None, ""))
-            kept_locked.update(groups_io.write_vertex_groups(ob, bones.names, dense, write, only=picked))
+            kept_locked.update(groups_io.write_vertex_groups(ob, bones.names, rows, write, only=picked))
             if picked is not None:
                 partial.append(f"only the {int(picked.sum())} of {len(picked)} vertices of '{ob.name}' "
                                f"selected for the Weight Paint {mask} mask")

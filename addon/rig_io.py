@@ -474,11 +474,11 @@ def apply_weights(rig: dict, meshes) -> int:
     for ob, start, count in targets:
         idx = rig["indices"][start:start + count]
         w = rig["weights"][start:start + count]
-        dense = groups_io.dense_weights(idx, w, len(names))
+        rows = groups_io.BoneRows(idx, w, len(names))
         # The bundle's bones with weights here, and the mesh's groups of its other bones (emptied,
         # so the weights are the bundle's exactly; no empty group is added for the rest).
-        write = dense.any(axis=1) | np.array([ob.vertex_groups.get(s) is not None for s in names])
-        groups_io.write_vertex_groups(ob, names, dense, write)
+        write = (rows.counts() > 0) | np.array([ob.vertex_groups.get(s) is not None for s in names])
+        groups_io.write_vertex_groups(ob, names, rows, write)
     return sum(t[2] for t in targets)
 
 

@@ -112,6 +112,14 @@ def select_for_parenting(meshes, arm):
     set_active(arm, selected=meshes)
 
 
+def dense_weights(indices, weights, bones):
+    """Dense (n, bones) weights from the core's top-k (indices, weights) rows (-1: unused slot)."""
+    out = np.zeros((len(indices), bones))
+    rows, slots = np.nonzero((indices >= 0) & (weights > 0))
+    out[rows, indices[rows, slots]] = weights[rows, slots]
+    return out
+
+
 def weights_matrix(ob, names):
     """Dense (n, len(names)) weights read back from ``ob``'s vertex groups."""
     index = {g.index: names.index(g.name) for g in ob.vertex_groups if g.name in names}

@@ -313,7 +313,7 @@ def test_a_subdivided_cage_is_weighted_on_its_smooth_surface_like_ctrl_p():
     assert bones.names == names
     m = np.array(body.matrix_world)
     i, w = core.heat_weights(limit @ m[:3, :3].T + m[:3, 3], mesh_io.mesh_triangles(body), bones.heads, bones.tails)
-    twin = groups_io.dense_weights(i, w, len(names)).T  # (bones, n) -> (n, bones)
+    twin = B.dense_weights(i, w, len(names))
 
     body, _ = setup({"levels": 2})
     assert bpy.ops.object.parent_set(type="ARMATURE_AUTO") == {"FINISHED"}
@@ -429,7 +429,8 @@ def test_group_writer_ways_write_the_same_groups(way, monkeypatch):
     for hidden in (True, False):
         ob.hide_viewport = hidden
         selected = ob.select_get()
-        kept = groups_io.write_vertex_groups(ob, names, dense, np.ones(5, bool))
+        rows = groups_io.BoneRows(np.tile(np.arange(5, dtype=np.int32), (n, 1)), dense.T.copy(), 5)
+        kept = groups_io.write_vertex_groups(ob, names, rows, np.ones(5, bool))
         assert kept == ["Held"] and ob.hide_viewport == hidden
         assert ob.select_get() == selected
         # B stays second, between the user's groups; the new ones follow in the bones' order
@@ -813,7 +814,7 @@ def test_weight_paint_assigns_the_selected_bones_and_leaves_hidden_ones_out(capf
     bones = mesh_io.armature_bones(arm)
     seen = [0, 1, 3]  # Bone2 is hidden: no heat source
     i, w = core.heat_weights(B.world_vertices(ob), mesh_io.mesh_triangles(ob), bones.heads[seen], bones.tails[seen])
-    np.testing.assert_allclose(after[:, 1], groups_io.dense_weights(i, w, 3)[1], atol=1e-6)
+    np.testing.assert_allclose(after[:, 1], B.dense_weights(i, w, 3)[:, 1], atol=1e-6)
     z = np.array([v.co.z for v in ob.data.vertices])
     low_half = (z > 2.0) & (z < 2.3)  # of Bone2 (z 2.0 to 2.9)
     assert after[low_half, 1].min() > 0.8 and bound[low_half, 1].max() < 0.5  # Bone1 reaches in now
@@ -837,8 +838,8 @@ def test_weight_paint_assigns_the_selected_bones_and_leaves_hidden_ones_out(capf
     bpy.ops.object.mode_set(mode="OBJECT")
     # In Object Mode (Ctrl+P), as in Blender, hiding and selection change nothing.
     bind([ob], arm, method="HEAT")
-    np.testing.assert_allclose(B.weights_matrix(ob, NAMES), groups_io.dense_weights(
-        *core.heat_weights(B.world_vertices(ob), mesh_io.mesh_triangles(ob), bones.heads, bones.tails), 4).T,
+    np.testing.assert_allclose(B.weights_matrix(ob, NAMES), B.dense_weights(
+        *core.heat_weights(B.world_vertices(ob), mesh_io.mesh_triangles(ob), bones.heads, bones.tails), 4),
         atol=1e-6)
 
 
