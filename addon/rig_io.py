@@ -277,9 +277,9 @@ def read_weights(ob, bone_names: list[str]) -> tuple[np.ndarray, np.ndarray, np.
     bone_of = np.full(len(ob.vertex_groups), -1, dtype=np.int64)
     for g in ob.vertex_groups:
         bone_of[g.index] = index.get(g.name, -1)
-    found = (np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int32), np.zeros(0, dtype=np.float32))
+    empty = (np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int32), np.zeros(0, dtype=np.float32))
     if not (bone_of >= 0).any():
-        return found
+        return empty
     bm = bmesh.new()
     try:
         bm.from_mesh(ob.data)
