@@ -86,7 +86,9 @@ def test_fit_leaves_fox_front_legs_where_the_artist_put_them():
 def test_rough_rig_on_unrigged_scans_fits_inside_and_binds_each_hoof_to_its_leg(name):
     """The scans (the horse is 0.2 units across, 97k triangles) with the rough quadruped a
     rigger blocks in (scan_rig: joints at fixed fractions of the height, some outside): Fit puts
-    every joint inside, then Heat weights every vertex and each hoof goes to its own shin."""
+    every joint inside, then Heat weights every vertex and each hoof goes to its own shin. The
+    fitted rig walks as a quadruped, front and back pairs by name: the horse stands in mid-stride,
+    its rough hips over its feet, and was a "multiped" with a front-right "middle" leg."""
     path = need(name)
     mesh_io = importlib.import_module(blender_session.ADDON_MODULE + ".mesh_io")
     import miniskeleton_core as core
@@ -112,6 +114,12 @@ def test_rough_rig_on_unrigged_scans_fits_inside_and_binds_each_hoof_to_its_leg(
         assert hoof.sum() > 20, (leg, hoof.sum())
         shin = w[hoof, bones.index(f"shin.{leg}")]
         assert shin.min() > 0.9, f"{leg}: hoof vertices' shin weight {shin.min():.3f} .. {shin.max():.3f}"
+    rig = mesh_io.armature_bones(arm)
+    roles = core.detect_roles(rig.heads, rig.tails, rig.parents, names=rig.names)
+    assert roles["plan"] == "quadruped", roles["plan"]
+    legs = {(leg["group"], leg["side"]): rig.names[leg["bones"][0]] for leg in roles["legs"]}
+    assert legs == {(0, "L"): "thigh.front.L", (0, "R"): "thigh.front.R", (1, "L"): "thigh.back.L",
+                    (1, "R"): "thigh.back.R"}, legs
 
 
 @pytest.mark.parametrize("name", ["RobotExpressive.glb", "q_Bunny.glb"])

@@ -705,9 +705,13 @@ fn limb_side(rig: &Rig, centre: Vec3, chain: &[usize], left: Vec3) -> Side {
 }
 
 /// Step 5's legs as limbs, grouped along `forward` (front first) with their sides, and the
-/// body plan they make.
+/// body plan they make. Legs whose tops lie within 0.15 h along `forward` form a group; four
+/// legs that this splits otherwise go in a front and a back pair when each pair is one left and
+/// one right leg and the pairs lie further apart than the legs within a pair (a scanned animal
+/// in mid-stride, its rough hips above its feet: the horse's front tops are 0.154 h apart).
 fn leg_limbs(rig: &Rig, legs: &Legs, centre: Vec3, forward: Vec3, left: Vec3) -> (Vec<Limb>, BodyPlan) {
     let proj: Vec<f32> = legs.tops.iter().map(|&b| rig.h(b).dot(forward)).collect();
+    let sides: Vec<Side> = legs.chains.iter().map(|c| limb_side(rig, centre, c, left)).collect();
     let mut order: Vec<usize> = (0..legs.tops.len()).collect();
     order.sort_by(|&a, &b| proj[b].partial_cmp(&proj[a]).unwrap_or(std::cmp::Ordering::Equal));
     let mut group_of = vec![0usize; legs.tops.len()];
@@ -718,15 +722,19 @@ fn leg_limbs(rig: &Rig, legs: &Legs, centre: Vec3, forward: Vec3, left: Vec3) ->
         }
         group_of[order[w]] = g;
     }
-    let groups = g + 1;
-    let mut limbs: Vec<Limb> = order
-        .iter()
-        .map(|&i| Limb {
-            bones: legs.chains[i].clone(),
-            side: limb_side(rig, centre, &legs.chains[i], left),
-            group: group_of[i],
-        })
-        .collect();
+    let front_pair = group_of.iter().filter(|&&g| g == 0).count() == 2;
+    if order.len() == 4 && !(g == 1 && front_pair) {
+        let gap = |a: usize, b: usize| proj[order[a]] - proj[order[b]];
+        let mixed = |a: usize, b: usize| sides[order[a]] != sides[order[b]];
+        if mixed(0, 1) && mixed(2, 3) && gap(1, 2) > gap(0, 1).max(gap(2, 3)) {
+            for (w, &i) in order.iter().enumerate() {
+                group_of[i] = w / 2;
+            }
+        }
+    }
+    let groups = group_of.iter().max().map_or(1, |g| g + 1);
+    let mut limbs: Vec<Limb> =
+        order.iter().map(|&i| Limb { bones: legs.chains[i].clone(), side: sides[i], group: group_of[i] }).collect();
     limbs.sort_by_key(|l| (l.group, l.side == Side::Right));
     let plan = match (limbs.len(), groups) {
         (2, _) => BodyPlan::Biped,
@@ -1029,6 +1037,40 @@ pub(crate) mod tests {
         assert!((Vec3::from(r.left) - Vec3::X).length() < 1e-3);
         assert!(r.notes.is_empty(), "{:?}", r.notes);
         assert!(r.single_tree);
+    }
+
+    /// The creature with each leg's bones moved by `dy` along Y (forward is -Y).
+    fn creature_with_legs_moved(dy: [(&str, f32); 4]) -> Skeleton {
+        let (names, mut h, mut t, p) = creature();
+        for (leg, d) in dy {
+            let (kind, side) = leg.split_once('.').unwrap();
+            let bones = if kind == "front" { ["upper_arm", "forearm", "hand"] } else { ["thigh", "shin", "foot"] };
+            for b in bones {
+                let i = names.iter().position(|n| *n == format!("{b}.{side}")).unwrap();
+                h[i][1] += d;
+                t[i][1] += d;
+            }
+        }
+        (names, h, t, p)
+    }
+
+    #[test]
+    fn quadruped_in_mid_stride_keeps_a_front_and_a_back_pair() {
+        // The horse scan's rough rig: hips above the feet, each pair's tops apart by more
+        // than the 0.15 h that groups legs (h = 1.8 here), the pairs much further apart.
+        let (names, h, t, p) =
+            creature_with_legs_moved([("front.L", -0.35), ("front.R", 0.0), ("back.L", 0.0), ("back.R", 0.30)]);
+        let r = detect_roles(&h, &t, &p, &names).unwrap();
+        assert_eq!(r.plan, BodyPlan::Quadruped);
+        assert_eq!(leg(&names, &r, Side::Left, 0)[0], "upper_arm.L");
+        assert_eq!(leg(&names, &r, Side::Right, 0)[0], "upper_arm.R");
+        assert_eq!(leg(&names, &r, Side::Left, 1)[0], "thigh.L");
+        assert_eq!(leg(&names, &r, Side::Right, 1)[0], "thigh.R");
+        // Four legs evenly along the body (left, right, left, right) are no two pairs.
+        let (names, h, t, p) =
+            creature_with_legs_moved([("front.L", -0.5), ("front.R", 0.0), ("back.L", -0.5), ("back.R", 0.0)]);
+        let r = detect_roles(&h, &t, &p, &names).unwrap();
+        assert_eq!(r.plan, BodyPlan::Multiped);
     }
 
     #[test]
