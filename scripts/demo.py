@@ -4,6 +4,12 @@ and a run on it, render them to an MP4 and save the .blend again.
 
     python scripts/demo.py --out out [--model path/to/model.glb]
 
+A model without an armature (an OBJ or PLY scan of a four-legged animal, +Z up, such as
+../shared/models/cow.obj) first gets the rough skeleton a rigger blocks in by eye
+(scan_rig.py), which Fit Skeleton to Mesh then centres in the mesh. A motion the rig cannot
+take (too few bones, no legs) is skipped with the operator's reason, and so is the video when
+no motion was added.
+
 `make demo` runs this after building and packaging the extension. Prints one line per stage
 with the time it took.
 """
@@ -57,15 +63,47 @@ def import_model(path: Path):
         bpy.ops.import_scene.fbx(filepath=str(path))
     elif suffix == ".obj":
         bpy.ops.wm.obj_import(filepath=str(path))
+    elif suffix == ".ply":
+        bpy.ops.wm.ply_import(filepath=str(path))
     else:
-        raise SystemExit(f"unsupported model format: {path}")
+        raise SystemExit(f"unsupported model format: {path} (GLB, glTF, FBX, OBJ or PLY)")
     new = [ob for ob in bpy.data.objects if ob not in before]
     rigs = [ob for ob in new if ob.type == "ARMATURE"]
     meshes = [ob for ob in new if ob.type == "MESH"]
-    if not rigs or not meshes:
-        raise SystemExit(f"{path} needs at least one armature and one mesh "
+    if not meshes or (not rigs and len(meshes) != 1):
+        raise SystemExit(f"{path} needs a mesh and an armature, or one mesh alone (a scan) "
                          f"(found {len(rigs)} armatures, {len(meshes)} meshes)")
-    return meshes, rigs[0]
+    return meshes, (rigs[0] if rigs else None)
+
+
+def rough_rig(meshes):
+    """The rough four-legged skeleton a rigger blocks in over a +Z-up scan (scan_rig.py: joints
+    at fixed fractions of the height above the four feet, some outside the mesh)."""
+    import bpy
+    import numpy as np
+    import scan_rig
+
+    ob = meshes[0]
+    co = np.empty(3 * len(ob.data.vertices), dtype=np.float64)
+    ob.data.vertices.foreach_get("co", co)
+    m = np.array(ob.matrix_world, dtype=np.float64)
+    verts = co.reshape(-1, 3) @ m[:3, :3].T + m[:3, 3]
+    rig, _ = scan_rig.armature(bpy, verts)
+    print(f"[demo]   {len(rig.data.bones)} bones")
+    return rig
+
+
+def fit(meshes, rig):
+    """Fit Skeleton to Mesh: the rough joints to the centres of the mesh's cross-sections (the
+    operator reports the joints outside the mesh before and after)."""
+    import bpy
+
+    for ob in bpy.context.view_layer.objects:
+        ob.select_set(ob in meshes or ob == rig)
+    bpy.context.view_layer.objects.active = rig
+    result = bpy.ops.armature.miniskeleton_fit_skeleton()
+    if result != {"FINISHED"}:
+        raise SystemExit(f"fitting failed: {result}")
 
 
 def bind(meshes, rig):
@@ -164,18 +202,24 @@ def rest_pose(rig):
     bpy.context.view_layer.update()
 
 
-def add_motion(rig, motion, **props):
-    """pose.miniskeleton_add_motion on the rig, appended after the keys already there."""
+def add_motion(rig, motion, **props) -> bool:
+    """pose.miniskeleton_add_motion on the rig, appended after the keys already there; False
+    (and the operator's reason printed) when the rig cannot take this motion."""
     import bpy
 
     for ob in bpy.context.view_layer.objects:
         ob.select_set(ob == rig)
     bpy.context.view_layer.objects.active = rig
-    result = bpy.ops.pose.miniskeleton_add_motion(motion=motion, **props)
+    try:
+        result = bpy.ops.pose.miniskeleton_add_motion(motion=motion, **props)
+    except RuntimeError as err:  # the operator's error report (a rig without legs, say)
+        print(f"[demo]   skipped {motion}: {str(err).strip()}")
+        return False
     if result != {"FINISHED"}:
         raise SystemExit(f"{motion} failed: {result}")
     scene = bpy.context.scene
     print(f"[demo]   timeline now {scene.frame_start}-{scene.frame_end}")
+    return True
 
 
 def render_video(path: Path, size=(480, 320)):
@@ -197,7 +241,8 @@ def render_video(path: Path, size=(480, 320)):
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--out", default="out", type=Path)
-    ap.add_argument("--model", type=Path, help="GLB/glTF/FBX/OBJ with an armature (default: generated)")
+    ap.add_argument("--model", type=Path, help="GLB/glTF/FBX/OBJ with an armature, or an OBJ/PLY scan of a "
+                    "four-legged animal (+Z up) without one (default: generated)")
     ap.add_argument("--puppet", help="shadow-play clip instead: five-rod, three-rod, prop, strip, quadruped")
     args = ap.parse_args(argv)
     if args.puppet:
@@ -211,6 +256,9 @@ def main(argv=None):
     st.run("empty scene", blender_session.reset_scene)
     if args.model:
         meshes, rig = st.run(f"import {args.model.name}", import_model, args.model)
+        if rig is None:
+            rig = st.run("block in a rough four-legged skeleton", rough_rig, meshes)
+            st.run("fit skeleton to mesh", fit, meshes, rig)
     else:
         meshes, rig = st.run("generate creature (Skin modifier)", make_creature)
     st.run("bind with Auto Weights (Heat)", bind, meshes, rig)
@@ -222,9 +270,13 @@ def main(argv=None):
     st.run("save .blend", lambda: bpy.ops.wm.save_as_mainfile(filepath=str(blend)))
     print(f"[demo] wrote {png} and {blend}")
     st.run("rest pose", rest_pose, rig)
-    st.run("motion: head shake", lambda: add_motion(rig, "HEAD_SHAKE", duration=1.25, cycles=2))
-    st.run("motion: walk", lambda: add_motion(rig, "WALK", cycles=2))
-    st.run("motion: run", lambda: add_motion(rig, "RUN", cycles=2))
+    added = [st.run("motion: head shake", lambda: add_motion(rig, "HEAD_SHAKE", duration=1.25, cycles=2)),
+             st.run("motion: walk", lambda: add_motion(rig, "WALK", cycles=2)),
+             st.run("motion: run", lambda: add_motion(rig, "RUN", cycles=2))]
+    if not any(added):
+        print("[demo] no motion fits this rig: no video")
+        st.total()
+        return
     mp4 = args.out.resolve() / "demo.mp4"
     st.run("render MP4 (Workbench)", render_video, mp4)
     bpy.context.preferences.filepaths.save_version = 0  # no demo.blend1 next to it
