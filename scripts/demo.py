@@ -79,16 +79,13 @@ def import_model(path: Path):
 def rough_rig(meshes):
     """The rough four-legged skeleton a rigger blocks in over a +Z-up scan (scan_rig.py: joints
     at fixed fractions of the height above the four feet, some outside the mesh)."""
+    import importlib
+
     import bpy
-    import numpy as np
     import scan_rig
 
-    ob = meshes[0]
-    co = np.empty(3 * len(ob.data.vertices), dtype=np.float64)
-    ob.data.vertices.foreach_get("co", co)
-    m = np.array(ob.matrix_world, dtype=np.float64)
-    verts = co.reshape(-1, 3) @ m[:3, :3].T + m[:3, 3]
-    rig, _ = scan_rig.armature(bpy, verts)
+    mesh_io = importlib.import_module(blender_session.ADDON_MODULE + ".mesh_io")
+    rig, _ = scan_rig.armature(bpy, mesh_io.mesh_world_vertices(meshes[0]))
     print(f"[demo]   {len(rig.data.bones)} bones")
     return rig
 
@@ -98,15 +95,15 @@ def fit(meshes, rig):
     operator reports the joints outside the mesh before and after)."""
     import bpy
 
-    for ob in bpy.context.view_layer.objects:
-        ob.select_set(ob in meshes or ob == rig)
-    bpy.context.view_layer.objects.active = rig
+    select(meshes, rig)
     result = bpy.ops.armature.miniskeleton_fit_skeleton()
     if result != {"FINISHED"}:
         raise SystemExit(f"fitting failed: {result}")
 
 
-def bind(meshes, rig):
+def select(meshes, rig):
+    """Select ``meshes`` and ``rig`` (and nothing else), ``rig`` active, in Object Mode: what the
+    operators below act on, as when a rigger clicks the meshes and then the armature."""
     import bpy
 
     for ob in bpy.context.view_layer.objects:
@@ -114,6 +111,12 @@ def bind(meshes, rig):
     bpy.context.view_layer.objects.active = rig
     if bpy.context.mode != "OBJECT":
         bpy.ops.object.mode_set(mode="OBJECT")
+
+
+def bind(meshes, rig):
+    import bpy
+
+    select(meshes, rig)
     result = bpy.ops.object.miniskeleton_auto_weights(method="HEAT")
     if result != {"FINISHED"}:
         raise SystemExit(f"binding failed: {result}")
@@ -207,9 +210,7 @@ def add_motion(rig, motion, **props) -> bool:
     (and the operator's reason printed) when the rig cannot take this motion."""
     import bpy
 
-    for ob in bpy.context.view_layer.objects:
-        ob.select_set(ob == rig)
-    bpy.context.view_layer.objects.active = rig
+    select([], rig)
     try:
         result = bpy.ops.pose.miniskeleton_add_motion(motion=motion, **props)
     except RuntimeError as err:  # the operator's error report (a rig without legs, say)
