@@ -12,7 +12,8 @@ pub enum Error {
     NonFinite { what: &'static str, count: usize },
     /// A triangle refers to a vertex that does not exist.
     BadIndex { triangle: usize, index: i64, vertex_count: usize },
-    /// No bones were given (or none usable).
+    /// No bones were given, or none usable for the task; the text is the whole message
+    /// ("the armature has no bones", "no legs: ..."), so it reads without a generic prefix.
     NoBones(String),
     /// Array lengths or shapes disagree.
     Shape(String),
@@ -34,7 +35,7 @@ impl fmt::Display for Error {
             Error::BadIndex { triangle, index, vertex_count } => {
                 write!(f, "triangle {triangle} refers to vertex {index}, but the mesh has {vertex_count} vertices")
             }
-            Error::NoBones(s) => write!(f, "no usable bones: {s}"),
+            Error::NoBones(s) => write!(f, "{s}"),
             Error::Shape(s) => write!(f, "shape mismatch: {s}"),
             Error::InvalidArgument(s) => write!(f, "invalid argument: {s}"),
             Error::Factorization(s) => write!(f, "sparse factorization failed: {s}"),
@@ -47,3 +48,15 @@ impl std::error::Error for Error {}
 
 /// Shorthand used by every module.
 pub type Result<T> = std::result::Result<T, Error>;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn messages_carry_one_prefix() {
+        let e = Error::NoBones("no head: the body axis has a single bone".into());
+        assert_eq!(e.to_string(), "no head: the body axis has a single bone");
+        assert_eq!(Error::EmptyMesh("no faces".into()).to_string(), "empty mesh: no faces");
+    }
+}

@@ -49,7 +49,7 @@ pub fn validate_bones(heads: &[[f32; 3]], tails: &[[f32; 3]]) -> Result<()> {
         return Err(Error::Shape(format!("{} bone heads but {} bone tails", heads.len(), tails.len())));
     }
     if heads.is_empty() {
-        return Err(Error::NoBones("the bone list is empty".into()));
+        return Err(Error::NoBones("no bones: the bone list is empty".into()));
     }
     let bad = count_non_finite(heads) + count_non_finite(tails);
     if bad > 0 {
