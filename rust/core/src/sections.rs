@@ -17,6 +17,12 @@ const TIP_MARGIN: f64 = 0.3;
 /// Joints pulled inside go this far (unit frame) past the surface, at most half the chord.
 const PULL_DEPTH: f64 = 0.005;
 
+/// A centre line tilted more than this (degrees) from its bone is not the bone's limb: sections
+/// across a limb that far off are cut nearly lengthwise (twice as long as wide at 60 degrees),
+/// and such a tilt comes from sections of unrelated parts (a thin strap, then a hip), whose
+/// line swings a joint along the bone.
+const MAX_TILT_DEG: f64 = 60.0;
+
 /// Rays never need to be longer than this in the unit frame (the mesh fits in diagonal 1).
 const FAR: f32 = 4.0;
 
@@ -198,7 +204,8 @@ pub(crate) struct Line {
 /// `fractions` along it, kept when their centre is within the section reach of the bone, then
 /// a weighted least-squares line of their offsets (weights `1 / r^2`: thin sections, the limb
 /// itself, outweigh sections through the body it joins). `None` with too few sections
-/// ([`FitOptions::min_sections`]) or for a stub leaving a `junction` ([`FitOptions::stub_ratio`]).
+/// ([`FitOptions::min_sections`]), for a stub leaving a `junction` ([`FitOptions::stub_ratio`]),
+/// or for a line tilted more than [`MAX_TILT_DEG`] from the bone.
 pub(crate) fn centre_line(
     rm: &Solid,
     a: DVec3,
@@ -247,6 +254,9 @@ pub(crate) fn centre_line(
     } else {
         DVec3::ZERO
     };
+    if beta.length() > len * MAX_TILT_DEG.to_radians().tan() {
+        return None;
+    }
     let alpha = om - beta * sm;
     let head = a + alpha;
     let tail = t + alpha + beta;

@@ -211,6 +211,25 @@ fn stub_bone_does_not_drag_its_joint() {
     assert!(dist(dragged[1], start[1]) > 0.05, "without the rule the torso drags it: {:?}", dragged[1]);
 }
 
+/// A bone whose only sections are slices of two unrelated parts (a thin strap above it, then a
+/// thicker part below it, nothing further along: RobotExpressive's thigh) gets no centre line
+/// from them: their line is tilted 65 degrees from the bone and would swing its free end (a
+/// knee inside the body beyond) along the bone by the whole move cap.
+#[test]
+fn sections_of_two_parts_do_not_swing_a_free_end() {
+    let (mut v, mut t) = tube(&[[0.05, 0.0, 0.08], [0.15, 0.0, 0.08]], 0.02, 4, 16);
+    for (path, r) in [([[0.15, 0.0, -0.08], [0.225, 0.0, -0.08]], 0.03), ([[0.45, 0.0, 0.0], [0.75, 0.0, 0.0]], 0.3)] {
+        let (pv, pt) = tube(&path, r, 4, 16);
+        let base = v.len() as u32;
+        v.extend(pv);
+        t.extend(pt.iter().map(|f| f.map(|i| i + base)));
+    }
+    let start = vec![[0.0, 0.0, 0.0], [0.5, 0.0, 0.0]];
+    let (out, rep) = fit_joints(&v, &t, &start, &[[0, 1]], &[false, true], &FitOptions::default()).unwrap();
+    assert!(!rep.outside_after[1]);
+    assert!(dist(out[1], start[1]) < 1e-6, "the free end moved: {:?}", out[1]);
+}
+
 /// Fitting a fitted skeleton changes nothing beyond the tolerance.
 #[test]
 fn idempotent() {
