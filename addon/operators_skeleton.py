@@ -132,7 +132,7 @@ class MINISKELETON_OT_fit_skeleton(bpy.types.Operator):
         name="Symmetry", default="NONE",
         items=[("NONE", "None", "Each joint on its own"),
                ("X", "X", "Left/right joints (.L/.R, _L/_R, Left/Right names) end exactly mirrored "
-                "and centre joints on the armature's x = 0")])
+                "and centre joints (within Max Move of it) on the armature's x = 0")])
     rounds: IntProperty(name="Rounds", default=12, min=1, max=100,
                         description="Maximum rounds of centre lines and joint updates")
     max_move: FloatProperty(name="Max Move", default=5.0, min=0.1, max=100.0, subtype="PERCENTAGE",
@@ -280,6 +280,12 @@ class MINISKELETON_OT_fit_skeleton(bpy.types.Operator):
                         "image across the armature's X = 0 plane (a posed scan, or the armature's origin off "
                         "the mesh's middle), so mirrored joints can end outside; fit without Symmetry, or put "
                         "the armature's origin on the mesh's mirror plane")
+        unnamed = rep.get("off_plane_centre", 0)
+        if unnamed:
+            self.report({"WARNING"}, f"Symmetry X: {unnamed} joints lie farther than Max Move off the armature's "
+                        "X = 0 plane, but their bones' names carry no side (.L/.R, _L/_R, Left/Right): they were "
+                        "fitted without a mirror partner instead of being pulled onto the plane; name the sides "
+                        "to mirror them")
         level = {"WARNING"} if after else {"INFO"}
         fitted = len(movable)
         extra = f" ({joints - fitted} invented tails followed their bones)" if fitted < joints else ""

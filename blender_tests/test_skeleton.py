@@ -354,6 +354,32 @@ def test_fit_symmetry_x():
             assert abs(b.head_local.x) < 1e-6 and (abs(b.tail_local.x) < 1e-6 or b.name.startswith("ear")), b.name
 
 
+def test_fit_symmetry_does_not_fold_legs_whose_names_carry_no_side(capfd):
+    """The creature's .L/.R bones renamed without a side ("thigh.front.L" -> "thigh.front.one"):
+    by name every joint is a centre-line joint, and X symmetry pulled the feet onto x = 0 (or
+    refused with a wrong "mirror plane" error). A joint farther than Max Move from the plane is
+    a side joint: it is fitted on its own and the report says how to mirror it."""
+    body, arm, ends, orig, moved, diag = creature_setup(seed=3)
+    for b in arm.data.bones:
+        if b.name[-2:] in (".L", ".R"):
+            b.name = b.name[:-2] + (".one" if b.name.endswith(".L") else ".two")
+    builders.select_for_parenting([body], arm)
+    capfd.readouterr()
+    assert bpy.ops.armature.miniskeleton_fit_skeleton(symmetry="X") == {"FINISHED"}
+    assert "their bones' names carry no side" in "".join(capfd.readouterr())
+    fitted = joints_of(arm, ends)
+    sides = [i for i, b in enumerate(arm.data.bones) if b.name.endswith((".one", ".two"))]
+    # The legs stand 7.2 % of the diagonal off the plane, the ear tips 3.6 %: a joint displaced
+    # to within Max Move (5 %) of the plane is still taken for a rough centre joint.
+    far = [j for j in np.unique(ends[sides]) if abs(moved[j, 0]) > 0.06 * diag]
+    assert len(far) >= 10, len(far)
+    for j in far:
+        assert np.sign(fitted[j, 0]) == np.sign(orig[j, 0]), (j, orig[j], fitted[j])
+        assert abs(fitted[j, 0] - orig[j, 0]) < 0.05 * diag, (j, orig[j], fitted[j])
+    verts, tris = mesh_arrays(body)
+    assert core.points_inside(verts, tris, fitted.astype(np.float32)).all()
+
+
 def test_fit_symmetry_across_a_plane_the_rig_is_not_mirrored_in_is_refused():
     """A creature facing +X fitted with X symmetry would fold its left and right legs onto each
     other and its spine onto x = 0: a clear error, nothing changed; without symmetry it fits."""

@@ -44,7 +44,8 @@ pub struct Symmetry {
     /// Coordinate of the mirror plane along `axis`, in input units.
     pub plane: f64,
     /// `(j,)`: the mirror joint of each joint, itself for centre-line joints, -1 for a joint
-    /// with no partner (a side joint whose mirror is missing: fitted on its own).
+    /// with no partner (a side joint whose mirror is missing: fitted on its own). A centre-line
+    /// joint farther than `max_move` from the plane is fitted on its own too.
     pub mirror: Vec<i32>,
 }
 
@@ -128,6 +129,9 @@ pub struct FitReport {
     /// 1 for a mirror-symmetric mesh, low for a posed scan or a mesh off the plane, where
     /// mirrored joints can end outside. `None` without symmetry.
     pub mirrored_surface: Option<f64>,
+    /// With symmetry: joints given as centre-line joints (their own mirror) that lie farther
+    /// than `max_move` from the plane, and were fitted without symmetry (see [`fit_joints`]).
+    pub off_plane_centre: usize,
 }
 
 impl FitReport {
@@ -230,7 +234,8 @@ pub fn points_inside(vertices: &[[f32; 3]], triangles: &[[u32; 3]], points: &[[f
 /// Output: `(joints (j, 3), report)`. Joints end at the point nearest the centre lines of their
 /// bones; joints outside the mesh at the end are pulled to the middle of the nearest chord;
 /// with symmetry, mirrored pairs are exact mirror images and centre-line joints lie on the
-/// plane. Fitting an already fitted skeleton changes it by at most about `opts.tolerance`.
+/// plane, except centre-line joints farther than `opts.max_move` from it, which are fitted on
+/// their own ([`FitReport::off_plane_centre`]). Fitting an already fitted skeleton changes it by at most about `opts.tolerance`.
 ///
 /// Errors: `EmptyMesh` (no vertices, no triangles, only degenerate triangles), `NonFinite`
 /// (mesh or joints), `BadIndex`, `NoBones` (no joints), `Shape` (`movable` or mirror length),
@@ -246,8 +251,9 @@ pub fn fit_joints(
     validate(vertices, triangles, joints, bones, movable, opts)?;
     let nj = joints.len();
     let frame = Frame::of_mesh(vertices, triangles);
-    let sym = opts.symmetry.as_ref().map(|s| Mirror::new(s, nj, &frame)).transpose()?;
+    let mut sym = opts.symmetry.as_ref().map(|s| Mirror::new(s, nj, &frame)).transpose()?;
     let mut p: Vec<DVec3> = joints.iter().map(|j| frame.to_unit(*j)).collect();
+    let off_plane_centre = sym.as_mut().map_or(0, |m| m.free_far_centre(&p, opts.max_move));
     if let (Some(m), Some(s)) = (&sym, &opts.symmetry) {
         m.check_plane(&p, s.plane)?;
     }
@@ -377,6 +383,7 @@ pub fn fit_joints(
         nonmanifold_edges,
         pieces,
         mirrored_surface,
+        off_plane_centre,
     };
     Ok((out, report))
 }
@@ -450,6 +457,21 @@ impl Mirror {
         // Only keep pairs that agree both ways; the others are free.
         let mirror: Vec<Option<usize>> = (0..nj).map(|i| raw[i].filter(|&m| raw[m] == Some(i))).collect();
         Ok(Mirror { axis: s.axis, plane: (s.plane - frame.centre[s.axis]) / frame.diagonal, mirror })
+    }
+
+    /// Centre-line joints (their own mirror) farther than `max_move` from the plane become free
+    /// and are counted: the fit never moves a rough joint that far, so such a joint is a side
+    /// joint whose bones' names carry no side (an arm named "upper_arm"), and pulling it onto
+    /// the plane would fold the limb into the body's middle.
+    fn free_far_centre(&mut self, p: &[DVec3], max_move: f64) -> usize {
+        let mut freed = 0;
+        for (j, m) in self.mirror.iter_mut().enumerate() {
+            if *m == Some(j) && (p[j][self.axis] - self.plane).abs() > max_move {
+                *m = None;
+                freed += 1;
+            }
+        }
+        freed
     }
 
     /// Refuse a plane the joints `p` are far from mirrored across (see [`MIRROR_MISMATCH`]);

@@ -322,6 +322,37 @@ fn symmetry_exact() {
     assert!(dist(out[1], [1.0, 0.0, 2.0]) < 0.15, "{:?}", out[1]);
 }
 
+/// A torso with two arms whose joints are all given as centre-line joints (bones named without
+/// a side): the arm joints lie far off the plane, so they are fitted on their own and counted,
+/// not folded onto the spine; the spine still ends on the plane.
+#[test]
+fn symmetry_leaves_unnamed_side_joints_off_the_plane() {
+    let (mut v, mut t) = tube(&[[0.0, 0.0, 0.0], [0.0, 0.0, 4.0]], 0.5, 20, 24);
+    for x in [1.0f32, -1.0] {
+        let (av, at) = tube(&[[0.3 * x, 0.0, 3.0], [1.9 * x, 0.0, 3.0]], 0.15, 12, 16);
+        let base = v.len() as u32;
+        v.extend(av);
+        t.extend(at.iter().map(|f| f.map(|i| i + base)));
+    }
+    // A long spine (12 joints, slightly off the plane) and per side a shoulder, an elbow.
+    let mut start: Vec<[f32; 3]> = (0..12).map(|i| [0.02, 0.0, 0.2 + 0.33 * i as f32]).collect();
+    start.extend([[0.6, 0.0, 3.0], [1.2, 0.0, 3.0], [-0.6, 0.0, 3.0], [-1.2, 0.0, 3.0]]);
+    let mut bones: Vec<[u32; 2]> = (0..11).map(|i| [i, i + 1]).collect();
+    bones.extend([[8, 12], [12, 13], [8, 14], [14, 15]]);
+    let opts = FitOptions {
+        symmetry: Some(Symmetry { axis: 0, plane: 0.0, mirror: (0..16).collect() }),
+        max_move: 0.05,
+        ..FitOptions::default()
+    };
+    let (out, rep) = fit_joints(&v, &t, &start, &bones, &[true; 16], &opts).unwrap();
+    assert_eq!(rep.off_plane_centre, 4);
+    for j in 12..16 {
+        assert!((out[j][0] - start[j][0]).abs() < 0.05, "arm joint {j} folded: {:?} from {:?}", out[j], start[j]);
+    }
+    assert!(out[..12].iter().all(|p| p[0] == 0.0), "{:?}", &out[..12]);
+    assert_eq!(rep.count_outside_after(), 0);
+}
+
 /// Symmetry across a plane the rig is not mirrored in (a character facing +X fitted with X
 /// symmetry) would fold left and right onto each other: a clear error, not a collapsed rig.
 #[test]

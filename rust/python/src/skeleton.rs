@@ -62,6 +62,7 @@ pub fn fit_joints<'py>(
     d.set_item("nonmanifold_edges", rep.nonmanifold_edges)?;
     d.set_item("pieces", rep.pieces)?;
     d.set_item("mirrored_surface", rep.mirrored_surface)?;
+    d.set_item("off_plane_centre", rep.off_plane_centre)?;
     Ok((from_rows(py, &out)?, d))
 }
 
