@@ -46,6 +46,9 @@ def heat_weights(
     it raises stops the solve and propagates as itself.
     bone_mirror (b,): mirror bone of each bone (itself for centre bones, -1 for a side bone with no
     partner); with it, mirrored vertices get mirrored weights (symmetry_axis, symmetry_tolerance).
+    A bone given as its own mirror with an end more than 1 % of the skeleton's size off the plane
+    is a side bone whose name carries no side: paired with the bone at its mirror image, or left
+    unaveraged (report: side_bones_paired, side_bones_unpaired).
     parents (b,): parent bone of each bone (-1 for roots), for imported (glTF/FBX) rigs whose tails
     the importer invented: a bone whose children start away from its tail is then the segments
     from its head to their heads that lie inside the mesh (plus head -> tail when a child starts

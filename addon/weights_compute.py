@@ -127,6 +127,13 @@ def _gather(inputs, members: list[int], solved, settings: dict, results: list, n
         notes.append(f"{name}: Symmetry X: only {report['mirrored_vertices'] / max(sum(counts), 1):.0%} of "
                      "the vertices have a mirror twin across the armature's X = 0 plane; the others "
                      "keep their own weights")
+    paired, alone = (report.get("side_bones_paired", 0), report.get("side_bones_unpaired", 0)) if report else (0, 0)
+    if paired or alone:
+        note = (f"Symmetry X: {paired + alone} bones off the X = 0 plane have no side in their names "
+                f"(.L/.R, _L/_R, Left/Right): {paired} paired with their mirror image by place, {alone} "
+                "without one keep their own weights")
+        if note not in notes:  # the same for every mesh of the armature
+            notes.append(note)
     if report and report.get("factorization_failed"):
         notes.append(f"{name}: heat solve failed, nearest-bone weights used")
     ends = np.cumsum(counts)

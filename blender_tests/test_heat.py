@@ -45,6 +45,24 @@ def test_symmetry_x_gives_exactly_mirrored_weights():
     np.testing.assert_allclose(left[:, 1], right[:, 3], atol=1e-4)
 
 
+def test_symmetry_x_pairs_side_bones_whose_names_carry_no_side_by_place(capfd):
+    """The legs' bones renamed without a side (thigh.one / thigh.two): by name each is a centre
+    bone, and X symmetry averaged each with its own mirror image, so every leg got half of
+    each side's bones. Off the plane they are paired by place: the weights of the named rig,
+    and the report says so."""
+    ob, arm, half = legs()
+    assert bind([ob], arm, symmetry="X") == {"FINISHED"}
+    named = B.weights_matrix(ob, ["thigh.L", "shin.L", "thigh.R", "shin.R"])
+    for b in arm.data.bones:
+        b.name = b.name[:-2] + (".one" if b.name.endswith(".L") else ".two")
+    capfd.readouterr()
+    assert bind([ob], arm, symmetry="X") == {"FINISHED"}
+    assert "4 bones off the X = 0 plane have no side in their names" in "".join(capfd.readouterr())
+    w = B.weights_matrix(ob, ["thigh.one", "shin.one", "thigh.two", "shin.two"])
+    np.testing.assert_allclose(w, named, atol=1e-6)
+    assert w[:half, :2].sum(axis=1).min() > 0.99  # the left leg on the left bones only
+
+
 def test_symmetry_x_is_the_armatures_x_wherever_the_rig_stands(capfd):
     """X symmetry mirrors across the armature's own x = 0, as Fit does, so a character moved and
     turned in the scene together with its armature keeps exactly mirrored weights; a mesh moved

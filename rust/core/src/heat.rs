@@ -37,7 +37,7 @@ use crate::orient::{orient_faces, vertex_normals};
 use crate::pieces::{mark_sources, piece_contains_bone, piece_stats, rigid_pieces};
 use crate::reach::reach_segments;
 use crate::sources::heat_sources;
-use crate::symmetry::{mirror_map, validate_bone_mirror};
+use crate::symmetry::{mirror_map, pair_side_bones_by_place, validate_bone_mirror};
 use crate::visibility::RayMesh;
 use crate::weld::weld;
 use crate::{Error, Result};
@@ -52,7 +52,8 @@ pub struct Symmetry {
     /// Mirror axis: 0 = X, 1 = Y, 2 = Z. The mirror plane is the input coordinate 0 on it.
     pub axis: usize,
     /// `(b,)` mirror bone of each bone (itself for centre bones, -1 for a side bone with no
-    /// partner, left unaveraged); must be an involution.
+    /// partner, left unaveraged); must be an involution. A "centre" bone off the plane is
+    /// paired by place or left unaveraged ([`pair_side_bones_by_place`]).
     pub bone_mirror: Vec<i32>,
     /// Matching tolerance for mirrored vertex positions, relative to the bbox diagonal.
     pub tolerance: f32,
@@ -160,6 +161,11 @@ pub struct HeatReport {
     /// plane; only these are averaged. Far below `n` means the mesh is not symmetric across
     /// the plane (or the plane is not the character's). 0 without symmetry.
     pub mirrored_vertices: usize,
+    /// With symmetry: bones given as centre bones that lie off the plane (side bones whose
+    /// names carry no side), paired with their mirror image by place, or left unpaired and
+    /// not averaged ([`pair_side_bones_by_place`]).
+    pub side_bones_paired: usize,
+    pub side_bones_unpaired: usize,
     /// The first Cholesky attempt failed and a larger regularization was needed.
     pub regularized: bool,
     /// Every Cholesky attempt failed: nearest-bone weights were returned instead.
@@ -254,9 +260,21 @@ pub fn heat_weights(
         }
     };
 
-    // 1. Validate.
+    // 1. Validate; bones given as centre bones that lie off the plane are side bones.
     validate(vertices, triangles, heads, tails, opts)?;
     let b = heads.len();
+    let resolved;
+    let opts = match &opts.symmetry {
+        Some(s) => {
+            let (bone_mirror, paired, alone) = pair_side_bones_by_place(heads, tails, &s.bone_mirror, s.axis);
+            report.side_bones_paired = paired;
+            report.side_bones_unpaired = alone;
+            let symmetry = Some(Symmetry { bone_mirror, ..s.clone() });
+            resolved = HeatOptions { symmetry, ..opts.clone() };
+            &resolved
+        }
+        None => opts,
+    };
     tick(0.0)?;
 
     // 2. Normalize, weld, clean faces.

@@ -99,6 +99,58 @@ pub fn validate_bone_mirror(bone_mirror: &[i32], b: usize) -> Result<()> {
     Ok(())
 }
 
+/// A bone given as a centre bone (its own mirror) with an end farther than this from the plane
+/// (fraction of the skeleton's bounding-box diagonal) is a side bone whose name carries no side.
+pub const CENTRE_BONE_OFF_PLANE: f64 = 0.01;
+
+/// Side bones among the bones given as centre bones, found by place: a bone that is its own
+/// mirror in `bone_mirror` but has an end farther than [`CENTRE_BONE_OFF_PLANE`] of the
+/// skeleton's diagonal from the plane `x[axis] = 0` would have its weights averaged with their
+/// own mirror image, splitting a limb's weights between both sides. Each such bone is paired
+/// with the nearest other one whose ends are its mirror image within that distance (both ways),
+/// or else left unpaired (`-1`, its weights not averaged).
+/// Output: the resolved map (an involution as before) and (bones paired, bones left unpaired).
+pub fn pair_side_bones_by_place(
+    heads: &[[f32; 3]],
+    tails: &[[f32; 3]],
+    bone_mirror: &[i32],
+    axis: usize,
+) -> (Vec<i32>, usize, usize) {
+    let ends: Vec<[DVec3; 2]> =
+        heads.iter().zip(tails).map(|(h, t)| [DVec3::from(h.map(f64::from)), DVec3::from(t.map(f64::from))]).collect();
+    let lo = ends.iter().flatten().fold(DVec3::splat(f64::INFINITY), |a, p| a.min(*p));
+    let hi = ends.iter().flatten().fold(DVec3::splat(f64::NEG_INFINITY), |a, p| a.max(*p));
+    let tol = CENTRE_BONE_OFF_PLANE * (hi - lo).length();
+    let mut out = bone_mirror.to_vec();
+    let side: Vec<usize> = (0..ends.len())
+        .filter(|&i| bone_mirror.get(i) == Some(&(i as i32)) && ends[i].iter().any(|p| p[axis].abs() > tol))
+        .collect();
+    // Mirror distance of bone i onto bone j: the farther of its two ends from j's.
+    let gap = |i: usize, j: usize| -> f64 {
+        (0..2).map(|e| (mirror_point(ends[i][e], axis, 0.0) - ends[j][e]).length()).fold(0.0, f64::max)
+    };
+    let nearest = |i: usize| -> Option<usize> {
+        side.iter()
+            .copied()
+            .filter(|&j| j != i)
+            .map(|j| (gap(i, j), j))
+            .filter(|x| x.0 <= tol)
+            .min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)))
+            .map(|x| x.1)
+    };
+    let mut paired = 0;
+    for &i in &side {
+        out[i] = match nearest(i) {
+            Some(j) if nearest(j) == Some(i) => {
+                paired += 1;
+                j as i32
+            }
+            _ => -1,
+        };
+    }
+    (out, paired, side.len() - paired)
+}
+
 /// Symmetric averaging of dense weights, in place.
 ///
 /// Inputs: `cols` `(b, n)` **column-major** (bone `j`'s weights are `cols[j*n .. j*n+n]`),
@@ -184,5 +236,19 @@ mod tests {
         let before = cols.clone();
         symmetrize_columns(&mut cols, n, &m, &[-1, -1, 2]);
         assert_eq!(&cols[..8], &before[..8]);
+    }
+
+    #[test]
+    fn side_bones_named_without_a_side_are_paired_by_place() {
+        // A spine on the plane, two arms mirrored, a lone ear off the plane, all "centre" by name.
+        let heads = [[0.0, 0.0, 0.0], [0.2, 0.0, 1.0], [-0.2, 0.0, 1.0], [0.1, 0.0, 1.5]];
+        let tails = [[0.0, 0.0, 1.5], [1.0, 0.0, 1.0], [-1.0, 0.0, 1.0], [0.2, 0.0, 1.8]];
+        let (m, paired, alone) = pair_side_bones_by_place(&heads, &tails, &[0, 1, 2, 3], 0);
+        assert_eq!(m, vec![0, 2, 1, -1]);
+        assert_eq!((paired, alone), (2, 1));
+        validate_bone_mirror(&m, 4).unwrap();
+        // Named pairs and unpaired side bones are left as they are.
+        let (m, paired, alone) = pair_side_bones_by_place(&heads, &tails, &[0, 2, 1, -1], 0);
+        assert_eq!((m, paired, alone), (vec![0, 2, 1, -1], 0, 0));
     }
 }

@@ -123,6 +123,29 @@ fn symmetric_mesh_and_skeleton_give_symmetric_weights() {
     assert!(heat_weights(&m.0, &m.1, &b.0, &b.1, &bad, None).is_err());
 }
 
+/// Bones whose names carry no side come as centre bones (their own mirror). Off the plane they
+/// are side bones: averaging each with its own mirror image gave both ends of the limb half of
+/// each end bone. Paired by place instead, they get the weights of the named pairs.
+#[test]
+fn side_bones_given_as_centre_bones_are_paired_by_place() {
+    // Two arms from the middle outward, as a rig's left and right bones run.
+    let (m, _) = horizontal();
+    let x = |x: f32| [x, 0.0, 0.0];
+    let b = (vec![x(-0.05), x(-0.5), x(0.05), x(0.5)], vec![x(-0.5), x(-0.95), x(0.5), x(0.95)]);
+    let sym = |bone_mirror: Vec<i32>| HeatOptions {
+        symmetry: Some(Symmetry { axis: 0, bone_mirror, tolerance: 1e-4 }),
+        ..Default::default()
+    };
+    let (named, rep) = heat(&m, &b, &sym(vec![2, 3, 0, 1]));
+    assert_eq!((rep.side_bones_paired, rep.side_bones_unpaired), (0, 0));
+    let (unnamed, rep) = heat(&m, &b, &sym(vec![0, 1, 2, 3]));
+    assert_eq!((rep.side_bones_paired, rep.side_bones_unpaired), (4, 0));
+    assert_eq!(max_abs_diff(&named.to_dense(4), &unnamed.to_dense(4)), 0.0);
+    let end = (0..m.0.len()).min_by(|&i, &j| m.0[i][0].total_cmp(&m.0[j][0])).unwrap();
+    let w = unnamed.to_dense(4);
+    assert!(w[end * 4 + 1] > 0.9, "the end vertex's own bone: {:?}", &w[end * 4..end * 4 + 4]);
+}
+
 #[test]
 fn two_pieces_one_without_bones_are_all_weighted() {
     let (mut m, b) = cylinder();

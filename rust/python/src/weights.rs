@@ -98,6 +98,8 @@ fn report_dict<'py>(py: Python<'py>, r: &HeatReport) -> PyResult<Bound<'py, PyDi
     d.set_item("welded_vertices", r.welded_vertices)?;
     d.set_item("flipped_faces", r.flipped_faces)?;
     d.set_item("mirrored_vertices", r.mirrored_vertices)?;
+    d.set_item("side_bones_paired", r.side_bones_paired)?;
+    d.set_item("side_bones_unpaired", r.side_bones_unpaired)?;
     d.set_item("regularized", r.regularized)?;
     d.set_item("factorization_failed", r.factorization_failed)?;
     let t = PyDict::new(py);
