@@ -103,6 +103,13 @@ impl Rng {
     }
 }
 
+/// Add `part`'s vertices and triangles to `mesh` (one more piece).
+fn append(mesh: &mut Mesh, part: Mesh) {
+    let base = mesh.0.len() as u32;
+    mesh.0.extend(part.0);
+    mesh.1.extend(part.1.iter().map(|f| f.map(|i| i + base)));
+}
+
 fn chain_bones(n: usize) -> Vec<[u32; 2]> {
     (0..n as u32 - 1).map(|i| [i, i + 1]).collect()
 }
@@ -181,13 +188,11 @@ fn bent_tube_corner() {
 /// instead of being dragged toward the torso's middle; with the stub rule off they are dragged.
 #[test]
 fn stub_bone_does_not_drag_its_joint() {
-    let (mut v, mut t) = tube(&[[0.0, 0.0, 0.0], [0.0, 0.0, 2.0]], 0.5, 20, 32);
+    let mut mesh = tube(&[[0.0, 0.0, 0.0], [0.0, 0.0, 2.0]], 0.5, 20, 32);
     for x in [1.0f32, -1.0] {
-        let (av, at) = tube(&[[0.5 * x, 0.0, 1.1], [1.8 * x, 0.0, 1.1]], 0.12, 20, 16);
-        let base = v.len() as u32;
-        v.extend(av);
-        t.extend(at.iter().map(|f| f.map(|i| i + base)));
+        append(&mut mesh, tube(&[[0.5 * x, 0.0, 1.1], [1.8 * x, 0.0, 1.1]], 0.12, 20, 16));
     }
+    let (v, t) = mesh;
     // Chest on the torso's axis; per side a shoulder inside the torso at the arm's height, an
     // elbow and a wrist; a pelvis below the chest.
     let start = vec![
@@ -217,13 +222,11 @@ fn stub_bone_does_not_drag_its_joint() {
 /// knee inside the body beyond) along the bone by the whole move cap.
 #[test]
 fn sections_of_two_parts_do_not_swing_a_free_end() {
-    let (mut v, mut t) = tube(&[[0.05, 0.0, 0.08], [0.15, 0.0, 0.08]], 0.02, 4, 16);
+    let mut mesh = tube(&[[0.05, 0.0, 0.08], [0.15, 0.0, 0.08]], 0.02, 4, 16);
     for (path, r) in [([[0.15, 0.0, -0.08], [0.225, 0.0, -0.08]], 0.03), ([[0.45, 0.0, 0.0], [0.75, 0.0, 0.0]], 0.3)] {
-        let (pv, pt) = tube(&path, r, 4, 16);
-        let base = v.len() as u32;
-        v.extend(pv);
-        t.extend(pt.iter().map(|f| f.map(|i| i + base)));
+        append(&mut mesh, tube(&path, r, 4, 16));
     }
+    let (v, t) = mesh;
     let start = vec![[0.0, 0.0, 0.0], [0.5, 0.0, 0.0]];
     let (out, rep) = fit_joints(&v, &t, &start, &[[0, 1]], &[false, true], &FitOptions::default()).unwrap();
     assert!(!rep.outside_after[1]);
@@ -327,13 +330,11 @@ fn symmetry_exact() {
 /// not folded onto the spine; the spine still ends on the plane.
 #[test]
 fn symmetry_leaves_unnamed_side_joints_off_the_plane() {
-    let (mut v, mut t) = tube(&[[0.0, 0.0, 0.0], [0.0, 0.0, 4.0]], 0.5, 20, 24);
+    let mut mesh = tube(&[[0.0, 0.0, 0.0], [0.0, 0.0, 4.0]], 0.5, 20, 24);
     for x in [1.0f32, -1.0] {
-        let (av, at) = tube(&[[0.3 * x, 0.0, 3.0], [1.9 * x, 0.0, 3.0]], 0.15, 12, 16);
-        let base = v.len() as u32;
-        v.extend(av);
-        t.extend(at.iter().map(|f| f.map(|i| i + base)));
+        append(&mut mesh, tube(&[[0.3 * x, 0.0, 3.0], [1.9 * x, 0.0, 3.0]], 0.15, 12, 16));
     }
+    let (v, t) = mesh;
     // A long spine (12 joints, slightly off the plane) and per side a shoulder, an elbow.
     let mut start: Vec<[f32; 3]> = (0..12).map(|i| [0.02, 0.0, 0.2 + 0.33 * i as f32]).collect();
     start.extend([[0.6, 0.0, 3.0], [1.2, 0.0, 3.0], [-0.6, 0.0, 3.0], [-1.2, 0.0, 3.0]]);
