@@ -235,7 +235,8 @@ pub fn points_inside(vertices: &[[f32; 3]], triangles: &[[u32; 3]], points: &[[f
 /// bones; joints outside the mesh at the end are pulled to the middle of the nearest chord;
 /// with symmetry, mirrored pairs are exact mirror images and centre-line joints lie on the
 /// plane, except centre-line joints farther than `opts.max_move` from it, which are fitted on
-/// their own ([`FitReport::off_plane_centre`]). Fitting an already fitted skeleton changes it by at most about `opts.tolerance`.
+/// their own ([`FitReport::off_plane_centre`]). Fitting an already fitted skeleton changes it
+/// by at most about `opts.tolerance`.
 ///
 /// Errors: `EmptyMesh` (no vertices, no triangles, only degenerate triangles), `NonFinite`
 /// (mesh or joints), `BadIndex`, `NoBones` (no joints), `Shape` (`movable` or mirror length),

@@ -266,7 +266,7 @@ pub fn heat_weights(
     let resolved;
     let opts = match &opts.symmetry {
         Some(s) => {
-            let (bone_mirror, paired, alone) = pair_side_bones_by_place(heads, tails, &s.bone_mirror, s.axis);
+            let (bone_mirror, paired, alone) = pair_side_bones_by_place(heads, tails, &s.bone_mirror, s.axis)?;
             report.side_bones_paired = paired;
             report.side_bones_unpaired = alone;
             let symmetry = Some(Symmetry { bone_mirror, ..s.clone() });

@@ -29,16 +29,19 @@ pub fn mirror_map(points: &[DVec3], axis: usize, plane: f64, tolerance: f64) -> 
     let n = points.len();
     let bits = (usize::BITS - (2 * n.max(8)).leading_zeros()).min(40);
     let mask = (1u64 << bits) - 1;
-    let key = |c: DVec3| -> usize {
-        let h = (c.x as i64 as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15)
-            ^ (c.y as i64 as u64).wrapping_mul(0xC2B2_AE3D_27D4_EB4F)
-            ^ (c.z as i64 as u64).wrapping_mul(0x1656_67B1_9E37_79F9);
+    // Integer cell coordinates (saturating for far points): stepping a float cell coordinate by 1
+    // stalls past 2^53, where a bone far from the origin next to a small tolerance put it.
+    let cell_of = |p: DVec3| -> [i64; 3] { ((p * inv).floor()).to_array().map(|c| c as i64) };
+    let key = |c: [i64; 3]| -> usize {
+        let h = (c[0] as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15)
+            ^ (c[1] as u64).wrapping_mul(0xC2B2_AE3D_27D4_EB4F)
+            ^ (c[2] as u64).wrapping_mul(0x1656_67B1_9E37_79F9);
         ((h ^ (h >> 29)) & mask) as usize
     };
     let mut head = vec![u32::MAX; 1usize << bits];
     let mut next = vec![u32::MAX; n];
     for (i, p) in points.iter().enumerate() {
-        let k = key((*p * inv).floor());
+        let k = key(cell_of(*p));
         next[i] = head[k];
         head[k] = i as u32;
     }
@@ -47,16 +50,13 @@ pub fn mirror_map(points: &[DVec3], axis: usize, plane: f64, tolerance: f64) -> 
         .iter()
         .map(|p| {
             let q = mirror_point(*p, axis, plane);
-            let lo = ((q - DVec3::splat(tol)) * inv).floor();
-            let hi = ((q + DVec3::splat(tol)) * inv).floor();
+            let lo = cell_of(q - DVec3::splat(tol));
+            let hi = cell_of(q + DVec3::splat(tol));
             let mut best = (f64::INFINITY, -1i32);
-            let mut c = lo;
-            while c.x <= hi.x {
-                c.y = lo.y;
-                while c.y <= hi.y {
-                    c.z = lo.z;
-                    while c.z <= hi.z {
-                        let mut i = head[key(c)];
+            for x in lo[0]..=hi[0] {
+                for y in lo[1]..=hi[1] {
+                    for z in lo[2]..=hi[2] {
+                        let mut i = head[key([x, y, z])];
                         while i != u32::MAX {
                             let d2 = (points[i as usize] - q).length_squared();
                             if d2 <= tol2 && (d2 < best.0 || (d2 == best.0 && (i as i32) < best.1)) {
@@ -64,11 +64,8 @@ pub fn mirror_map(points: &[DVec3], axis: usize, plane: f64, tolerance: f64) -> 
                             }
                             i = next[i as usize];
                         }
-                        c.z += 1.0;
                     }
-                    c.y += 1.0;
                 }
-                c.x += 1.0;
             }
             best.1
         })
@@ -107,48 +104,44 @@ pub const CENTRE_BONE_OFF_PLANE: f64 = 0.01;
 /// mirror in `bone_mirror` but has an end farther than [`CENTRE_BONE_OFF_PLANE`] of the
 /// skeleton's diagonal from the plane `x[axis] = 0` would have its weights averaged with their
 /// own mirror image, splitting a limb's weights between both sides. Each such bone is paired
-/// with the nearest other one whose ends are its mirror image within that distance (both ways),
-/// or else left unpaired (`-1`, its weights not averaged).
+/// with the one whose midpoint [`mirror_map`] matches to its own (within that distance, both
+/// ways) when both their ends are mirror images within it too, or else left unpaired (`-1`,
+/// its weights not averaged).
 /// Output: the resolved map (an involution as before) and (bones paired, bones left unpaired).
+/// Errors: `axis > 2`.
 pub fn pair_side_bones_by_place(
     heads: &[[f32; 3]],
     tails: &[[f32; 3]],
     bone_mirror: &[i32],
     axis: usize,
-) -> (Vec<i32>, usize, usize) {
+) -> Result<(Vec<i32>, usize, usize)> {
     let ends: Vec<[DVec3; 2]> =
         heads.iter().zip(tails).map(|(h, t)| [DVec3::from(h.map(f64::from)), DVec3::from(t.map(f64::from))]).collect();
     let lo = ends.iter().flatten().fold(DVec3::splat(f64::INFINITY), |a, p| a.min(*p));
     let hi = ends.iter().flatten().fold(DVec3::splat(f64::NEG_INFINITY), |a, p| a.max(*p));
     let tol = CENTRE_BONE_OFF_PLANE * (hi - lo).length();
-    let mut out = bone_mirror.to_vec();
     let side: Vec<usize> = (0..ends.len())
         .filter(|&i| bone_mirror.get(i) == Some(&(i as i32)) && ends[i].iter().any(|p| p[axis].abs() > tol))
         .collect();
-    // Mirror distance of bone i onto bone j: the farther of its two ends from j's.
+    let mids: Vec<DVec3> = side.iter().map(|&i| (ends[i][0] + ends[i][1]) * 0.5).collect();
+    let partner = mirror_map(&mids, axis, 0.0, tol)?;
+    // The farther of bone i's two mirrored ends from bone j's (symmetric in i and j).
     let gap = |i: usize, j: usize| -> f64 {
         (0..2).map(|e| (mirror_point(ends[i][e], axis, 0.0) - ends[j][e]).length()).fold(0.0, f64::max)
     };
-    let nearest = |i: usize| -> Option<usize> {
-        side.iter()
-            .copied()
-            .filter(|&j| j != i)
-            .map(|j| (gap(i, j), j))
-            .filter(|x| x.0 <= tol)
-            .min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)))
-            .map(|x| x.1)
-    };
+    let mut out = bone_mirror.to_vec();
     let mut paired = 0;
-    for &i in &side {
-        out[i] = match nearest(i) {
-            Some(j) if nearest(j) == Some(i) => {
+    for (k, &i) in side.iter().enumerate() {
+        let j = usize::try_from(partner[k]).ok().filter(|&m| m != k).map(|m| side[m]);
+        out[i] = match j {
+            Some(j) if gap(i, j) <= tol => {
                 paired += 1;
                 j as i32
             }
             _ => -1,
         };
     }
-    (out, paired, side.len() - paired)
+    Ok((out, paired, side.len() - paired))
 }
 
 /// Symmetric averaging of dense weights, in place.
@@ -239,16 +232,23 @@ mod tests {
     }
 
     #[test]
+    fn points_far_from_the_origin_are_matched_without_stalling() {
+        // 1e20 / (2 * 0.01) is past 2^53: a float cell coordinate stepped by 1 never moved on.
+        let p = [DVec3::new(-0.5, 0.0, 1e20), DVec3::new(0.5, 0.0, 1e20), DVec3::new(0.7, 0.0, 1e20)];
+        assert_eq!(mirror_map(&p, 0, 0.0, 0.01).unwrap(), vec![1, 0, -1]);
+    }
+
+    #[test]
     fn side_bones_named_without_a_side_are_paired_by_place() {
         // A spine on the plane, two arms mirrored, a lone ear off the plane, all "centre" by name.
         let heads = [[0.0, 0.0, 0.0], [0.2, 0.0, 1.0], [-0.2, 0.0, 1.0], [0.1, 0.0, 1.5]];
         let tails = [[0.0, 0.0, 1.5], [1.0, 0.0, 1.0], [-1.0, 0.0, 1.0], [0.2, 0.0, 1.8]];
-        let (m, paired, alone) = pair_side_bones_by_place(&heads, &tails, &[0, 1, 2, 3], 0);
+        let (m, paired, alone) = pair_side_bones_by_place(&heads, &tails, &[0, 1, 2, 3], 0).unwrap();
         assert_eq!(m, vec![0, 2, 1, -1]);
         assert_eq!((paired, alone), (2, 1));
         validate_bone_mirror(&m, 4).unwrap();
         // Named pairs and unpaired side bones are left as they are.
-        let (m, paired, alone) = pair_side_bones_by_place(&heads, &tails, &[0, 2, 1, -1], 0);
+        let (m, paired, alone) = pair_side_bones_by_place(&heads, &tails, &[0, 2, 1, -1], 0).unwrap();
         assert_eq!((m, paired, alone), (vec![0, 2, 1, -1], 0, 0));
     }
 }
