@@ -61,20 +61,27 @@ def test_fit_real_models_leaves_no_joint_outside(name):
     assert r["after"] < r["before"], r  # lower on every model (halved only on some: bench_fit)
 
 
+def fit_artist_rig(name):
+    """Fit the model's own, undisplaced skeleton: (armature, bone names, joint ends (b, 2), how
+    far each joint moved as a fraction of the diagonal)."""
+    rig_io = importlib.import_module(blender_session.ADDON_MODULE + ".rig_io")
+    mesh_io = importlib.import_module(blender_session.ADDON_MODULE + ".mesh_io")
+    arm, meshes = bench_fit.load(bpy, name)
+    _, _, diag = bench_fit.armature_space_mesh(arm, meshes, mesh_io)  # edit bones' space
+    orig, ends = bench_fit.read_joints(bpy, arm, rig_io, diag)
+    names = [b.name for b in arm.data.bones]
+    assert bench_fit.fit(bpy, arm, meshes, tails="AUTO", symmetry="NONE")[0]
+    moved = np.linalg.norm(bench_fit.joints_now(bpy, arm, ends) - orig, axis=1) / diag
+    return arm, names, ends, moved
+
+
 def test_fit_leaves_fox_front_legs_where_the_artist_put_them():
     """Fox's upper legs run from the shoulder, inside the torso, down the leg: only their lowest
     sections cross the leg itself. One section pins a point, not a direction, so such a bone
     gives no centre line (FitOptions::min_sections); following the bone through that one point
     dragged the undisplaced shoulders and elbows 5 % of the diagonal (bench_fit's floor)."""
     need("Fox.glb")
-    rig_io = importlib.import_module(blender_session.ADDON_MODULE + ".rig_io")
-    mesh_io = importlib.import_module(blender_session.ADDON_MODULE + ".mesh_io")
-    arm, meshes = bench_fit.load(bpy, "Fox.glb")
-    _, _, diag = bench_fit.armature_space_mesh(arm, meshes, mesh_io)  # edit bones' space
-    orig, ends = bench_fit.read_joints(bpy, arm, rig_io, diag)
-    names = [b.name for b in arm.data.bones]
-    assert bench_fit.fit(bpy, arm, meshes, tails="AUTO", symmetry="NONE")[0]
-    moved = np.linalg.norm(bench_fit.joints_now(bpy, arm, ends) - orig, axis=1) / diag
+    _, names, ends, moved = fit_artist_rig("Fox.glb")
     legs = [n for n in names if "UpperArm" in n or "ForeArm" in n]
     assert len(legs) == 4, names
     for n in legs:
@@ -90,14 +97,8 @@ def test_fit_leaves_the_robots_knees_where_the_artist_put_them_and_it_still_walk
     need("RobotExpressive.glb")
     import miniskeleton_core as core
 
-    rig_io = importlib.import_module(blender_session.ADDON_MODULE + ".rig_io")
+    arm, names, ends, moved = fit_artist_rig("RobotExpressive.glb")
     mesh_io = importlib.import_module(blender_session.ADDON_MODULE + ".mesh_io")
-    arm, meshes = bench_fit.load(bpy, "RobotExpressive.glb")
-    _, _, diag = bench_fit.armature_space_mesh(arm, meshes, mesh_io)
-    orig, ends = bench_fit.read_joints(bpy, arm, rig_io, diag)
-    names = [b.name for b in arm.data.bones]
-    assert bench_fit.fit(bpy, arm, meshes, tails="AUTO", symmetry="NONE")[0]
-    moved = np.linalg.norm(bench_fit.joints_now(bpy, arm, ends) - orig, axis=1) / diag
     for n in ["LowerLeg.L", "LowerLeg.R"]:
         j = ends[names.index(n), 0]
         assert moved[j] < 0.01, f"{n} moved {moved[j]:.3f} of the diagonal"

@@ -355,7 +355,7 @@ def test_fit_symmetry_x():
 
 
 def test_fit_symmetry_does_not_fold_legs_whose_names_carry_no_side(capfd):
-    """The creature's .L/.R bones renamed without a side ("thigh.front.L" -> "thigh.front.one"):
+    """The creature's .L/.R bones renamed without a side ("thigh.L" -> "thigh.one"):
     by name every joint is a centre-line joint, and X symmetry pulled the feet onto x = 0 (or
     refused with a wrong "mirror plane" error). A joint farther than Max Move from the plane is
     a side joint: it is fitted on its own and the report says how to mirror it."""
