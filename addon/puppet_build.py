@@ -57,20 +57,29 @@ def _material(name, color, image=None):
     return mat
 
 
-def _flat_mesh(name, outline_xz, y, uv=True):
-    """A one-face mesh from an (n, 2) outline given in (x, z) with depth y."""
+def polygon_mesh(name: str, verts, uvs=None) -> bpy.types.Mesh:
+    """A new mesh of one face through ``verts`` ((n, 3), in order), with ``uvs`` ((n, 2), one
+    per vertex) as its UV map when given.
+
+    The face's edges are given, not left to ``from_pydata`` to compute: in Blender 5.0.1
+    computed edges leave the internal ``.select_edge`` attribute typed INT32_2D instead of
+    BOOLEAN, and selecting vertices on such a mesh in Weight Paint mode (Vertex Selection mask,
+    then A) crashes Blender."""
+    n = len(verts)
     me = bpy.data.meshes.new(name)
-    verts = [(float(x), float(y), float(z)) for x, z in outline_xz]
-    me.from_pydata(verts, [], [tuple(range(len(verts)))])
-    if uv:
-        lo, hi = outline_xz.min(0), outline_xz.max(0)
-        span = np.maximum(hi - lo, 1e-9)
+    me.from_pydata([tuple(map(float, v)) for v in verts], [(i, (i + 1) % n) for i in range(n)],
+                   [tuple(range(n))])
+    if uvs is not None:
         layer = me.uv_layers.new(name="UVMap")
-        for loop in me.loops:
-            x, z = outline_xz[loop.vertex_index]
-            layer.data[loop.index].uv = ((x - lo[0]) / span[0], (z - lo[1]) / span[1])
+        layer.data.foreach_set("uv", np.asarray(uvs, dtype=np.float32)[[lp.vertex_index for lp in me.loops]].ravel())
     me.update()
     return me
+
+
+def _outline_uvs(outline: np.ndarray) -> np.ndarray:
+    """(n, 2) UVs spanning an (n, 2) outline's bounding box."""
+    lo, hi = outline.min(0), outline.max(0)
+    return (outline - lo) / np.maximum(hi - lo, 1e-9)
 
 
 def _empty(name, coll, display, size):
@@ -105,16 +114,9 @@ def _part(rig, bdef: puppet.BoneDef, size, coll, mat):
     """The bone's flat cut-out: an outline mesh in bone space, parented to the bone."""
     bone = rig.data.bones[bdef.name]
     outline = puppet.part_outline(bdef.shape, bone.length, tuple(w * size for w in bdef.width))
-    me = bpy.data.meshes.new(f"{rig.name}.part.{bdef.name}")
     # bone space: x across (local X), y along the bone, z toward the viewer (layering).
-    verts = [(float(u), float(v), bdef.depth * size) for u, v in outline]
-    me.from_pydata(verts, [], [tuple(range(len(verts)))])
-    lo, hi = outline.min(0), outline.max(0)
-    layer = me.uv_layers.new(name="UVMap")
-    for loop in me.loops:
-        u, v = outline[loop.vertex_index]
-        layer.data[loop.index].uv = ((u - lo[0]) / max(hi[0] - lo[0], 1e-9), (v - lo[1]) / max(hi[1] - lo[1], 1e-9))
-    me.update()
+    verts = [(u, v, bdef.depth * size) for u, v in outline]
+    me = polygon_mesh(f"{rig.name}.part.{bdef.name}", verts, _outline_uvs(outline))
     me.materials.append(mat)
     ob = bpy.data.objects.new(me.name, me)
     coll.objects.link(ob)
@@ -182,7 +184,8 @@ def build_puppet(context: bpy.types.Context, kind: str, location=(0.0, 0.0, 0.0)
         p = tpl.prop
         centre = ((p.a[0] + p.b[0]) / 2, (p.a[1] + p.b[1]) / 2)
         outline = puppet.bar_outline(p.a, p.b, p.width) - np.asarray(centre)
-        me = _flat_mesh(f"{base}.{p.name}", outline * size, -p.depth * size)
+        outline = outline * size   # in (x, z), at depth y
+        me = polygon_mesh(f"{base}.{p.name}", [(x, -p.depth * size, z) for x, z in outline], _outline_uvs(outline))
         me.materials.append(mat)
         prop_ob = bpy.data.objects.new(me.name, me)
         coll.objects.link(prop_ob)
@@ -231,13 +234,9 @@ def set_part_image(rig: bpy.types.Object, bone_name: str, image: bpy.types.Image
     half_w = 0.5 * height * w / h
     depth = part.data.vertices[0].co.z if part is not None and len(part.data.vertices) else 0.0
     y0 = 0.5 * bone.length - 0.5 * height
-    me = bpy.data.meshes.new(f"{rig.name}.part.{bone_name}")
-    me.from_pydata([(-half_w, y0, depth), (half_w, y0, depth), (half_w, y0 + height, depth),
-                    (-half_w, y0 + height, depth)], [], [(0, 1, 2, 3)])
-    uv = me.uv_layers.new(name="UVMap")
-    for loop, co in zip(me.loops, ((0, 0), (1, 0), (1, 1), (0, 1))):
-        uv.data[loop.index].uv = co
-    me.update()
+    me = polygon_mesh(f"{rig.name}.part.{bone_name}",
+                      [(-half_w, y0, depth), (half_w, y0, depth), (half_w, y0 + height, depth),
+                       (-half_w, y0 + height, depth)], [(0, 0), (1, 0), (1, 1), (0, 1)])
     me.materials.append(_material(f"MiniSkeleton Part {image.name}", (1, 1, 1, 1), image))
     if part is None:
         part = bpy.data.objects.new(me.name, me)

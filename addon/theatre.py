@@ -9,6 +9,7 @@ import bpy
 import numpy as np
 from mathutils import Vector
 
+from .puppet_build import polygon_mesh
 from .puppet_rig import THEATRE_KEY, puppet_rig, scene_puppets
 
 SCREEN = (1.0, 0.62, 0.28, 1.0)
@@ -55,9 +56,8 @@ def build_shadow_theatre(context: bpy.types.Context, engine: str = "WORKBENCH", 
     height = max(span[1], span[0] / aspect, 1e-3) * 1.1     # a little room to walk and wave
     width = height * aspect
 
-    me = bpy.data.meshes.new("ShadowScreen")
-    me.from_pydata([(-width / 2, 0, -height / 2), (width / 2, 0, -height / 2),
-                    (width / 2, 0, height / 2), (-width / 2, 0, height / 2)], [], [(0, 1, 2, 3)])
+    me = polygon_mesh("ShadowScreen", [(-width / 2, 0, -height / 2), (width / 2, 0, -height / 2),
+                                       (width / 2, 0, height / 2), (-width / 2, 0, height / 2)])
     screen = _theatre_object(scene, "ShadowScreen", me)
     if screen.data != me:
         old = screen.data

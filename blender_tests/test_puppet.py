@@ -629,3 +629,28 @@ def test_shadow_theatre_preset():
     assert bpy.ops.scene.miniskeleton_shadow_theatre(engine="EEVEE") == {"FINISHED"}   # refits, no duplicates
     assert len([ob for ob in bpy.data.objects if ob.name.startswith("ShadowScreen")]) == 1
     assert scene.render.engine.startswith("BLENDER_EEVEE")
+
+
+def test_vertices_of_the_meshes_puppets_are_made_of_can_be_selected_in_weight_paint(tmp_path):
+    """Blender 5.0.1 types the internal ``.select_edge`` attribute INT32_2D when it computes a
+    new mesh's edges itself, and selecting vertices of such a mesh in Weight Paint mode (Vertex
+    Selection mask, then A) crashed Blender. Every mesh the puppet tools make (parts, the prop,
+    a part with a picture, the theatre's screen) is made with its edges given."""
+    rig, _ = add("PROP")
+    bpy.context.view_layer.objects.active = rig
+    assert bpy.ops.object.miniskeleton_set_part_image(filepath=face_png(tmp_path), bone="head") == {"FINISHED"}
+    assert bpy.ops.scene.miniskeleton_shadow_theatre() == {"FINISHED"}
+    made = [ob for ob in bpy.data.objects if ob.type == "MESH"]
+    assert {"ShadowScreen", "PropPuppet.part.head", "PropPuppet.part.neck"} <= {ob.name for ob in made}
+    assert any(ob.parent is not None and ob.parent.type == "EMPTY" for ob in made)   # the prop
+    for ob in made:
+        kind = {a.name: a.data_type for a in ob.data.attributes}.get(".select_edge", "BOOLEAN")
+        assert kind == "BOOLEAN", f"{ob.name}: .select_edge is {kind}"
+    for ob in made:
+        B.set_active(ob)
+        bpy.ops.object.mode_set(mode="WEIGHT_PAINT")
+        ob.data.use_paint_mask_vertex = True
+        assert bpy.ops.paint.vert_select_all(action="DESELECT") == {"FINISHED"}
+        assert bpy.ops.paint.vert_select_all(action="INVERT") == {"FINISHED"}
+        bpy.ops.object.mode_set(mode="OBJECT")
+        assert all(v.select for v in ob.data.vertices) and all(e.select for e in ob.data.edges)

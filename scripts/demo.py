@@ -170,7 +170,9 @@ def frame_camera(meshes):
     scene.camera = cam
     ground = bpy.data.meshes.new("Ground")
     s = radius * 4
-    ground.from_pydata([(-s, -s, 0), (s, -s, 0), (s, s, 0), (-s, s, 0)], [], [(0, 1, 2, 3)])
+    # Edges given: Blender 5.0.1 mistypes the edge selection of edges it computes itself.
+    ground.from_pydata([(-s, -s, 0), (s, -s, 0), (s, s, 0), (-s, s, 0)], [(0, 1), (1, 2), (2, 3), (3, 0)],
+                       [(0, 1, 2, 3)])
     g = bpy.data.objects.new("Ground", ground)
     g.location = (centre.x, centre.y, lo.z)
     scene.collection.objects.link(g)
