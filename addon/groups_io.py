@@ -10,10 +10,10 @@ locked groups are left alone, and the list keeps its order.
 
 from __future__ import annotations
 
-from contextlib import contextmanager
-
 import bpy
 import numpy as np
+
+from . import mesh_io
 
 _TMP_ATTR = "__miniskeleton_weights_tmp"
 
@@ -98,31 +98,11 @@ def _keep_order(ob, order):
         g.name = f"{tag}{rank[g.name]:06d}"
     try:
         # Blender sorts no group of an object hidden from viewports.
-        with _viewport_hidden(ob, False), bpy.context.temp_override(object=ob, active_object=ob):
+        with mesh_io.viewport_hidden(ob, False), bpy.context.temp_override(object=ob, active_object=ob):
             bpy.ops.object.vertex_group_sort(sort_type="NAME")
     finally:
         for g in list(groups):
             g.name = target[int(g.name[len(tag):])]
-
-
-@contextmanager
-def _viewport_hidden(ob, hidden: bool):
-    """``ob`` with ``hide_viewport`` set to ``hidden`` for a while. Its own setting, and its
-    selection in every view layer (hiding deselects it), come back afterwards."""
-    if ob.hide_viewport == hidden:
-        yield
-        return
-    was = ob.hide_viewport
-    layers = [layer for scene in ob.users_scene for layer in scene.view_layers
-              if layer.objects.get(ob.name) == ob]
-    selected = [layer for layer in layers if ob.select_get(view_layer=layer)]
-    ob.hide_viewport = hidden
-    try:
-        yield
-    finally:
-        ob.hide_viewport = was
-        for layer in selected:
-            ob.select_set(True, view_layer=layer)
 
 
 def _convert_hidden(ob, names, rows: BoneRows, groups):
@@ -133,7 +113,7 @@ def _convert_hidden(ob, names, rows: BoneRows, groups):
     attrs = ob.data.attributes
     active = attrs.active.name if attrs.active is not None else None
     try:
-        with _viewport_hidden(ob, True):
+        with mesh_io.viewport_hidden(ob, True):
             _convert_groups(ob, names, rows, groups)
     finally:
         attrs.active = attrs.get(active) if active is not None else None

@@ -199,6 +199,27 @@ def shaped_world_mesh(ob: bpy.types.Object) -> tuple[np.ndarray, np.ndarray]:
     return _world(ob, co), tris
 
 
+@contextmanager
+def viewport_hidden(ob: bpy.types.Object, hidden: bool):
+    """``ob`` with ``hide_viewport`` (Disable in Viewports) set to ``hidden`` for a while. Its
+    own setting, and its selection in every view layer (hiding deselects it), come back
+    afterwards."""
+    if ob.hide_viewport == hidden:
+        yield
+        return
+    was = ob.hide_viewport
+    layers = [layer for scene in ob.users_scene for layer in scene.view_layers
+              if layer.objects.get(ob.name) == ob]
+    selected = [layer for layer in layers if ob.select_get(view_layer=layer)]
+    ob.hide_viewport = hidden
+    try:
+        yield
+    finally:
+        ob.hide_viewport = was
+        for layer in selected:
+            ob.select_set(True, view_layer=layer)
+
+
 def follows_bone(ob: bpy.types.Object, arm_ob: bpy.types.Object) -> bool:
     """``ob`` is parented to one of ``arm_ob``'s bones (Bone parenting): its world position
     depends on the pose, and on its bone's rest position."""

@@ -42,25 +42,27 @@ class RigError(ValueError):
 @contextmanager
 def armature_edit(context, arm_ob):
     """Edit Mode on ``arm_ob`` for the block (edit bones in armature space), then the previous
-    mode and active object again. Yields ``arm_ob.data.edit_bones``."""
+    mode and active object again. Yields ``arm_ob.data.edit_bones``. An armature disabled in
+    viewports (which Blender does not let into Edit Mode) is enabled for the block only."""
     view_layer = context.view_layer
     prev_active = view_layer.objects.active
     prev_mode = arm_ob.mode
-    if prev_active is not arm_ob:
-        if prev_active is not None and prev_active.mode != "OBJECT":
-            bpy.ops.object.mode_set(mode="OBJECT")
-        view_layer.objects.active = arm_ob
-    if arm_ob.mode != "EDIT":
-        bpy.ops.object.mode_set(mode="EDIT")
-    try:
-        yield arm_ob.data.edit_bones
-    finally:
-        if prev_mode != "EDIT":
-            bpy.ops.object.mode_set(mode=prev_mode)
-        else:
-            arm_ob.update_from_editmode()
-        if prev_active is not arm_ob and prev_active is not None:
-            view_layer.objects.active = prev_active
+    with mesh_io.viewport_hidden(arm_ob, False):
+        if prev_active is not arm_ob:
+            if prev_active is not None and prev_active.mode != "OBJECT":
+                bpy.ops.object.mode_set(mode="OBJECT")
+            view_layer.objects.active = arm_ob
+        if arm_ob.mode != "EDIT":
+            bpy.ops.object.mode_set(mode="EDIT")
+        try:
+            yield arm_ob.data.edit_bones
+        finally:
+            if prev_mode != "EDIT":
+                bpy.ops.object.mode_set(mode=prev_mode)
+            else:
+                arm_ob.update_from_editmode()
+            if prev_active is not arm_ob and prev_active is not None:
+                view_layer.objects.active = prev_active
 
 
 @contextmanager

@@ -125,6 +125,29 @@ def test_fit_creature_halves_error_and_leaves_none_outside():
             assert np.allclose(b.head_local, b.parent.tail_local, atol=1e-6)
 
 
+def test_fit_snapshot_and_restore_work_on_an_armature_disabled_in_viewports():
+    """Blender lets no object disabled in viewports (the screen icon) into Edit Mode, and Fit,
+    Keep Current as Original and Restore stopped with a Python traceback there. The rig is
+    enabled for the edit only: the same joints as on a visible rig, and it ends disabled, with
+    the selection as before."""
+    body, arm, ends, orig, moved, diag = creature_setup(seed=1)
+    assert bpy.ops.armature.miniskeleton_fit_skeleton() == {"FINISHED"}
+    visible_fit = joints_of(arm, ends)
+    set_joints(arm, moved, ends)
+    builders.select_for_parenting([body], arm)
+    arm.hide_viewport = True
+    selected = (arm.select_get(), body.select_get())
+    assert not bpy.ops.object.mode_set.poll()   # Blender's own Edit Mode refuses it
+    assert bpy.ops.armature.miniskeleton_fit_skeleton() == {"FINISHED"}
+    assert arm.hide_viewport and bpy.context.view_layer.objects.active == arm
+    assert (arm.select_get(), body.select_get()) == selected
+    assert np.allclose(joints_of(arm, ends), visible_fit, atol=1e-6 * diag)
+    assert bpy.ops.armature.miniskeleton_restore_skeleton() == {"FINISHED"}
+    assert np.allclose(joints_of(arm, ends), moved, atol=1e-6 * diag)
+    assert bpy.ops.armature.miniskeleton_snapshot_skeleton() == {"FINISHED"}
+    assert arm.hide_viewport and arm.mode == "OBJECT" and (arm.select_get(), body.select_get()) == selected
+
+
 def test_fit_does_not_depend_on_the_armatures_scale():
     """The fit works in the armature's frame at world size: an armature object scaled unevenly
     (an imported rig), with its bones where they were in the scene, is fitted to the same world
