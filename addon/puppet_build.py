@@ -71,7 +71,8 @@ def polygon_mesh(name: str, verts, uvs=None) -> bpy.types.Mesh:
                    [tuple(range(n))])
     if uvs is not None:
         layer = me.uv_layers.new(name="UVMap")
-        layer.data.foreach_set("uv", np.asarray(uvs, dtype=np.float32)[[lp.vertex_index for lp in me.loops]].ravel())
+        corners = [lp.vertex_index for lp in me.loops]
+        layer.data.foreach_set("uv", np.asarray(uvs, dtype=np.float32)[corners].ravel())
     me.update()
     return me
 
@@ -185,7 +186,8 @@ def build_puppet(context: bpy.types.Context, kind: str, location=(0.0, 0.0, 0.0)
         centre = ((p.a[0] + p.b[0]) / 2, (p.a[1] + p.b[1]) / 2)
         outline = puppet.bar_outline(p.a, p.b, p.width) - np.asarray(centre)
         outline = outline * size   # in (x, z), at depth y
-        me = polygon_mesh(f"{base}.{p.name}", [(x, -p.depth * size, z) for x, z in outline], _outline_uvs(outline))
+        verts = [(x, -p.depth * size, z) for x, z in outline]
+        me = polygon_mesh(f"{base}.{p.name}", verts, _outline_uvs(outline))
         me.materials.append(mat)
         prop_ob = bpy.data.objects.new(me.name, me)
         coll.objects.link(prop_ob)
