@@ -204,60 +204,60 @@ class MINISKELETON_OT_fit_skeleton(bpy.types.Operator):
         mode = arm.mode
         pose_sel = {b.name: mesh_io.pose_flag(arm, b, "select") for b in arm.data.bones} if mode == "POSE" else {}
 
+        # Read and fit without entering Edit Mode: an error leaves the armature exactly as it was
+        # (Edit Mode would re-evaluate its action, dropping a pose the rigger has not keyed).
+        bones = rig_io.current_bones(arm)
+        if not bones:
+            self.report({"ERROR"}, f"Armature '{arm.name}' has no bones")
+            return {"CANCELLED"}
+        names = [b.name for b in bones]
+        heads, tails = rig_io.bone_ends(arm, bones)
+        index = {n: i for i, n in enumerate(names)}
+        parents = [index[b.parent.name] if b.parent else -1 for b in bones]
+        connected = [bool(b.use_connect) for b in bones]
+        # Joints coincide relative to the skeleton's size (a stray mesh vertex far away
+        # must not merge distinct joints).
+        size = float(np.linalg.norm(np.ptp(np.concatenate([heads, tails]), axis=0)))
+        joints, ends = rig_io.joint_graph(heads, tails, parents, connected, 1e-6 * max(size, 1e-30))
+        nj = len(joints)
+
+        movable, controls = _movable_joints(mode, bones, pose_sel, ends, nj)
+
+        joints_f = joints @ stretch  # S is symmetric
+        real = ends[:, 0] != ends[:, 1]
+        follow = self.tails == "FOLLOW" or (self.tails == "AUTO" and mesh_io.invented_tails(bones))
+        fit_j, fit_bones, mirror = _fit_graph(ends, real, parents, follow, names)
+        kw = {}
+        if self.symmetry == "X":
+            kw = dict(symmetry_axis=0, symmetry_plane=0.0, joint_mirror=mirror)
+        try:
+            sub, rep = core.fit_joints(verts, tris, joints_f[fit_j].astype(np.float32), fit_bones,
+                                       movable[fit_j], rounds=self.rounds, tip=not follow,
+                                       max_move=self.max_move / 100.0, **kw)
+        except (ValueError, RuntimeError) as err:
+            self.report({"ERROR"}, f"Fit failed: {err}; nothing was changed")
+            return {"CANCELLED"}
+        if rep["outside_before_mask"].all():
+            self.report({"ERROR"}, f"All {len(fit_j)} joints of '{arm.name}' are outside the selected "
+                        "mesh(es): is this the right mesh, and are both objects placed over each other? "
+                        "Nothing was changed")
+            return {"CANCELLED"}
+        new = joints.copy()
+        new[fit_j] = np.linalg.solve(stretch, np.asarray(sub, dtype=np.float64).T).T
+        fitted = np.zeros(nj, dtype=bool)
+        fitted[fit_j] = True
+        new_heads = new[ends[:, 0]]
+        new_tails = new[ends[:, 1]]
+        for i in range(len(bones)):
+            h = new_heads[i]
+            # An invented tail (not fitted) keeps the bone's direction and length from its head.
+            if not (real[i] and fitted[ends[i, 1]]) or np.linalg.norm(new_tails[i] - h) <= 1e-6 * size:
+                new_tails[i] = h + (tails[i] - heads[i])  # and never collapse a bone (Blender deletes it)
+
         with rig_io.bone_children_stay(arm), rig_io.armature_edit(context, arm) as ebs:
-            bones = list(ebs)
-            if not bones:
-                self.report({"ERROR"}, f"Armature '{arm.name}' has no bones")
-                return {"CANCELLED"}
-            names = [eb.name for eb in bones]
-            index = {n: i for i, n in enumerate(names)}
-            heads = np.array([eb.head for eb in bones], dtype=np.float64)
-            tails = np.array([eb.tail for eb in bones], dtype=np.float64)
-            parents = [index[eb.parent.name] if eb.parent else -1 for eb in bones]
-            connected = [bool(eb.use_connect) for eb in bones]
-            zaxes = [eb.z_axis.copy() for eb in bones]
-            # Joints coincide relative to the skeleton's size (a stray mesh vertex far away
-            # must not merge distinct joints).
-            size = float(np.linalg.norm(np.ptp(np.concatenate([heads, tails]), axis=0)))
-            joints, ends = rig_io.joint_graph(heads, tails, parents, connected, 1e-6 * max(size, 1e-30))
-            nj = len(joints)
-
-            movable, controls = _movable_joints(mode, bones, pose_sel, ends, nj)
-
-            joints_f = joints @ stretch  # S is symmetric
-            real = ends[:, 0] != ends[:, 1]
-            follow = self.tails == "FOLLOW" or (self.tails == "AUTO" and mesh_io.invented_tails(bones))
-            fit_j, fit_bones, mirror = _fit_graph(ends, real, parents, follow, names)
-            kw = {}
-            if self.symmetry == "X":
-                kw = dict(symmetry_axis=0, symmetry_plane=0.0, joint_mirror=mirror)
-            try:
-                sub, rep = core.fit_joints(verts, tris, joints_f[fit_j].astype(np.float32), fit_bones,
-                                           movable[fit_j], rounds=self.rounds, tip=not follow,
-                                           max_move=self.max_move / 100.0, **kw)
-            except (ValueError, RuntimeError) as err:
-                self.report({"ERROR"}, f"Fit failed: {err}; nothing was changed")
-                return {"CANCELLED"}
-            if rep["outside_before_mask"].all():
-                self.report({"ERROR"}, f"All {len(fit_j)} joints of '{arm.name}' are outside the selected "
-                            "mesh(es): is this the right mesh, and are both objects placed over each other? "
-                            "Nothing was changed")
-                return {"CANCELLED"}
-            new = joints.copy()
-            new[fit_j] = np.linalg.solve(stretch, np.asarray(sub, dtype=np.float64).T).T
-            fitted = np.zeros(nj, dtype=bool)
-            fitted[fit_j] = True
-
             rig_io.ensure_snapshot(arm, ebs)
-            new = new.astype(np.float64)
-            new_heads = new[ends[:, 0]]
-            new_tails = new[ends[:, 1]]
-            for i in range(len(bones)):
-                h = new_heads[i]
-                # An invented tail (not fitted) keeps the bone's direction and length from its head.
-                if not (real[i] and fitted[ends[i, 1]]) or np.linalg.norm(new_tails[i] - h) <= 1e-6 * size:
-                    new_tails[i] = h + (tails[i] - heads[i])  # and never collapse a bone (Blender deletes it)
-            rig_io.place_bone_ends(bones, new_heads, new_tails, zaxes)
+            edit = [ebs[n] for n in names]
+            rig_io.place_bone_ends(edit, new_heads, new_tails, [eb.z_axis.copy() for eb in edit])
 
         self._report_fit(rep, movable[fit_j], controls[fit_j], nj)
         return {"FINISHED"}

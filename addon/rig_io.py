@@ -65,6 +65,20 @@ def armature_edit(context, arm_ob):
                 view_layer.objects.active = prev_active
 
 
+def current_bones(arm_ob) -> list:
+    """The armature's bones as the rigger sees them, read without changing mode: its edit bones
+    in Edit Mode (edits not yet in its bones), else its bones."""
+    return list(arm_ob.data.edit_bones if arm_ob.mode == "EDIT" else arm_ob.data.bones)
+
+
+def bone_ends(arm_ob, bones) -> tuple[np.ndarray, np.ndarray]:
+    """Heads and tails (b, 3) float64 in armature space of ``current_bones(arm_ob)``."""
+    edit = arm_ob.mode == "EDIT"
+    heads = np.array([b.head if edit else b.head_local for b in bones], dtype=np.float64).reshape(-1, 3)
+    tails = np.array([b.tail if edit else b.tail_local for b in bones], dtype=np.float64).reshape(-1, 3)
+    return heads, tails
+
+
 @contextmanager
 def bone_children_stay(arm_ob):
     """Objects parented to bones of ``arm_ob`` (Bone parenting: a robot's rigid parts, a

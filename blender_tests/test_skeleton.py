@@ -992,6 +992,30 @@ def test_bad_inputs_are_reported(capfd):
         bpy.ops.armature.miniskeleton_fit_skeleton()
 
 
+def test_fit_that_fails_leaves_a_pose_not_yet_keyed_as_it_was():
+    """A refused Fit changes nothing, not even the pose of an animated armature that the rigger
+    has changed without keying it: Edit Mode would evaluate the action again and drop that pose,
+    so Fit reads the bones and fits before it enters Edit Mode, only to write."""
+    body, arm = creature.build()
+    builders.set_active(arm)
+    assert bpy.ops.pose.miniskeleton_add_motion(motion="WALK") == {"FINISHED"}
+    bpy.context.scene.frame_set(5)
+    neck = arm.pose.bones["neck"]
+    tried = (0.9, 0.3, 0.1, 0.0)
+    neck.rotation_quaternion = tried  # tried out, not keyed
+    box = builders.cylinder("Elsewhere", radius=0.2, height=0.5)
+    box.location = (50.0, 0.0, 0.0)
+    builders.select_for_parenting([box], arm)
+    with pytest.raises(RuntimeError, match="All 27 joints of 'CreatureRig' are outside.*Nothing was changed"):
+        bpy.ops.armature.miniskeleton_fit_skeleton()
+    assert tuple(neck.rotation_quaternion) == pytest.approx(tried)
+    assert arm.mode == "OBJECT" and rig_io.load_snapshot(arm.data) is None
+    # Blender's own Edit Mode does drop it: what the test guards against is real.
+    bpy.ops.object.mode_set(mode="EDIT")
+    bpy.ops.object.mode_set(mode="OBJECT")
+    assert tuple(neck.rotation_quaternion) != pytest.approx(tried, abs=1e-3)
+
+
 def test_open_and_piecewise_meshes_warn(capfd):
     verts, faces = builders.cylinder_arrays()
     open_faces = [f for f in faces if len(f) == 4]  # no caps
