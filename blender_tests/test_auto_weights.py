@@ -607,7 +607,7 @@ def test_an_object_placed_at_nan_is_named_by_every_operator_and_nothing_changes(
     heads = [tuple(b.head_local) for b in arm.data.bones]
     arm.location.x = float("nan")
     bpy.context.view_layer.update()
-    calls = [lambda: bind([ob], arm, method=m) for m in ("HEAT", "BILINEAR", "IDW")]
+    calls = [lambda m=m: bind([ob], arm, method=m) for m in ("HEAT", "BILINEAR", "IDW")]
     calls += [lambda: (B.select_for_parenting([ob], arm), bpy.ops.armature.miniskeleton_fit_skeleton())]
     calls += [lambda: (B.set_active(arm), bpy.ops.pose.miniskeleton_add_motion(motion="WALK"))]
     calls += [lambda: (B.select_for_parenting([ob], arm),
