@@ -64,6 +64,7 @@ test-rust:
 	cargo test -p miniskeleton-core --release
 
 test-python: $(WHEEL)
+	$(VPY) -m ruff check --quiet
 	PYTHONPATH=.build/core $(VPY) -m pytest -q tests
 
 test-blender: $(EXT_ZIP)

@@ -2,9 +2,10 @@
 
 Arrays: ``vertices``/``bone_heads``/``bone_tails`` are (n, 3) float32 in one common space (the
 add-on uses the armature's frame: its origin and axes, at world size); ``triangles`` (m, 3)
-uint32; results are dense top-k ``indices`` int32 (n, k) (-1 = unused slot) and ``weights`` float32 (n, k), rows summing to 1,
-with k = min(max_influences, number of bones). Index arrays (triangles, parents, mirrors,
-``lbs`` indices) may be any numeric dtype but must hold whole numbers in range, or ValueError.
+uint32; results are dense top-k ``indices`` int32 (n, k) (-1 = unused slot) and ``weights``
+float32 (n, k), rows summing to 1, with k = min(max_influences, number of bones). Index arrays
+(triangles, parents, mirrors, ``lbs`` indices) may be any numeric dtype but must hold whole
+numbers in range, or ValueError.
 """
 
 from typing import Callable, List, Optional, Sequence, Tuple, Union

@@ -483,7 +483,7 @@ def apply_weights(rig: dict, meshes) -> int:
         targets = [(by_name[s], starts[i], counts[i]) for i, s in enumerate(stored) if s in by_name]
         if not targets:
             raise RigError(f"none of the selected meshes is named like the bundle's ({', '.join(stored)})")
-    for ob, start, count in targets:
+    for ob, _, count in targets:
         if len(ob.data.vertices) != count:
             raise RigError(f"vertex count mismatch: the bundle has {count} vertices for this mesh, "
                            f"'{ob.name}' has {len(ob.data.vertices)}; nothing was changed")

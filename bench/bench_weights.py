@@ -131,7 +131,7 @@ def measure(bpy, core, label, mesh, rig, v, t, heads, tails, args):
     for method in ("BILINEAR", "IDW"):
         unbind(mesh)
         select(bpy, mesh, rig)
-        extra[method], _ = timed(lambda: bpy.ops.object.miniskeleton_auto_weights(method=method))
+        extra[method], _ = timed(lambda method=method: bpy.ops.object.miniskeleton_auto_weights(method=method))
     print(f"done {label} {n} vertices", flush=True)
     return (label, n, len(heads), blender_s, blender_missing, ours_s, ours_missing, core_s, fs, sfs,
             extra["BILINEAR"], extra["IDW"], report["timings"])

@@ -387,7 +387,8 @@ def evaluate(model, path, bpy, args):
             precision=float(prec.mean()), recall=float(rec.mean()),
             deform=100.0 * float(dist.mean()) / diag, per_vertex=100.0 * dist.mean(axis=0) / diag,
             max_deform=100.0 * float(dist.max()) / diag,
-            per_clip={c: 100.0 * float(dist[[p[0] == c for p in poses]].mean()) / diag for c in row["clips"]}, secs=side.secs, result=side.result,
+            per_clip={c: 100.0 * float(dist[[p[0] == c for p in poses]].mean()) / diag for c in row["clips"]},
+            secs=side.secs, result=side.result,
             check=side.check, moved=side.moved, w=w)
     row["art"] = art
     row["bone_names"] = bones

@@ -1,8 +1,9 @@
 """Real rigged models from ../shared/models/ (skipped, and reported as skipped, when the folder
 or a file is absent; never copied here): Auto Weights (Heat) leaves no vertex unweighted, and
 Fit Skeleton leaves no real joint outside the mesh and lowers the error of a displaced skeleton;
-the unrigged scans (cow, horse) get a rough skeleton that is fitted and bound. The quality and fitting *scores* are measured by bench/eval_weights.py and bench/bench_fit.py,
-whose scene helpers these tests reuse."""
+the unrigged scans (cow, horse) get a rough skeleton that is fitted and bound. The quality and
+fitting *scores* are measured by bench/eval_weights.py and bench/bench_fit.py, whose scene
+helpers these tests reuse."""
 
 import importlib
 import sys

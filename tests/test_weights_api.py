@@ -278,7 +278,8 @@ def test_heat_parents_make_imported_bones_reach_their_children():
     mid = (v[:, 2] > 0.4) & (v[:, 2] < 0.7)
     plain = dense(*msc.heat_weights(v, t, heads, tails), 2)
     reach = dense(*msc.heat_weights(v, t, heads, tails, parents=[-1, 0]), 2)
-    check_influences(*msc.heat_weights(v, t, heads, tails, parents=np.array([-1, 0])), len(v), 2, 2)  # k = min(4, bones)
+    # k = min(4, bones)
+    check_influences(*msc.heat_weights(v, t, heads, tails, parents=np.array([-1, 0])), len(v), 2, 2)
     assert reach[mid, 0].mean() > 0.9 > plain[mid, 0].mean()
     # Roots only (no child anywhere) change nothing.
     np.testing.assert_array_equal(dense(*msc.heat_weights(v, t, heads, tails, parents=[-1, -1]), 2), plain)
