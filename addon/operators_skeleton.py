@@ -206,12 +206,11 @@ class MINISKELETON_OT_fit_skeleton(bpy.types.Operator):
 
         # Read and fit without entering Edit Mode: an error leaves the armature exactly as it was
         # (Edit Mode would re-evaluate its action, dropping a pose the rigger has not keyed).
-        bones = rig_io.current_bones(arm)
+        bones, heads, tails = rig_io.current_bones(arm)
         if not bones:
             self.report({"ERROR"}, f"Armature '{arm.name}' has no bones")
             return {"CANCELLED"}
         names = [b.name for b in bones]
-        heads, tails = rig_io.bone_ends(arm, bones)
         index = {n: i for i, n in enumerate(names)}
         parents = [index[b.parent.name] if b.parent else -1 for b in bones]
         connected = [bool(b.use_connect) for b in bones]

@@ -65,18 +65,15 @@ def armature_edit(context, arm_ob):
                 view_layer.objects.active = prev_active
 
 
-def current_bones(arm_ob) -> list:
+def current_bones(arm_ob) -> tuple[list, np.ndarray, np.ndarray]:
     """The armature's bones as the rigger sees them, read without changing mode: its edit bones
-    in Edit Mode (edits not yet in its bones), else its bones."""
-    return list(arm_ob.data.edit_bones if arm_ob.mode == "EDIT" else arm_ob.data.bones)
-
-
-def bone_ends(arm_ob, bones) -> tuple[np.ndarray, np.ndarray]:
-    """Heads and tails (b, 3) float64 in armature space of ``current_bones(arm_ob)``."""
+    in Edit Mode (edits not yet in its bones), else its bones; with their heads and tails (b, 3)
+    float64 in armature space."""
     edit = arm_ob.mode == "EDIT"
+    bones = list(arm_ob.data.edit_bones if edit else arm_ob.data.bones)
     heads = np.array([b.head if edit else b.head_local for b in bones], dtype=np.float64).reshape(-1, 3)
     tails = np.array([b.tail if edit else b.tail_local for b in bones], dtype=np.float64).reshape(-1, 3)
-    return heads, tails
+    return bones, heads, tails
 
 
 @contextmanager
