@@ -76,16 +76,20 @@ def import_model(path: Path):
     return meshes, (rigs[0] if rigs else None)
 
 
+def addon_module(name: str):
+    """The installed add-on's module ``name`` (mesh_io, puppet_build, ...)."""
+    import importlib
+
+    return importlib.import_module(f"{blender_session.ADDON_MODULE}.{name}")
+
+
 def rough_rig(meshes):
     """The rough four-legged skeleton a rigger blocks in over a +Z-up scan (scan_rig.py: joints
     at fixed fractions of the height above the four feet, some outside the mesh)."""
-    import importlib
-
     import bpy
     import scan_rig
 
-    mesh_io = importlib.import_module(blender_session.ADDON_MODULE + ".mesh_io")
-    rig, _ = scan_rig.armature(bpy, mesh_io.mesh_world_vertices(meshes[0]))
+    rig, _ = scan_rig.armature(bpy, addon_module("mesh_io").mesh_world_vertices(meshes[0]))
     print(f"[demo]   {len(rig.data.bones)} bones")
     return rig
 
@@ -168,11 +172,9 @@ def frame_camera(meshes):
     cam.location = centre + direction * radius * 3.2
     cam.rotation_euler = (centre - cam.location).to_track_quat("-Z", "Y").to_euler()
     scene.camera = cam
-    ground = bpy.data.meshes.new("Ground")
     s = radius * 4
-    # Edges given: Blender 5.0.1 mistypes the edge selection of edges it computes itself.
-    ground.from_pydata([(-s, -s, 0), (s, -s, 0), (s, s, 0), (-s, s, 0)], [(0, 1), (1, 2), (2, 3), (3, 0)],
-                       [(0, 1, 2, 3)])
+    # The add-on's one-face mesh maker gives the edges (Blender 5.0.1 mistypes computed ones).
+    ground = addon_module("puppet_build").polygon_mesh("Ground", [(-s, -s, 0), (s, -s, 0), (s, s, 0), (-s, s, 0)])
     g = bpy.data.objects.new("Ground", ground)
     g.location = (centre.x, centre.y, lo.z)
     scene.collection.objects.link(g)
