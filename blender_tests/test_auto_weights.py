@@ -224,6 +224,23 @@ def test_a_constrained_mesh_stays_where_it_is(parent):
     assert np.abs(np.array(ob.matrix_world) - np.array(world)).max() > 0.1
 
 
+def test_a_mesh_already_parented_to_the_armature_keeps_its_own_transform_values():
+    """Re-binding a mesh already object-parented to the armature (here without inverse, its
+    offset in Location) leaves its parenting and transform values as the rigger set them, rather
+    than rewriting them into an equivalent parent inverse and basis."""
+    arm = B.chain(location=(0.0, 0.0, 0.5))
+    ob = B.cylinder(location=(0.25, 0.0, -0.5))
+    ob.parent = arm
+    bpy.context.view_layer.update()
+    world = np.array(ob.matrix_world)
+    assert bind([ob], arm, method="HEAT") == {"FINISHED"}
+    bpy.context.view_layer.update()
+    assert ob.parent == arm and ob.parent_type == "OBJECT"
+    assert tuple(ob.location) == (0.25, 0.0, -0.5)
+    np.testing.assert_array_equal(np.array(ob.matrix_parent_inverse), np.eye(4))
+    np.testing.assert_allclose(np.array(ob.matrix_world), world, atol=1e-7)
+
+
 def test_a_half_modelled_with_a_mirror_modifier_poses_one_side_only():
     """Characters are often modelled as one half with a Mirror modifier. The new Armature
     modifier goes last in the stack, where Blender's Ctrl+P puts it, so the mirrored half follows
@@ -329,6 +346,37 @@ def test_a_subdivided_cage_is_weighted_on_its_smooth_surface_like_ctrl_p():
         body, _ = setup(unsmoothed)
         assert bpy.ops.object.miniskeleton_auto_weights() == {"FINISHED"}
         np.testing.assert_allclose(B.weights_matrix(body, names), plain, atol=1e-6)
+
+
+@pytest.mark.parametrize("boundary", ["ALL", "PRESERVE_CORNERS"])
+def test_an_open_subdivided_cage_is_weighted_with_its_modifiers_boundary_smooth(boundary):
+    """Boundary Smooth decides where an open cage's corners (a boundary vertex of one face) lie
+    on the smooth surface: "Keep Corners" leaves them, "All" rounds them off. Auto Weights reads
+    the setting: a flat banner along the chain gets the heat weights of the limit positions the
+    modifier shows, which differ from the other setting's."""
+    import miniskeleton_core as core
+
+    mesh_io = importlib.import_module("bl_ext.user_default.miniskeleton.mesh_io")
+    cols, rows = 3, 8
+    verts = [(x, 0.0, z) for z in np.linspace(0.0, 4.0, rows + 1) for x in np.linspace(-0.6, 0.6, cols + 1)]
+    faces = [(r * (cols + 1) + c, r * (cols + 1) + c + 1, (r + 1) * (cols + 1) + c + 1, (r + 1) * (cols + 1) + c)
+             for r in range(rows) for c in range(cols)]
+    banner = B.mesh_object("Banner", verts, faces)
+    mod = banner.modifiers.new("Subdivision", "SUBSURF")
+    mod.boundary_smooth = boundary
+    arm = B.chain()
+    assert bind([banner], arm) == {"FINISHED"}
+    got = B.weights_matrix(banner, NAMES)
+    bones = mesh_io.armature_bones(arm)
+    cage = np.array(verts, dtype=np.float32)
+    tris = mesh_io.mesh_triangles(banner)
+    expected = {}
+    for keep in (True, False):
+        limit = core.catmull_clark_limit(cage, *mesh_io.mesh_polygons(banner), keep_corners=keep)
+        expected[keep] = B.dense_weights(*core.heat_weights(limit, tris, bones.heads, bones.tails), len(NAMES))
+    keep = boundary == "PRESERVE_CORNERS"
+    np.testing.assert_allclose(got, expected[keep], atol=1e-6)
+    assert np.abs(got - expected[not keep]).sum(1).max() > 1e-3
 
 
 def test_b_bones_are_weighted_along_their_rest_curve_like_ctrl_p():
@@ -504,7 +552,7 @@ def test_multiple_meshes_with_own_transforms_world_space():
     np.testing.assert_allclose(wa[ia], wb[ib], atol=1e-3)
 
 
-def test_linked_duplicates_computed_once_from_the_first():
+def test_linked_duplicates_computed_once_from_the_first(capfd):
     # Alt+D duplicates share one mesh, and Blender stores weights in the mesh: one answer,
     # from the first selected object; every duplicate gets the modifier and the parent.
     arm = B.chain()
@@ -523,7 +571,11 @@ def test_linked_duplicates_computed_once_from_the_first():
         ob.parent = None
     B.select_for_parenting([a, b], arm)
     first = [ob for ob in bpy.context.selected_objects if ob in (a, b)][0]
+    other = b if first is a else a
+    capfd.readouterr()
     assert bpy.ops.object.miniskeleton_auto_weights(method="HEAT") == {"FINISHED"}
+    assert (f"'{other.name}' shares its mesh with '{first.name}': weights computed once"
+            in "".join(capfd.readouterr()))
     np.testing.assert_allclose(B.weights_matrix(a, NAMES), expected[first.name], atol=1e-6)
     for ob in (a, b):
         assert [m.object for m in ob.modifiers if m.type == "ARMATURE"] == [arm]

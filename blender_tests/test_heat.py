@@ -102,13 +102,15 @@ def test_symmetry_x_weights_do_not_depend_on_the_armatures_scale():
         np.testing.assert_allclose(B.weights_matrix(ob, names), reference, atol=1e-4, err_msg=str(scale))
 
 
-def test_locked_group_is_not_changed():
+def test_locked_group_is_not_changed_and_is_named(capfd):
     ob = B.cylinder()
     arm = B.chain()
     locked = ob.vertex_groups.new(name="Bone0")
     locked.add([0, 1, 2], 0.123, "REPLACE")
     locked.lock_weight = True
+    capfd.readouterr()
     assert bind([ob], arm) == {"FINISHED"}
+    assert "locked groups kept: Bone0" in "".join(capfd.readouterr())
     g = ob.vertex_groups["Bone0"]
     got = {v.index: x.weight for v in ob.data.vertices for x in v.groups if x.group == g.index}
     assert got == pytest.approx({0: 0.123, 1: 0.123, 2: 0.123})

@@ -488,6 +488,34 @@ def test_keys_in_every_rotation_mode_interpolate_the_short_way(mode):
     assert worst_step > 0.05            # the motion turns bones by a few degrees a frame
 
 
+@pytest.mark.parametrize("mode", ["QUATERNION", "XYZ"])
+def test_a_motion_continues_the_short_way_from_a_key_a_full_turn_round(mode):
+    """A bone keyed at rest written the other way round (the quaternion -1, or Euler z = 360
+    degrees, as a rigger's spin or another tool leaves it) gets a motion whose keys continue
+    from that value: between that key and the motion the bone stays near rest. Keys that began
+    from +1 or 0 would send it half a turn (quaternion) or a whole turn (Euler) round between them."""
+    blender_session.reset_scene()
+    scene = bpy.context.scene
+    arm = creature.build_armature()
+    pb = arm.pose.bones["head"]
+    pb.rotation_mode = mode
+    if mode == "QUATERNION":
+        pb.rotation_quaternion = (-1.0, 0.0, 0.0, 0.0)
+        path = "rotation_quaternion"
+    else:
+        pb.rotation_euler = (0.0, 0.0, 2 * np.pi)
+        path = "rotation_euler"
+    pb.keyframe_insert(path, frame=scene.frame_start)
+    assert add_motion(arm, motion="HEAD_SHAKE", cycles=1) == {"FINISHED"}
+    end = int(motion_module().last_key_frame(arm))
+    worst = 0.0
+    for f in range(scene.frame_start, end + 1):
+        for sub in (0.0, 0.25, 0.5, 0.75):
+            scene.frame_set(f, subframe=sub)
+            worst = max(worst, pb.matrix_basis.to_quaternion().angle)
+    assert 0.1 < worst < np.radians(60)   # the shake turns the head, never round
+
+
 def test_head_shake_moves_head_not_feet_and_walk_appends():
     arm = creature.build_armature()
     scene = bpy.context.scene

@@ -803,6 +803,7 @@ NPZ_BAD = {  # case: (replaced arrays for n vertices, error)
     "name too long": (lambda n: dict(bone_names=np.array(["A" * 64, "B"])), "1 to 63 bytes"),
     "empty name": (lambda n: dict(bone_names=np.array(["", "B"])), "1 to 63 bytes"),
     "version not a scalar": (lambda n: dict(format_version=np.int32([1, 1])), "format_version must be one integer"),
+    "newer format": (lambda n: dict(format_version=np.int32(99)), r"rig bundle format 99 is newer than this add-on"),
     "names not 1-D": (lambda n: dict(bone_names=np.array([["A", "B"]])), "bone_names must be a 1-D array"),
     "counts do not add up": (lambda n: dict(mesh_names=np.array(["Cylinder"]), mesh_vertex_counts=np.int32([5])),
                              "do not split the"),
