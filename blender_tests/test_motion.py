@@ -654,6 +654,31 @@ def test_video_is_a_valid_mp4(tmp_path):
         assert 0 <= p.x <= 1 and 0 <= p.y <= 1 and p.z > 0
 
 
+def test_a_framing_camera_films_a_long_walk_from_the_side_at_any_size():
+    """Make Video's framing camera looks across a motion that travels far along Y or X (a
+    walk is filmed from the side, not from behind), with the whole path in view and between its
+    clipping distances, also for a 2 cm figure (inside a new camera's 0.1 m clip start) and a
+    2 km one (beyond its 1 km clip end)."""
+    filming = __import__(ADDON + ".filming", fromlist=["filming"])
+    scene = bpy.context.scene
+    scene.render.resolution_x, scene.render.resolution_y = 160, 90
+    from bpy_extras.object_utils import world_to_camera_view
+
+    boxes = [((-0.5, -6.0, 0.0), (0.5, 0.0, 1.5), 0), ((-6.0, -0.5, 0.0), (0.0, 0.5, 1.5), 1),
+             ((0.0, 0.0, 0.0), (0.01, 0.01, 0.02), None), ((0.0, 0.0, 0.0), (1000.0, 1000.0, 2000.0), None)]
+    for lo, hi, across in boxes:
+        cam = filming.add_camera(scene, Vector(lo), Vector(hi), 16 / 9)
+        bpy.context.view_layer.update()
+        look = cam.matrix_world.to_3x3() @ Vector((0.0, 0.0, -1.0))
+        if across is not None:
+            assert abs(look[across]) > 2 * abs(look[1 - across]), (lo, hi, tuple(look))
+        scene.camera = cam
+        for corner in ((x, y, z) for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])):
+            p = world_to_camera_view(scene, cam, Vector(corner))
+            assert 0 <= p.x <= 1 and 0 <= p.y <= 1, (lo, hi, corner)
+            assert cam.data.clip_start < p.z < cam.data.clip_end, (lo, hi, corner)
+
+
 def test_video_counts_the_frames_it_renders_on_the_scene_frame_step(tmp_path, capfd):
     """Render Animation renders every frame_step-th frame; the report and the progress said
     frame_end - frame_start + 1 (5 here, for 3 frames rendered)."""

@@ -203,6 +203,41 @@ def test_joint_limits_hold_and_are_editable():
     assert 0.0 <= fore.rotation_euler.z <= math.radians(40) + 1e-6
 
 
+def test_free_bones_are_held_within_their_limits():
+    """Bones no rod drives (abdomen, chest, neck, head) are the rigger's to turn, within the
+    IK limits stored on them: turned past a limit, in-plane or in the abdomen's twist, the live
+    solve puts them back on it."""
+    rig, _ = add("FIVE_ROD")
+    abdomen, chest = rig.pose.bones["abdomen"], rig.pose.bones["chest"]
+    assert abdomen.use_ik_limit_y and not chest.use_ik_limit_y
+    abdomen.rotation_euler = (0.0, abdomen.ik_min_y - 0.3, abdomen.ik_max_z + 0.4)
+    chest.rotation_euler.z = chest.ik_min_z - 0.2
+    settle()
+    assert abdomen.rotation_euler.z == pytest.approx(abdomen.ik_max_z, abs=1e-6)
+    assert abdomen.rotation_euler.y == pytest.approx(abdomen.ik_min_y, abs=1e-6)
+    assert chest.rotation_euler.z == pytest.approx(chest.ik_min_z, abs=1e-6)
+    abdomen.rotation_euler = (0.0, 0.5 * abdomen.ik_max_y, 0.5 * abdomen.ik_max_z)   # within: kept
+    settle()
+    assert tuple(abdomen.rotation_euler) == pytest.approx((0.0, 0.5 * abdomen.ik_max_y, 0.5 * abdomen.ik_max_z))
+
+
+def test_live_solve_off_leaves_the_pose_to_the_rigger():
+    """With Live Solve off (the Puppet panel's toggle) moving a rod changes no bone and a bone
+    the rigger turns stays turned; on again, the limb follows its rod."""
+    rig, rods = add("FIVE_ROD")
+    rig[R.LIVE_KEY] = False
+    rig.pose.bones["forearm.R"].rotation_euler.z = 0.3
+    settle()
+    before = {pb.name: tuple(pb.rotation_euler) for pb in rig.pose.bones}
+    base, tip = head_world(rig, ARM[0]), tip_world(rig, ARM[-1])
+    target = base + 0.7 * (tip - base) + Vector((0.05, 0.0, 0.05))
+    move_rod(rods["hand.R"], target.x, target.z)
+    assert {pb.name: tuple(pb.rotation_euler) for pb in rig.pose.bones} == before
+    rig[R.LIVE_KEY] = True
+    move_rod(rods["hand.R"], target.x + 0.02, target.z)
+    assert (tip_world(rig, ARM[-1]) - rods["hand.R"].matrix_world.translation).length < 2e-3 * reach(rig, ARM)
+
+
 def test_three_rod_legs_hang_down_when_the_figure_tilts():
     rig, rods = add("THREE_ROD")
     rods["neck"].rotation_euler.y = math.radians(20)
