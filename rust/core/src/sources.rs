@@ -247,14 +247,19 @@ struct Sight<'a> {
 mod tests {
     use super::*;
 
+    /// The unit cube's surface, for ray queries.
+    fn unit_cube() -> RayMesh {
+        let v: Vec<[f32; 3]> = (0..8).map(|i| [(i & 1) as f32, ((i >> 1) & 1) as f32, ((i >> 2) & 1) as f32]).collect();
+        let q = [[0, 1, 3, 2], [4, 6, 7, 5], [0, 4, 5, 1], [2, 3, 7, 6], [0, 2, 6, 4], [1, 5, 7, 3]];
+        let t: Vec<[u32; 3]> = q.iter().flat_map(|q| [[q[0], q[1], q[2]], [q[0], q[2], q[3]]]).collect();
+        RayMesh::new(&v, &t)
+    }
+
     /// A bone outside the mesh that is nearer than the inner bone but hidden behind a wall
     /// must not be chosen; with visibility off it is.
     #[test]
     fn hidden_bone_is_skipped() {
-        let v: Vec<[f32; 3]> = (0..8).map(|i| [(i & 1) as f32, ((i >> 1) & 1) as f32, ((i >> 2) & 1) as f32]).collect();
-        let q = [[0, 1, 3, 2], [4, 6, 7, 5], [0, 4, 5, 1], [2, 3, 7, 6], [0, 2, 6, 4], [1, 5, 7, 3]];
-        let t: Vec<[u32; 3]> = q.iter().flat_map(|q| [[q[0], q[1], q[2]], [q[0], q[2], q[3]]]).collect();
-        let rm = RayMesh::new(&v, &t);
+        let rm = unit_cube();
         let bones = [
             (DVec3::new(1.2, 0.5, 0.2), DVec3::new(1.2, 0.5, 0.8)), // outside, nearer
             (DVec3::new(0.5, 0.5, 0.2), DVec3::new(0.5, 0.5, 0.8)), // inside
@@ -271,5 +276,24 @@ mod tests {
         let tie = [bones[1], (DVec3::new(0.5, 0.5, 0.8), DVec3::new(0.5, 0.5, 0.2))];
         let s = nearest_visible_bone(p, DVec3::ZERO, &tie, whole, &mut scratch);
         assert_eq!((s.count, s.bones[0], s.bones[1]), (2, 0, 1));
+    }
+
+    /// Pinocchio's ties: a bone farther than the nearest by less than [`TIE_RATIO`] (relative)
+    /// shares the vertex's heat source, visible or not; farther by more, it does not.
+    #[test]
+    fn near_ties_within_the_ratio_share() {
+        let rm = unit_cube();
+        let whole = Some(Sight { rays: &rm, tri_piece: None, piece: 0, normal: DVec3::ZERO });
+        let mut scratch = vec![0.0; 4];
+        let p = DVec3::new(0.9, 0.5, 0.5);
+        let inner = (DVec3::new(0.5, 0.5, 0.2), DVec3::new(0.5, 0.5, 0.8)); // 0.4 away
+        for (rel, count) in [(0.0, 2), (0.5 * (TIE_RATIO - 1.0), 2), (5.0 * (TIE_RATIO - 1.0), 1)] {
+            let y = 0.5 - 0.4 * (1.0 + rel);
+            let side = (DVec3::new(0.9, y, 0.2), DVec3::new(0.9, y, 0.8));
+            let s = nearest_visible_bone(p, DVec3::ZERO, &[inner, side], whole, &mut scratch);
+            assert_eq!((s.count, s.bones[0]), (count, 0), "relative gap {rel}");
+            let t = nearest_bones(p, &[inner, side]);
+            assert_eq!((t.count, t.bones[0]), (count, 0), "relative gap {rel}");
+        }
     }
 }
