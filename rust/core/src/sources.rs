@@ -279,7 +279,8 @@ mod tests {
     }
 
     /// Pinocchio's ties: a bone farther than the nearest by less than [`TIE_RATIO`] (relative)
-    /// shares the vertex's heat source, visible or not; farther by more, it does not.
+    /// shares the vertex's heat source, in both rankings (nearest visible bone, and nearest by
+    /// plain distance for the fallbacks); farther by more, it does not.
     #[test]
     fn near_ties_within_the_ratio_share() {
         let rm = unit_cube();
