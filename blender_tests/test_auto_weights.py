@@ -525,6 +525,10 @@ def test_running_again_keeps_the_group_list_as_blenders_ctrl_p_does():
 def test_selected_bones_only_writes_only_those():
     ob = B.cylinder()
     arm = B.chain()
+    B.pose_select(arm, selected=())
+    with pytest.raises(RuntimeError, match="Selected Bones Only is on, but no deform bone is selected"):
+        bind([ob], arm, method="HEAT", selected_bones_only=True)
+    assert len(ob.vertex_groups) == 0 and ob.parent is None and len(ob.modifiers) == 0
     B.pose_select(arm, selected=("Bone1", "Bone2"))
     bind([ob], arm, method="HEAT", selected_bones_only=True)
     assert sorted(g.name for g in ob.vertex_groups) == ["Bone1", "Bone2"]
@@ -744,13 +748,15 @@ def test_armature_in_edit_mode_reports_error():
     assert _untouched(ob)
 
 
-def test_zero_length_bone_skipped_with_warning(capsys):
+def test_zero_length_bone_skipped_with_warning(capfd):
     # Scaling the armature to zero along Z collapses the vertical bone in world space.
     ob = B.cylinder(height=1.0)
     arm = B.armature(bones=[("Up", (0, 0, 0), (0, 0, 1), None, False),
                             ("Side", (-0.4, 0, 0), (0.4, 0, 0), None, False)],
                      location=(0, 0, 0.5), scale=(1, 1, 0))
+    capfd.readouterr()
     assert bind([ob], arm, method="IDW") == {"FINISHED"}
+    assert "Skipped 1 zero-length bone(s): Up" in "".join(capfd.readouterr())
     assert [g.name for g in ob.vertex_groups] == ["Side"]
     w = B.weights_matrix(ob, ["Side"])
     np.testing.assert_allclose(w[:, 0], 1.0, atol=1e-6)

@@ -222,7 +222,7 @@ def test_split_seams_weighted_like_welded_twin():
     np.testing.assert_allclose(B.weights_matrix(split, NAMES), w_welded[origin], atol=1e-4)
 
 
-def test_sealed_piece_is_weighted_rigidly_where_blender_writes_nothing():
+def test_sealed_piece_is_weighted_rigidly_where_blender_writes_nothing(capfd):
     # A body with bones, a closed shell beside it, and a button sealed inside the shell:
     # no ray from the button reaches a bone, so Blender's heat is singular there.
     body_v, body_f = B.cylinder_arrays()
@@ -236,7 +236,10 @@ def test_sealed_piece_is_weighted_rigidly_where_blender_writes_nothing():
         off += len(v)
     ob = B.mesh_object("Pieces", np.vstack(verts), faces)
     arm = B.chain()
+    capfd.readouterr()
     assert bind([ob], arm) == {"FINISHED"}
+    # the shell and the button see no bone; the button, small and with no bone inside, is rigid
+    assert "Pieces: of 3 pieces, 2 saw no bone (nearest bone used), 1 bound rigidly" in capfd.readouterr().out
     w = B.weights_matrix(ob, NAMES)
     assert (w.sum(1) > 0.999).all()
     button = w[len(body_v) + len(shell_v):]
