@@ -169,7 +169,7 @@ fn two_pieces_one_without_bones_are_all_weighted() {
     assert_eq!(rep.rigid_pieces, 1);
     assert_eq!(rep.isolated_vertices, 1);
     // The button is rigid: every vertex 100% on one bone (the one at its height, bone 2).
-    for v in button {
+    for v in button.clone() {
         assert_eq!(inf.row(v), (&[2, -1, -1, -1][..], &[1.0, 0.0, 0.0, 0.0][..]));
     }
     // The isolated vertex at z = 0.1 takes bone 0.
@@ -178,6 +178,13 @@ fn two_pieces_one_without_bones_are_all_weighted() {
     let far: std::collections::HashSet<i32> =
         (base as usize - 41 * 16 - 2..base as usize).map(|v| inf.row(v).0[0]).collect();
     assert!(far.len() >= 3, "{far:?}");
+    // Without the accessory rule the button is still rigid: it sees no bone and is smaller
+    // than its nearest bone; the big cylinder, which sees none either, is not.
+    let (inf2, rep2) = heat(&m, &b, &HeatOptions { rigid_accessories: false, ..Default::default() });
+    assert_eq!((rep2.fallback_pieces, rep2.rigid_pieces), (2, 1));
+    for v in button.clone() {
+        assert_eq!(inf2.row(v), (&[2, -1, -1, -1][..], &[1.0, 0.0, 0.0, 0.0][..]));
+    }
 }
 
 #[test]
@@ -539,6 +546,24 @@ fn imported_bones_reach_their_children_inside_the_mesh() {
         let opts = HeatOptions { parents: Some(bad), ..HeatOptions::default() };
         assert!(heat_weights(&m.0, &m.1, &b.0, &b.1, &opts, None).is_err());
     }
+}
+
+/// A reaching bone's child spans *replace* its invented head -> tail: an importer's tail that
+/// points back down the limb (along the joint's local Y) must not claim the parent's part.
+#[test]
+fn a_reaching_bone_drops_its_invented_tail() {
+    let m = capped_cylinder(0.08, 2.0, 41, 16);
+    let heads = vec![[0.0, 0.0, 0.1], [0.0, 0.0, 1.0], [0.0, 0.0, 1.8]];
+    let tails = vec![[0.05, 0.0, 0.1], [0.0, 0.0, 0.6], [0.0, 0.0, 1.9]];
+    let b = (heads, tails);
+    let opts = HeatOptions { parents: Some(vec![-1, 0, 1]), ..HeatOptions::default() };
+    let (reach, _) = heat(&m, &b, &opts);
+    let (tails, _) = heat(&m, &b, &HeatOptions::default());
+    assert_rows_sum_to_one(&reach);
+    let (with, without) = (mean_weight(&m, &reach, 0, 0.55, 0.85), mean_weight(&m, &tails, 0, 0.55, 0.85));
+    assert!(with > 0.8, "bone 0 reaching bone 1 keeps its part: {with}");
+    assert!(without < 0.2, "head -> tail, bone 1 points down into it: {without}");
+    assert!(mean_weight(&m, &reach, 1, 1.2, 1.6) > 0.8);
 }
 
 /// Random rigs (bones anywhere, inside or outside, any valid parent list) on a mesh of two
