@@ -1074,6 +1074,36 @@ pub(crate) mod tests {
     }
 
     #[test]
+    fn six_legs_make_three_groups_front_to_back() {
+        // The creature with a middle pair of legs (its hind legs moved 0.5 forward, off the
+        // spine): the tops of each pair lie within 0.15 h, the pairs 0.5 apart (h ~ 1.85).
+        let (mut names, mut h, mut t, mut p) = creature();
+        let spine = names.iter().position(|n| n == "spine").unwrap() as i32;
+        for s in ["L", "R"] {
+            let mut parent = spine;
+            for b in ["thigh", "shin", "foot"] {
+                let i = names.iter().position(|n| *n == format!("{b}.{s}")).unwrap();
+                let (mut head, mut tail) = (h[i], t[i]);
+                head[1] -= 0.5;
+                tail[1] -= 0.5;
+                names.push(format!("mid_{b}.{s}"));
+                h.push(head);
+                t.push(tail);
+                p.push(parent);
+                parent = names.len() as i32 - 1;
+            }
+        }
+        let r = detect_roles(&h, &t, &p, &names).unwrap();
+        assert_eq!((r.plan, r.legs.len()), (BodyPlan::Multiped, 6));
+        for (group, top) in [(0, "upper_arm"), (1, "mid_thigh"), (2, "thigh")] {
+            for side in [Side::Left, Side::Right] {
+                let first = &leg(&names, &r, side, group)[0];
+                assert!(first.starts_with(top), "group {group} {side:?}: {first}");
+            }
+        }
+    }
+
+    #[test]
     fn quadruped_roles_without_names_and_turned() {
         // same creature rotated 90° about Z (faces +X), names hidden
         let (names, h, t, p) = creature();
