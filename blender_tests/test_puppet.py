@@ -519,7 +519,8 @@ def pose_of(rig):
 def test_a_rod_or_rig_without_a_finite_place_keeps_the_pose_and_is_not_baked(capfd):
     """A rod at NaN (a driver or constraint gone wrong), or the rig scaled to zero on an axis:
     live solving printed a traceback on every update and Bake stopped with one. Now live solving
-    keeps the pose and says why once; Bake is an error naming the frame and keys nothing."""
+    keeps the pose and says why once; Bake is an error naming the frame, keys nothing and puts
+    back the pose the frames it solved before the failure had changed."""
     rig, rods = add("FIVE_ROD")
     scene = bpy.context.scene
     move_rod(rods["hand.R"], -0.3, 1.2)
@@ -527,6 +528,7 @@ def test_a_rod_or_rig_without_a_finite_place_keeps_the_pose_and_is_not_baked(cap
     capfd.readouterr()
     hand = rods["hand.R"]
     placed = hand.location.copy()
+    hand.location = placed + Vector((0.05, 0.0, 0.05))  # frame 1 solves to another pose
     hand.keyframe_insert("location", frame=1)
     hand.location.x = float("nan")
     hand.keyframe_insert("location", frame=3)   # NaN from frame 2 on (interpolated towards it)
@@ -664,6 +666,15 @@ def test_shadow_theatre_preset():
     assert bpy.ops.scene.miniskeleton_shadow_theatre(engine="EEVEE") == {"FINISHED"}   # refits, no duplicates
     assert len([ob for ob in bpy.data.objects if ob.name.startswith("ShadowScreen")]) == 1
     assert scene.render.engine.startswith("BLENDER_EEVEE")
+    # Refitted while the screen is being edited (its Edit Mode would otherwise write the old
+    # mesh back when it ends): it leaves Edit Mode first and the screen takes the new size.
+    width = screen.dimensions.x
+    rig.parent.scale = (2.0, 2.0, 2.0)
+    B.set_active(screen)
+    bpy.ops.object.mode_set(mode="EDIT")
+    assert bpy.ops.scene.miniskeleton_shadow_theatre() == {"FINISHED"}
+    bpy.context.view_layer.update()
+    assert screen.mode == "OBJECT" and screen.dimensions.x > 1.5 * width
 
 
 def test_vertices_of_the_meshes_puppets_are_made_of_can_be_selected_in_weight_paint(tmp_path):

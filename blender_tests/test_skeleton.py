@@ -890,12 +890,14 @@ def test_npz_export_reads_each_vertex_weights_as_blender_holds_them(tmp_path):
 
 def test_json_debug_export(tmp_path):
     ob, arm = bound_cylinder("IDW")
+    arm.data.bones["Bone3"].use_deform = False   # after binding: its group stays
     path = tmp_path / "rig.json"
     builders.set_active(arm, selected=[ob])
     assert bpy.ops.export_scene.miniskeleton_json(filepath=str(path)) == {"FINISHED"}
     data = json.loads(path.read_text())
     assert len(data["joints"]) == 5  # a connected chain of 4 bones
     assert data["bone_edges"] == [[0, 1], [1, 2], [2, 3], [3, 4]]
+    assert [b["deform"] for b in data["bones"]] == [True, True, True, False]
     w = builders.weights_matrix(ob, [b["name"] for b in data["bones"]])
     for i, b in enumerate(data["bones"]):
         assert b["vertices_influenced"] == int((w[:, i] > 0).sum()) > 0
