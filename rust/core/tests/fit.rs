@@ -325,6 +325,34 @@ fn symmetry_exact() {
     assert!(dist(out[1], [1.0, 0.0, 2.0]) < 0.15, "{:?}", out[1]);
 }
 
+/// A left/right pair is fitted as one: where the mesh says nothing (along a straight limb) the
+/// two rough joints meet halfway, rather than one side's guess being copied onto the other.
+#[test]
+fn symmetry_averages_a_pair_where_the_mesh_is_silent() {
+    let (l, lt) = tube(&[[1.0, 0.0, 0.0], [1.0, 0.0, 2.0]], 0.3, 12, 20);
+    let (mut v, mut t) = (l.clone(), lt.clone());
+    let base = v.len() as u32;
+    v.extend(l.iter().map(|p| [-p[0], p[1], p[2]]));
+    t.extend(lt.iter().map(|tr| [tr[0] + base, tr[2] + base, tr[1] + base]));
+    let start = vec![
+        [1.05, 0.0, 0.2],
+        [1.05, 0.05, 1.2],
+        [0.95, 0.0, 1.8],
+        [-0.95, 0.0, 0.2],
+        [-1.0, -0.05, 0.8],
+        [-1.05, 0.0, 1.8],
+    ];
+    let bones = vec![[0, 1], [1, 2], [3, 4], [4, 5]];
+    let opts = FitOptions {
+        symmetry: Some(Symmetry { axis: 0, plane: 0.0, mirror: vec![3, 4, 5, 0, 1, 2] }),
+        ..FitOptions::default()
+    };
+    let (out, _) = fit_joints(&v, &t, &start, &bones, &[true; 6], &opts).unwrap();
+    assert!((out[1][2] - 1.0).abs() < 0.02, "middle joints meet halfway: {:?}", out[1]);
+    assert_eq!(out[4], [-out[1][0], out[1][1], out[1][2]]);
+    assert!(dist(out[1], [1.0, 0.0, 1.0]) < 0.03, "{:?}", out[1]);
+}
+
 /// A torso with two arms whose joints are all given as centre-line joints (bones named without
 /// a side): the arm joints lie far off the plane, so they are fitted on their own and counted,
 /// not folded onto the spine; the spine still ends on the plane.
