@@ -285,15 +285,20 @@ fn outside_pulled_in_and_fixed_stay() {
     assert_eq!(out[1], start[1]);
 }
 
-/// Two bent limbs mirrored across x = 0 (two pieces).
-fn mirrored_limbs() -> (Vec<[f32; 3]>, Vec<[u32; 3]>) {
-    let (l, lt) = tube(&[[1.0, 0.0, 0.0], [1.0, 0.0, 2.0], [2.0, 0.0, 3.0]], 0.3, 12, 20);
+/// A tube of radius 0.3 along `path` and its mirror image across x = 0 (two pieces).
+fn mirrored_tubes(path: &[[f32; 3]]) -> (Vec<[f32; 3]>, Vec<[u32; 3]>) {
+    let (l, lt) = tube(path, 0.3, 12, 20);
     let mut v = l.clone();
     let mut t = lt.clone();
     let base = v.len() as u32;
     v.extend(l.iter().map(|p| [-p[0], p[1], p[2]]));
     t.extend(lt.iter().map(|tr| [tr[0] + base, tr[2] + base, tr[1] + base]));
     (v, t)
+}
+
+/// Two bent limbs mirrored across x = 0 (two pieces).
+fn mirrored_limbs() -> (Vec<[f32; 3]>, Vec<[u32; 3]>) {
+    mirrored_tubes(&[[1.0, 0.0, 0.0], [1.0, 0.0, 2.0], [2.0, 0.0, 3.0]])
 }
 
 /// Two mirrored limbs: pairs end exactly mirrored, a centre joint on the plane.
@@ -329,11 +334,7 @@ fn symmetry_exact() {
 /// two rough joints meet halfway, rather than one side's guess being copied onto the other.
 #[test]
 fn symmetry_averages_a_pair_where_the_mesh_is_silent() {
-    let (l, lt) = tube(&[[1.0, 0.0, 0.0], [1.0, 0.0, 2.0]], 0.3, 12, 20);
-    let (mut v, mut t) = (l.clone(), lt.clone());
-    let base = v.len() as u32;
-    v.extend(l.iter().map(|p| [-p[0], p[1], p[2]]));
-    t.extend(lt.iter().map(|tr| [tr[0] + base, tr[2] + base, tr[1] + base]));
+    let (v, t) = mirrored_tubes(&[[1.0, 0.0, 0.0], [1.0, 0.0, 2.0]]);
     let start = vec![
         [1.05, 0.0, 0.2],
         [1.05, 0.05, 1.2],
