@@ -346,6 +346,10 @@ def test_a_subdivided_cage_is_weighted_on_its_smooth_surface_like_ctrl_p():
         body, _ = setup(unsmoothed)
         assert bpy.ops.object.miniskeleton_auto_weights() == {"FINISHED"}
         np.testing.assert_allclose(B.weights_matrix(body, names), plain, atol=1e-6)
+    for render_only in ({"show_viewport": False}, {"levels": 0, "render_levels": 2}):  # smooth in the render
+        body, _ = setup(render_only)
+        assert bpy.ops.object.miniskeleton_auto_weights() == {"FINISHED"}
+        np.testing.assert_allclose(B.weights_matrix(body, names), twin, atol=1e-6)
 
 
 @pytest.mark.parametrize("boundary", ["ALL", "PRESERVE_CORNERS"])
