@@ -249,9 +249,7 @@ mod tests {
 
     /// The unit cube's surface, for ray queries.
     fn unit_cube() -> RayMesh {
-        let v: Vec<[f32; 3]> = (0..8).map(|i| [(i & 1) as f32, ((i >> 1) & 1) as f32, ((i >> 2) & 1) as f32]).collect();
-        let q = [[0, 1, 3, 2], [4, 6, 7, 5], [0, 4, 5, 1], [2, 3, 7, 6], [0, 2, 6, 4], [1, 5, 7, 3]];
-        let t: Vec<[u32; 3]> = q.iter().flat_map(|q| [[q[0], q[1], q[2]], [q[0], q[2], q[3]]]).collect();
+        let (v, t) = crate::visibility::tests::unit_cube();
         RayMesh::new(&v, &t)
     }
 

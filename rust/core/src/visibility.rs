@@ -244,11 +244,12 @@ fn node_hit(node: &BvhNode, origin: Vec3, inv: Vec3, tmax: f32) -> bool {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::primitives::capped_cylinder;
 
-    fn unit_cube() -> (Vec<[f32; 3]>, Vec<[u32; 3]>) {
+    /// The unit cube's surface, 8 vertices and 12 triangles (also for other modules' tests).
+    pub(crate) fn unit_cube() -> (Vec<[f32; 3]>, Vec<[u32; 3]>) {
         let v: Vec<[f32; 3]> = (0..8).map(|i| [(i & 1) as f32, ((i >> 1) & 1) as f32, ((i >> 2) & 1) as f32]).collect();
         let q = [[0, 1, 3, 2], [4, 6, 7, 5], [0, 4, 5, 1], [2, 3, 7, 6], [0, 2, 6, 4], [1, 5, 7, 3]];
         let t = q.iter().flat_map(|q| [[q[0], q[1], q[2]], [q[0], q[2], q[3]]]).collect();
