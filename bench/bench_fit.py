@@ -1,21 +1,24 @@
 """Fit Skeleton to Mesh against the artists' own skeletons.
 
     .venv/bin/python bench/bench_fit.py [--models Fox.glb,CesiumMan.gltf,spot_rig.glb] [--seeds 10] [--symmetry X]
+                                        [--displace ball|depth]
 
 For each model in ``../shared/models/`` (relative to the project root; missing files are
 skipped, never copied here) and for the generated creature (scripts/creature.py): take the
 model's own skeleton, displace every joint randomly (seeded, uniform in a ball of radius 5 % of
-the mesh's bounding-box diagonal), run ``armature.miniskeleton_fit_skeleton`` and compare with
-the original joints. Joints are the unique bone ends (a connected child's head is its parent's
-tail), and only the real ones are scored: every bone head, plus a tail only where it is a real
-joint -- another bone's head, or any tail of a rig built in Blender (the creature). glTF stores
-joints (nodes) only, so on an imported model Blender's importer invents every tail that is not a
-child's head (leaf bones, bones with several children); those are displaced with the rest but not
-scored. Prints a markdown table: mean joint error before / after (% of the diagonal), the ratio,
-the error after over the joints that were inside the mesh in the original rest pose, joints
-outside the mesh (original, before, after), the floor (how far the fit moves the undisplaced
-artist joints) and the operator's time; also writes it to
-out/bench_fit.md. Nothing is asserted (the test on the creature asserts).
+the mesh's bounding-box diagonal; or, with ``--displace depth``, uniformly within 5 % along one
+horizontal axis only, the depth of the view a rigger places joints in), run
+``armature.miniskeleton_fit_skeleton`` and compare with the original joints. Joints are the
+unique bone ends (a connected child's head is its parent's tail), and only the real ones are
+scored: every bone head, plus a tail only where it is a real joint -- another bone's head, or
+any tail of a rig built in Blender (the creature). glTF stores joints (nodes) only, so on an
+imported model Blender's importer invents every tail that is not a child's head (leaf bones,
+bones with several children); those are displaced with the rest but not scored. Prints a
+markdown table: mean joint error before / after (% of the diagonal), the ratio, the error after
+over the joints that were inside the mesh in the original rest pose, joints outside the mesh
+(original, before, after), the floor (how far the fit moves the undisplaced artist joints) and
+the operator's time; also writes it to out/bench_fit.md. Nothing is asserted (the test on the
+creature asserts).
 """
 
 from __future__ import annotations
@@ -123,7 +126,29 @@ def fit(bpy, arm, meshes, **op):
     return ok, time.perf_counter() - start
 
 
-def run(bpy, name, seeds, rig_io, core, mesh_io, **op):
+def depth_axis(arm, meshes, mesh_io):
+    """The view depth of placing joints by eye, as a unit vector in the armature's space: the world
+    horizontal axis (X or Y) along which the meshes are narrowest. A biped is widest across its
+    shoulders and placed in front view, a quadruped longest nose to tail and placed in side view;
+    either way the joints come out right on the screen and wrong in depth."""
+    world = np.concatenate([mesh_io.mesh_world_vertices(ob) for ob in meshes])
+    extent = world.max(0) - world.min(0)
+    axis = np.eye(3)[int(np.argmin(extent[:2]))]
+    inv = np.linalg.inv(np.array(arm.matrix_world, dtype=np.float64))[:3, :3]
+    d = inv @ axis
+    return d / np.linalg.norm(d)
+
+
+def displacements(rng, n, diag, along=None):
+    """(n, 3) random joint moves of at most 5 % of ``diag``: uniform in a ball, or uniform on the
+    segment [-5 %, 5 %] along the unit vector ``along``."""
+    if along is not None:
+        return np.outer(rng.uniform(-1.0, 1.0, n) * 0.05 * diag, along)
+    d = rng.normal(size=(n, 3))
+    return d * (0.05 * diag * rng.random(n) ** (1 / 3) / np.linalg.norm(d, axis=1))[:, None]
+
+
+def run(bpy, name, seeds, rig_io, core, mesh_io, displace="ball", **op):
     arm, meshes = load(bpy, name)
     if arm is None or not meshes:
         return None
@@ -143,12 +168,12 @@ def run(bpy, name, seeds, rig_io, core, mesh_io, **op):
         return None
     floor = np.linalg.norm(joints_now(bpy, arm, ends) - orig, axis=1)[real].mean() / diag * 100
     set_joints(bpy, arm, orig, ends, rig_io)
+    along = depth_axis(arm, meshes, mesh_io) if displace == "depth" else None
+    if along is not None:
+        print(f"{name}: view depth in the armature's space {np.round(along, 3).tolist()}", flush=True)
     rows = []
     for seed in range(seeds):
-        rng = np.random.default_rng(seed + 1)
-        d = rng.normal(size=orig.shape)
-        d *= (0.05 * diag * rng.random(len(orig)) ** (1 / 3) / np.linalg.norm(d, axis=1))[:, None]
-        moved = orig + d
+        moved = orig + displacements(np.random.default_rng(seed + 1), len(orig), diag, along)
         set_joints(bpy, arm, moved, ends, rig_io)
         ok, secs = fit(bpy, arm, meshes, **op)
         if not ok:
@@ -172,6 +197,8 @@ def main():
     ap.add_argument("--tails", default="AUTO", help="the operator's Free Tails option")
     ap.add_argument("--max-move", type=float, default=None, help="the operator's Max Move (%%)")
     ap.add_argument("--symmetry", default="NONE", choices=["NONE", "X"], help="the operator's Symmetry")
+    ap.add_argument("--displace", default="ball", choices=["ball", "depth"],
+                    help="ball: the issue's 5 %% ball; depth: up to 5 %% along the view depth only")
     args = ap.parse_args()
     bpy = blender_session.start()
     rig_io = importlib.import_module(blender_session.ADDON_MODULE + ".rig_io")
@@ -191,7 +218,7 @@ def main():
     for name in names:
         op = dict(tails=args.tails, symmetry=args.symmetry) | ({} if args.max_move is None
                                                               else dict(max_move=args.max_move))
-        r = run(bpy, name, args.seeds, rig_io, core, mesh_io, **op)
+        r = run(bpy, name, args.seeds, rig_io, core, mesh_io, args.displace, **op)
         if r is None:
             print(f"skipped {name}: no single armature with meshes, or the fit failed")
             continue
@@ -201,7 +228,9 @@ def main():
                      f"{int(r['out_after'])} | {r['floor']:.2f} | {r['secs']:.2f} |")
         print(lines[-1], flush=True)
     table = "\n".join(lines)
-    print(f"\nJoints displaced uniformly in a ball of 5 % of the diagonal, {args.seeds} seeds; errors in % of "
+    how = ("uniformly in a ball of 5 % of the diagonal" if args.displace == "ball" else
+           "uniformly within 5 % of the diagonal along the view depth only (the narrower horizontal axis)")
+    print(f"\nJoints displaced {how}, {args.seeds} seeds; errors in % of "
           "the mesh bounding-box diagonal, against the model's own real joints (invented glTF tails not "
           "scored); outside counts are real joints. Floor: mean move of the artist's own joints when "
           "fitted undisplaced (where the mesh's cross-section centres disagree with the artist).\n")
