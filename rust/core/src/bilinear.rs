@@ -206,4 +206,17 @@ mod tests {
         assert!(bilinear_weights(&verts, &heads, &tails, &[-1, 1], &BilinearOptions::default()).is_err());
         assert!(bilinear_weights(&verts, &heads, &tails, &[-1], &BilinearOptions::default()).is_err());
     }
+
+    /// Of several connected children, the one nearest the vertex takes the share across the
+    /// tail: a T of a bone and two children to its sides, one nearest bone (`nearest` 1), a
+    /// vertex at t = 0.8 on the right: 0.7 stays, 0.3 goes to the right child, none to the left.
+    #[test]
+    fn the_nearest_connected_child_takes_the_share() {
+        let heads = [[0.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, 0.0, 1.0]];
+        let tails = [[0.0, 0.0, 1.0], [-1.0, 0.0, 1.0], [1.0, 0.0, 1.0]];
+        let verts = [[0.1, 0.0, 0.8], [-1.0, 0.0, 0.0], [1.0, 0.0, 1.0]];
+        let opts = BilinearOptions { nearest: 1, ..Default::default() };
+        let d = bilinear_weights(&verts, &heads, &tails, &[-1, 0, 0], &opts).unwrap().to_dense(3);
+        assert!((d[0] - 0.7).abs() < 1e-4 && d[1] == 0.0 && (d[2] - 0.3).abs() < 1e-4, "{:?}", &d[..3]);
+    }
 }

@@ -603,4 +603,25 @@ mod tests {
             assert!((w.iter().sum::<f32>() - 1.0).abs() < 1e-5);
         }
     }
+
+    /// A vertex whose every weight falls below the small-weight ramp keeps its solved weights
+    /// (normalized), not its nearest bone alone: with the ramp raised to [0.8, 0.9), the ring
+    /// at the joint of a two-bone chain (about 0.5 each) stays shared.
+    #[test]
+    fn a_row_entirely_below_the_ramp_keeps_its_solved_weights() {
+        let (v, t) = capped_cylinder(0.2, 2.0, 21, 16);
+        let (h, tl, _) = bone_chain(2.0, 2);
+        let opts = HeatOptions { weight_limit_start: 0.9, weight_limit_end: 0.8, ..Default::default() };
+        let (inf, _) = heat_weights(&v, &t, &h, &tl, &opts, None).unwrap();
+        let mut ring = 0;
+        for (i, p) in v.iter().enumerate().filter(|(_, p)| (p[2] - 1.0).abs() < 0.02 && p[0].hypot(p[1]) > 0.1) {
+            let (idx, w) = inf.row(i);
+            assert!(w[0] < 0.75 && w[1] > 0.25 && idx[1] >= 0, "vertex {i} at {p:?}: {idx:?} {w:?}");
+            ring += 1;
+        }
+        assert_eq!(ring, 16);
+        // Away from the joint the ramp leaves one bone, as Blender's does.
+        let far = v.iter().position(|p| p[2] < 0.3 && p[0].hypot(p[1]) > 0.1).unwrap();
+        assert_eq!(inf.row(far).1[0], 1.0);
+    }
 }

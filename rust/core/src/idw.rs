@@ -114,4 +114,20 @@ mod tests {
         let bad = IdwOptions { max_influences: 0, ..Default::default() };
         assert!(idw_weights(&verts, &heads, &tails, &bad).is_err());
     }
+
+    /// The documented formula, offset included: a vertex 1e-4 and 3e-4 diagonals from two
+    /// bones (eps = 1e-4 diagonals) gets `(2e-4)^-p : (4e-4)^-p`, 0.8 for p = 2 and 2/3 for
+    /// p = 1; without the offset it would be 0.9 and 0.75.
+    #[test]
+    fn weights_follow_the_formula_with_its_offset() {
+        let verts = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.5, 0.0, 0.0]]; // bbox diagonal 1
+        let heads = [[0.5, 1e-4, -1.0], [0.5, -3e-4, -1.0]];
+        let tails = [[0.5, 1e-4, 1.0], [0.5, -3e-4, 1.0]];
+        for (power, expected) in [(2.0, 0.8), (1.0, 2.0 / 3.0)] {
+            let inf = idw_weights(&verts, &heads, &tails, &IdwOptions { power, ..Default::default() }).unwrap();
+            let (idx, w) = inf.row(2);
+            assert_eq!(idx[0], 0);
+            assert!((w[0] - expected).abs() < 1e-3, "p = {power}: {w:?}");
+        }
+    }
 }
