@@ -14,7 +14,7 @@ RIG_KEY = "miniskeleton_rig"          # on rods, prop and parts: the armature ob
 ROLE_KEY = "miniskeleton_rod"         # on a rod: its role ("neck", "hand.L", ...)
 PART_KEY = "miniskeleton_part"        # on a part mesh: its bone
 SEED_KEY = "miniskeleton_seed"        # on a pose bone: IK start angle, degrees
-THEATRE_KEY = "miniskeleton_theatre"  # on the Shadow Theatre's screen, light and camera
+THEATRE_KEY = "miniskeleton_theatre"  # the role of the Shadow Theatre's screen, light and camera
 
 
 # ---------------------------------------------------------------------------- finding puppets

@@ -32,12 +32,16 @@ def _puppet_bounds(scene):
     return xz.min(0), xz.max(0)
 
 
-def _theatre_object(scene, name, data):
-    ob = bpy.data.objects.get(name)
-    if ob is None or ob.get(THEATRE_KEY) is None:
-        ob = bpy.data.objects.new(name, data)
+def _theatre_object(scene, name, make_data):
+    """The theatre's object in the role ``name`` (made by an earlier run: found by its role,
+    whatever it is called now), or a new one with the data ``make_data()``; linked to the
+    scene. An object or data-block of the rigger's that has the name is never taken over (the
+    new one is called ``name.001``)."""
+    ob = next((o for o in bpy.data.objects if o.get(THEATRE_KEY) == name), None)
+    if ob is None:
+        ob = bpy.data.objects.new(name, make_data())
         scene.collection.objects.link(ob)
-        ob[THEATRE_KEY] = True
+        ob[THEATRE_KEY] = name
     elif ob.name not in scene.objects:
         scene.collection.objects.link(ob)
     return ob
@@ -58,7 +62,7 @@ def build_shadow_theatre(context: bpy.types.Context, engine: str = "WORKBENCH", 
 
     me = polygon_mesh("ShadowScreen", [(-width / 2, 0, -height / 2), (width / 2, 0, -height / 2),
                                        (width / 2, 0, height / 2), (-width / 2, 0, height / 2)])
-    screen = _theatre_object(scene, "ShadowScreen", me)
+    screen = _theatre_object(scene, "ShadowScreen", lambda: me)
     if screen.data != me:
         old = screen.data
         screen.data = me
@@ -87,21 +91,21 @@ def build_shadow_theatre(context: bpy.types.Context, engine: str = "WORKBENCH", 
         nt.links.new(add.outputs[0], out.inputs["Surface"])
     screen.data.materials.append(mat)
 
-    light_data = bpy.data.lights.get("ShadowBacklight") or bpy.data.lights.new("ShadowBacklight", "AREA")
+    light = _theatre_object(scene, "ShadowBacklight", lambda: bpy.data.lights.new("ShadowBacklight", "AREA"))
+    light_data = light.data
     light_data.color = (1.0, 0.7, 0.4)
     light_data.energy = 300.0 * height * height
     if light_data.type == "AREA":
         light_data.shape = "RECTANGLE"
         light_data.size, light_data.size_y = width, height
-    light = _theatre_object(scene, "ShadowBacklight", light_data)
     light.location = (centre[0], height, centre[1])
     light.rotation_euler = (-math.pi / 2, 0.0, 0.0)       # shines along -Y, through the screen
 
-    cam_data = bpy.data.cameras.get("ShadowCamera") or bpy.data.cameras.new("ShadowCamera")
+    cam = _theatre_object(scene, "ShadowCamera", lambda: bpy.data.cameras.new("ShadowCamera"))
+    cam_data = cam.data
     cam_data.type = "ORTHO"
     cam_data.ortho_scale = max(width, height)
     cam_data.clip_end = 10 * height + 100
-    cam = _theatre_object(scene, "ShadowCamera", cam_data)
     cam.location = (centre[0], -4.0 * height, centre[1])
     cam.rotation_euler = (math.pi / 2, 0.0, 0.0)          # looks along +Y at the screen
     scene.camera = cam

@@ -677,6 +677,45 @@ def test_shadow_theatre_preset():
     assert screen.mode == "OBJECT" and screen.dimensions.x > 1.5 * width
 
 
+def test_shadow_theatre_frames_a_wide_cast_and_leaves_the_riggers_own_objects():
+    """Two puppets 6 m apart are wider than tall: every part is inside the camera's frame
+    (landscape, so the orthographic scale is the width). An object of the rigger's called
+    ShadowScreen and a lamp of theirs called ShadowBacklight are not taken over; running the
+    preset again refits its own objects (found by their role, not their name: before, a second
+    run made a second screen beside the rigger's object) and leaves no old screen mesh behind."""
+    from bpy_extras.object_utils import world_to_camera_view
+
+    bpy.ops.mesh.primitive_cube_add(location=(0.0, 5.0, 0.0))
+    own = bpy.context.active_object
+    own.name = "ShadowScreen"
+    own_mesh = own.data
+    own_lamp = bpy.data.lights.new("ShadowBacklight", "POINT")
+    own_lamp.energy = 7.0
+    scene = bpy.context.scene
+    rigs = []
+    for x in (-3.0, 3.0):
+        scene.cursor.location = (x, 0.0, 0.0)
+        rigs.append(add("FIVE_ROD")[0])
+    assert bpy.ops.scene.miniskeleton_shadow_theatre() == {"FINISHED"}
+    assert own.name == "ShadowScreen" and own.data == own_mesh and tuple(own.location) == (0.0, 5.0, 0.0)
+    assert own_lamp.type == "POINT" and own_lamp.energy == 7.0 and own_lamp.users == 0
+    cam = scene.camera
+    assert cam.name == "ShadowCamera" and scene.render.resolution_x > scene.render.resolution_y
+    dg = bpy.context.evaluated_depsgraph_get()
+    parts = [ob for ob in scene.objects if ob.type == "MESH" and R.puppet_rig(ob) in rigs]
+    assert len(parts) > 10
+    for ob in parts:
+        ev = ob.evaluated_get(dg)
+        for corner in ev.bound_box:
+            u, v, _ = world_to_camera_view(scene, cam, ev.matrix_world @ Vector(corner))
+            assert 0.0 < u < 1.0 and 0.0 < v < 1.0, f"{ob.name} at {u:.2f}, {v:.2f} of the frame"
+    meshes, objects = len(bpy.data.meshes), sorted(o.name for o in bpy.data.objects)
+    assert bpy.ops.scene.miniskeleton_shadow_theatre() == {"FINISHED"}
+    assert len(bpy.data.meshes) == meshes and all(m.users for m in bpy.data.meshes)
+    assert sorted(o.name for o in bpy.data.objects) == objects
+    assert scene.camera == cam and own.data == own_mesh
+
+
 def test_vertices_of_the_meshes_puppets_are_made_of_can_be_selected_in_weight_paint(tmp_path):
     """Blender 5.0.1 types the internal ``.select_edge`` attribute INT32_2D when it computes a
     new mesh's edges itself, and selecting vertices of such a mesh in Weight Paint mode (Vertex
