@@ -606,13 +606,32 @@ def face_png(tmp_path) -> str:
     return path
 
 
+def test_puppet_angles_wrap_like_the_core_and_solver_limits_stay_on_the_circle():
+    """Angles wrap to (-pi, pi] as the core's ``wrap_angle`` does (so -pi is pi), and limits
+    plus rest offsets are clipped to [-pi, pi]."""
+    for a, want in ((-math.pi, math.pi), (3 * math.pi, math.pi), (-0.5, -0.5), (2 * math.pi + 0.25, 0.25)):
+        assert T.wrap(a) == pytest.approx(want)
+    lim = T.solver_limits([(-170.0 * math.pi / 180, 170.0 * math.pi / 180)] * 2, [0.0, 0.5])
+    assert lim[0].tolist() == pytest.approx([-170 * math.pi / 180, 170 * math.pi / 180])
+    assert lim[1].tolist() == pytest.approx([-170 * math.pi / 180 + 0.5, math.pi])
+
+
 def test_set_part_image(tmp_path):
+    """The picture replaces the cut-out on the part's layer (its depth toward the viewer), and
+    setting it again leaves no old mesh behind."""
     rig, rods = add("THREE_ROD")
     path = face_png(tmp_path)
     bpy.context.view_layer.objects.active = rig
+    cutout = next(ob for ob in rig.children if ob.get(R.PART_KEY) == "head")
+    depth = cutout.data.vertices[0].co.z
+    assert depth > 0.003
     assert bpy.ops.object.miniskeleton_set_part_image(filepath=path, bone="head") == {"FINISHED"}
     part = next(ob for ob in rig.children if ob.get(R.PART_KEY) == "head")
-    assert len(part.data.vertices) == 4 and part.parent_bone == "head"
+    assert part == cutout and len(part.data.vertices) == 4 and part.parent_bone == "head"
+    assert all(v.co.z == pytest.approx(depth) for v in part.data.vertices)
+    meshes = len(bpy.data.meshes)
+    assert bpy.ops.object.miniskeleton_set_part_image(filepath=path, bone="head") == {"FINISHED"}
+    assert len(bpy.data.meshes) == meshes and all(m.users for m in bpy.data.meshes)
     xs = [v.co.x for v in part.data.vertices]
     ys = [v.co.y for v in part.data.vertices]
     assert math.isclose((max(xs) - min(xs)) / (max(ys) - min(ys)), 0.5, rel_tol=1e-6)   # image aspect
