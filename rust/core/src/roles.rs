@@ -1140,6 +1140,33 @@ pub(crate) mod tests {
         assert_eq!(r2.legs.len(), 2);
     }
 
+    /// Legs are long (their chain drops at least a fifth of the height) and arms reach a fifth
+    /// of it: a biped's two short flaps hanging from the hips toward the ground (a tabard)
+    /// and two short pouch chains on the chest are neither legs nor arms.
+    #[test]
+    fn short_flaps_and_pouches_are_neither_legs_nor_arms() {
+        let (names, h, t, p) = biped();
+        let mut b: Vec<BoneSpec> = (0..names.len())
+            .map(|i| (names[i].clone(), h[i], t[i], (p[i] >= 0).then(|| names[p[i] as usize].clone())))
+            .collect();
+        for (s, x) in [("L", 1.0f32), ("R", -1.0)] {
+            let f = |n: &str| format!("{n}.{s}");
+            b.extend([
+                (f("flap"), [0.15 * x, -0.1, 0.4], [0.15 * x, -0.1, 0.28], Some("hips".into())),
+                (f("flap_end"), [0.15 * x, -0.1, 0.28], [0.15 * x, -0.1, 0.15], Some(f("flap"))),
+                (f("pouch"), [0.1 * x, -0.1, 1.35], [0.2 * x, -0.1, 1.3], Some("chest".into())),
+                (f("pouch_end"), [0.2 * x, -0.1, 1.3], [0.26 * x, -0.1, 1.25], Some(f("pouch"))),
+            ]);
+        }
+        let (names, h, t, p) = skeleton_of(&b);
+        let r = detect_roles(&h, &t, &p, &names).unwrap();
+        assert_eq!(r.plan, BodyPlan::Biped);
+        assert_eq!(r.legs.len(), 2);
+        assert_eq!(leg(&names, &r, Side::Left, 0)[0], "thigh.L");
+        assert_eq!(r.arms.len(), 2);
+        assert!(r.arms.iter().all(|a| names[a.bones[1]].starts_with("upper_arm")), "{:?}", r.arms);
+    }
+
     #[test]
     fn ik_exported_biped_feet_ride_on_their_legs_and_t_posed_arms_are_arms() {
         for invented_tails in [false, true] {
