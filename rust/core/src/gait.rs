@@ -939,6 +939,139 @@ mod tests {
         }
     }
 
+    /// Posed heads and tails of one frame.
+    type Posed = (Vec<[f32; 3]>, Vec<[f32; 3]>);
+
+    /// Posed heads and tails of every frame (root offset included).
+    fn posed_clip(a: &Animated) -> Vec<Posed> {
+        let (_, h, t, p, rest, _, clip) = a;
+        let n = clip.bone_count;
+        (0..clip.frames)
+            .map(|f| {
+                let (rot, loc) = (&clip.rotations[f * n..(f + 1) * n], &clip.locations[f * n..(f + 1) * n]);
+                posed_points(h, t, p, rest, rot, loc, clip.root_offset[f])
+            })
+            .collect()
+    }
+
+    fn bone(names: &[String], name: &str) -> usize {
+        names.iter().position(|n| n == name).unwrap()
+    }
+
+    /// Pitch (radians, up from the forward axis) of a bone's direction.
+    fn pitch(head: [f32; 3], tail: [f32; 3], fwd: Vec3) -> f32 {
+        let d = Vec3::from(tail) - Vec3::from(head);
+        d.z.atan2(d.dot(fwd))
+    }
+
+    fn correlation(a: &[f32], b: &[f32]) -> f32 {
+        let (ma, mb) = (a.iter().sum::<f32>() / a.len() as f32, b.iter().sum::<f32>() / b.len() as f32);
+        let cov: f32 = a.iter().zip(b).map(|(x, y)| (x - ma) * (y - mb)).sum();
+        let va: f32 = a.iter().map(|x| (x - ma) * (x - ma)).sum();
+        let vb: f32 = b.iter().map(|y| (y - mb) * (y - mb)).sum();
+        cov / (va * vb).sqrt()
+    }
+
+    /// How the body moves, not only the feet: each hand swings against the foot of its side,
+    /// from the upper arm (the clavicle stays), elbows bend forward, feet stay near their rest
+    /// pitch (the ankle undoes the hip and knee), and the head steadies against the neck's bob.
+    #[test]
+    fn a_biped_walks_with_its_arms_against_its_legs_and_its_head_steady() {
+        for motion in [Motion::Walk, Motion::Run] {
+            let a = run(biped(), motion);
+            let (names, h, t, roles) = (&a.0, &a.1, &a.2, &a.5);
+            let fwd = Vec3::from(roles.forward);
+            let frames = posed_clip(&a);
+            for s in ["L", "R"] {
+                let [hips, hand, foot] = ["hips", &format!("hand.{s}"), &format!("toe.{s}")].map(|n| bone(names, n));
+                let along =
+                    |pts: &[[f32; 3]], b: usize, hips_h: [f32; 3]| (Vec3::from(pts[b]) - Vec3::from(hips_h)).dot(fwd);
+                let hands: Vec<f32> = frames.iter().map(|(ph, pt)| along(pt, hand, ph[hips])).collect();
+                let feet: Vec<f32> = frames.iter().map(|(ph, pt)| along(pt, foot, ph[hips])).collect();
+                let c = correlation(&hands, &feet);
+                assert!(c < -0.5, "{motion:?} {s}: hand and foot swing together ({c})");
+                let [clav, upper, fore, foot] =
+                    ["shoulder", "upper_arm", "forearm", "foot"].map(|n| bone(names, &format!("{n}.{s}")));
+                let clip = &a.6;
+                let turned =
+                    |b: usize| (0..clip.frames).map(move |f| q(clip.rotation(f, b)).angle_between(Quat::IDENTITY));
+                assert!(turned(clav).all(|x| x < 1e-4), "{motion:?} {s}: the clavicle swings");
+                assert!(turned(upper).any(|x| x > 0.1), "{motion:?} {s}: the upper arm does not swing");
+                // the forearm points further forward than the upper arm: the elbow bends forward
+                for (f, (ph, pt)) in frames.iter().enumerate() {
+                    let bend = pitch(ph[upper], pt[upper], fwd) - pitch(ph[fore], pt[fore], fwd);
+                    assert!(bend < 0.0, "{motion:?} {s} frame {f}: the elbow bends backward ({bend})");
+                }
+                let rest = pitch(h[foot], t[foot], fwd);
+                let worst =
+                    frames.iter().map(|(ph, pt)| (pitch(ph[foot], pt[foot], fwd) - rest).abs()).fold(0.0, f32::max);
+                assert!(worst < 0.6, "{motion:?} {s}: the foot pitches {worst} rad from rest");
+            }
+            let [neck, head] = ["neck", "head"].map(|n| bone(names, n));
+            let swing = |b: usize| {
+                let ps: Vec<f32> = frames.iter().map(|(ph, pt)| pitch(ph[b], pt[b], fwd)).collect();
+                ps.iter().cloned().fold(f32::MIN, f32::max) - ps.iter().cloned().fold(f32::MAX, f32::min)
+            };
+            assert!(
+                swing(head) < swing(neck),
+                "{motion:?}: the head bobs {} against the neck's {}",
+                swing(head),
+                swing(neck)
+            );
+        }
+    }
+
+    /// A leg starting with a pelvis bone (sideways from the hips) swings from the thigh, its
+    /// first bone pointing down; the pelvis bone stays.
+    #[test]
+    fn legs_swing_from_their_first_bone_pointing_down() {
+        let (mut names, mut h, mut t, mut p) = biped();
+        for s in ["L", "R"] {
+            let thigh = bone(&names, &format!("thigh.{s}"));
+            names.push(format!("pelvis.{s}"));
+            h.push([0.0, 0.0, 1.0]);
+            t.push(h[thigh]);
+            p.push(bone(&names, "hips") as i32);
+            p[thigh] = (names.len() - 1) as i32;
+        }
+        let a = run((names, h, t, p), Motion::Walk);
+        let (names, roles, clip) = (&a.0, &a.5, &a.6);
+        assert_eq!(roles.legs.len(), 2);
+        for s in ["L", "R"] {
+            let [pelvis, thigh] = ["pelvis", "thigh"].map(|n| bone(names, &format!("{n}.{s}")));
+            assert!(roles.legs.iter().any(|l| l.bones[..2] == [pelvis, thigh]), "{:?}", roles.legs);
+            let turned = |b: usize| {
+                (0..clip.frames).map(|f| q(clip.rotation(f, b)).angle_between(Quat::IDENTITY)).fold(0.0, f32::max)
+            };
+            assert!(turned(pelvis) < 1e-4, "{s}: the pelvis bone swings {}", turned(pelvis));
+            assert!(turned(thigh) > 0.2, "{s}: the thigh swings only {}", turned(thigh));
+        }
+    }
+
+    /// A running quadruped's tail lifts and comes back to rest, never below it (a low tail
+    /// swung down went through the ground): its own turns only ever raise its tip.
+    #[test]
+    fn a_running_tail_never_swings_down() {
+        let a = run(creature(), Motion::Run);
+        let (names, h, t, p, rest, roles, clip) = &a;
+        let tip = *roles.tail.last().expect("the creature has a tail");
+        let n = clip.bone_count;
+        let mut lifted = 0.0f32;
+        for f in 0..clip.frames {
+            let rot = &clip.rotations[f * n..(f + 1) * n];
+            let mut still = rot.to_vec();
+            for &b in &roles.tail {
+                still[b] = [1.0, 0.0, 0.0, 0.0];
+            }
+            let (_, with) = posed_points(h, t, p, rest, rot, &[], [0.0; 3]);
+            let (_, without) = posed_points(h, t, p, rest, &still, &[], [0.0; 3]);
+            let up = with[tip][2] - without[tip][2];
+            assert!(up > -1e-4 * roles.leg_length, "frame {f}: {} swings down {up}", names[tip]);
+            lifted = lifted.max(up);
+        }
+        assert!(lifted > 0.02 * roles.leg_length, "the tail never lifts: {lifted}");
+    }
+
     #[test]
     fn cadence_does_not_depend_on_units_beyond_reason() {
         let (.., cow) = run(spot(), Motion::Walk); // ~40 units per leg
