@@ -152,6 +152,10 @@ def test_no_legs_or_no_head_is_refused_clearly():
                                      ("leg.R", (-0.3, 0, 1), (-0.3, 0, 0), "seat", False)])
     with pytest.raises(RuntimeError, match="no head"):
         add_motion(legs_only, motion="HEAD_SHAKE")
+    two = B.armature("Pair", [("a", (0, 0, 1), (0, 0, 0), None, False), ("b", (0, 0, 1), (0, 0, 2), "a", False)])
+    with pytest.raises(RuntimeError, match="Armature 'Pair' has too few deform bones for a motion"):
+        add_motion(two, motion="HEAD_SHAKE")
+    assert two.animation_data is None
 
 
 
@@ -243,6 +247,13 @@ def test_bones_held_by_constraints_are_named_in_a_warning(capfd):
     out = "".join(capfd.readouterr())
     assert ("3 keyed bone(s) follow constraints that override their keys: shin.L (IK), "
             "thigh.L (IK of shin.L), upper_arm.R (Copy Rotation)") in out, out
+    # An IK chain of length 0 reaches up to the root.
+    whole = pose["hand.L"].constraints.new("IK")
+    whole.target, whole.subtarget, whole.chain_count = arm, "foot_ik.L", 0
+    assert add_motion(arm, motion="WALK") == {"FINISHED"}
+    out = "".join(capfd.readouterr())
+    assert ("7 keyed bone(s) follow constraints that override their keys: chest (IK of hand.L), "
+            "forearm.L (IK of hand.L), shin.L (IK), spine (IK of hand.L)") in out, out
 
 
 # ---------------------------------------------------------------- motions
@@ -299,6 +310,8 @@ def test_mirrored_armature_walks_as_the_mirror_image_of_its_twin(capfd):
     capfd.readouterr()
     walk(Matrix.Diagonal((1.0, 2.0, 0.5, 1.0)))
     assert "is scaled unevenly (1, 2, 0.5)" in "".join(capfd.readouterr())
+    walk(Matrix.Diagonal((1.0, 1.0, 1.1, 1.0)))    # a tenth is enough to shear visibly
+    assert "is scaled unevenly (1, 1, 1.1)" in "".join(capfd.readouterr())
 
 
 @pytest.mark.parametrize("rig, scale, twin", [("creature", 1e-15, 1e-3), ("creature", 1e15, 1e4),
@@ -691,6 +704,16 @@ def test_video_counts_the_frames_it_renders_on_the_scene_frame_step(tmp_path, ca
     assert probe(out) == (3, 32, 32)
     printed = capfd.readouterr().out
     assert "video: frame 3/3" in printed and "(3 frames, 32x32" in printed
+
+
+def test_video_path_gets_the_mp4_extension(tmp_path):
+    """The file is an MP4 whatever the path's extension: clip.avi is written as clip.mp4."""
+    creature.build_body(subdivisions=0)
+    scene = bpy.context.scene
+    scene.frame_start, scene.frame_end = 1, 2
+    assert bpy.ops.render.miniskeleton_make_video(filepath=str(tmp_path / "clip.avi"), resolution_x=32,
+                                                  resolution_y=32) == {"FINISHED"}
+    assert not (tmp_path / "clip.avi").exists() and probe(tmp_path / "clip.mp4") == (2, 32, 32)
 
 
 def test_video_with_the_scenes_own_engine_and_camera(tmp_path):
