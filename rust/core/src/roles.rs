@@ -861,6 +861,11 @@ pub(crate) mod tests {
     /// A simple human, facing -Y, arms down: hips root, 3 spine bones, neck, head,
     /// clavicle/upper arm/forearm/hand, thigh/shin/foot/toe.
     pub fn biped() -> Skeleton {
+        skeleton_of(&biped_bones())
+    }
+
+    /// The bones of [`biped`], to extend.
+    fn biped_bones() -> Vec<BoneSpec> {
         let mut b: Vec<BoneSpec> = vec![
             ("hips".into(), [0.0, 0.0, 1.0], [0.0, 0.0, 1.1], None),
             ("spine".into(), [0.0, 0.0, 1.1], [0.0, 0.0, 1.3], Some("hips".into())),
@@ -881,7 +886,7 @@ pub(crate) mod tests {
                 (f("toe"), [0.1 * x, -0.14, 0.02], [0.1 * x, -0.2, 0.02], Some(f("foot"))),
             ]);
         }
-        skeleton_of(&b)
+        b
     }
 
     /// A game-style biped exported from an IK set-up (the structure of the Quaternius and
@@ -1145,10 +1150,7 @@ pub(crate) mod tests {
     /// and two short pouch chains on the chest are neither legs nor arms.
     #[test]
     fn short_flaps_and_pouches_are_neither_legs_nor_arms() {
-        let (names, h, t, p) = biped();
-        let mut b: Vec<BoneSpec> = (0..names.len())
-            .map(|i| (names[i].clone(), h[i], t[i], (p[i] >= 0).then(|| names[p[i] as usize].clone())))
-            .collect();
+        let mut b = biped_bones();
         for (s, x) in [("L", 1.0f32), ("R", -1.0)] {
             let f = |n: &str| format!("{n}.{s}");
             b.extend([

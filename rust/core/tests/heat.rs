@@ -182,7 +182,7 @@ fn two_pieces_one_without_bones_are_all_weighted() {
     // than its nearest bone; the big cylinder, which sees none either, is not.
     let (inf2, rep2) = heat(&m, &b, &HeatOptions { rigid_accessories: false, ..Default::default() });
     assert_eq!((rep2.fallback_pieces, rep2.rigid_pieces), (2, 1));
-    for v in button.clone() {
+    for v in button {
         assert_eq!(inf2.row(v), (&[2, -1, -1, -1][..], &[1.0, 0.0, 0.0, 0.0][..]));
     }
 }
