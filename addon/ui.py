@@ -28,6 +28,7 @@ class MINISKELETON_PT_weights(SidebarPanel, bpy.types.Panel):
 
     bl_label = "Weights"
     bl_idname = "MINISKELETON_PT_weights"
+
     def draw(self, context):
         layout = self.layout
         col = layout.column(align=True)
@@ -49,6 +50,7 @@ class MINISKELETON_PT_puppet(SidebarPanel, bpy.types.Panel):
 
     bl_label = "Puppet"
     bl_idname = "MINISKELETON_PT_puppet"
+
     def draw(self, context):
         from .puppet_rig import LIVE_KEY, puppet_rig
 
@@ -76,8 +78,6 @@ def draw_puppet_add_menu(self, context):
     self.layout.operator_menu_enum(PUPPET_OP, "type", text="Shadow Puppet", icon="OUTLINER_OB_ARMATURE")
 
 
-
-
 # ---------------------------------------------------------------------------- Skeleton
 
 FIT_OP = "armature.miniskeleton_fit_skeleton"
@@ -88,6 +88,7 @@ class MINISKELETON_PT_skeleton(SidebarPanel, bpy.types.Panel):
 
     bl_label = "Skeleton"
     bl_idname = "MINISKELETON_PT_skeleton"
+
     def draw(self, context):
         layout = self.layout
         col = layout.column(align=True)
@@ -129,8 +130,6 @@ def draw_import_menu(self, context):
     self.layout.operator("import_scene.miniskeleton_npz", text="MiniSkeleton Rig Bundle Weights (.npz)")
 
 
-
-
 # ---------------------------------------------------------------------------- Motion
 
 MOTION_OP = "pose.miniskeleton_add_motion"
@@ -142,6 +141,7 @@ class MINISKELETON_PT_motion(SidebarPanel, bpy.types.Panel):
 
     bl_label = "Motion"
     bl_idname = "MINISKELETON_PT_motion"
+
     def draw(self, context):
         layout = self.layout
         col = layout.column(align=True)
