@@ -19,8 +19,6 @@ pub enum Error {
     Shape(String),
     /// An argument is out of its range.
     InvalidArgument(String),
-    /// The sparse factorization failed even after regularization.
-    Factorization(String),
     /// The caller's progress callback asked to stop.
     Cancelled,
 }
@@ -38,7 +36,6 @@ impl fmt::Display for Error {
             Error::NoBones(s) => write!(f, "{s}"),
             Error::Shape(s) => write!(f, "shape mismatch: {s}"),
             Error::InvalidArgument(s) => write!(f, "invalid argument: {s}"),
-            Error::Factorization(s) => write!(f, "sparse factorization failed: {s}"),
             Error::Cancelled => write!(f, "cancelled"),
         }
     }

@@ -12,11 +12,11 @@ pyo3::create_exception!(
     "Raised when a progress callback returned False."
 );
 
-/// Map a core error: bad input is `ValueError`, a failed solve `RuntimeError`, cancel `Cancelled`.
+/// Map a core error: bad input is `ValueError`, cancel `Cancelled` (a factorization that fails
+/// is not an error: those pieces fall back to their nearest bones, see `HeatReport`).
 pub fn to_py(err: Error) -> PyErr {
     match err {
         Error::Cancelled => Cancelled::new_err("cancelled by the progress callback"),
-        Error::Factorization(_) => PyRuntimeError::new_err(err.to_string()),
         _ => PyValueError::new_err(err.to_string()),
     }
 }
