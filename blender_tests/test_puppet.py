@@ -590,6 +590,45 @@ def test_puppet_operators_say_what_to_select_when_no_puppet_is_active(tmp_path):
     assert bpy.ops.object.miniskeleton_bake_puppet.poll()
 
 
+def test_a_riggers_object_parented_under_a_rod_or_part_belongs_to_that_puppet():
+    """A rigger parents a plume to a hand rod, a tassel under the plume, a badge to the chest:
+    with any of them active the puppet operators act on that puppet. An object not under a
+    puppet, however deep its own hierarchy, belongs to none."""
+    rig, rods = add("THREE_ROD")
+    chest = next(ob for ob in bpy.context.scene.objects if ob.get(R.PART_KEY) == "chest")
+
+    def empty(name, parent):
+        ob = bpy.data.objects.new(name, None)
+        bpy.context.scene.collection.objects.link(ob)
+        ob.parent = parent
+        return ob
+
+    plume = empty("Plume", rods["hand.L"])
+    tassel = empty("Tassel", empty("Cord", plume))
+    badge = empty("Badge", chest)
+    for ob in (plume, tassel, badge):
+        assert R.puppet_rig(ob) == rig, ob.name
+    bpy.context.view_layer.objects.active = tassel
+    assert bpy.ops.object.miniskeleton_bake_puppet.poll()
+    top = empty("Top", None)
+    deep = empty("Deep", empty("C", empty("B", empty("A", top))))
+    assert R.puppet_rig(deep) is None and R.puppet_rig(top) is None
+
+
+def test_an_ordinary_armature_is_not_a_puppet():
+    """A character's own armature next to a puppet is not solved as one: live solving leaves
+    its pose alone and the theatre does not count it."""
+    rig, _ = add("THREE_ROD")
+    character = B.chain("Character", count=3)
+    character.pose.bones["Bone1"].rotation_quaternion = (0.9, 0.3, 0.2, 0.1)
+    posed = [tuple(pb.matrix) for pb in character.pose.bones]
+    scene = bpy.context.scene
+    assert R.scene_puppets(scene) == [rig]
+    assert L.update_scene_puppets(scene, force=True) == 1
+    bpy.context.view_layer.update()
+    assert [tuple(pb.matrix) for pb in character.pose.bones] == posed
+
+
 # ---------------------------------------------------------------------------- parts, theatre
 
 
