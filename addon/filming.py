@@ -108,7 +108,8 @@ def add_camera(scene, lo: Vector, hi: Vector, aspect: float) -> bpy.types.Object
 
 def add_follow_camera(scene, boxes, aspect: float) -> bpy.types.Object:
     """A camera that travels along with the character (front three-quarter view of the way it
-    moves), far enough that its largest box fits; keyed at the sampled frames."""
+    moves), far enough that its largest box fits and the whole height the figure bobs or jumps
+    through (the camera stays level); keyed at the sampled frames."""
     lo, hi = union_box(boxes)
     c0 = (boxes[0][1] + boxes[0][2]) / 2
     c1 = (boxes[-1][1] + boxes[-1][2]) / 2
@@ -121,6 +122,7 @@ def add_follow_camera(scene, boxes, aspect: float) -> bpy.types.Object:
     rot = (-view.normalized()).to_track_quat("-Z", "Y")
     half = Vector(map(max, *((b[2] - b[1]) / 2 for b in boxes))) if len(boxes) > 1 else \
         (boxes[0][2] - boxes[0][1]) / 2
+    half.z = (hi.z - lo.z) / 2                     # the camera stays at mid_z while the figure bobs or jumps
     cam = _new_camera(scene)
     dist = _fit_distance(-half, half, rot, cam.data.angle, aspect)
     _clip_for(cam, dist)

@@ -692,6 +692,93 @@ def test_a_framing_camera_films_a_long_walk_from_the_side_at_any_size():
             assert cam.data.clip_start < p.z < cam.data.clip_end, (lo, hi, corner)
 
 
+def keyed_cube(name, path):
+    """A 1 m cube keyed at each (frame, location) of ``path``."""
+    bpy.ops.mesh.primitive_cube_add(size=1.0)
+    ob = bpy.context.active_object
+    ob.name = name
+    for frame, loc in path:
+        ob.location = loc
+        ob.keyframe_insert("location", frame=frame)
+    return ob
+
+
+def assert_in_view(scene, cam, ob):
+    from bpy_extras.object_utils import world_to_camera_view
+
+    for c in ob.bound_box:
+        p = world_to_camera_view(scene, cam, ob.matrix_world @ Vector(c))
+        assert 0 <= p.x <= 1 and 0 <= p.y <= 1 and cam.data.clip_start < p.z < cam.data.clip_end, \
+            (scene.frame_current, tuple(p))
+
+
+def test_a_following_camera_travels_level_with_the_walker_and_keeps_it_in_frame():
+    """Make Video's FOLLOW camera is keyed along a 10 m walk at one height (the walker bobs, the
+    camera does not), much nearer the walker than a camera framing the whole path, and has it in
+    frame at every frame; a walker that stays in place gets a fixed framing camera instead."""
+    filming = __import__(ADDON + ".filming", fromlist=["filming"])
+    scene = bpy.context.scene
+    scene.frame_start, scene.frame_end = 1, 41
+    scene.render.resolution_x, scene.render.resolution_y = 160, 90
+    walker = keyed_cube("Walker", [(f, (0.25 * (f - 1), 0.0, 0.5 + 0.3 * ((f // 4) % 2))) for f in range(1, 42, 4)])
+    objects = filming.character_objects(scene)
+    assert objects == [walker]
+    boxes = filming.motion_boxes(scene, objects)
+    cam = filming.add_follow_camera(scene, boxes, 16 / 9)
+    fixed = filming.add_camera(scene, *filming.union_box(boxes), 16 / 9)
+    assert cam.animation_data is not None and cam.animation_data.action is not None
+    heights = set()
+    for f in range(scene.frame_start, scene.frame_end + 1):
+        scene.frame_set(f)
+        heights.add(round(cam.matrix_world.translation.z, 5))
+        assert_in_view(scene, cam, walker)
+        at = walker.matrix_world.translation
+        near, far = (cam.matrix_world.translation - at).length, (fixed.matrix_world.translation - at).length
+        assert near < 0.5 * far, (f, near, far)
+    assert len(heights) == 1, heights
+
+    bpy.data.objects.remove(walker)
+    stay = keyed_cube("Stay", [(f, (2.0, 1.0, 0.5 + 0.3 * ((f // 4) % 2))) for f in range(1, 42, 4)])
+    cam = filming.add_follow_camera(scene, filming.motion_boxes(scene, [stay]), 16 / 9)
+    assert cam.animation_data is None
+    for f in (1, 5, 41):
+        scene.frame_set(f)
+        assert_in_view(scene, cam, stay)
+
+
+def test_the_camera_frames_the_visible_meshes_an_armature_deforms():
+    """What Make Video frames: visible meshes deformed by (or parented to) an armature, not a
+    hidden proxy or an unrigged ground plane; without a rigged mesh every visible mesh; without
+    a mesh the armatures."""
+    filming = __import__(ADDON + ".filming", fromlist=["filming"])
+    scene = bpy.context.scene
+    arm = B.chain("Rig", count=2)
+    body, proxy, hat = B.cylinder("Body"), B.cylinder("Proxy"), B.cylinder("Hat")
+    for ob in (body, proxy):
+        ob.modifiers.new("Armature", "ARMATURE").object = arm
+    hat.parent = arm
+    proxy.hide_set(True)
+    bpy.ops.mesh.primitive_plane_add(size=20.0)
+    ground = bpy.context.active_object
+    assert set(filming.character_objects(scene)) == {body, hat}
+    body.modifiers.clear()
+    hat.parent = None
+    assert set(filming.character_objects(scene)) == {body, hat, ground}
+    for ob in (body, proxy, hat, ground):
+        bpy.data.objects.remove(ob)
+    assert filming.character_objects(scene) == [arm]
+
+
+def test_the_video_goes_next_to_the_saved_blend_file_by_default(tmp_path):
+    filming = __import__(ADDON + ".filming", fromlist=["filming"])
+    scene = bpy.context.scene
+    from pathlib import Path
+
+    assert filming.default_video_path(scene) == Path.cwd() / "out" / "Scene.mp4"
+    bpy.ops.wm.save_as_mainfile(filepath=str(tmp_path / "shot.blend"))
+    assert filming.default_video_path(scene) == tmp_path / "shot.mp4"
+
+
 def test_video_counts_the_frames_it_renders_on_the_scene_frame_step(tmp_path, capfd):
     """Render Animation renders every frame_step-th frame; the report and the progress said
     frame_end - frame_start + 1 (5 here, for 3 frames rendered)."""
