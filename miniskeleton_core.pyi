@@ -32,7 +32,8 @@ def bilinear_weights(
     parents: Optional[ArrayLike] = None, *, max_influences: int = 4, nearest: int = 3,
     falloff: str = "gaussian", sigma: Optional[float] = None, power: float = 2.0,
 ) -> Influences:
-    """K nearest bones with radial falloff, each share split with the neighbour across the nearer joint."""
+    """K = nearest (>= 1) nearest bones with radial falloff, each share split with the neighbour across the
+    nearer joint. nearest or max_influences of 0 is a ValueError."""
 
 def heat_weights(
     vertices: ArrayLike, triangles: ArrayLike, bone_heads: ArrayLike, bone_tails: ArrayLike, *,

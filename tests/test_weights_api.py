@@ -214,8 +214,16 @@ def test_bad_inputs_raise_clear_errors(cyl):
         msc.idw_weights(v[:, :2], h, tl)
     with pytest.raises(ValueError):
         msc.heat_weights(v, t, h[:0], tl[:0])  # no bones
-    with pytest.raises(ValueError):
+    with pytest.raises(ValueError, match="max_influences"):
         msc.idw_weights(v, h, tl, max_influences=0)
+    with pytest.raises(ValueError, match="nearest"):
+        msc.bilinear_weights(v, h, tl, nearest=0)
+    mirror = np.arange(len(h))
+    for axis in (3, -1):
+        with pytest.raises((ValueError, OverflowError), match="symmetry_axis|negative"):
+            msc.heat_weights(v, t, h, tl, bone_mirror=mirror, symmetry_axis=axis)
+    with pytest.raises(ValueError, match="go together"):
+        msc.heat_weights(v, t, h, tl, curve_points=v[:2])
     with pytest.raises(ValueError):
         msc.heat_weights(v[:0], t[:0], h, tl)  # empty mesh
     # Sizes that would not fit in memory are refused before anything is allocated.

@@ -83,7 +83,7 @@ pub fn bilinear_weights<'py>(
             return Err(PyValueError::new_err(format!("falloff must be 'gaussian' or 'inverse_power', got {other:?}")))
         }
     };
-    let opts = BilinearOptions { nearest: nearest.max(1), falloff, max_influences: positive_k(max_influences)? };
+    let opts = BilinearOptions { nearest, falloff, max_influences: positive_k(max_influences)? };
     let inf = guarded(py, || core_bilinear(&v, &h, &t, &p, &opts))?;
     to_pair(py, inf)
 }
