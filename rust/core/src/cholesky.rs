@@ -106,3 +106,43 @@ fn numeric_factor(
         Err(symbolic)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Lower pattern of a full symmetric 3 x 3 matrix, column by column (diagonal first).
+    const COL_PTR: [usize; 4] = [0, 3, 5, 6];
+    const ROW_IDX: [usize; 6] = [0, 1, 2, 1, 2, 2];
+
+    /// [[d, 2, 0], [2, d, 1], [0, 1, d]] as lower values in the order of `ROW_IDX`.
+    fn values(d: f64) -> Vec<f64> {
+        vec![d, 2.0, 0.0, d, 1.0, d]
+    }
+
+    #[test]
+    fn retries_with_more_regularization_until_a_factor_exists_then_solves() {
+        let pattern = SymbolicSparseColMatRef::new_checked(3, 3, &COL_PTR, None, &ROW_IDX);
+        // d = 1 is indefinite, d = 2 singular (second pivot 2 - 2 * 2 / 2 = 0), d = 4 positive definite.
+        let regs = [1.0, 2.0, 4.0];
+        let symbolic = symbolic_factor(pattern).unwrap();
+        let (factor, attempt) = factor_first(symbolic, pattern, &regs, values).expect("the third one factors");
+        assert_eq!(attempt, 2);
+        // Two right-hand sides of known solutions x1 = (1, 2, 3) and x2 = (-1, 0, 0.5) for d = 4.
+        let a = [[4.0, 2.0, 0.0], [2.0, 4.0, 1.0], [0.0, 1.0, 4.0]];
+        let xs = [[1.0, 2.0, 3.0], [-1.0, 0.0, 0.5]];
+        let mut cols: Vec<f64> =
+            xs.iter().flat_map(|x| (0..3).map(move |i| (0..3).map(|j| a[i][j] * x[j]).sum::<f64>())).collect();
+        factor.solve_columns(&mut cols, 3);
+        for (got, want) in cols.iter().zip(xs.iter().flatten()) {
+            assert!((got - want).abs() < 1e-12, "{cols:?}");
+        }
+    }
+
+    #[test]
+    fn no_factor_when_every_regularization_fails() {
+        let pattern = SymbolicSparseColMatRef::new_checked(3, 3, &COL_PTR, None, &ROW_IDX);
+        let symbolic = symbolic_factor(pattern).unwrap();
+        assert!(factor_first(symbolic, pattern, &[0.0, 1.0, -3.0], values).is_none());
+    }
+}
