@@ -8,7 +8,7 @@ use std::fmt;
 pub enum Error {
     /// The mesh has no vertices (or, where faces are required, no usable faces).
     EmptyMesh(String),
-    /// `count` inputs of kind `what` (vertices, bone ends, matrices...) hold NaN or infinity.
+    /// `count` inputs of kind `what` (vertices, bones, matrices...) hold NaN or infinity.
     NonFinite { what: &'static str, count: usize },
     /// A triangle refers to a vertex that does not exist.
     BadIndex { triangle: usize, index: i64, vertex_count: usize },

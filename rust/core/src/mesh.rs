@@ -51,7 +51,7 @@ pub fn validate_bones(heads: &[[f32; 3]], tails: &[[f32; 3]]) -> Result<()> {
     if heads.is_empty() {
         return Err(Error::NoBones("no bones: the bone list is empty".into()));
     }
-    let bad = count_non_finite(heads) + count_non_finite(tails);
+    let bad = heads.iter().zip(tails).filter(|(h, t)| h.iter().chain(t.iter()).any(|c| !c.is_finite())).count();
     if bad > 0 {
         return Err(Error::NonFinite { what: "bone", count: bad });
     }
@@ -158,6 +158,12 @@ mod tests {
         assert!(matches!(validate_mesh(&v, &[], true), Err(Error::EmptyMesh(_))));
         assert!(matches!(validate_bones(&[], &[]), Err(Error::NoBones(_))));
         assert!(matches!(validate_bones(&v, &v[..2]), Err(Error::Shape(_))));
+        // A bone with a NaN in its head, its tail or both counts once.
+        let bad = [[0.0, 0.0, f32::NAN], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
+        assert!(validate_bones(&v, &v).is_ok());
+        assert_eq!(validate_bones(&bad, &v), Err(Error::NonFinite { what: "bone", count: 1 }));
+        assert_eq!(validate_bones(&v, &bad), Err(Error::NonFinite { what: "bone", count: 1 }));
+        assert_eq!(validate_bones(&bad, &bad), Err(Error::NonFinite { what: "bone", count: 1 }));
     }
 
     #[test]
