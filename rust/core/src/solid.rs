@@ -197,6 +197,21 @@ mod tests {
     }
 
     #[test]
+    fn inside_takes_the_majority_of_directions() {
+        // A unit box without its top: from above the opening 3 of the 7 directions go in and
+        // cross a wall once (odd), the other 4 miss; the majority says outside.
+        let (mut v, mut t) = (Vec::new(), Vec::new());
+        add_box(&mut v, &mut t, [0.0, 0.0, 0.0], [1.0, 1.0, 1.0]);
+        t.drain(2..4); // z = hi
+        let s = Solid::new(&v, &t, 1e-6, 1e-6);
+        let above = DVec3::new(0.5, 0.5, 1.2);
+        let odd = PARITY_DIRS.iter().filter(|d| s.hits(above.as_vec3(), Vec3::from_array(**d), 10.0).len() % 2 == 1);
+        assert_eq!(odd.count(), 3);
+        assert!(!s.inside(above, 10.0));
+        assert!(s.inside(DVec3::new(0.5, 0.5, 0.5), 10.0));
+    }
+
+    #[test]
     fn touching_pieces_leave_no_gap_and_one_piece_is_its_own_hits() {
         let (mut v, mut t) = (Vec::new(), Vec::new());
         add_box(&mut v, &mut t, [0.0, 0.0, 0.0], [0.5, 0.2, 0.2]);
