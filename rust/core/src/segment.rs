@@ -1,7 +1,7 @@
 //! Point-to-segment distance, the basic query behind every bone-weighting scheme
 //! (a bone is the straight segment head -> tail).
 
-use glam::{DVec3, Vec3};
+use glam::DVec3;
 
 /// Closest point on the segment `a`-`b` to the point `p`.
 ///
@@ -20,15 +20,6 @@ pub fn closest_point_on_segment(p: DVec3, a: DVec3, b: DVec3) -> (f64, f64) {
     (t, (p - (a + ab * t)).length())
 }
 
-/// Single-precision twin of [`closest_point_on_segment`], same contract.
-#[inline]
-pub fn closest_point_on_segment_f32(p: Vec3, a: Vec3, b: Vec3) -> (f32, f32) {
-    let ab = b - a;
-    let len2 = ab.length_squared();
-    let t = if len2 > f32::MIN_POSITIVE { ((p - a).dot(ab) / len2).clamp(0.0, 1.0) } else { 0.0 };
-    (t, (p - (a + ab * t)).length())
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -44,8 +35,5 @@ mod tests {
         let (t, d) = closest_point_on_segment(DVec3::new(0.0, 3.0, 0.0), a, a);
         assert_eq!(t, 0.0);
         assert!((d - 3.0).abs() < 1e-12);
-        let (t, d) = closest_point_on_segment_f32(Vec3::new(0.0, 0.0, -1.0), Vec3::ZERO, Vec3::Z);
-        assert_eq!(t, 0.0);
-        assert!((d - 1.0).abs() < 1e-6);
     }
 }
