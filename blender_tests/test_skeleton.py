@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import importlib
 import json
+import re
 
 import bpy
 import numpy as np
@@ -488,10 +489,15 @@ def test_fit_keeps_control_bones_outside_the_mesh_where_they_are(capfd):
         body, arm, ends, orig, moved, diag = creature_setup(seed=6)
         return body, arm, ends, moved
 
+    def outside_counts(printed):
+        return re.search(r"outside the mesh before (\d+), after (\d+)", printed).groups()
+
     body, arm, ends, moved = displaced_creature()
     builders.select_for_parenting([body], arm)
+    capfd.readouterr()
     assert bpy.ops.armature.miniskeleton_fit_skeleton() == {"FINISHED"}
     alone = edit_state(arm)
+    alone_outside = outside_counts("".join(capfd.readouterr()))
 
     body, arm, ends, moved = displaced_creature()
     builders.set_active(arm)
@@ -512,8 +518,10 @@ def test_fit_keeps_control_bones_outside_the_mesh_where_they_are(capfd):
     builders.select_for_parenting([body], arm)
     capfd.readouterr()
     assert bpy.ops.armature.miniskeleton_fit_skeleton() == {"FINISHED"}
-    assert "6 joints of non-deform bones (controls such as IK and pole targets) kept in place" \
-        in "".join(capfd.readouterr())
+    printed = "".join(capfd.readouterr())
+    assert "6 joints of non-deform bones (controls such as IK and pole targets) kept in place" in printed
+    # The controls left outside on purpose are not counted as joints outside the mesh.
+    assert outside_counts(printed) == alone_outside and int(alone_outside[0]) > 0, (printed, alone_outside)
     after = edit_state(arm)
     for name in controls:
         assert after[name][:2] == before[name][:2], name
@@ -888,6 +896,31 @@ def test_npz_export_reads_each_vertex_weights_as_blender_holds_them(tmp_path):
         assert np.allclose(f["weights"][1], [0.5, 0.5]) and f["indices"][1].tolist() == [index[d], index[b]]
 
 
+def test_npz_of_the_meshes_a_rig_moves_goes_back_mesh_by_mesh(tmp_path):
+    """With no mesh selected, export takes every mesh the armature deforms or carries (an
+    Armature modifier, or parented to the armature), not an unrelated one; importing onto those
+    meshes selected together gives each its own rows back."""
+    body, arm = bound_cylinder("IDW")
+    hat = builders.cylinder("Hat", radius=0.3, height=0.5, rings=3, segments=8)
+    hat.parent = arm
+    hat.vertex_groups.new(name="Bone3").add(list(range(len(hat.data.vertices))), 1.0, "REPLACE")
+    builders.cylinder("Ground", rings=2)
+    names = [b.name for b in arm.data.bones]
+    before = {ob.name: builders.weights_matrix(ob, names) for ob in (body, hat)}
+    builders.set_active(arm)
+    path = str(tmp_path / "rig.npz")
+    assert bpy.ops.export_scene.miniskeleton_npz(filepath=path) == {"FINISHED"}
+    with np.load(path) as f:
+        assert list(f["mesh_names"]) == ["Body", "Hat"]
+        assert list(f["mesh_vertex_counts"]) == [len(body.data.vertices), len(hat.data.vertices)]
+    for ob in (body, hat):
+        ob.vertex_groups.clear()
+    builders.set_active(hat, selected=[body])
+    assert bpy.ops.import_scene.miniskeleton_npz(filepath=path) == {"FINISHED"}
+    for ob in (body, hat):
+        assert np.array_equal(builders.weights_matrix(ob, names), before[ob.name]), ob.name
+
+
 def test_json_debug_export(tmp_path):
     ob, arm = bound_cylinder("IDW")
     arm.data.bones["Bone3"].use_deform = False   # after binding: its group stays
@@ -993,6 +1026,33 @@ def test_bad_inputs_are_reported(capfd):
     builders.select_for_parenting([nan], arm)
     with pytest.raises(RuntimeError, match="NaN"):
         bpy.ops.armature.miniskeleton_fit_skeleton()
+
+
+def test_bones_just_made_in_edit_mode_are_fitted_and_kept():
+    """A new armature's bones are only edit bones until Edit Mode ends: Fit and Keep Current
+    as Original see them and work in Edit Mode, which stays on."""
+    body = builders.cylinder("Body")
+    data = bpy.data.armatures.new("New")
+    arm = bpy.data.objects.new("New", data)
+    bpy.context.scene.collection.objects.link(arm)
+    builders.set_active(arm)
+    bpy.ops.object.mode_set(mode="EDIT")
+    prev = None
+    for i, (z0, z1) in enumerate(((0.3, 1.5), (1.5, 2.8), (2.8, 3.7))):
+        eb = data.edit_bones.new(f"B{i}")
+        eb.head, eb.tail = (0.15, 0.0, z0), (0.15, 0.0, z1)
+        eb.select = eb.select_head = eb.select_tail = False
+        if prev is not None:
+            eb.parent, eb.use_connect = prev, True
+        prev = eb
+    assert len(data.bones) == 0
+    builders.select_for_parenting([body], arm)
+    assert bpy.ops.armature.miniskeleton_fit_skeleton() == {"FINISHED"}
+    assert arm.mode == "EDIT"
+    for eb in data.edit_bones:
+        assert abs(eb.head.x) < 0.03 and abs(eb.tail.x) < 0.03, (eb.name, tuple(eb.head), tuple(eb.tail))
+    assert bpy.ops.armature.miniskeleton_snapshot_skeleton() == {"FINISHED"}
+    assert rig_io.load_snapshot(data)["names"] == ["B0", "B1", "B2"]
 
 
 def test_fit_that_fails_leaves_a_pose_not_yet_keyed_as_it_was():
