@@ -309,9 +309,10 @@ def test_fit_and_restore_keep_a_constrained_bone_child_in_place():
     assert not spin.mute and ob.parent_type == "BONE"
 
 
-def test_fit_imported_rig_invented_tails_follow_their_bones():
+def test_fit_imported_rig_invented_tails_follow_their_bones(capfd):
     """No bone connected (as after a glTF/FBX import): tails that are no bone's head are invented,
-    keep their bone's vector from the fitted head; the real joints (heads) still go inside."""
+    keep their bone's vector from the fitted head; the real joints (heads) still go inside. The
+    report counts the invented tails apart from the joints fitted."""
     body, arm, ends, orig, moved, diag = creature_setup(seed=3)
     builders.set_active(arm)
     bpy.ops.object.mode_set(mode="EDIT")
@@ -323,7 +324,11 @@ def test_fit_imported_rig_invented_tails_follow_their_bones():
     bpy.ops.object.mode_set(mode="OBJECT")
     assert vec  # leaf bones
     builders.select_for_parenting([body], arm)
+    capfd.readouterr()
     assert bpy.ops.armature.miniskeleton_fit_skeleton() == {"FINISHED"}
+    joints = len(heads) + len(vec)
+    assert f"of {joints - len(vec)} joints ({len(vec)} invented tails followed their bones)" \
+        in capfd.readouterr().out
     bpy.ops.object.mode_set(mode="EDIT")
     ebs = arm.data.edit_bones
     for name, v in vec.items():
