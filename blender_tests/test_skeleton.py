@@ -798,6 +798,28 @@ def test_npz_and_edit_mode(tmp_path):
     assert np.array_equal(builders.weights_matrix(ob, names)[:-1], before)
 
 
+def test_npz_export_of_an_armature_in_edit_mode_has_its_bones_as_edited(tmp_path):
+    """A bone moved in Edit Mode and not yet left is exported where the rigger sees it; import
+    goes onto the active mesh when no mesh is selected."""
+    ob, arm = bound_cylinder("IDW")
+    names = [b.name for b in arm.data.bones]
+    builders.set_active(arm)
+    bpy.ops.object.mode_set(mode="EDIT")
+    arm.data.edit_bones["Bone3"].tail.x += 0.5
+    builders.set_active(arm, selected=[ob])
+    path = str(tmp_path / "rig.npz")
+    assert bpy.ops.export_scene.miniskeleton_npz(filepath=path) == {"FINISHED"}
+    with np.load(path) as f:
+        assert abs(f["tails"][names.index("Bone3")][0] - 0.5) < 1e-6
+    bpy.ops.object.mode_set(mode="OBJECT")
+    before = builders.weights_matrix(ob, names)
+    ob.vertex_groups.clear()
+    builders.set_active(ob)
+    ob.select_set(False)
+    assert bpy.ops.import_scene.miniskeleton_npz(filepath=path) == {"FINISHED"}
+    assert np.array_equal(builders.weights_matrix(ob, names), before)
+
+
 def _bundle(n, **over):
     """A two-bone bundle for ``n`` vertices (A 0.75, B 0.25 everywhere), with ``over`` replaced."""
     rig = dict(format_version=np.int32(1), vertices=np.zeros((n, 3), np.float32),
