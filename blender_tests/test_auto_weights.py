@@ -113,6 +113,37 @@ def test_weights_on_cylinder_chain(method):
     assert moved[bottom].max() < (0.25 if method == "IDW" else 0.05) * moved[top].min()
 
 
+@pytest.mark.parametrize("method, options, core_kw", [
+    ("IDW", dict(power=4.0, max_influences=3), dict(power=4.0, max_influences=3)),
+    ("BILINEAR", dict(falloff="INVERSE_POWER", power=3.0, nearest=2),
+     dict(falloff="inverse_power", power=3.0, nearest=2)),
+    ("BILINEAR", dict(falloff="GAUSSIAN", sigma=0.03), dict(falloff="gaussian", sigma=0.03)),
+    ("HEAT", dict(visibility=False), dict(visibility=False)),
+], ids=["IDW power", "BILINEAR inverse power", "BILINEAR sigma", "HEAT no visibility"])
+def test_each_option_reaches_the_core(method, options, core_kw):
+    """An option of Auto Weights gives the weights the core gives with that argument, which on
+    the creature differ from the defaults' (so an option that is dropped on the way shows)."""
+    import miniskeleton_core as core
+
+    mesh_io = importlib.import_module("bl_ext.user_default.miniskeleton.mesh_io")
+    body, arm = creature.build_body(subdivisions=0), creature.build_armature()
+    bones = mesh_io.armature_bones(arm)
+    v, t = B.world_vertices(body), mesh_io.mesh_triangles(body)
+
+    def solve(**kw):
+        if method == "IDW":
+            return core.idw_weights(v, bones.heads, bones.tails, **kw)
+        if method == "BILINEAR":
+            return core.bilinear_weights(v, bones.heads, bones.tails, bones.parents, **kw)
+        return core.heat_weights(v, t, bones.heads, bones.tails, **kw)
+
+    assert bind([body], arm, method=method, **options) == {"FINISHED"}
+    got = B.weights_matrix(body, bones.names)
+    want = B.dense_weights(*solve(**core_kw), len(bones.names))
+    np.testing.assert_allclose(got, want, atol=1e-6)
+    assert np.abs(B.dense_weights(*solve(), len(bones.names)) - want).max() > 0.05
+
+
 def test_heat_is_default_and_rebinding_does_not_duplicate_modifier():
     ob = B.cylinder()
     arm = B.chain()
