@@ -61,6 +61,14 @@ def test_symmetry_x_pairs_side_bones_whose_names_carry_no_side_by_place(capfd):
     w = B.weights_matrix(ob, ["thigh.one", "shin.one", "thigh.two", "shin.two"])
     np.testing.assert_allclose(w, named, atol=1e-6)
     assert w[:half, :2].sum(axis=1).min() > 0.99  # the left leg on the left bones only
+    # A second pair of legs apart from the first: the note, about the armature, is said once.
+    twin = ob.copy()
+    twin.data = ob.data.copy()
+    twin.location.y += 3.0
+    bpy.context.scene.collection.objects.link(twin)
+    capfd.readouterr()
+    assert bind([ob, twin], arm, symmetry="X") == {"FINISHED"}
+    assert "".join(capfd.readouterr()).count("have no side in their names") == 1
 
 
 def test_symmetry_x_is_the_armatures_x_wherever_the_rig_stands(capfd):
