@@ -463,6 +463,10 @@ def test_mirror_pairs_by_name():
     assert (m[3], m[4]) == (4, 3)                       # numbered glTF names, Left/Right words
     assert (m[5], m[6]) == (6, 5)                       # _L_ inside the name
     assert m[7] == -1 and m[9] == -1                    # side bones without a partner: free
+    # b_LeftArm_01 finds b_RightArm_02 by its stem, but that one's stem has two left bones:
+    # a pair must agree both ways, so all three stay free.
+    m = mesh_io.bone_mirror_indices(["b_LeftArm_01", "b_RightArm_02", "b_LeftArm_03"]).tolist()
+    assert m == [-1, -1, -1]
 
 
 def test_fit_symmetry_leaves_unpaired_side_joints_off_the_centre_line():
