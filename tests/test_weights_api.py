@@ -110,13 +110,14 @@ def test_heat_small_boneless_piece_is_rigid_on_nearest_bone(cyl):
     v, t, h, tl, p = cyl
     sv, st = msc.capped_cylinder(0.25, 1.0, 8, 12)
     verts, tris = pieces_mesh([(v, t), (sv + [3, 0, 2.0], st)])  # centre z = 2.5: Bone2's middle
-    idx, w, report = msc.heat_weights_report(verts, tris, h, tl)
-    check_influences(idx, w, len(verts), 4, len(h))
-    assert report["rigid_pieces"] == 1 and report["boneless_pieces"] >= 1
-    part = slice(len(v), None)
-    assert (w[part, 0] == 1).all() and set(idx[part, 0]) == {2}
-    # the body itself is still smoothly blended
-    assert (w[: len(v), 1] > 0.05).sum() > 50
+    for visibility in (True, False):  # the inside tests need rays without the visibility test too
+        idx, w, report = msc.heat_weights_report(verts, tris, h, tl, visibility=visibility)
+        check_influences(idx, w, len(verts), 4, len(h))
+        assert report["rigid_pieces"] == 1 and report["boneless_pieces"] >= 1, visibility
+        part = slice(len(v), None)
+        assert (w[part, 0] == 1).all() and set(idx[part, 0]) == {2}
+        # the body itself is still smoothly blended
+        assert (w[: len(v), 1] > 0.05).sum() > 50
 
 
 def test_heat_piece_that_sees_no_bone_falls_back_rigidly(cyl):
