@@ -362,3 +362,20 @@ def test_heat_bent_bones_take_their_curve_points(cyl):
         msc.heat_weights(v, t, heads, tails, curve_points=[[0, 0, 3]])
     with pytest.raises(ValueError, match="bone 2"):
         msc.heat_weights(v, t, heads, tails, curve_points=[[0, 0, 3]], curve_bones=[2])
+
+
+@pytest.mark.parametrize("radius", [0.002, 0.05])
+def test_heat_blends_across_a_joint_over_a_width_set_by_the_limbs_thickness(radius):
+    """Heat's blend across a joint is as wide as the limb is thick (Pinocchio's H = c / d^2, d
+    down to 1e-5 of the mesh's size), for a finger-thin tube too: the side vertices go from 0.9
+    to 0.1 of the lower bone within 1 to 2.5 radii of the joint (1.4-1.6 here; 7.5 radii on the
+    thin tube when d is clamped at 1 % of the size)."""
+    v, t = msc.capped_cylinder(radius, 1.0, 1000, 12)
+    h = np.float32([[0, 0, 0], [0, 0, 0.5]])
+    tl = np.float32([[0, 0, 0.5], [0, 0, 1.0]])
+    idx, w = msc.heat_weights(v, t, h, tl)
+    lower = np.where(idx == 0, w, 0).sum(1)
+    side = np.hypot(v[:, 0], v[:, 1]) > 0.99 * radius
+    z, a = v[side, 2], lower[side]
+    width = z[a > 0.1].max() - z[a < 0.9].min()
+    assert radius <= width <= 2.5 * radius, width / radius
