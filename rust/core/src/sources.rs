@@ -276,6 +276,24 @@ mod tests {
         assert_eq!((s.count, s.bones[0], s.bones[1]), (2, 0, 1));
     }
 
+    /// Through its own piece a vertex sees only bones behind its surface: a bone in front of a
+    /// face of the cube, which no triangle hides, is seen through the whole mesh but not
+    /// through the piece; a bone inside is seen both ways.
+    #[test]
+    fn through_its_own_piece_a_vertex_sees_only_bones_behind_its_surface() {
+        let rm = unit_cube();
+        let tri_piece = vec![0u32; 12];
+        let (x, normal) = (DVec3::new(1.0, 0.5, 0.5), DVec3::X);
+        let front = (DVec3::new(1.5, 0.5, 0.2), DVec3::new(1.5, 0.5, 0.8));
+        let behind = (DVec3::new(0.5, 0.5, 0.2), DVec3::new(0.5, 0.5, 0.8));
+        let whole = Some(Sight { rays: &rm, tri_piece: None, piece: 0, normal });
+        let own = Some(Sight { rays: &rm, tri_piece: Some(&tri_piece), piece: 0, normal });
+        for (bone, seen_whole, seen_own) in [(front, true, false), (behind, true, true)] {
+            assert_eq!(is_visible(x, bone, 0.5, whole), seen_whole, "{bone:?}");
+            assert_eq!(is_visible(x, bone, 0.5, own), seen_own, "{bone:?}");
+        }
+    }
+
     /// Pinocchio's ties: a bone farther than the nearest by less than [`TIE_RATIO`] (relative)
     /// shares the vertex's heat source, in both rankings (nearest visible bone, and nearest by
     /// plain distance for the fallbacks); farther by more, it does not.
