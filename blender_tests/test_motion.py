@@ -637,6 +637,33 @@ def probe(path):
     return clip.frame_duration, clip.size[0], clip.size[1]
 
 
+def keyed_cube(name, path):
+    """A 1 m cube keyed at each (frame, location) of ``path``."""
+    bpy.ops.mesh.primitive_cube_add(size=1.0)
+    ob = bpy.context.active_object
+    ob.name = name
+    for frame, loc in path:
+        ob.location = loc
+        ob.keyframe_insert("location", frame=frame)
+    return ob
+
+
+def corners(ob):
+    """World corners of ``ob``'s bounding box, at the current frame."""
+    return [ob.matrix_world @ Vector(c) for c in ob.bound_box]
+
+
+def assert_in_view(scene, cam, points):
+    """Every world point projects inside ``cam``'s frame (the scene's render size) and between
+    its clipping distances."""
+    from bpy_extras.object_utils import world_to_camera_view
+
+    for q in points:
+        p = world_to_camera_view(scene, cam, Vector(q))
+        assert 0 <= p.x <= 1 and 0 <= p.y <= 1 and cam.data.clip_start < p.z < cam.data.clip_end, \
+            (scene.frame_current, tuple(q), tuple(p))
+
+
 def test_video_is_a_valid_mp4(tmp_path):
     body, arm = creature.build_body(subdivisions=0), creature.build_armature()
     B.select_for_parenting([body], arm)
@@ -660,11 +687,7 @@ def test_video_is_a_valid_mp4(tmp_path):
     assert probe(out) == (5, 64, 48)
     # the camera sees the whole character: its bounding box projects inside the video's frame
     render.resolution_x, render.resolution_y = 64, 48
-    from bpy_extras.object_utils import world_to_camera_view
-
-    for c in body.bound_box:
-        p = world_to_camera_view(scene, scene.camera, body.matrix_world @ Vector(c))
-        assert 0 <= p.x <= 1 and 0 <= p.y <= 1 and p.z > 0
+    assert_in_view(scene, scene.camera, corners(body))
 
 
 def test_a_framing_camera_films_a_long_walk_from_the_side_at_any_size():
@@ -675,8 +698,6 @@ def test_a_framing_camera_films_a_long_walk_from_the_side_at_any_size():
     filming = __import__(ADDON + ".filming", fromlist=["filming"])
     scene = bpy.context.scene
     scene.render.resolution_x, scene.render.resolution_y = 160, 90
-    from bpy_extras.object_utils import world_to_camera_view
-
     boxes = [((-0.5, -6.0, 0.0), (0.5, 0.0, 1.5), 0), ((-6.0, -0.5, 0.0), (0.0, 0.5, 1.5), 1),
              ((0.0, 0.0, 0.0), (0.01, 0.01, 0.02), None), ((0.0, 0.0, 0.0), (1000.0, 1000.0, 2000.0), None)]
     for lo, hi, across in boxes:
@@ -686,30 +707,7 @@ def test_a_framing_camera_films_a_long_walk_from_the_side_at_any_size():
         if across is not None:
             assert abs(look[across]) > 2 * abs(look[1 - across]), (lo, hi, tuple(look))
         scene.camera = cam
-        for corner in ((x, y, z) for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])):
-            p = world_to_camera_view(scene, cam, Vector(corner))
-            assert 0 <= p.x <= 1 and 0 <= p.y <= 1, (lo, hi, corner)
-            assert cam.data.clip_start < p.z < cam.data.clip_end, (lo, hi, corner)
-
-
-def keyed_cube(name, path):
-    """A 1 m cube keyed at each (frame, location) of ``path``."""
-    bpy.ops.mesh.primitive_cube_add(size=1.0)
-    ob = bpy.context.active_object
-    ob.name = name
-    for frame, loc in path:
-        ob.location = loc
-        ob.keyframe_insert("location", frame=frame)
-    return ob
-
-
-def assert_in_view(scene, cam, ob):
-    from bpy_extras.object_utils import world_to_camera_view
-
-    for c in ob.bound_box:
-        p = world_to_camera_view(scene, cam, ob.matrix_world @ Vector(c))
-        assert 0 <= p.x <= 1 and 0 <= p.y <= 1 and cam.data.clip_start < p.z < cam.data.clip_end, \
-            (scene.frame_current, tuple(p))
+        assert_in_view(scene, cam, [(x, y, z) for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
 
 
 def test_a_following_camera_travels_level_with_the_walker_and_keeps_it_in_frame():
@@ -731,7 +729,7 @@ def test_a_following_camera_travels_level_with_the_walker_and_keeps_it_in_frame(
     for f in range(scene.frame_start, scene.frame_end + 1):
         scene.frame_set(f)
         heights.add(round(cam.matrix_world.translation.z, 5))
-        assert_in_view(scene, cam, walker)
+        assert_in_view(scene, cam, corners(walker))
         at = walker.matrix_world.translation
         near, far = (cam.matrix_world.translation - at).length, (fixed.matrix_world.translation - at).length
         assert near < 0.5 * far, (f, near, far)
@@ -743,7 +741,7 @@ def test_a_following_camera_travels_level_with_the_walker_and_keeps_it_in_frame(
     assert cam.animation_data is None
     for f in (1, 5, 41):
         scene.frame_set(f)
-        assert_in_view(scene, cam, stay)
+        assert_in_view(scene, cam, corners(stay))
 
 
 def test_the_camera_frames_the_visible_meshes_an_armature_deforms():
