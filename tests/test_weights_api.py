@@ -371,10 +371,8 @@ def test_heat_blends_across_a_joint_over_a_width_set_by_the_limbs_thickness(radi
     to 0.1 of the lower bone within 1 to 2.5 radii of the joint (1.4-1.6 here; 7.5 radii on the
     thin tube when d is clamped at 1 % of the size)."""
     v, t = msc.capped_cylinder(radius, 1.0, 1000, 12)
-    h = np.float32([[0, 0, 0], [0, 0, 0.5]])
-    tl = np.float32([[0, 0, 0.5], [0, 0, 1.0]])
-    idx, w = msc.heat_weights(v, t, h, tl)
-    lower = np.where(idx == 0, w, 0).sum(1)
+    h, tl, _ = msc.bone_chain(1.0, 2)  # joint at z = 0.5
+    lower = dense(*msc.heat_weights(v, t, h, tl), 2)[:, 0]
     side = np.hypot(v[:, 0], v[:, 1]) > 0.99 * radius
     z, a = v[side, 2], lower[side]
     width = z[a > 0.1].max() - z[a < 0.9].min()
