@@ -431,8 +431,9 @@ def test_feet_hanging_off_the_root_walk_with_their_legs(invented_tails, scale, c
 def test_a_key_series_is_the_keys_keyframe_insert_makes_one_by_one(before, path):
     """Add Motion and Bake Puppet Animation write each bone's keys as one series (keying a frame
     at a time slowed as the curves grew: 100 walk cycles took 11 s, now 0.3 s). The series is
-    the same keys, handles, interpolation, key types and group as keyframe_insert makes one
-    frame at a time, after a curve's earlier keys or over keys in its range."""
+    the same keys, handles, interpolation, key types, easing and group as keyframe_insert makes
+    one frame at a time, after a curve's earlier keys or over keys in its range (the rigger's
+    keys there constant, breakdowns, eased in: new keys are Blender's kind, not theirs)."""
     keys = __import__(ADDON + ".keys", fromlist=["keys"])
     rng = np.random.default_rng(5)
     values = rng.normal(size=(21, 4 if path == "rotation_quaternion" else 3))
@@ -445,6 +446,9 @@ def test_a_key_series_is_the_keys_keyframe_insert_makes_one_by_one(before, path)
         for f in {"earlier keys": (1, 4), "keys in the range": (12, 15, 40)}.get(before, ()):
             setattr(pb, path, [0.3] * len(values[0]))
             pb.keyframe_insert(path, frame=f, group="Mine")
+        for fc in keys.action_fcurves(arm):   # the rigger's keys are not of Blender's new kind
+            for kp in fc.keyframe_points:
+                kp.interpolation, kp.type, kp.easing = "CONSTANT", "BREAKDOWN", "EASE_IN"
         if how == "series":
             keys.key_series(pb, path, frames, values, group=pb.name)
         else:
@@ -454,7 +458,7 @@ def test_a_key_series_is_the_keys_keyframe_insert_makes_one_by_one(before, path)
         assert np.allclose(tuple(getattr(pb, path)), values[-1])
         made.append([(fc.data_path, fc.array_index, fc.group.name,
                       [(*kp.co, *kp.handle_left, *kp.handle_right) for kp in fc.keyframe_points],
-                      [(kp.interpolation, kp.handle_left_type, kp.handle_right_type, kp.type)
+                      [(kp.interpolation, kp.handle_left_type, kp.handle_right_type, kp.type, kp.easing)
                        for kp in fc.keyframe_points])
                      for fc in keys.action_fcurves(arm)])
     assert [c[:3] + c[4:] for c in made[0]] == [c[:3] + c[4:] for c in made[1]]
