@@ -7,7 +7,7 @@ import subprocess
 import bpy
 import numpy as np
 import pytest
-from mathutils import Matrix, Vector
+from mathutils import Matrix, Quaternion, Vector
 
 import blender_session
 import builders as B
@@ -503,6 +503,32 @@ def test_keys_in_every_rotation_mode_interpolate_the_short_way(mode):
             # through a zero axis were 0.16 off the short way in a 0.13 step)
             assert off <= 0.5 * step + 1e-3, (mode, k // 2, b, off, step)
     assert worst_step > 0.05            # the motion turns bones by a few degrees a frame
+
+
+@pytest.mark.parametrize("mode", ["QUATERNION", "AXIS_ANGLE", "XYZ"])
+def test_a_bone_spinning_a_full_turn_gets_keys_that_turn_one_way_round(mode):
+    """Rotations handed over with w >= 0 (as a matrix's ``to_quaternion`` gives them) jump to
+    the other hemisphere half-way through a full spin; each key continues from the one before
+    it, so every step between keys is the short 15 degrees, never the long way back."""
+    keys = __import__(ADDON + ".keys", fromlist=["keys"])
+    arm = biped_rig()
+    pb = arm.pose.bones["head"]
+    pb.rotation_mode = mode
+    turn = np.radians(np.arange(0, 361, 15))
+    quats = [Matrix.Rotation(a, 4, "Z").to_quaternion() for a in turn]
+    assert min(q.w for q in quats) >= 0.0            # the input does jump hemispheres
+    path, values = keys.rotation_series(pb, quats)
+    for k, (q, v) in enumerate(zip(quats, values)):
+        setattr(pb, path, v)
+        got = pb.matrix_basis.to_quaternion()
+        assert got.rotation_difference(q).angle < 1e-5, (k, v)
+    if mode == "QUATERNION":
+        steps = [Quaternion(a).dot(Quaternion(b)) for a, b in zip(values, values[1:])]
+        assert min(steps) > np.cos(np.radians(15) / 2) - 1e-6, steps
+    elif mode == "AXIS_ANGLE":
+        assert np.allclose(np.diff([v[0] for v in values]), np.radians(15), atol=1e-5)
+    else:
+        assert np.allclose(np.diff([v[2] for v in values]), np.radians(15), atol=1e-5)
 
 
 @pytest.mark.parametrize("mode", ["QUATERNION", "XYZ"])
