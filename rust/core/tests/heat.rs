@@ -566,6 +566,24 @@ fn a_reaching_bone_drops_its_invented_tail() {
     assert!(mean_weight(&m, &reach, 1, 1.2, 1.6) > 0.8);
 }
 
+/// A bone whose tail starts a connected child and which has a child elsewhere too (a chest with
+/// its neck at its tail and shoulders beside it, as CesiumMan's) stands for head -> tail as well
+/// as for its span to that child: the span alone would hand the chest's upper part to the neck
+/// and the shoulders.
+#[test]
+fn a_connected_bone_with_a_side_child_keeps_its_head_to_tail() {
+    let m = capped_cylinder(0.08, 2.0, 41, 16);
+    let heads = vec![[0.0, 0.0, 0.1], [0.0, 0.0, 1.0], [0.03, 0.0, 0.3]];
+    let tails = vec![[0.0, 0.0, 1.0], [0.0, 0.0, 1.9], [0.3, 0.0, 0.3]];
+    let b = (heads, tails);
+    let opts = HeatOptions { parents: Some(vec![-1, 0, 0]), ..HeatOptions::default() };
+    let (reach, _) = heat(&m, &b, &opts);
+    assert_rows_sum_to_one(&reach);
+    let chest = mean_weight(&m, &reach, 0, 0.5, 0.85);
+    assert!(chest > 0.8, "the chest's upper part: {chest}");
+    assert!(mean_weight(&m, &reach, 1, 1.2, 1.8) > 0.8);
+}
+
 /// Random rigs (bones anywhere, inside or outside, any valid parent list) on a mesh of two
 /// pieces: reaching children never fails and every row sums to 1.
 #[test]
