@@ -1252,6 +1252,29 @@ pub(crate) mod tests {
         assert!((Vec3::from(r.forward) - Vec3::from(plain.forward)).length() < 1e-3, "{:?}", r.forward);
     }
 
+    /// A small separate tree starting where the body's root starts (a skirt or a belly flap
+    /// rigged on its own) joins the body, not the body it: the weaker tree is joined first, so
+    /// the body's root stays the root whatever the bones' order.
+    #[test]
+    fn a_small_tree_at_the_roots_head_joins_the_body() {
+        let (mut names, mut h, mut t, mut p) = biped();
+        let plain = detect_roles(&h, &t, &p, &names).unwrap();
+        let hips = names.iter().position(|n| n == "hips").unwrap();
+        for (k, (head, tail)) in
+            [(h[hips], [0.0, 0.1, 0.85]), ([0.0, 0.1, 0.85], [0.0, 0.15, 0.7])].into_iter().enumerate()
+        {
+            names.push(format!("skirt{k}"));
+            h.push(head);
+            t.push(tail);
+            p.push(if k == 0 { -1 } else { h.len() as i32 - 2 });
+        }
+        let r = detect_roles(&h, &t, &p, &names).unwrap();
+        assert_eq!(names[r.root], "hips");
+        assert_eq!(named(&names, &r.spine), named(&names, &plain.spine));
+        assert_eq!(leg(&names, &r, Side::Left, 0), leg(&names, &plain, Side::Left, 0));
+        assert_eq!(names[r.head], "head");
+    }
+
     #[test]
     fn no_legs_is_a_clear_error() {
         let h = vec![[0.0, 0.0, 1.0], [0.0, 0.0, 2.0]];
