@@ -1257,21 +1257,19 @@ pub(crate) mod tests {
     /// the body's root stays the root whatever the bones' order.
     #[test]
     fn a_small_tree_at_the_roots_head_joins_the_body() {
-        let (mut names, mut h, mut t, mut p) = biped();
-        let plain = detect_roles(&h, &t, &p, &names).unwrap();
-        let hips = names.iter().position(|n| n == "hips").unwrap();
-        for (k, (head, tail)) in
-            [(h[hips], [0.0, 0.1, 0.85]), ([0.0, 0.1, 0.85], [0.0, 0.15, 0.7])].into_iter().enumerate()
-        {
-            names.push(format!("skirt{k}"));
-            h.push(head);
-            t.push(tail);
-            p.push(if k == 0 { -1 } else { h.len() as i32 - 2 });
-        }
+        let (plain_names, h, t, p) = biped();
+        let plain = detect_roles(&h, &t, &p, &plain_names).unwrap();
+        let mut b = biped_bones();
+        let hips = b[0].1; // the body's root, listed first
+        b.extend([
+            ("skirt0".into(), hips, [0.0, 0.1, 0.85], None),
+            ("skirt1".into(), [0.0, 0.1, 0.85], [0.0, 0.15, 0.7], Some("skirt0".into())),
+        ]);
+        let (names, h, t, p) = skeleton_of(&b);
         let r = detect_roles(&h, &t, &p, &names).unwrap();
         assert_eq!(names[r.root], "hips");
-        assert_eq!(named(&names, &r.spine), named(&names, &plain.spine));
-        assert_eq!(leg(&names, &r, Side::Left, 0), leg(&names, &plain, Side::Left, 0));
+        assert_eq!(named(&names, &r.spine), named(&plain_names, &plain.spine));
+        assert_eq!(leg(&names, &r, Side::Left, 0), leg(&plain_names, &plain, Side::Left, 0));
         assert_eq!(names[r.head], "head");
     }
 
