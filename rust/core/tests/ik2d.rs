@@ -193,6 +193,25 @@ fn joint_limits_hold_after_solving() {
     assert!(reached > 100);
 }
 
+/// Angles that start outside their limits (a rigger typed them, or tightened a limit) are
+/// brought inside even when the tip already lies on the target, where no pass runs: the
+/// single-effector and the multi-effector solver both leave every angle within its limits.
+#[test]
+fn angles_outside_their_limits_are_clamped_even_on_target() {
+    let mut c = Chain2d::straight([0.0, 0.0], 0.0, vec![1.0, 0.8, 0.6]);
+    c.angles = vec![0.2, 1.2, -1.0];
+    c.limits = vec![[-PI, PI], [-0.5, 0.5], [-0.5, 0.5]];
+    let target = tip(&c);
+    let opts = SolveOptions::for_chain(&c);
+    let (mut single, mut multi) = (c.clone(), c.clone());
+    let rep = solve_ccd(&mut single, target, opts).unwrap();
+    assert_within_limits(&single);
+    assert!((dist(tip(&single), target) - rep.error).abs() < 1e-9, "{rep:?}");
+    let rep = solve_multi(&mut multi, &[(3, target, 1.0)], opts).unwrap();
+    assert_within_limits(&multi);
+    assert!((dist(tip(&multi), target) - rep.error).abs() < 1e-9, "{rep:?}");
+}
+
 /// Smallest tip distance to `target` over a dense grid of poses within the limits (2 bones).
 fn brute_force_best(c: &Chain2d, target: [f64; 2]) -> f64 {
     let n = 1500;
