@@ -170,4 +170,17 @@ mod tests {
         assert_eq!(inf.k, 1);
         assert_eq!(inf.row(0), (&[1][..], &[1.0][..]));
     }
+
+    /// The pruning threshold is relative to the kept total, so it does not depend on the
+    /// scale of the raw values (inverse distances, unnormalized heat): a weight that is 1e-3
+    /// of a large total is dropped, and two weights below 1e-3 that share a small total stay.
+    #[test]
+    fn pruning_is_relative_to_the_total() {
+        let dense = [4.0, 0.003, 0.0, 0.0005, 0.0004, 0.0];
+        let inf = top_k_normalized(&dense, 2, 3, 3, 1e-3);
+        assert_eq!(inf.row(0), (&[0, -1, -1][..], &[1.0, 0.0, 0.0][..]));
+        let (i, w) = inf.row(1);
+        assert_eq!(i, &[0, 1, -1]);
+        assert!((w[0] - 5.0 / 9.0).abs() < 1e-6 && (w[1] - 4.0 / 9.0).abs() < 1e-6, "{w:?}");
+    }
 }
