@@ -204,6 +204,10 @@ mod tests {
         let m = mirror_map(&p, 0, 0.0, 1e-6).unwrap();
         assert_eq!(m, vec![1, 0, 2, -1]);
         assert!(mirror_map(&p, 3, 0.0, 1e-6).is_err());
+        // Two points within tolerance of one's mirror image: the nearer pairs with it, the
+        // other's one-sided match is dropped, so the map stays an involution.
+        let crowded = [DVec3::new(-1.0, 0.0, 0.0), DVec3::new(1.0 + 6e-7, 0.0, 0.0), DVec3::new(1.0 - 3e-7, 0.0, 0.0)];
+        assert_eq!(mirror_map(&crowded, 0, 0.0, 1e-6).unwrap(), vec![2, -1, 0]);
         // bones: 0 <-> 1, 2 centre.
         let bm = [1, 0, 2];
         validate_bone_mirror(&bm, 3).unwrap();
