@@ -254,5 +254,11 @@ mod tests {
         // Named pairs and unpaired side bones are left as they are.
         let (m, paired, alone) = pair_side_bones_by_place(&heads, &tails, &[0, 2, 1, -1], 0).unwrap();
         assert_eq!((m, paired, alone), (vec![0, 2, 1, -1], 0, 0));
+        // Midpoints mirror images but the bones are not (one slopes down and out, the other up
+        // and out): both stay unpaired.
+        let heads = [[0.0, 0.0, 0.0], [0.3, 0.0, 1.2], [-0.3, 0.0, 0.8]];
+        let tails = [[0.0, 0.0, 1.5], [0.7, 0.0, 0.8], [-0.7, 0.0, 1.2]];
+        let (m, paired, alone) = pair_side_bones_by_place(&heads, &tails, &[0, 1, 2], 0).unwrap();
+        assert_eq!((m, paired, alone), (vec![0, -1, -1], 0, 2));
     }
 }
