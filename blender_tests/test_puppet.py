@@ -201,6 +201,11 @@ def test_joint_limits_hold_and_are_editable():
     fore.ik_max_z = math.radians(40)
     move_rod(rods["hand.R"], *(lambda s: (s.x + 0.15, s.z - 0.15))(head_world(rig, "upper_arm.R")))
     assert 0.0 <= fore.rotation_euler.z <= math.radians(40) + 1e-6
+    # Tightened again with no rod moved: the live solve runs on the edit alone.
+    bent = fore.rotation_euler.z
+    fore.ik_max_z = 0.5 * bent
+    settle()
+    assert 0.0 <= fore.rotation_euler.z <= 0.5 * bent + 1e-6
 
 
 def test_free_bones_are_held_within_their_limits():
@@ -245,6 +250,22 @@ def test_three_rod_legs_hang_down_when_the_figure_tilts():
     for side in "LR":
         d = tip_world(rig, f"shin.{side}") - head_world(rig, f"thigh.{side}")
         assert d.normalized().dot(Vector((0, 0, -1))) > 1 - 1e-6
+
+
+def test_a_rig_turned_on_its_own_solves_again():
+    """A rigger turns the armature itself, not its rod: no rod moves, but the live solve runs
+    again, so the legs hang straight down and the pose is the one a fresh solve gives (the arms
+    reach for their rods from the shoulders' new places)."""
+    rig, _ = add("THREE_ROD")
+    rig.rotation_euler.y = math.radians(25)
+    settle()
+    for side in "LR":
+        d = tip_world(rig, f"shin.{side}") - head_world(rig, f"thigh.{side}")
+        assert d.normalized().dot(Vector((0, 0, -1))) > 1 - 1e-6
+    live = pose_of(rig)
+    L.solve_puppet(rig)
+    fresh = pose_of(rig)
+    assert all(np.allclose(fresh[n], live[n], atol=1e-9, rtol=0) for n in live), (live, fresh)
 
 
 @pytest.mark.parametrize("kind", ["THREE_ROD", "FIVE_ROD"])
@@ -347,6 +368,17 @@ def test_quadruped_translates_and_turns_its_head():
 # ---------------------------------------------------------------------------- bake
 
 
+def test_bake_keys_only_the_bones_that_can_turn():
+    """Bake keys the bones a rod can turn: the quadruped's rigid body, legs and tail (every
+    rotation axis locked) get no F-curves, its head does."""
+    rig, _ = add("QUADRUPED")
+    scene = bpy.context.scene
+    scene.frame_start, scene.frame_end = 1, 3
+    bpy.context.view_layer.objects.active = rig
+    assert bpy.ops.object.miniskeleton_bake_puppet() == {"FINISHED"}
+    assert {fc.data_path for fc in K.action_fcurves(rig)} == {'pose.bones["head"].rotation_euler'}
+
+
 def test_bake_keys_reproduce_the_live_pose_without_the_addon():
     rig, rods = add("FIVE_ROD")
     scene = bpy.context.scene
@@ -438,6 +470,10 @@ def test_a_renamed_bone_or_deleted_rod_is_named_and_the_rest_still_follows(capfd
     rig.data.bones["forearm.R"].name = "lowerarm.R"
     settle()
     assert "upper_arm.R, forearm.R, hand.R (following rod hand.R): no bone forearm.R" in capfd.readouterr().out
+    kept = {n: tuple(rig.pose.bones[n].rotation_euler) for n in ("upper_arm.R", "lowerarm.R", "hand.R")}
+    p = rods["hand.R"].matrix_world.translation
+    move_rod(rods["hand.R"], p.x + 0.2, p.z + 0.1)
+    assert {n: tuple(rig.pose.bones[n].rotation_euler) for n in kept} == kept
     for ob in bpy.context.view_layer.objects:
         ob.select_set(False)
     gone = rods["foot.L"]
