@@ -55,6 +55,21 @@ def test_ik2d_limits_hold_and_methods_exist():
         msc.ik2d_solve([1.0], (1, 0), method="nope")
 
 
+def test_ik2d_options_reach_the_solver():
+    """tolerance, max_iterations and method are the solver's, not decoration: a start within
+    the tolerance is kept as it is; near full reach the paper's CCD ("ccd_pure") crawls for many
+    passes where the polished one takes a few, and max_iterations stops it."""
+    angles, rep = msc.ik2d_solve([1.0, 1.0], (1.97, 0.3), tolerance=0.5)
+    assert rep["iterations"] == 0 and rep["reached"] and list(angles) == [0.0, 0.0]
+    near_full = (1.99 * math.cos(1.0), 1.99 * math.sin(1.0))
+    _, polished = msc.ik2d_solve([1.0, 1.0], near_full)
+    _, pure = msc.ik2d_solve([1.0, 1.0], near_full, method="ccd_pure")
+    assert polished["reached"] and pure["reached"]
+    assert pure["iterations"] > 10 * polished["iterations"], (pure, polished)
+    _, stopped = msc.ik2d_solve([1.0, 1.0], near_full, method="ccd_pure", max_iterations=3)
+    assert stopped["iterations"] == 3 and not stopped["reached"]
+
+
 def test_ik2d_multi_head_and_tail():
     lengths = [0.5] * 8
     eff = [(8, (2.5, 1.0), 1.0), (4, (1.5, 0.6), 1.0)]
@@ -84,6 +99,12 @@ def test_make_motion_frames_and_a_clip_too_long_for_blender():
     # feet on their legs: nothing is moved by location
     assert walk["locations"].shape == (walk["frames"], 10, 3) and not walk["locations"].any()
     assert walk["located"].size == 0 and walk["roles"]["riders"] == []
+    # Motion names in any case; root_motion=False walks on the spot (the hips only bob).
+    on_the_spot = msc.make_motion(h, t, p, rest, "walk", names=names, cycles=2, root_motion=False)
+    np.testing.assert_array_equal(on_the_spot["rotations"], walk["rotations"])
+    assert np.abs(on_the_spot["root_offset"]).max() < 0.1 < np.abs(walk["root_offset"]).max()
+    with pytest.raises(ValueError, match="rest_matrices must have shape"):
+        msc.make_motion(h, t, p, rest.ravel(), "WALK", names=names)
 
 
 def test_feet_hanging_off_the_root_are_moved_by_location():

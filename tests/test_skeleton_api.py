@@ -26,6 +26,14 @@ def test_fit_centres_a_limb_and_reports(tube):
     np.testing.assert_allclose(out[:4, 2], start[:4, 2], atol=0.05)  # along the limb: kept
     assert rep["outside_after"] == 0 and rep["pieces"] == 1
     assert msc.points_inside(v, t, out).all()
+    # The free end goes toward the tube's end only with tip (the default).
+    assert out[4, 2] > start[4, 2] + 0.1
+    kept, _ = msc.fit_joints(v, t, start, chain(5), tip=False)
+    assert abs(kept[4, 2] - start[4, 2]) < 0.01 and np.abs(kept[:, :2]).max() < 0.02
+    # Joints pushed out of the tube are counted outside before and inside after.
+    out, rep = msc.fit_joints(v, t, start + np.float32([0.8, 0.0, 0.0]), chain(5))
+    assert rep["outside_before"] == rep["outside_before_mask"].sum() == 5
+    assert rep["outside_after"] == rep["outside_after_mask"].sum() == 0
 
 
 def test_fixed_joints_stay_and_options_are_checked(tube):
@@ -40,3 +48,5 @@ def test_fixed_joints_stay_and_options_are_checked(tube):
             msc.fit_joints(v, t, start, chain(3), **bad)
     with pytest.raises(ValueError):
         msc.fit_joints(v, t, start, np.array([[0, 7]], dtype=np.uint32))
+    with pytest.raises(ValueError, match="go together"):
+        msc.fit_joints(v, t, start, chain(3), symmetry_axis=0)   # no joint_mirror

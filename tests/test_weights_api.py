@@ -213,6 +213,8 @@ def test_bad_inputs_raise_clear_errors(cyl):
         msc.fit_joints(v, neg, (h + tl) / 2, np.array([[0, 1]], np.uint32))
     with pytest.raises(ValueError, match="shape"):
         msc.idw_weights(v[:, :2], h, tl)
+    with pytest.raises(ValueError, match="shape"):   # (n, 4), e.g. homogeneous: not cut to 3
+        msc.heat_weights(np.c_[v, np.ones(len(v), np.float32)], t, h, tl)
     with pytest.raises(ValueError):
         msc.heat_weights(v, t, h[:0], tl[:0])  # no bones
     with pytest.raises(ValueError, match="max_influences"):
