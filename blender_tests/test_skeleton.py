@@ -449,8 +449,10 @@ def test_fit_symmetry_on_a_mesh_off_the_plane_says_why_joints_end_outside(capfd)
         inside = core.points_inside(verts, tris, joints_of(arm, ends).astype(np.float32))
         if shift and symmetry == "X":
             assert warning in out and not inside.all(), out
+            assert "Warning: Fitted" in out, out      # joints left outside: not a mere info
         else:
             assert warning not in out and inside.all(), (shift, symmetry, out)
+            assert "Info: Fitted" in out, out
 
 
 def test_mirror_pairs_by_name():
@@ -608,6 +610,23 @@ def test_fit_selected_joints_only():
     others = np.arange(len(fitted)) != j
     assert np.allclose(fitted[others], moved[others], atol=1e-6)
     assert np.linalg.norm(fitted[j] - moved[j]) > 0
+
+
+def test_fit_in_pose_mode_fits_the_selected_bones_joints_only():
+    """In Pose Mode a selected bone stands for both its joints: those are fitted, the rest
+    stay (the selection lives on the pose bone in Blender 5, on the bone in 4.x)."""
+    body, arm, ends, orig, moved, diag = creature_setup(seed=4)
+    builders.set_active(arm, selected=[body])
+    bpy.ops.object.mode_set(mode="POSE")
+    for pb in arm.pose.bones:
+        (pb if hasattr(pb, "select") else pb.bone).select = pb.name == "forearm.L"
+    assert bpy.ops.armature.miniskeleton_fit_skeleton() == {"FINISHED"}
+    bpy.ops.object.mode_set(mode="OBJECT")
+    fitted = joints_of(arm, ends)
+    mine = ends[[b.name for b in arm.data.bones].index("forearm.L")]
+    others = ~np.isin(np.arange(len(fitted)), mine)
+    assert np.allclose(fitted[others], moved[others], atol=1e-6)
+    assert np.linalg.norm(fitted[mine] - moved[mine], axis=1).max() > 0
 
 
 # ---------------------------------------------------------------------------- restore
