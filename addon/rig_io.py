@@ -386,9 +386,12 @@ def output_path(filepath: str, ext: str) -> Path:
 
 
 def save_npz(path: Path, rig: dict) -> None:
-    """Write the bundle (compressed); RigError when the file cannot be written."""
+    """Write the bundle (compressed); RigError when the file cannot be written. Written through
+    an open file: given a name, numpy adds ".npz" to one that does not end in lower-case
+    ".npz", and "rig.NPZ" became "rig.NPZ.npz"."""
     try:
-        np.savez_compressed(path, **rig)
+        with open(path, "wb") as fh:
+            np.savez_compressed(fh, **rig)
     except OSError as err:
         raise RigError(f"cannot write '{path}': {err.strerror or err}") from err
 

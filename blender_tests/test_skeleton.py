@@ -766,8 +766,8 @@ def test_export_paths_like_blenders_exporters(tmp_path, monkeypatch):
     made, and a folder, a file in the way or no name at all is a clear error that writes
     nothing. Before, an empty path wrote '.npz' into the working directory, a folder path wrote
     '<folder>.npz' beside it, the JSON export wrote 'plain' without its extension and failed on
-    a missing folder, and a JSON file imported as a bundle said 'Cannot load file containing
-    pickled data'."""
+    a missing folder, a JSON file imported as a bundle said 'Cannot load file containing
+    pickled data', and 'rig.NPZ' was written as 'rig.NPZ.npz' (numpy's own extension rule)."""
     ob, arm = bound_cylinder("IDW")
     builders.set_active(arm, selected=[ob])
     work = tmp_path / "cwd"
@@ -779,6 +779,9 @@ def test_export_paths_like_blenders_exporters(tmp_path, monkeypatch):
         assert (tmp_path / f"plain{ext}").is_file() and not (tmp_path / "plain").exists()
         assert op(filepath=str(tmp_path / "new" / "deeper" / f"rig{ext}")) == {"FINISHED"}
         assert (tmp_path / "new" / "deeper" / f"rig{ext}").is_file()
+        # An extension in capitals is the extension (Blender's ensure_ext ignores case).
+        assert op(filepath=str(tmp_path / f"CAPS{ext.upper()}")) == {"FINISHED"}
+        assert [p.name for p in tmp_path.glob(f"CAPS{ext.upper()}*")] == [f"CAPS{ext.upper()}"]
         for bad, why in (("", "no file name given"), (str(tmp_path), "is a folder"),
                          (str(tmp_path / f"plain{ext}" / f"x{ext}"), "is a file, not a folder")):
             with pytest.raises(RuntimeError, match=why):
@@ -859,9 +862,14 @@ NPZ_BAD = {  # case: (replaced arrays for n vertices, error)
     "float indices": (lambda n: dict(indices=np.tile([[0.0, 1.0]], (n, 1))), "indices must be integers"),
     "duplicate names": (lambda n: dict(bone_names=np.array(["A", "A"])), "bone names appear twice: A"),
     "name too long": (lambda n: dict(bone_names=np.array(["A" * 64, "B"])), "1 to 63 bytes"),
+    "name too long in bytes": (lambda n: dict(bone_names=np.array(["\u00e9" * 32, "B"])), "1 to 63 bytes"),
+    "index past the bones": (lambda n: dict(indices=np.tile(np.int32([[0, 2]]), (n, 1))),
+                             r"indices refer to bones that are not in bone_names \(0..1, -1 = unused\)"),
+    "index below -1": (lambda n: dict(indices=np.tile(np.int32([[0, -2]]), (n, 1))),
+                       "indices refer to bones that are not in bone_names"),
     "empty name": (lambda n: dict(bone_names=np.array(["", "B"])), "1 to 63 bytes"),
     "version not a scalar": (lambda n: dict(format_version=np.int32([1, 1])), "format_version must be one integer"),
-    "newer format": (lambda n: dict(format_version=np.int32(99)), r"rig bundle format 99 is newer than this add-on"),
+    "newer format": (lambda n: dict(format_version=np.int32(2)), r"rig bundle format 2 is newer than this add-on"),
     "names not 1-D": (lambda n: dict(bone_names=np.array([["A", "B"]])), "bone_names must be a 1-D array"),
     "counts do not add up": (lambda n: dict(mesh_names=np.array(["Cylinder"]), mesh_vertex_counts=np.int32([5])),
                              "do not split the"),
