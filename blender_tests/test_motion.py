@@ -738,6 +738,12 @@ def test_a_framing_camera_films_a_long_walk_from_the_side_at_any_size():
             assert abs(look[across]) > 2 * abs(look[1 - across]), (lo, hi, tuple(look))
         scene.camera = cam
         assert_in_view(scene, cam, [(x, y, z) for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
+    # A portrait video: the narrower side is the width, and the box fits it too.
+    scene.render.resolution_x, scene.render.resolution_y = 90, 160
+    cam = filming.add_camera(scene, Vector((-1.0, -1.0, 0.0)), Vector((1.0, 1.0, 2.0)), 9 / 16)
+    bpy.context.view_layer.update()
+    scene.camera = cam
+    assert_in_view(scene, cam, [(x, y, z) for x in (-1.0, 1.0) for y in (-1.0, 1.0) for z in (0.0, 2.0)])
 
 
 def test_a_following_camera_travels_level_with_the_walker_and_keeps_it_in_frame():

@@ -471,6 +471,16 @@ def test_mirror_pairs_by_name():
     assert m == [-1, -1, -1]
 
 
+def test_joint_mirror_a_paired_bone_wins_a_joint_it_shares_with_an_unpaired_one():
+    """Joint mirrors from bone names: an unpaired side bone (a shoulder pad on the left only)
+    leaves its own free end unpaired but not the joint it shares with a paired bone; centre
+    joints are their own mirror."""
+    rig_io = importlib.import_module("bl_ext.user_default.miniskeleton.rig_io")
+    names = ["spine", "arm.L", "arm.R", "pad.L"]
+    bone_joints = np.array([[0, 1], [1, 2], [1, 3], [2, 4]], dtype=np.int32)
+    assert rig_io.joint_mirror(names, bone_joints).tolist() == [0, 1, 3, 2, -1]
+
+
 def test_fit_symmetry_leaves_unpaired_side_joints_off_the_centre_line():
     body, arm, ends, orig, moved, diag = creature_setup(seed=3)
     bpy.context.view_layer.objects.active = arm

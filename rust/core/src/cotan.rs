@@ -176,11 +176,76 @@ mod tests {
         assert_eq!(csc.col_ptr[4], 4 + 6);
     }
 
+    /// Linear precision: on a flat mesh, `L u = 0` at every interior vertex for any linear `u`
+    /// (each cotangent weight in its place and with its sign), on a jittered grid with obtuse
+    /// angles, where a cotangent's sign matters.
+    #[test]
+    fn flat_mesh_linear_functions_are_harmonic_inside() {
+        let k = 6usize;
+        let mut seed = 12345u64;
+        let mut jitter = || {
+            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            ((seed >> 33) as f64 / (1u64 << 31) as f64 - 0.5) * 0.7
+        };
+        let inside = |i: usize, j: usize| i > 0 && j > 0 && i < k - 1 && j < k - 1;
+        let mut p = Vec::new();
+        for j in 0..k {
+            for i in 0..k {
+                let (dx, dy) = if inside(i, j) { (jitter(), jitter()) } else { (0.0, 0.0) };
+                p.push(DVec3::new(i as f64 + dx, j as f64 + dy, 0.0));
+            }
+        }
+        let mut t = Vec::new();
+        for j in 0..k - 1 {
+            for i in 0..k - 1 {
+                let a = (j * k + i) as u32;
+                let (b, c, d) = (a + 1, a + k as u32 + 1, a + k as u32);
+                // Alternate the diagonals so that corners of every kind are obtuse somewhere.
+                if (i + j) % 2 == 0 {
+                    t.extend([[a, b, c], [a, c, d]]);
+                } else {
+                    t.extend([[a, b, d], [b, c, d]]);
+                }
+            }
+        }
+        let obtuse = t.iter().filter_map(|x| triangle_cotangents(p[x[0] as usize], p[x[1] as usize], p[x[2] as usize]));
+        let obtuse: Vec<[bool; 3]> = obtuse.map(|(_, c)| c.map(|c| c < 0.0)).collect();
+        for corner in 0..3 {
+            assert!(obtuse.iter().any(|o| o[corner]), "no obtuse angle at corner {corner}");
+        }
+        let c = cotan_laplacian(&p, &t);
+        assert_eq!(c.skipped, 0);
+        let csc = stiffness_lower_csc(p.len(), &c.edges);
+        for f in [|q: DVec3| q.x, |q: DVec3| q.y, |q: DVec3| 2.0 * q.x - 3.0 * q.y + 1.0] {
+            let u: Vec<f64> = p.iter().map(|&q| f(q)).collect();
+            let mut lu = vec![0.0; p.len()];
+            for col in 0..csc.n {
+                for e in csc.col_ptr[col]..csc.col_ptr[col + 1] {
+                    let (row, v) = (csc.row_idx[e], csc.values[e]);
+                    lu[row] += v * u[col];
+                    if row != col {
+                        lu[col] += v * u[row];
+                    }
+                }
+            }
+            for (v, r) in lu.iter().enumerate() {
+                if inside(v % k, v / k) {
+                    assert!(r.abs() < 1e-12, "(L u) at interior vertex {v} is {r}");
+                }
+            }
+        }
+    }
+
     #[test]
     fn sliver_is_clamped_not_indefinite() {
         let (_, cot) = triangle_cotangents(DVec3::ZERO, DVec3::X, DVec3::new(0.5, 1e-7, 0.0)).unwrap();
         assert!(cot.iter().all(|c| c.abs() <= COT_CLAMP * (1.0 + 1e-12)));
         assert!(cot[0] * cot[1] + cot[1] * cot[2] + cot[2] * cot[0] >= 0.0);
         assert!(triangle_cotangents(DVec3::ZERO, DVec3::X, DVec3::X * 2.0).is_none());
+        // Degenerate below DEGENERATE_RATIO of the longest squared edge, at any scale.
+        for s in [1e-6, 1.0, 1e6] {
+            let thin = |h: f64| triangle_cotangents(DVec3::ZERO, DVec3::X * s, DVec3::new(0.5, h, 0.0) * s);
+            assert!(thin(1e-13).is_none() && thin(1e-11).is_some(), "scale {s}");
+        }
     }
 }

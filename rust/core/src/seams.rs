@@ -134,6 +134,27 @@ mod tests {
         assert_eq!(touching_meshes(&v, &m, 1, &[], 1e-5, 3).unwrap(), vec![0]);
     }
 
+    /// Shared positions are counted once per pair of meshes: exactly `min_shared` of them join two
+    /// meshes, one fewer does not, and a point split into copies inside one mesh (a seam) is
+    /// still one point.
+    #[test]
+    fn shared_points_are_counted_once_each() {
+        let (low, high) = halves(2.0);
+        let ring: Vec<[f32; 3]> = high.iter().copied().filter(|p| (p[2] - 2.0).abs() < 1e-6).collect();
+        assert!(ring.len() >= 4);
+        let far = |k: usize| (0..k).map(|i| [9.0 + i as f32, 9.0, 9.0]).collect::<Vec<_>>();
+        for (shared, joined) in [(3, true), (2, false)] {
+            let part = [ring[..shared].to_vec(), far(3)].concat();
+            let (v, m) = stack(&[low.clone(), part]);
+            let g = touching_meshes(&v, &m, 2, &[], 1e-5, 3).unwrap();
+            assert_eq!(g[0] == g[1], joined, "{shared} shared points");
+        }
+        // One point of the cut ring, split three ways in the second mesh: one shared point.
+        let split = [vec![ring[0]; 3], far(3)].concat();
+        let (v, m) = stack(&[low, split]);
+        assert_eq!(touching_meshes(&v, &m, 2, &[], 1e-5, 3).unwrap(), vec![0, 1]);
+    }
+
     /// Triangles over every vertex but the last (only which vertices faces use matters here).
     fn fan(n: usize) -> Vec<[u32; 3]> {
         (1..n as u32 - 2).map(|i| [0, i, i + 1]).collect()
