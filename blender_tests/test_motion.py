@@ -758,6 +758,7 @@ def test_a_following_camera_travels_level_with_the_walker_and_keeps_it_in_frame(
     objects = filming.character_objects(scene)
     assert objects == [walker]
     boxes = filming.motion_boxes(scene, objects)
+    assert (boxes[0][0], boxes[-1][0], len(boxes)) == (1, 41, 24)   # both ends of the range sampled
     cam = filming.add_follow_camera(scene, boxes, 16 / 9)
     fixed = filming.add_camera(scene, *filming.union_box(boxes), 16 / 9)
     assert cam.animation_data is not None and cam.animation_data.action is not None

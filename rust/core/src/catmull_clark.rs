@@ -202,6 +202,12 @@ mod tests {
         // corner stays, without it the corner follows the curve too.
         assert_eq!(limit[1], [1.0, 0.0, 0.0]);
         assert_eq!(limit[0], [0.0, 0.0, 0.0]);
+        // Keep Corners keeps only corners: a raised border vertex of two faces follows the curve.
+        let mut raised = v.clone();
+        raised[1][2] = 1.0;
+        let kept = limit_positions(&raised, &[4; 9], &corners, true).unwrap();
+        assert!((kept[1][2] - 4.0 / 6.0).abs() < 1e-6 && (kept[2][2] - 1.0 / 6.0).abs() < 1e-6);
+        assert_eq!(kept[0], [0.0, 0.0, 0.0]);
         let smooth = limit_positions(&v, &[4; 9], &corners, false).unwrap();
         assert!((smooth[0][0] - 1.0 / 6.0).abs() < 1e-6 && (smooth[0][1] - 1.0 / 6.0).abs() < 1e-6);
     }
@@ -223,6 +229,13 @@ mod tests {
         assert!(matches!(limit_positions(&nan, &[3; 3], &corners, false), Err(Error::NonFinite { count: 1, .. })));
         // A face of two corners is ignored; no face at all leaves every vertex.
         assert_eq!(limit_positions(&v, &[2], &[0, 1], false).unwrap(), v);
+        // Two edges of three faces each and two border edges at vertex 0 (four quads around it):
+        // as many border edges as a border vertex has, but not a manifold; it stays.
+        let mut w = v.clone();
+        w.extend([[0.0, 2.0, 3.0], [0.0, 3.0, 2.0], [2.0, 3.0, 0.0], [3.0, 0.0, 2.0]]);
+        let quads = [0, 1, 6, 2, 0, 1, 7, 2, 0, 1, 8, 3, 0, 2, 9, 4];
+        let book = limit_positions(&w, &[4; 4], &quads, false).unwrap();
+        assert_eq!(book[0], w[0]);
         // A face that uses vertex 0 twice leaves it where it is.
         let twice = limit_positions(&v, &[5], &[0, 1, 2, 0, 3], false).unwrap();
         assert_eq!(twice[0], v[0]);

@@ -189,6 +189,38 @@ mod tests {
         assert_eq!(orient_faces(0, &[]), (vec![], 0));
     }
 
+    /// An open piece (a bowl, as a hat open at its rim) far from the origin of the frame gets
+    /// outward normals whichever way it is wound: its signed volume is taken from a corner of
+    /// its own box (from the origin, the missing lid's cone outweighed the bowl and flipped it).
+    #[test]
+    fn an_open_bowl_far_from_the_origin_gets_outward_normals() {
+        let (r, centre, rings, segments) = (0.05, DVec3::new(0.0, 0.0, 0.5), 6u32, 16u32);
+        let mut p = vec![centre - DVec3::Z * r];
+        for k in 1..=rings {
+            let polar = std::f64::consts::FRAC_PI_2 * k as f64 / rings as f64;
+            for j in 0..segments {
+                let a = std::f64::consts::TAU * j as f64 / segments as f64;
+                p.push(centre + r * DVec3::new(polar.sin() * a.cos(), polar.sin() * a.sin(), -polar.cos()));
+            }
+        }
+        let at = |k: u32, j: u32| 1 + (k - 1) * segments + j % segments;
+        let mut t = Vec::new();
+        for j in 0..segments {
+            t.push([0, at(1, j + 1), at(1, j)]);
+            for k in 1..rings {
+                t.push([at(k, j), at(k, j + 1), at(k + 1, j + 1)]);
+                t.push([at(k, j), at(k + 1, j + 1), at(k + 1, j)]);
+            }
+        }
+        let flipped: Vec<[u32; 3]> = t.iter().map(|x| [x[0], x[2], x[1]]).collect();
+        for tris in [t, flipped] {
+            let n = vertex_normals(&p, &tris, &vec![0; p.len()], 1);
+            for (v, (q, nv)) in p.iter().zip(&n).enumerate() {
+                assert!(nv.dot(*q - centre) > 0.0, "vertex {v}: normal {nv} at {q}");
+            }
+        }
+    }
+
     #[test]
     fn a_moebius_strip_is_consistent_but_along_one_cut() {
         // Strip of quads (2 triangles each) whose last edge is glued to the first, reversed.
