@@ -234,6 +234,8 @@ def test_bones_held_by_constraints_are_named_in_a_warning(capfd):
     pose = arm.pose.bones
     ik = pose["shin.L"].constraints.new("IK")
     ik.target, ik.subtarget, ik.chain_count = arm, "foot_ik.L", 2
+    one = pose["shin.R"].constraints.new("IK")                      # a chain of one: its bone only
+    one.target, one.subtarget, one.chain_count = arm, "foot_ik.L", 1
     copy = pose["upper_arm.R"].constraints.new("COPY_ROTATION")
     copy.target, copy.subtarget = arm, "foot_ik.L"
     muted = pose["upper_arm.L"].constraints.new("COPY_ROTATION")
@@ -245,8 +247,9 @@ def test_bones_held_by_constraints_are_named_in_a_warning(capfd):
     capfd.readouterr()
     assert add_motion(arm, motion="WALK") == {"FINISHED"}
     out = "".join(capfd.readouterr())
-    assert ("3 keyed bone(s) follow constraints that override their keys: shin.L (IK), "
+    assert ("4 keyed bone(s) follow constraints that override their keys: shin.L (IK), shin.R (IK), "
             "thigh.L (IK of shin.L), upper_arm.R (Copy Rotation)") in out, out
+    pose["shin.R"].constraints.remove(one)
     # An IK chain of length 0 reaches up to the root.
     whole = pose["hand.L"].constraints.new("IK")
     whole.target, whole.subtarget, whole.chain_count = arm, "foot_ik.L", 0
@@ -575,18 +578,53 @@ def test_head_shake_moves_head_not_feet_and_walk_appends():
     assert 'pose.bones["head"].rotation_quaternion' in paths
     assert not any('"foot.L"' in p for p in paths)
     # appending: the walk starts after the shake; the action now holds both
-    assert add_motion(arm, motion="WALK", cycles=1) == {"FINISHED"}
+    assert add_motion(arm, motion="WALK", cycles=1, blend=0.5) == {"FINISHED"}
     foot_w = next(fc for fc in mm.action_fcurves(arm)
                   if fc.data_path == 'pose.bones["foot.L"].rotation_quaternion' and fc.array_index == 0)
     keys = sorted(kp.co[:] for kp in foot_w.keyframe_points)
     assert keys[0] == (end, 1.0)      # the foot holds its rest pose until the walk starts
-    assert keys[1][0] > end
+    assert keys[1][0] == end + round(0.5 * scene.render.fps)   # Blend: half a second later
     assert scene.frame_end >= mm.last_key_frame(arm)
+    # Append off: a motion starts at the current frame, here past the others.
+    scene.frame_set(300)
+    assert add_motion(arm, motion="HEAD_SHAKE", duration=0.5, cycles=1, append=False) == {"FINISHED"}
+    head = {kp.co[0] for fc in mm.action_fcurves(arm) if fc.data_path == 'pose.bones["head"].rotation_quaternion'
+            for kp in fc.keyframe_points}
+    shake_end = 300 + round(0.5 * scene.render.fps)
+    assert {300, shake_end} <= head and max(head) == shake_end == scene.frame_end
     # keys are in the action the Dope Sheet / Graph Editor show, grouped by bone
     action = arm.animation_data.action
     assert action is not None and action.users >= 1
     groups = {fc.group.name for fc in mm.action_fcurves(arm) if fc.group}
     assert {"head", "foot.L", "thigh.R"} <= groups
+
+
+def test_add_motion_with_a_mesh_active_keys_the_armature_it_is_parented_to():
+    """With a mesh active that follows an armature by parenting only (no Armature modifier),
+    Add Motion keys that armature."""
+    body, arm = creature.build_body(subdivisions=0), creature.build_armature()
+    body.parent = arm
+    assert not any(m.type == "ARMATURE" for m in body.modifiers)
+    B.set_active(body)
+    assert bpy.ops.pose.miniskeleton_add_motion(motion="HEAD_SHAKE") == {"FINISHED"}
+    assert any('"head"' in fc.data_path for fc in motion_module().action_fcurves(arm))
+    assert body.animation_data is None
+
+
+def test_appending_leaves_the_earlier_keys_as_they_were():
+    """A motion appended to a walk that ends mid-stride, with the playhead elsewhere, adds keys
+    after the walk and changes none of the walk's own (a hold key at the walk's end took the
+    pose under the playhead)."""
+    arm = creature.build_armature()
+    scene = bpy.context.scene
+    assert add_motion(arm, motion="WALK", cycles=1.25) == {"FINISHED"}
+    before = action_keys(arm)
+    scene.frame_set(scene.frame_start + 7)
+    assert add_motion(arm, motion="HEAD_SHAKE") == {"FINISHED"}
+    after = action_keys(arm)
+    for key, co in before.items():
+        assert np.array_equal(after[key][:len(co)], co), key
+        assert (after[key][len(co):, 0] > co[-1, 0]).all(), key
 
 
 def action_keys(arm):

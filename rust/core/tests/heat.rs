@@ -187,6 +187,31 @@ fn two_pieces_one_without_bones_are_all_weighted() {
     }
 }
 
+/// A piece sees a bone when any of its vertices does: a skirt hanging outside the tube from
+/// its top rim (one piece with it, listed last) sees no bone through the wall, and the piece
+/// is still solved by heat, not counted as a fallback.
+#[test]
+fn a_piece_with_some_vertices_that_see_a_bone_is_no_fallback() {
+    let (mut m, b) = cylinder();
+    let (rings, segments) = (41u32, 16u32);
+    let rim = |j: u32| (rings - 1) * segments + j % segments;
+    let skirt = m.0.len() as u32;
+    for j in 0..segments {
+        let a = std::f32::consts::TAU * j as f32 / segments as f32;
+        m.0.push([0.25 * a.cos(), 0.25 * a.sin(), 1.7]);
+    }
+    let at = |j: u32| skirt + j % segments;
+    for j in 0..segments {
+        m.1.push([rim(j), at(j + 1), rim(j + 1)]);
+        m.1.push([rim(j), at(j), at(j + 1)]);
+    }
+    let (inf, rep) = heat(&m, &b, &HeatOptions::default());
+    assert_rows_sum_to_one(&inf);
+    assert_eq!((rep.pieces, rep.fallback_pieces, rep.rigid_pieces), (1, 0, 0), "{rep:?}");
+    // The skirt takes the top bone's heat through the rim.
+    assert!((skirt as usize..m.0.len()).all(|v| inf.row(v).0[0] == 3));
+}
+
 #[test]
 fn flat_shaded_split_mesh_matches_welded_twin() {
     let (m, b) = cylinder();
@@ -482,6 +507,22 @@ fn accessory_without_a_bone_inside_is_rigid() {
     let (inf2, rep2) = heat(&m, &b, &HeatOptions { rigid_accessories: false, ..Default::default() });
     assert_rows_sum_to_one(&inf2);
     assert_eq!((rep2.rigid_pieces, rep2.boneless_pieces), (0, 0));
+}
+
+/// The largest piece is the body, never an accessory: here the skeleton was placed beside it
+/// (no bone inside it) and a small sleeve holds a bone; the body is still solved by heat, its
+/// weights led by the bones beside it.
+#[test]
+fn the_largest_piece_is_never_bound_rigidly_as_an_accessory() {
+    let (_, (h, t)) = cylinder();
+    let mut m: Mesh = (Vec::new(), Vec::new());
+    let body = add_box(&mut m, [0.5, 0.0, 1.0], [0.2, 0.2, 0.2], false);
+    add_box(&mut m, [0.0, 0.0, 0.3], [0.05, 0.05, 0.3], false);
+    let (inf, rep) = heat(&m, &(h, t), &HeatOptions::default());
+    assert_rows_sum_to_one(&inf);
+    assert_eq!((rep.pieces, rep.boneless_pieces, rep.rigid_pieces), (2, 1, 0), "{rep:?}");
+    let firsts: std::collections::HashSet<i32> = body.map(|v| inf.row(v).0[0]).collect();
+    assert!(firsts.len() >= 2 && firsts.contains(&1) && firsts.contains(&2), "{firsts:?}");
 }
 
 /// A mesh that is only a prop (no bone inside any of its pieces) moves as one body on the
