@@ -429,6 +429,27 @@ def test_feet_hanging_off_the_root_walk_with_their_legs(invented_tails, scale, c
             assert tuple(arm.pose.bones[f"Foot.{s}"].location) == pytest.approx((0, 0, 0), abs=1e-6)
 
 
+def test_feet_hanging_off_the_root_stay_at_rest_before_a_walk_appended_to_a_head_shake():
+    """The feet of an IK-exported rig get location keys only from the walk; appended to a head
+    shake, they hold their rest place through the shake (the walk's first key would reach back
+    to the rig's first frame)."""
+    arm = ik_exported_rig()
+    scene = bpy.context.scene
+    assert add_motion(arm, motion="HEAD_SHAKE", duration=1.0) == {"FINISHED"}
+    shake_end = int(motion_module().last_key_frame(arm))
+    assert add_motion(arm, motion="WALK", cycles=1) == {"FINISHED"}
+    moved = set()
+    for f in range(scene.frame_start, int(motion_module().last_key_frame(arm)) + 1):
+        scene.frame_set(f)
+        for s in "LR":
+            loc = tuple(arm.pose.bones[f"Foot.{s}"].location)
+            if f <= shake_end:
+                assert loc == pytest.approx((0, 0, 0), abs=1e-6), (f, s, loc)
+            elif max(map(abs, loc)) > 1e-3:
+                moved.add(s)
+    assert moved == {"L", "R"}
+
+
 @pytest.mark.parametrize("before", ["nothing", "earlier keys", "keys in the range"])
 @pytest.mark.parametrize("path", ["rotation_quaternion", "rotation_euler"])
 def test_a_key_series_is_the_keys_keyframe_insert_makes_one_by_one(before, path):
@@ -625,6 +646,13 @@ def test_appending_leaves_the_earlier_keys_as_they_were():
     for key, co in before.items():
         assert np.array_equal(after[key][:len(co)], co), key
         assert (after[key][len(co):, 0] > co[-1, 0]).all(), key
+    # The legs, mid-stride where the walk ends, are back at rest through the shake.
+    walk_end = max(co[-1, 0] for co in before.values())
+    legs = ("thigh.L", "upper_arm.R")
+    for frame, at_rest in ((walk_end, False), (motion_module().last_key_frame(arm), True)):
+        scene.frame_set(int(frame))
+        turned = [arm.pose.bones[n].matrix_basis.to_quaternion().angle > 1e-3 for n in legs]
+        assert turned == [not at_rest] * len(legs), (frame, turned)
 
 
 def action_keys(arm):

@@ -540,6 +540,20 @@ fn prop_mesh_is_one_rigid_body() {
     assert!(is_rigid_on(&inf, leaf, 1));
 }
 
+/// A prop rides the bone nearest its centre of mass, that of its volume: a solid block beside
+/// bone 1 and a thin wide plate beside bone 2 (most of the prop's surface, little of its
+/// volume) both follow bone 1.
+#[test]
+fn a_prop_rides_the_bone_nearest_the_centre_of_its_volume() {
+    let (_, (h, t)) = cylinder();
+    let mut m: Mesh = (Vec::new(), Vec::new());
+    let block = add_box(&mut m, [0.3, 0.0, 0.75], [0.1, 0.1, 0.1], false);
+    let plate = add_box(&mut m, [0.35, 0.0, 1.35], [0.2, 0.2, 0.005], false);
+    let (inf, rep) = heat(&m, &(h, t), &HeatOptions::default());
+    assert_eq!((rep.pieces, rep.boneless_pieces, rep.rigid_pieces), (2, 2, 2), "{rep:?}");
+    assert!(is_rigid_on(&inf, block, 1) && is_rigid_on(&inf, plate, 1));
+}
+
 /// An imported-style rig (tails invented by the importer, nothing connected) in a thin upright
 /// cylinder: a root below the mesh, a bone whose tail is a short sideways stub while its child
 /// starts 0.9 higher, and that child. Returns (mesh, bones, parents).
