@@ -429,6 +429,48 @@ def test_feet_hanging_off_the_root_walk_with_their_legs(invented_tails, scale, c
             assert tuple(arm.pose.bones[f"Foot.{s}"].location) == pytest.approx((0, 0, 0), abs=1e-6)
 
 
+def test_a_walk_appended_to_one_ending_mid_stride_bobs_through_the_same_heights():
+    """The root continues from where the walk left it but without its last frame's bob: a walk
+    appended to one that ends mid-stride rises and sinks through the same heights."""
+    arm = creature.build_armature()
+    scene = bpy.context.scene
+    mm = motion_module()
+    assert add_motion(arm, motion="WALK", cycles=1.25) == {"FINISHED"}
+    first_end = int(mm.last_key_frame(arm))
+    assert add_motion(arm, motion="WALK", cycles=1, blend=0.0) == {"FINISHED"}
+    root = next(pb for pb in arm.pose.bones if pb.parent is None)
+
+    def heights(frames):
+        out = []
+        for f in frames:
+            scene.frame_set(f)
+            out.append((arm.matrix_world @ root.head).z)
+        return np.array(out)
+
+    first = heights(range(scene.frame_start, first_end + 1))
+    second = heights(range(first_end + 1, int(mm.last_key_frame(arm)) + 1))
+    bob = np.ptp(first)
+    assert bob > 1e-3
+    assert abs(first.min() - second.min()) < 0.05 * bob and abs(first.max() - second.max()) < 0.05 * bob, \
+        (first.min(), first.max(), second.min(), second.max())
+
+
+def test_the_root_stays_at_rest_through_a_head_shake_before_an_appended_walk():
+    """The root gets location keys only from the walk; appended to a head shake, it holds its
+    rest place through the shake (the walk's first key, with its bob, reached back)."""
+    arm = creature.build_armature()
+    scene = bpy.context.scene
+    mm = motion_module()
+    assert add_motion(arm, motion="HEAD_SHAKE", duration=1.0) == {"FINISHED"}
+    shake_end = int(mm.last_key_frame(arm))
+    assert add_motion(arm, motion="WALK", cycles=1) == {"FINISHED"}
+    root = next(pb for pb in arm.pose.bones if pb.parent is None)
+    assert any(fc.data_path == root.path_from_id("location") for fc in mm.action_fcurves(arm))
+    for f in range(scene.frame_start, shake_end + 1):
+        scene.frame_set(f)
+        assert tuple(root.location) == pytest.approx((0, 0, 0), abs=1e-6), f
+
+
 def test_feet_hanging_off_the_root_stay_at_rest_before_a_walk_appended_to_a_head_shake():
     """The feet of an IK-exported rig get location keys only from the walk; appended to a head
     shake, they hold their rest place through the shake (the walk's first key would reach back
