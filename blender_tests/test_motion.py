@@ -937,13 +937,14 @@ def test_video_counts_the_frames_it_renders_on_the_scene_frame_step(tmp_path, ca
 
 
 def test_video_path_gets_the_mp4_extension(tmp_path):
-    """The file is an MP4 whatever the path's extension: clip.avi is written as clip.mp4."""
+    """The file is an MP4 whatever the path's extension: clip.avi is written as clip.mp4; an odd
+    size is rounded up to even numbers, as H.264 wants."""
     creature.build_body(subdivisions=0)
     scene = bpy.context.scene
     scene.frame_start, scene.frame_end = 1, 2
-    assert bpy.ops.render.miniskeleton_make_video(filepath=str(tmp_path / "clip.avi"), resolution_x=32,
-                                                  resolution_y=32) == {"FINISHED"}
-    assert not (tmp_path / "clip.avi").exists() and probe(tmp_path / "clip.mp4") == (2, 32, 32)
+    assert bpy.ops.render.miniskeleton_make_video(filepath=str(tmp_path / "clip.avi"), resolution_x=31,
+                                                  resolution_y=33) == {"FINISHED"}
+    assert not (tmp_path / "clip.avi").exists() and probe(tmp_path / "clip.mp4") == (2, 32, 34)
 
 
 def test_video_with_the_scenes_own_engine_and_camera(tmp_path):
