@@ -1,6 +1,7 @@
 """pose.miniskeleton_add_motion and render.miniskeleton_make_video in real Blender: roles on a
 generated quadruped and biped, walk phases measured on the feet, head shake, appending, MP4."""
 
+import math
 import shutil
 import subprocess
 
@@ -945,6 +946,33 @@ def test_video_path_gets_the_mp4_extension(tmp_path):
     assert bpy.ops.render.miniskeleton_make_video(filepath=str(tmp_path / "clip.avi"), resolution_x=31,
                                                   resolution_y=33) == {"FINISHED"}
     assert not (tmp_path / "clip.avi").exists() and probe(tmp_path / "clip.mp4") == (2, 32, 34)
+
+
+def test_video_uses_the_scenes_camera_and_light_when_it_has_them_and_the_frame_rate_asked(tmp_path):
+    """Camera 'Add If Missing' with a camera and a light in the scene adds neither (without the
+    camera, only a camera); FPS 12 gives a 12 fps video, and the scene keeps its own frame rate."""
+    body = creature.build_body(subdivisions=0)
+    scene = bpy.context.scene
+    scene.frame_start, scene.frame_end = 1, 2
+    cam = bpy.data.objects.new("Cam", bpy.data.cameras.new("Cam"))
+    sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", "SUN"))
+    for ob in (cam, sun):
+        scene.collection.objects.link(ob)
+    cam.location, cam.rotation_euler = (0.0, -8.0, 1.0), (math.radians(85), 0.0, 0.0)
+    scene.camera = cam
+    fps = (scene.render.fps, scene.render.fps_base)
+    before = set(scene.objects)
+    out = tmp_path / "clip.mp4"
+    assert bpy.ops.render.miniskeleton_make_video(filepath=str(out), resolution_x=32, resolution_y=32,
+                                                  fps=12) == {"FINISHED"}
+    assert set(scene.objects) == before and scene.camera == cam and body.name in scene.objects
+    assert bpy.data.movieclips.load(str(out)).fps == 12
+    assert (scene.render.fps, scene.render.fps_base) == fps != (12, 1.0)
+    # Without the camera: a framing camera is added, and no light beside the scene's own.
+    bpy.data.objects.remove(cam)
+    before = set(scene.objects)
+    assert bpy.ops.render.miniskeleton_make_video(filepath=str(out), resolution_x=32, resolution_y=32) == {"FINISHED"}
+    assert [ob.type for ob in set(scene.objects) - before] == ["CAMERA"]
 
 
 def test_video_with_the_scenes_own_engine_and_camera(tmp_path):
