@@ -994,6 +994,15 @@ def test_weights_job_reports_bad_input_as_an_error():
     assert job.wait(60)
     assert not job.cancelled and job.result is None
     assert isinstance(job.error, ow.WeightsError) and name in str(job.error)
+    # An unexpected failure inside the job is an error too, never a job that ends with nothing.
+    def broken(progress):
+        raise KeyError("no such bone")
+
+    job = ow.WeightsJob(broken)
+    job.start()
+    assert job.wait(60)
+    assert not job.cancelled and job.result is None
+    assert isinstance(job.error, ow.WeightsError) and "Auto Weights failed: 'no such bone'" in str(job.error)
 
 
 def test_many_small_meshes_solved_in_batches_get_the_one_by_one_weights_and_notes(monkeypatch):

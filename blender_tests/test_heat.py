@@ -230,6 +230,19 @@ def test_split_seams_weighted_like_welded_twin():
     np.testing.assert_allclose(B.weights_matrix(split, NAMES), w_welded[origin], atol=1e-4)
 
 
+def test_a_prop_that_sees_its_bones_is_reported_as_bound_rigidly(capfd):
+    """A mesh that is only a prop beside the chain (no bone inside it, every vertex sees one) is
+    bound rigidly by rule; the report says so although no piece fell back."""
+    v, f = B.cylinder_arrays(radius=0.15, height=0.3, rings=2, segments=8)
+    ob = B.mesh_object("Prop", v + [0.6, 0, 1.9], f)
+    arm = B.chain()
+    capfd.readouterr()
+    assert bind([ob], arm) == {"FINISHED"}
+    assert "Prop: of 1 pieces, 0 saw no bone (nearest bone used), 1 bound rigidly" in capfd.readouterr().out
+    w = B.weights_matrix(ob, NAMES)
+    assert (w.max(axis=0) > 0).sum() == 1 and (w.max(axis=1) == 1.0).all()
+
+
 def test_sealed_piece_is_weighted_rigidly_where_blender_writes_nothing(capfd):
     # A body with bones, a closed shell beside it, and a button sealed inside the shell:
     # no ray from the button reaches a bone, so Blender's heat is singular there.
