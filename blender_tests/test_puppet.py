@@ -135,10 +135,16 @@ def test_template_builds_with_bones_rods_locks_and_parts(kind):
         expected = {"plane": (True, True, False), "plane+twist": (True, False, False),
                     "fixed": (True, True, True)}[b.dof]
         assert tuple(pb.lock_rotation) == expected, b.name
-        assert pb.use_ik_limit_z and pb.lock_ik_x
-        if b.dof != "fixed":
-            assert math.isclose(math.degrees(pb.ik_min_z), b.limits[0], abs_tol=1e-4)
-            assert math.isclose(math.degrees(pb.ik_max_z), b.limits[1], abs_tol=1e-4)
+        # Blender's own IK (a rigger's constraint) gets the same locks and limits.
+        assert (pb.lock_ik_x, pb.lock_ik_y, pb.lock_ik_z) == expected, b.name
+        assert pb.use_ik_limit_z
+        limits = (0.0, 0.0) if b.dof == "fixed" else b.limits
+        assert math.isclose(math.degrees(pb.ik_min_z), limits[0], abs_tol=1e-4)
+        assert math.isclose(math.degrees(pb.ik_max_z), limits[1], abs_tol=1e-4)
+        assert pb.use_ik_limit_y == (b.dof == "plane+twist"), b.name
+        if b.dof == "plane+twist":
+            assert math.isclose(math.degrees(pb.ik_min_y), b.twist[0], abs_tol=1e-4)
+            assert math.isclose(math.degrees(pb.ik_max_y), b.twist[1], abs_tol=1e-4)
     if kind != "STRIP" and kind != "QUADRUPED":
         assert tuple(rig.pose.bones["forearm.R"].lock_rotation) == (True, True, False)   # 1 DOF
         assert tuple(rig.pose.bones["head"].lock_rotation) == (True, False, False)       # 2 DOF

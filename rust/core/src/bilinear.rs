@@ -219,4 +219,26 @@ mod tests {
         let d = bilinear_weights(&verts, &heads, &tails, &[-1, 0, 0], &opts).unwrap().to_dense(3);
         assert!((d[0] - 0.7).abs() < 1e-4 && d[1] == 0.0 && (d[2] - 0.3).abs() < 1e-4, "{:?}", &d[..3]);
     }
+
+    /// The Gaussian's sigma is in input units (the weights of a scene scaled by 1000 with its
+    /// sigma are the same), and without one it is half the median bone length.
+    #[test]
+    fn sigma_is_in_input_units_and_defaults_to_half_the_median_bone() {
+        // Bones 0.2, 1.0 and 3.0 long along z: median 1.0.
+        let heads = [[0.0, 0.0, 0.0], [0.0, 0.0, 0.2], [0.0, 0.0, 1.2]];
+        let tails = [[0.0, 0.0, 0.2], [0.0, 0.0, 1.2], [0.0, 0.0, 4.2]];
+        let verts: Vec<[f32; 3]> = (0..60).map(|i| [0.3, 0.1 * (i % 3) as f32, -0.5 + 0.09 * i as f32]).collect();
+        let gauss = |sigma| BilinearOptions { falloff: Falloff::Gaussian { sigma }, ..Default::default() };
+        let run = |s: f32, o: &BilinearOptions| {
+            let sc = |a: &[[f32; 3]]| a.iter().map(|p| p.map(|c| c * s)).collect::<Vec<_>>();
+            bilinear_weights(&sc(&verts), &sc(&heads), &sc(&tails), &[-1, 0, 1], o).unwrap().to_dense(3)
+        };
+        let near = |a: &[f32], b: &[f32]| a.iter().zip(b).all(|(x, y)| (x - y).abs() < 1e-4);
+        let given = run(1.0, &gauss(Some(0.5)));
+        assert!(near(&given, &run(1000.0, &gauss(Some(500.0)))));
+        assert!(near(&given, &run(1.0, &gauss(None))));
+        // A different sigma gives different weights (the comparisons above can fail).
+        assert!(!near(&given, &run(1.0, &gauss(Some(0.1)))));
+        assert!(!near(&given, &run(1.0, &gauss(Some(1.5)))));
+    }
 }
