@@ -142,6 +142,7 @@ def test_template_builds_with_bones_rods_locks_and_parts(kind):
         assert math.isclose(math.degrees(pb.ik_min_z), limits[0], abs_tol=1e-4)
         assert math.isclose(math.degrees(pb.ik_max_z), limits[1], abs_tol=1e-4)
         assert pb.use_ik_limit_y == (b.dof == "plane+twist"), b.name
+        assert pb[R.SEED_KEY] == pytest.approx(b.seed), b.name     # where the live solve starts
         if b.dof == "plane+twist":
             assert math.isclose(math.degrees(pb.ik_min_y), b.twist[0], abs_tol=1e-4)
             assert math.isclose(math.degrees(pb.ik_max_y), b.twist[1], abs_tol=1e-4)
@@ -154,6 +155,7 @@ def test_template_builds_with_bones_rods_locks_and_parts(kind):
     parts = [ob for ob in bpy.data.objects if ob.get(R.PART_KEY)]
     assert sorted(ob.parent_bone for ob in parts) == sorted(names)
     assert all(ob.parent == rig and ob.parent_type == "BONE" and len(ob.data.polygons) == 1 for ob in parts)
+    assert all(ob.hide_select for ob in parts)     # a click in the viewport picks a rod, not a part
     # The part sits on its bone: its centre is near the bone's segment.
     for ob in parts:
         c = sum((ob.matrix_world @ v.co for v in ob.data.vertices), Vector()) / len(ob.data.vertices)
