@@ -120,8 +120,12 @@ def test_template_builds_with_bones_rods_locks_and_parts(kind):
     assert set(rods) == RODS[kind]
     for role, rod in rods.items():
         assert rod[R.ROLE_KEY] == role and R.puppet_rig(rod) == rig
+        # a rod moves in the picture plane and turns about its normal only
+        assert tuple(rod.lock_location) == (False, True, False) and tuple(rod.lock_rotation) == (True, False, True)
     main = rods[tpl.main_rod().role]
     assert rig.parent == main                    # the main rod carries the figure
+    # the main rod is active and alone selected: G moves the whole puppet at once
+    assert bpy.context.active_object == main and bpy.context.selected_objects == [main]
     if kind == "PROP":
         staff = rig["miniskeleton_prop"]
         assert rods["grip.L"].parent == staff and rods["grip.R"].parent == staff

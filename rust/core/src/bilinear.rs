@@ -220,6 +220,38 @@ mod tests {
         assert!((d[0] - 0.7).abs() < 1e-4 && d[1] == 0.0 && (d[2] - 0.3).abs() < 1e-4, "{:?}", &d[..3]);
     }
 
+    /// Only a connected parent or child (its end at the bone's end) takes a share: a child that
+    /// starts 0.5 past the parent's tail shares nothing either way.
+    #[test]
+    fn an_unconnected_parent_or_child_takes_no_share() {
+        let heads = [[0.0, 0.0, 0.0], [0.0, 0.0, 1.5]];
+        let tails = [[0.0, 0.0, 1.0], [0.0, 0.0, 2.5]];
+        let verts = [[0.2, 0.0, 0.9], [0.2, 0.0, 1.6], [0.2, 0.0, 0.5], [0.2, 0.0, 2.5]];
+        let opts = BilinearOptions { nearest: 1, ..Default::default() };
+        let d = bilinear_weights(&verts, &heads, &tails, &[-1, 0], &opts).unwrap().to_dense(2);
+        assert_eq!(&d[..4], &[1.0, 0.0, 0.0, 1.0], "{d:?}");
+        // Connected (the child moved onto the tail): the same vertices share.
+        let heads = [[0.0, 0.0, 0.0], [0.0, 0.0, 1.0]];
+        let tails = [[0.0, 0.0, 1.0], [0.0, 0.0, 2.0]];
+        let verts = [[0.2, 0.0, 0.9], [0.2, 0.0, 1.1], [0.2, 0.0, 0.5], [0.2, 0.0, 2.0]];
+        let d = bilinear_weights(&verts, &heads, &tails, &[-1, 0], &opts).unwrap().to_dense(2);
+        assert!((d[0] - 0.6).abs() < 1e-4 && (d[3] - 0.6).abs() < 1e-4, "{d:?}");
+    }
+
+    /// Inverse-power falloff: the weights go as `(d_min / d)^power` (two bones in reach, no
+    /// neighbour share at a bone's middle).
+    #[test]
+    fn inverse_power_weights_go_as_the_distance_ratio_to_the_power() {
+        let heads = [[0.0, 0.0, 0.0], [3.0, 0.0, 0.0]];
+        let tails = [[0.0, 0.0, 1.0], [3.0, 0.0, 1.0]];
+        for power in [1.0f32, 3.0] {
+            let opts = BilinearOptions { nearest: 2, falloff: Falloff::InversePower { power }, ..Default::default() };
+            let d = bilinear_weights(&[[1.0, 0.0, 0.5]], &heads, &tails, &[-1, -1], &opts).unwrap().to_dense(2);
+            let r = 2f32.powf(power);
+            assert!((d[0] - r / (r + 1.0)).abs() < 1e-3 && (d[1] - 1.0 / (r + 1.0)).abs() < 1e-3, "{power}: {d:?}");
+        }
+    }
+
     /// The Gaussian's sigma is in input units (the weights of a scene scaled by 1000 with its
     /// sigma are the same), and without one it is half the median bone length.
     #[test]
