@@ -707,6 +707,14 @@ def test_puppet_angles_wrap_like_the_core_and_solver_limits_stay_on_the_circle()
     assert lim[1].tolist() == pytest.approx([-170 * math.pi / 180 + 0.5, math.pi])
 
 
+def test_puppets_share_one_leather_material():
+    """A second puppet reuses the leather material of the first (no 'Leather.001' per puppet)."""
+    add("THREE_ROD")
+    add("QUADRUPED")
+    leather = [m for m in bpy.data.materials if m.name.startswith("MiniSkeleton Puppet Leather")]
+    assert len(leather) == 1 and leather[0].users >= 2
+
+
 def test_set_part_image(tmp_path):
     """The picture replaces the cut-out on the part's layer (its depth toward the viewer), and
     setting it again leaves no old mesh behind."""
@@ -726,6 +734,13 @@ def test_set_part_image(tmp_path):
     xs = [v.co.x for v in part.data.vertices]
     ys = [v.co.y for v in part.data.vertices]
     assert math.isclose((max(xs) - min(xs)) / (max(ys) - min(ys)), 0.5, rel_tol=1e-6)   # image aspect
+    # 1.3 bone lengths tall, centred on the bone as posed (in the picture plane, x and z)
+    pb = rig.pose.bones["head"]
+    assert math.isclose(max(ys) - min(ys), 1.3 * pb.bone.length, rel_tol=1e-6)
+    bpy.context.view_layer.update()
+    centre = sum((part.matrix_world @ v.co for v in part.data.vertices), Vector()) / 4
+    middle = rig.matrix_world @ ((pb.head + pb.tail) / 2)
+    assert (centre.x, centre.z) == pytest.approx((middle.x, middle.z), abs=1e-5)
     nodes = part.data.materials[0].node_tree.nodes
     tex = [n for n in nodes if n.type == "TEX_IMAGE"]
     assert tex and tex[0].image.filepath.endswith("face.png")
