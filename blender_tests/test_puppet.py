@@ -160,6 +160,9 @@ def test_template_builds_with_bones_rods_locks_and_parts(kind):
     assert sorted(ob.parent_bone for ob in parts) == sorted(names)
     assert all(ob.parent == rig and ob.parent_type == "BONE" and len(ob.data.polygons) == 1 for ob in parts)
     assert all(ob.hide_select for ob in parts)     # a click in the viewport picks a rod, not a part
+    for ob in parts:                               # a picture painted on a part covers it exactly
+        uv = np.array([d.uv[:] for d in ob.data.uv_layers["UVMap"].data])
+        assert uv.min(axis=0) == pytest.approx((0, 0)) and uv.max(axis=0) == pytest.approx((1, 1)), ob.name
     # The part sits on its bone: its centre is near the bone's segment.
     for ob in parts:
         c = sum((ob.matrix_world @ v.co for v in ob.data.vertices), Vector()) / len(ob.data.vertices)
