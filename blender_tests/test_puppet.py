@@ -136,6 +136,7 @@ def test_template_builds_with_bones_rods_locks_and_parts(kind):
         assert abs(bone.head_local.y) < 1e-6 and abs(bone.tail_local.y) < 1e-6
         assert (bone.matrix_local.col[2].xyz - Vector((0, -1, 0))).length < 1e-6
         assert pb.rotation_mode == "XYZ"
+        assert bone.use_connect == b.connected, b.name
         expected = {"plane": (True, True, False), "plane+twist": (True, False, False),
                     "fixed": (True, True, True)}[b.dof]
         assert tuple(pb.lock_rotation) == expected, b.name
