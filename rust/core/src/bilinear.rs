@@ -238,6 +238,18 @@ mod tests {
         assert!((d[0] - 0.6).abs() < 1e-4 && (d[3] - 0.6).abs() < 1e-4, "{d:?}");
     }
 
+    /// A vertex as far from the bone after the nearest ones as from them (four bones around it,
+    /// three taken) is still weighted: the cut-off at the next bone's share would leave nothing.
+    #[test]
+    fn a_tie_with_the_next_bone_still_weights_the_vertex() {
+        let heads = [[1.0, 0.0, 0.0], [-1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, -1.0, 0.0]];
+        let tails = heads.map(|h| [h[0], h[1], 1.0]);
+        let inf = bilinear_weights(&[[0.0, 0.0, 0.5]], &heads, &tails, &[-1; 4], &BilinearOptions::default()).unwrap();
+        let (idx, w) = inf.row(0);
+        assert!((w.iter().sum::<f32>() - 1.0).abs() < 1e-5, "{idx:?} {w:?}");
+        assert_eq!(w.iter().filter(|&&x| x > 0.0).count(), 3, "{idx:?} {w:?}");
+    }
+
     /// Inverse-power falloff: the weights go as `(d_min / d)^power` (two bones in reach, no
     /// neighbour share at a bone's middle).
     #[test]
