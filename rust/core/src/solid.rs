@@ -221,6 +221,13 @@ mod tests {
         assert_eq!(s.pieces(), 2);
         let h = s.hits(Vec3::new(-1.0, 0.07, 0.13), Vec3::X, 10.0);
         assert_eq!(h.len(), 2, "{h:?}");
+        // A hair's gap between them (under the merge distance) is no gap either.
+        let (mut v, mut t) = (Vec::new(), Vec::new());
+        add_box(&mut v, &mut t, [0.0, 0.0, 0.0], [0.5, 0.2, 0.2]);
+        add_box(&mut v, &mut t, [0.5000005, 0.02, 0.02], [1.0, 0.18, 0.18]);
+        let s = Solid::new(&v, &t, 1e-6, 1e-6);
+        let h = s.hits(Vec3::new(-1.0, 0.07, 0.13), Vec3::X, 10.0);
+        assert_eq!(h.len(), 2, "{h:?}");
         // A flat-shaded cylinder (every triangle its own vertices) welds into one piece.
         let (cv, ct) = capped_cylinder(0.5, 2.0, 8, 12);
         let (cv, ct) = split_flat(&cv, &ct);
