@@ -96,6 +96,11 @@ def assert_legs_hang_down(rig):
         assert d.normalized().dot(Vector((0, 0, -1))) > 1 - 1e-6, side
 
 
+def world_centre(ob):
+    """Mean world position of a mesh object's vertices."""
+    return sum((ob.matrix_world @ v.co for v in ob.data.vertices), Vector()) / len(ob.data.vertices)
+
+
 def assert_within_limits(rig, eps=1e-6):
     for pb in rig.pose.bones:
         assert pb.ik_min_z - eps <= pb.rotation_euler.z <= pb.ik_max_z + eps, (
@@ -160,13 +165,13 @@ def test_template_builds_with_bones_rods_locks_and_parts(kind):
     parts = [ob for ob in bpy.data.objects if ob.get(R.PART_KEY)]
     assert sorted(ob.parent_bone for ob in parts) == sorted(names)
     assert all(ob.parent == rig and ob.parent_type == "BONE" and len(ob.data.polygons) == 1 for ob in parts)
-    assert all(ob.hide_select for ob in parts)     # a click in the viewport picks a rod, not a part
-    for ob in parts:                               # a picture painted on a part covers it exactly
+    for ob in parts:
+        assert ob.hide_select, ob.name             # a click in the viewport picks a rod, not a part
+        # a picture painted on a part covers it exactly
         uv = np.array([d.uv[:] for d in ob.data.uv_layers["UVMap"].data])
         assert uv.min(axis=0) == pytest.approx((0, 0)) and uv.max(axis=0) == pytest.approx((1, 1)), ob.name
-    # The part sits on its bone: its centre is near the bone's segment.
-    for ob in parts:
-        c = sum((ob.matrix_world @ v.co for v in ob.data.vertices), Vector()) / len(ob.data.vertices)
+        # The part sits on its bone: its centre is near the bone's segment.
+        c = world_centre(ob)
         h, t = head_world(rig, ob.parent_bone), tip_world(rig, ob.parent_bone)
         seg = t - h
         s = max(0.0, min(1.0, (c - h).dot(seg) / max(seg.length_squared, 1e-12)))
@@ -742,7 +747,7 @@ def test_set_part_image(tmp_path):
     pb = rig.pose.bones["head"]
     assert math.isclose(max(ys) - min(ys), 1.3 * pb.bone.length, rel_tol=1e-6)
     bpy.context.view_layer.update()
-    centre = sum((part.matrix_world @ v.co for v in part.data.vertices), Vector()) / 4
+    centre = world_centre(part)
     middle = rig.matrix_world @ ((pb.head + pb.tail) / 2)
     assert (centre.x, centre.z) == pytest.approx((middle.x, middle.z), abs=1e-5)
     nodes = part.data.materials[0].node_tree.nodes
