@@ -783,12 +783,14 @@ def test_armature_in_edit_mode_reports_error():
     assert _untouched(ob)
 
 
-def test_zero_length_bone_skipped_with_warning(capfd):
-    # Scaling the armature to zero along Z collapses the vertical bone in world space.
+@pytest.mark.parametrize("squash", [0.0, 1e-9])
+def test_zero_length_bone_skipped_with_warning(capfd, squash):
+    # Scaling the armature to zero along Z collapses the vertical bone in world space; a
+    # millionth of the rig's size counts as zero too (the core would take it for a point).
     ob = B.cylinder(height=1.0)
     arm = B.armature(bones=[("Up", (0, 0, 0), (0, 0, 1), None, False),
                             ("Side", (-0.4, 0, 0), (0.4, 0, 0), None, False)],
-                     location=(0, 0, 0.5), scale=(1, 1, 0))
+                     location=(0, 0, 0.5), scale=(1, 1, squash))
     capfd.readouterr()
     assert bind([ob], arm, method="IDW") == {"FINISHED"}
     assert "Skipped 1 zero-length bone(s): Up" in "".join(capfd.readouterr())
@@ -818,6 +820,39 @@ def test_weight_paint_mode_uses_painted_mesh_and_its_armature():
     assert bpy.ops.object.miniskeleton_auto_weights(method="BILINEAR") == {"FINISHED"}
     bpy.ops.object.mode_set(mode="OBJECT")
     assert sorted(g.name for g in ob.vertex_groups) == NAMES
+
+
+def test_the_armature_is_found_from_the_mesh_as_riggers_select_it():
+    """Besides Ctrl+P's order (meshes selected, armature active), the armature is the selected
+    one when a mesh is active, else the one the active mesh's Armature modifier names, else its
+    parent armature; in Weight Paint mode the painted mesh is weighted even when it is not
+    selected. Each way alone finds it here (no other way is set up)."""
+    def bound(ob):
+        assert bpy.ops.object.miniskeleton_auto_weights(method="IDW") == {"FINISHED"}
+        assert sorted(g.name for g in ob.vertex_groups) == NAMES
+        assert [m.object for m in ob.modifiers if m.type == "ARMATURE"] == [arm]
+
+    ob, arm = B.cylinder(), B.chain()
+    B.set_active(ob, selected=[arm])            # the armature picked first, then the mesh
+    bound(ob)
+
+    ob, arm = B.cylinder(), B.chain()
+    ob.modifiers.new("Armature", "ARMATURE").object = arm
+    B.set_active(ob)                            # the mesh alone, its modifier set up by hand
+    bound(ob)
+
+    ob, arm = B.cylinder(), B.chain()
+    ob.parent = arm                             # the mesh alone, parented without a modifier
+    B.set_active(ob)
+    bound(ob)
+
+    ob, arm = B.cylinder(), B.chain()
+    ob.modifiers.new("Armature", "ARMATURE").object = arm
+    B.set_active(ob)
+    bpy.ops.object.mode_set(mode="WEIGHT_PAINT")
+    ob.select_set(False)                        # painted, but not selected
+    bound(ob)
+    bpy.ops.object.mode_set(mode="OBJECT")
 
 
 def test_weight_paint_selection_masks_reweight_only_the_selected_vertices():
