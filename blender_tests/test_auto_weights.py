@@ -557,7 +557,7 @@ def test_running_again_keeps_the_group_list_as_blenders_ctrl_p_does():
     assert lists["ours"] == lists["blender"] == ["Bone2", "Mine", "Bone0", "Bone1", "Bone3"]
 
 
-def test_selected_bones_only_writes_only_those():
+def test_selected_bones_only_writes_only_those(capfd):
     ob = B.cylinder()
     arm = B.chain()
     B.pose_select(arm, selected=())
@@ -565,8 +565,10 @@ def test_selected_bones_only_writes_only_those():
         bind([ob], arm, method="HEAT", selected_bones_only=True)
     assert len(ob.vertex_groups) == 0 and ob.parent is None and len(ob.modifiers) == 0
     B.pose_select(arm, selected=("Bone1", "Bone2"))
+    capfd.readouterr()
     bind([ob], arm, method="HEAT", selected_bones_only=True)
     assert sorted(g.name for g in ob.vertex_groups) == ["Bone1", "Bone2"]
+    assert f"{len(ob.data.vertices)} vertices in 1 mesh(es), 2 bones," in capfd.readouterr().out  # those written
 
 
 def test_multiple_meshes_with_own_transforms_world_space():
@@ -855,7 +857,7 @@ def test_the_armature_is_found_from_the_mesh_as_riggers_select_it():
     bpy.ops.object.mode_set(mode="OBJECT")
 
 
-def test_weight_paint_selection_masks_reweight_only_the_selected_vertices():
+def test_weight_paint_selection_masks_reweight_only_the_selected_vertices(capfd):
     """In Weight Paint mode with the Vertex or Face Selection mask on, only the selected
     vertices get new weights, as with Blender's Weights > Assign Automatic from Bones (measured
     in bpy 5.0: unselected vertices keep every weight). The whole mesh is still solved, so the
@@ -880,7 +882,10 @@ def test_weight_paint_selection_masks_reweight_only_the_selected_vertices():
     bpy.ops.object.mode_set(mode="WEIGHT_PAINT")
 
     ob.data.use_paint_mask_vertex = True
+    capfd.readouterr()
     assert bpy.ops.object.miniskeleton_auto_weights(method="HEAT") == {"FINISHED"}
+    assert (f"re-weighted only the {bottom.sum()} of {len(z)} vertices of 'Cylinder' selected for the "
+            "Weight Paint") in capfd.readouterr().out
     after = B.weights_matrix(ob, NAMES)
     np.testing.assert_array_equal(after[~bottom], painted[~bottom])   # the painted top kept exactly
     np.testing.assert_allclose(after[bottom], full[bottom], atol=1e-6)  # the wrong 0.777 re-weighted
