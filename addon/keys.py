@@ -50,13 +50,14 @@ def _curves(owner: bpy.types.bpy_struct, path: str) -> dict:
 
 
 def value_at(owner: bpy.types.bpy_struct, path: str, frame: float) -> list[float] | None:
-    """``owner.<path>`` as its F-curves give it at scene ``frame``; None unless every component
-    of the property is keyed."""
+    """``owner.<path>`` as its F-curves give it at scene ``frame``; a component without an
+    F-curve keeps the property's value (nothing animates it). None when none is keyed."""
     curves = _curves(owner, path)
-    if sorted(curves) != list(range(len(getattr(owner, path)))):
+    if not curves:
         return None
     at = action_frame(owner.id_data, frame)
-    return [curves[i].evaluate(at) for i in sorted(curves)]
+    now = list(getattr(owner, path))
+    return [curves[i].evaluate(at) if i in curves else now[i] for i in range(len(now))]
 
 
 def key_series(owner: bpy.types.bpy_struct, path: str, frames: Sequence[float], values,

@@ -598,12 +598,13 @@ def test_a_bone_spinning_a_full_turn_gets_keys_that_turn_one_way_round(mode):
         assert np.allclose(np.diff([v[2] for v in values]), np.radians(15), atol=1e-5)
 
 
-@pytest.mark.parametrize("mode", ["QUATERNION", "XYZ"])
-def test_a_motion_continues_the_short_way_from_a_key_a_full_turn_round(mode):
+@pytest.mark.parametrize("mode, channel", [("QUATERNION", -1), ("XYZ", -1), ("XYZ", 2)])
+def test_a_motion_continues_the_short_way_from_a_key_a_full_turn_round(mode, channel):
     """A bone keyed at rest written the other way round (the quaternion -1, or Euler z = 360
     degrees, as a rigger's spin or another tool leaves it) gets a motion whose keys continue
     from that value: between that key and the motion the bone stays near rest. Keys that began
-    from +1 or 0 would send it half a turn (quaternion) or a whole turn (Euler) round between them."""
+    from +1 or 0 would send it half a turn (quaternion) or a whole turn (Euler) round between them.
+    Also when only the turned channel is keyed (``channel``; -1: all): the others hold their value."""
     blender_session.reset_scene()
     scene = bpy.context.scene
     arm = creature.build_armature()
@@ -615,7 +616,8 @@ def test_a_motion_continues_the_short_way_from_a_key_a_full_turn_round(mode):
     else:
         pb.rotation_euler = (0.0, 0.0, 2 * np.pi)
         path = "rotation_euler"
-    pb.keyframe_insert(path, frame=scene.frame_start)
+    pb.keyframe_insert(path, index=channel, frame=scene.frame_start)
+    assert len(motion_module().action_fcurves(arm)) == (1 if channel >= 0 else len(getattr(pb, path)))
     assert add_motion(arm, motion="HEAD_SHAKE", cycles=1) == {"FINISHED"}
     end = int(motion_module().last_key_frame(arm))
     worst = 0.0
