@@ -493,14 +493,15 @@ def test_feet_hanging_off_the_root_stay_at_rest_before_a_walk_appended_to_a_head
     assert moved == {"L", "R"}
 
 
-@pytest.mark.parametrize("before", ["nothing", "earlier keys", "keys in the range"])
+@pytest.mark.parametrize("before", ["nothing", "earlier keys", "keys in the range", "later keys"])
 @pytest.mark.parametrize("path", ["rotation_quaternion", "rotation_euler"])
 def test_a_key_series_is_the_keys_keyframe_insert_makes_one_by_one(before, path):
     """Add Motion and Bake Puppet Animation write each bone's keys as one series (keying a frame
     at a time slowed as the curves grew: 100 walk cycles took 11 s, now 0.3 s). The series is
     the same keys, handles, interpolation, key types, easing and group as keyframe_insert makes
-    one frame at a time, after a curve's earlier keys or over keys in its range (the rigger's
-    keys there constant, breakdowns, eased in: new keys are Blender's kind, not theirs)."""
+    one frame at a time, after a curve's earlier keys, over keys in its range or before later
+    ones (the rigger's keys there constant, breakdowns, eased in: new keys are Blender's kind,
+    not theirs)."""
     keys = __import__(ADDON + ".keys", fromlist=["keys"])
     rng = np.random.default_rng(5)
     values = rng.normal(size=(21, 4 if path == "rotation_quaternion" else 3))
@@ -510,7 +511,7 @@ def test_a_key_series_is_the_keys_keyframe_insert_makes_one_by_one(before, path)
         arm = biped_rig()
         pb = arm.pose.bones["thigh.L"]
         pb.rotation_mode = "QUATERNION" if path == "rotation_quaternion" else "XZY"
-        for f in {"earlier keys": (1, 4), "keys in the range": (12, 15, 40)}.get(before, ()):
+        for f in {"earlier keys": (1, 4), "keys in the range": (12, 15, 40), "later keys": (40, 45)}.get(before, ()):
             setattr(pb, path, [0.3] * len(values[0]))
             pb.keyframe_insert(path, frame=f, group="Mine")
         for fc in keys.action_fcurves(arm):   # the rigger's keys are not of Blender's new kind
