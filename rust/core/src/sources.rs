@@ -294,6 +294,28 @@ mod tests {
         }
     }
 
+    /// Bones fanning out from one joint (a palm's fingers) are all equally near a vertex behind
+    /// it: at most [`MAX_TIES`] of them share the vertex, lowest indices first, in both rankings.
+    #[test]
+    fn more_ties_than_the_limit_keep_the_first() {
+        let hub = DVec3::new(0.5, 0.5, 0.3);
+        let fan: Vec<(DVec3, DVec3)> = (0..6)
+            .map(|k| {
+                let a = k as f64 * std::f64::consts::TAU / 6.0;
+                (hub, hub + DVec3::new(0.2 * a.cos(), 0.2 * a.sin(), 0.3))
+            })
+            .collect();
+        let p = DVec3::new(0.5, 0.5, 0.1); // below the hub: every finger's nearest point is the hub
+        let mut scratch = vec![0.0; 2 * fan.len()];
+        let rm = unit_cube();
+        for sight in [None, Some(Sight { rays: &rm, tri_piece: None, piece: 0, normal: DVec3::ZERO })] {
+            let s = nearest_visible_bone(p, -DVec3::Z, &fan, sight, &mut scratch);
+            assert_eq!((s.count, s.bones), (MAX_TIES as u8, [0, 1, 2, 3]));
+            assert!((s.dist - 0.2 / (0.5 * 2.001)).abs() < 1e-9); // straight behind: cos = 1
+            assert_eq!(s.nearest, Ties { bones: [0, 1, 2, 3], count: MAX_TIES as u8 });
+        }
+    }
+
     /// Pinocchio's ties: a bone farther than the nearest by less than [`TIE_RATIO`] (relative)
     /// shares the vertex's heat source, in both rankings (nearest visible bone, and nearest by
     /// plain distance for the fallbacks); farther by more, it does not.
