@@ -33,17 +33,16 @@ def _puppet_bounds(scene):
 
 
 def _theatre_object(scene, name, make_data):
-    """The theatre's object in the role ``name`` (made by an earlier run: found by its role,
-    whatever it is called now), or a new one with the data ``make_data()``; linked to the
-    scene. An object or data-block of the rigger's that has the name is never taken over (the
-    new one is called ``name.001``)."""
-    ob = next((o for o in bpy.data.objects if o.get(THEATRE_KEY) == name), None)
+    """The scene's theatre object in the role ``name`` (made by an earlier run: found by its
+    role, whatever it is called now), or a new one with the data ``make_data()``, linked to the
+    scene. Another scene's theatre is its own (refitting it here would move it there), and an
+    object or data-block of the rigger's that has the name is never taken over (the new one is
+    called ``name.001``)."""
+    ob = next((o for o in scene.objects if o.get(THEATRE_KEY) == name), None)
     if ob is None:
         ob = bpy.data.objects.new(name, make_data())
         scene.collection.objects.link(ob)
         ob[THEATRE_KEY] = name
-    elif ob.name not in scene.objects:
-        scene.collection.objects.link(ob)
     return ob
 
 

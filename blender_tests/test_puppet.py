@@ -850,6 +850,44 @@ def test_shadow_theatre_frames_a_wide_cast_and_leaves_the_riggers_own_objects():
     assert scene.camera == cam and own.data == own_mesh
 
 
+def test_each_scene_gets_its_own_shadow_theatre_behind_its_own_puppets():
+    """A second scene (another shot) gets its own screen, light and camera, centred behind its
+    puppet, and the first scene's theatre stays where it was. Before, the second run took the
+    first scene's objects (found in the file by their role), linked them into the second scene
+    and refitted them there, moving the first shot's screen and camera. Running it again in
+    either scene refits that scene's own objects and makes no new material."""
+    first = bpy.context.scene
+    add("FIVE_ROD")
+    assert bpy.ops.scene.miniskeleton_shadow_theatre() == {"FINISHED"}
+    theatre = sorted(o.name for o in first.objects if o.get(R.THEATRE_KEY))
+    assert len(theatre) == 3
+    places = {n: bpy.data.objects[n].matrix_world.copy() for n in theatre}
+
+    second = bpy.data.scenes.new("Shot 2")
+    bpy.context.window.scene = second
+    second.cursor.location = (4.0, 0.0, 0.0)
+    rig, _ = add("FIVE_ROD")
+    assert bpy.ops.scene.miniskeleton_shadow_theatre() == {"FINISHED"}
+    own = [o for o in second.objects if o.get(R.THEATRE_KEY)]
+    assert len(own) == 3 and not {o.name for o in own} & set(theatre)
+    assert second.camera in own and first.camera.name in theatre
+    assert all(bpy.data.objects[n].matrix_world == m for n, m in places.items())
+    assert not any(o.name in first.objects for o in own)
+    screen = next(o for o in own if o.get(R.THEATRE_KEY) == "ShadowScreen")
+    xs = [p.x for p in (tip_world(rig, b) for b in ("head", "hand.L", "hand.R", "foot.L", "foot.R"))]
+    assert screen.location.x == pytest.approx(4.0, abs=0.5) and min(xs) < screen.location.x < max(xs)
+    light = next(o for o in own if o.get(R.THEATRE_KEY) == "ShadowBacklight")
+    assert second.camera.location.x == pytest.approx(screen.location.x) == light.location.x
+
+    count = len(bpy.data.objects)
+    for scene in (first, second):
+        bpy.context.window.scene = scene
+        assert bpy.ops.scene.miniskeleton_shadow_theatre() == {"FINISHED"}
+    assert len(bpy.data.objects) == count
+    assert [m.name for m in bpy.data.materials if m.name.startswith("MiniSkeleton Shadow Screen")] == [
+        "MiniSkeleton Shadow Screen"]
+
+
 def test_vertices_of_the_meshes_puppets_are_made_of_can_be_selected_in_weight_paint(tmp_path):
     """Blender 5.0.1 types the internal ``.select_edge`` attribute INT32_2D when it computes a
     new mesh's edges itself, and selecting vertices of such a mesh in Weight Paint mode (Vertex
