@@ -242,3 +242,35 @@ impl RunningTopK {
         self.ramped
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn source(bones: &[u32]) -> Source {
+        let mut tied = [u32::MAX; crate::sources::MAX_TIES];
+        tied[..bones.len()].copy_from_slice(bones);
+        Source { bones: tied, count: bones.len() as u8, dist: 1.0, nearest: Ties::one(bones[0]), nearest_dist: 1.0 }
+    }
+
+    /// Pinocchio's `p_j,i = 1/k` for a vertex tied between k bones: they share its heat
+    /// `M_ii H_ii`, so every row of the right-hand sides sums to that heat (and the solutions to
+    /// 1, since `L 1 = 0`), however the bones fall into blocks.
+    #[test]
+    fn tied_bones_share_a_vertex_heat() {
+        let sources = [source(&[0]), source(&[0, 2]), source(&[1, 2, 3]), source(&[3])];
+        let heat = [2.0, 3.0, 1.5, 0.0];
+        for blocks in [vec![vec![0, 1, 2, 3]], vec![vec![0, 2], vec![1, 3]]] {
+            let mut sum = [0.0; 4];
+            for block in &blocks {
+                let x = source_columns(&sources, &heat, block);
+                for (c, column) in x.chunks(4).enumerate() {
+                    assert_eq!(column.len(), 4, "column {c}");
+                    sum.iter_mut().zip(column).for_each(|(s, w)| *s += w);
+                }
+            }
+            assert_eq!(sum, heat);
+        }
+        assert_eq!(source_columns(&sources, &heat, &[2]), vec![0.0, 1.5, 0.5, 0.0]);
+    }
+}
