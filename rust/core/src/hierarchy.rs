@@ -199,3 +199,23 @@ pub(crate) fn build_tree(parents: &[i32]) -> Tree {
     }
     Tree { root: best[0], children, order: best }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A body chain (hips, spine, chest, and a clavicle off the chest, not connected) with a
+    /// neck tree starting at the chest's tail and a tree starting at the clavicle's head (a
+    /// shoulder twist bone): the neck becomes the chest's child, the twist bone the clavicle's
+    /// sibling, as in a rig built in one tree.
+    #[test]
+    fn trees_that_touch_are_joined_as_one_rig_would_be() {
+        let heads =
+            [[0.0, 0.0, 1.0], [0.0, 0.0, 1.2], [0.0, 0.0, 1.5], [0.0, 0.0, 1.8], [0.1, 0.0, 1.7], [0.1, 0.0, 1.7]];
+        let tails =
+            [[0.0, 0.0, 1.2], [0.0, 0.0, 1.5], [0.0, 0.0, 1.8], [0.0, 0.0, 2.0], [0.25, 0.0, 1.75], [0.3, 0.0, 1.6]];
+        let parents = [-1, 0, 1, -1, 2, -1];
+        let joined = joined_parents(&heads, &tails, &parents, &[false; 6], 1e-3);
+        assert_eq!(joined, [-1, 0, 1, 2, 2, 2]);
+    }
+}
