@@ -218,4 +218,17 @@ mod tests {
         let joined = joined_parents(&heads, &tails, &parents, &[false; 6], 1e-3);
         assert_eq!(joined, [-1, 0, 1, 2, 2, 2]);
     }
+
+    /// Feet hanging off the ground root ride on the nearest free leg end, each leg carrying one
+    /// foot: with the feet close together, the right foot lies nearer the left shin's end than
+    /// its own, but the left foot is nearer still and takes it.
+    #[test]
+    fn each_leg_carries_one_foot() {
+        let heads =
+            [[0.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.1, 0.0, 1.0], [-0.1, 0.0, 1.0], [0.1, 0.0, 0.0], [0.05, 0.0, 0.0]];
+        let tails =
+            [[0.0, 0.2, 0.0], [0.0, 0.0, 1.2], [0.1, 0.0, 0.1], [-0.1, 0.0, 0.1], [0.1, -0.1, 0.0], [0.05, -0.1, 0.0]];
+        let parents = [-1, 0, 1, 1, 0, 0];
+        assert_eq!(foot_riders(&heads, &tails, &parents, 0.05, (0.3, 0.5)), [[4, 2], [5, 3]]);
+    }
 }
