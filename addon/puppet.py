@@ -339,7 +339,7 @@ def part_outline(shape: str, length: float, width=(0.05, 0.04), segments: int = 
         return np.vstack([[(0.0, L)], _arc(0, 0, w0, math.pi, 2 * math.pi, n)])
     if shape == "skirt":
         return np.array([(w1, L), (0.6 * w1, L * 1.04), (0, L), (-0.6 * w1, L * 1.04), (-w1, L),
-                         (-w0, 0.0), (-0.5 * w0, -0.03), (0.5 * w0, -0.03), (w0, 0.0)])
+                         (-w0, 0.0), (-0.5 * w0, -0.25 * w0), (0.5 * w0, -0.25 * w0), (w0, 0.0)])
     if shape == "hand":
         return np.vstack([_arc(0, L * 0.7, w1, -0.3, math.pi + 0.3, n),
                           [(-w0 * 0.7, 0.0)], _arc(0, 0, w0 * 0.7, math.pi, 2 * math.pi, n // 2),

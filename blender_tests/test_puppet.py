@@ -179,6 +179,25 @@ def test_template_builds_with_bones_rods_locks_and_parts(kind):
     assert_in_plane(rig)
 
 
+def test_size_scales_the_whole_figure():
+    """Size 2 builds the figure twice as large: bones, parts and rods (the figure's own
+    proportions, and its feet on the cursor's height, kept)."""
+    built = {}
+    for size in (1.0, 2.0):
+        blender_session.reset_scene()
+        assert bpy.ops.object.miniskeleton_add_puppet(type="FIVE_ROD", size=size) == {"FINISHED"}
+        rig = R.puppet_rig(bpy.context.active_object)
+        settle()
+        built[size] = (sorted((b.name, b.length) for b in rig.data.bones),
+                       sorted((ob.name.split(".")[-1], max(ob.dimensions)) for ob in rig.children if ob.type == "MESH"),
+                       sorted((role, tuple(rod.matrix_world.translation)) for role, rod in R.puppet_rods(rig).items()))
+    (bones1, parts1, rods1), (bones2, parts2, rods2) = built[1.0], built[2.0]
+    assert [n for n, _ in bones1] == [n for n, _ in bones2]
+    np.testing.assert_allclose([n for _, n in bones2], [2 * n for _, n in bones1], rtol=1e-5)
+    np.testing.assert_allclose([d for _, d in parts2], [2 * d for _, d in parts1], rtol=1e-4)
+    np.testing.assert_allclose([p for _, p in rods2], [2 * np.array(p) for _, p in rods1], rtol=1e-4, atol=1e-6)
+
+
 def test_add_menu_and_panel():
     funcs = bpy.types.VIEW3D_MT_armature_add._dyn_ui_initialize()
     assert any(getattr(f, "__module__", "").endswith("miniskeleton.ui") for f in funcs)
@@ -396,14 +415,16 @@ def test_quadruped_translates_and_turns_its_head():
 # ---------------------------------------------------------------------------- bake
 
 
-def test_bake_keys_only_the_bones_that_can_turn():
+def test_bake_keys_only_the_bones_that_can_turn(capfd):
     """Bake keys the bones a rod can turn: the quadruped's rigid body, legs and tail (every
     rotation axis locked) get no F-curves, its head does."""
     rig, _ = add("QUADRUPED")
     scene = bpy.context.scene
     scene.frame_start, scene.frame_end = 1, 3
     bpy.context.view_layer.objects.active = rig
+    capfd.readouterr()
     assert bpy.ops.object.miniskeleton_bake_puppet() == {"FINISHED"}
+    assert f"Baked 3 frames of {rig.name}" in capfd.readouterr().out
     assert {fc.data_path for fc in K.action_fcurves(rig)} == {'pose.bones["head"].rotation_euler'}
 
 
@@ -753,6 +774,12 @@ def test_set_part_image(tmp_path):
     nodes = part.data.materials[0].node_tree.nodes
     tex = [n for n in nodes if n.type == "TEX_IMAGE"]
     assert tex and tex[0].image.filepath.endswith("face.png")
+    # Without a bone named, the active bone's part takes it, and the file is loaded once.
+    other = next(ob for ob in rig.children if ob.get(R.PART_KEY) not in (None, "head"))
+    rig.data.bones.active = rig.data.bones[other[R.PART_KEY]]
+    assert bpy.ops.object.miniskeleton_set_part_image(filepath=path) == {"FINISHED"}
+    assert len(other.data.vertices) == 4
+    assert [i.name for i in bpy.data.images if i.filepath.endswith("face.png")] == [tex[0].image.name]
 
 
 def test_set_part_image_on_a_part_in_edit_mode_is_an_error(tmp_path):
