@@ -258,13 +258,19 @@ pub(crate) mod tests {
 
     #[test]
     fn blocked_and_hits() {
-        let (v, t) = unit_cube();
+        let (mut v, t) = unit_cube();
+        v.push([f32::NAN, 0.0, 0.0]);
+        v.push([0.5, 0.5, 1e-13]);
         let mut t2 = t.clone();
         t2.push([0, 0, 1]); // degenerate, dropped
         t2.push([0, 1, 99]); // out of range, dropped
+        t2.push([0, 1, 8]); // not finite, dropped
+        t2.push([0, 3, 9]); // a sliver across the bottom face (area / longest^2 ~ 1e-13), dropped
         let rm = RayMesh::new(&v, &t2);
         assert_eq!(rm.triangle_count(), 12);
         let inside = Vec3::splat(0.5);
+        // A zero-length segment is never blocked, even on the surface.
+        assert!(!rm.segment_blocked(Vec3::new(0.5, 0.5, 0.0), Vec3::new(0.5, 0.5, 0.0)));
         assert!(!rm.segment_blocked(inside, Vec3::new(0.5, 0.5, 0.9)));
         assert!(rm.segment_blocked(inside, Vec3::new(0.5, 0.5, 1.5)));
         assert!(rm.segment_blocked(Vec3::new(0.3, 0.2, -1.0), Vec3::new(0.3, 0.2, 3.0)));
