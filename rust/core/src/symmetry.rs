@@ -244,16 +244,19 @@ mod tests {
 
     #[test]
     fn side_bones_named_without_a_side_are_paired_by_place() {
-        // A spine on the plane, two arms mirrored, a lone ear off the plane, all "centre" by name.
-        let heads = [[0.0, 0.0, 0.0], [0.2, 0.0, 1.0], [-0.2, 0.0, 1.0], [0.1, 0.0, 1.5]];
-        let tails = [[0.0, 0.0, 1.5], [1.0, 0.0, 1.0], [-1.0, 0.0, 1.0], [0.2, 0.0, 1.8]];
-        let (m, paired, alone) = pair_side_bones_by_place(&heads, &tails, &[0, 1, 2, 3], 0).unwrap();
-        assert_eq!(m, vec![0, 2, 1, -1]);
-        assert_eq!((paired, alone), (2, 1));
-        validate_bone_mirror(&m, 4).unwrap();
+        // A spine on the plane, two arms mirrored, a lone ear off the plane, and two clavicles
+        // starting on the plane (one end off it is enough), all "centre" by name.
+        let heads =
+            [[0.0, 0.0, 0.0], [0.2, 0.0, 1.0], [-0.2, 0.0, 1.0], [0.1, 0.0, 1.5], [0.0, 0.0, 1.2], [0.0, 0.0, 1.2]];
+        let tails =
+            [[0.0, 0.0, 1.5], [1.0, 0.0, 1.0], [-1.0, 0.0, 1.0], [0.2, 0.0, 1.8], [0.3, 0.0, 1.3], [-0.3, 0.0, 1.3]];
+        let (m, paired, alone) = pair_side_bones_by_place(&heads, &tails, &[0, 1, 2, 3, 4, 5], 0).unwrap();
+        assert_eq!(m, vec![0, 2, 1, -1, 5, 4]);
+        assert_eq!((paired, alone), (4, 1));
+        validate_bone_mirror(&m, 6).unwrap();
         // Named pairs and unpaired side bones are left as they are.
-        let (m, paired, alone) = pair_side_bones_by_place(&heads, &tails, &[0, 2, 1, -1], 0).unwrap();
-        assert_eq!((m, paired, alone), (vec![0, 2, 1, -1], 0, 0));
+        let (m, paired, alone) = pair_side_bones_by_place(&heads, &tails, &[0, 2, 1, -1, 5, 4], 0).unwrap();
+        assert_eq!((m, paired, alone), (vec![0, 2, 1, -1, 5, 4], 0, 0));
         // Midpoints mirror images but the bones are not (one slopes down and out, the other up
         // and out): both stay unpaired.
         let heads = [[0.0, 0.0, 0.0], [0.3, 0.0, 1.2], [-0.3, 0.0, 0.8]];
