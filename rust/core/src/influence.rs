@@ -171,6 +171,20 @@ mod tests {
         assert_eq!(inf.row(0), (&[1][..], &[1.0][..]));
     }
 
+    /// The ranked list does not depend on the order the values come in: equal weights rank by
+    /// bone index whether the bones come up or down (blocks of bones, mirrored pairs).
+    #[test]
+    fn equal_weights_rank_by_index_in_any_order() {
+        for order in [[1, 3, 0, 2, 4], [4, 3, 2, 1, 0], [2, 4, 0, 3, 1]] {
+            let (mut idx, mut ws, mut used) = ([-1; 3], [0.0; 3], 0);
+            for j in order {
+                let w = if j == 4 { 0.5 } else { 0.25 };
+                used = insert_ranked(j, w, &mut idx, &mut ws, used);
+            }
+            assert_eq!((used, idx, ws), (3, [4, 0, 1], [0.5, 0.25, 0.25]), "order {order:?}");
+        }
+    }
+
     /// The pruning threshold is relative to the kept total, so it does not depend on the
     /// scale of the raw values (inverse distances, unnormalized heat): a weight that is 1e-3
     /// of a large total is dropped, and two weights below 1e-3 that share a small total stay.
