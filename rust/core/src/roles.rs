@@ -1044,6 +1044,53 @@ pub(crate) mod tests {
         assert!(r.single_tree);
     }
 
+    /// The creature's tail dropped to the ground or curled up above its head stays its tail: a
+    /// tail reaching the ground is no leg, and the head end of the body is found by the names on
+    /// the way to it (a plume rising above the head, named without "tail") or by a tail's own
+    /// name (head bones named without a head word).
+    #[test]
+    fn a_tail_on_the_ground_or_above_the_head_stays_the_tail() {
+        let tailed = |tail2: [f32; 3], tail3: [f32; 3], rename: &[(&str, &str)]| {
+            let (mut names, h, mut t, p) = creature();
+            let i = |names: &[String], n: &str| names.iter().position(|x| x == n).unwrap();
+            let (a, b) = (i(&names, "tail.002"), i(&names, "tail.003"));
+            let mut h = h;
+            (t[a], h[b], t[b]) = (tail2, tail2, tail3);
+            for (from, to) in rename {
+                let k = i(&names, from);
+                names[k] = to.to_string();
+            }
+            let r = detect_roles(&h, &t, &p, &names).unwrap();
+            assert_eq!(r.plan, BodyPlan::Quadruped, "{rename:?}");
+            (named(&names, &r.tail), names[r.head].clone())
+        };
+        let tail = ["tail.001", "tail.002", "tail.003"];
+        assert_eq!(tailed([0.0, 1.10, 0.6], [0.0, 1.25, 0.03], &[]), (tail.map(String::from).to_vec(), "head".into()));
+        let up = ([0.0, 1.0, 1.6], [0.0, 0.9, 2.1]);
+        let plume = [("tail.001", "plume.001"), ("tail.002", "plume.002"), ("tail.003", "plume.003")];
+        let (_, head) = tailed(up.0, up.1, &plume);
+        assert_eq!(head, "head");
+        let unnamed = [("neck", "n1"), ("head", "n2"), ("jaw", "n3")];
+        assert_eq!(tailed(up.0, up.1, &unnamed), (tail.map(String::from).to_vec(), "n2".into()));
+    }
+
+    /// A pair of cape panels (one long bone each, hanging off the chest like a pair of arms)
+    /// are no arms: an arm is a chain of two bones or more.
+    #[test]
+    fn hanging_single_bones_are_not_arms() {
+        let (mut names, mut h, mut t, mut p) = creature();
+        let chest = names.iter().position(|n| n == "chest").unwrap() as i32;
+        for (side, x) in [("L", 0.15), ("R", -0.15)] {
+            names.push(format!("cape.{side}"));
+            h.push([x, -0.2, 1.1]);
+            t.push([x, -0.2, 0.5]);
+            p.push(chest);
+        }
+        let r = detect_roles(&h, &t, &p, &names).unwrap();
+        assert!(r.arms.is_empty(), "{:?}", r.arms);
+        assert_eq!(r.plan, BodyPlan::Quadruped);
+    }
+
     /// The creature with each leg's bones moved by `dy` along Y (forward is -Y).
     fn creature_with_legs_moved(dy: [(&str, f32); 4]) -> Skeleton {
         let (names, mut h, mut t, p) = creature();
