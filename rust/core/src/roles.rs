@@ -1075,7 +1075,7 @@ pub(crate) mod tests {
     }
 
     /// A pair of cape panels (one long bone each, hanging off the chest like a pair of arms)
-    /// are no arms: an arm is a chain of two bones or more.
+    /// are no arms: an arm is a chain of two bones or more, with a partner on the other side.
     #[test]
     fn hanging_single_bones_are_not_arms() {
         let (mut names, mut h, mut t, mut p) = creature();
@@ -1089,6 +1089,18 @@ pub(crate) mod tests {
         let r = detect_roles(&h, &t, &p, &names).unwrap();
         assert!(r.arms.is_empty(), "{:?}", r.arms);
         assert_eq!(r.plan, BodyPlan::Quadruped);
+        // Nor is a chain on one side only (a bag's strap): arms come in pairs.
+        let (mut names, mut h, mut t, mut p) = creature();
+        for (k, (a, b)) in
+            [([0.2, -0.3, 1.05], [0.25, -0.3, 0.8]), ([0.25, -0.3, 0.8], [0.25, -0.2, 0.5])].into_iter().enumerate()
+        {
+            names.push(format!("strap.00{k}"));
+            h.push(a);
+            t.push(b);
+            p.push(if k == 0 { chest } else { names.len() as i32 - 2 });
+        }
+        let r = detect_roles(&h, &t, &p, &names).unwrap();
+        assert!(r.arms.is_empty(), "{:?}", r.arms);
     }
 
     /// The creature with each leg's bones moved by `dy` along Y (forward is -Y).
