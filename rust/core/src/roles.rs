@@ -1365,6 +1365,10 @@ pub(crate) mod tests {
         assert_eq!(name_side("thigh.L"), Some(Side::Left));
         assert_eq!(name_side("R_foot"), Some(Side::Right));
         assert_eq!(name_side("LeftUpLeg"), Some(Side::Left));
+        assert_eq!(name_side("mixamorig:RightHand"), Some(Side::Right));
+        assert_eq!(name_side("shin-r"), Some(Side::Right));
+        assert_eq!(name_side("l ear"), Some(Side::Left));
         assert_eq!(name_side("spine"), None);
+        assert_eq!(name_side("tail.l1"), None);
     }
 }
