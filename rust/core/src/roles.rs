@@ -1072,6 +1072,18 @@ pub(crate) mod tests {
         assert_eq!(head, "head");
         let unnamed = [("neck", "n1"), ("head", "n2"), ("jaw", "n3")];
         assert_eq!(tailed(up.0, up.1, &unnamed), (tail.map(String::from).to_vec(), "n2".into()));
+        // Hanging straight down under the hips (2 cm back over its 0.5 m), the chain is a
+        // flap, not a tail: a tail points back by more than 5 % of the height.
+        let (names, mut h, mut t, p) = creature();
+        let joints = [[0.0, 0.56, 0.8], [0.0, 0.565, 0.65], [0.0, 0.57, 0.5]];
+        for (k, name) in tail.iter().enumerate() {
+            let b = names.iter().position(|n| n == name).unwrap();
+            if k > 0 {
+                h[b] = joints[k - 1];
+            }
+            t[b] = joints[k];
+        }
+        assert!(detect_roles(&h, &t, &p, &names).unwrap().tail.is_empty());
     }
 
     /// A pair of cape panels (one long bone each, hanging off the chest like a pair of arms)
