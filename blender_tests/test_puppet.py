@@ -36,8 +36,8 @@ def settle():
     bpy.context.view_layer.update()
 
 
-def add(kind):
-    assert bpy.ops.object.miniskeleton_add_puppet(type=kind) == {"FINISHED"}
+def add(kind, **props):
+    assert bpy.ops.object.miniskeleton_add_puppet(type=kind, **props) == {"FINISHED"}
     rig = R.puppet_rig(bpy.context.active_object)
     assert rig is not None
     settle()
@@ -185,12 +185,10 @@ def test_size_scales_the_whole_figure():
     built = {}
     for size in (1.0, 2.0):
         blender_session.reset_scene()
-        assert bpy.ops.object.miniskeleton_add_puppet(type="FIVE_ROD", size=size) == {"FINISHED"}
-        rig = R.puppet_rig(bpy.context.active_object)
-        settle()
+        rig, rods = add("FIVE_ROD", size=size)
         built[size] = (sorted((b.name, b.length) for b in rig.data.bones),
                        sorted((ob.name.split(".")[-1], max(ob.dimensions)) for ob in rig.children if ob.type == "MESH"),
-                       sorted((role, tuple(rod.matrix_world.translation)) for role, rod in R.puppet_rods(rig).items()))
+                       sorted((role, tuple(rod.matrix_world.translation)) for role, rod in rods.items()))
     (bones1, parts1, rods1), (bones2, parts2, rods2) = built[1.0], built[2.0]
     assert [n for n, _ in bones1] == [n for n, _ in bones2]
     np.testing.assert_allclose([n for _, n in bones2], [2 * n for _, n in bones1], rtol=1e-5)
