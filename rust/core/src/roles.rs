@@ -1050,12 +1050,19 @@ pub(crate) mod tests {
     /// name (head bones named without a head word).
     #[test]
     fn a_tail_on_the_ground_or_above_the_head_stays_the_tail() {
-        let tailed = |tail2: [f32; 3], tail3: [f32; 3], rename: &[(&str, &str)]| {
-            let (mut names, h, mut t, p) = creature();
+        const TAIL: [&str; 3] = ["tail.001", "tail.002", "tail.003"];
+        // The roles' tail and head with the tail's joints (tail1, tail2, tail3) moved and bones
+        // renamed.
+        let tailed = |joints: [[f32; 3]; 3], rename: &[(&str, &str)]| {
+            let (mut names, mut h, mut t, p) = creature();
             let i = |names: &[String], n: &str| names.iter().position(|x| x == n).unwrap();
-            let (a, b) = (i(&names, "tail.002"), i(&names, "tail.003"));
-            let mut h = h;
-            (t[a], h[b], t[b]) = (tail2, tail2, tail3);
+            for (k, name) in TAIL.iter().enumerate() {
+                let b = i(&names, name);
+                if k > 0 {
+                    h[b] = joints[k - 1];
+                }
+                t[b] = joints[k];
+            }
             for (from, to) in rename {
                 let k = i(&names, from);
                 names[k] = to.to_string();
@@ -1064,26 +1071,19 @@ pub(crate) mod tests {
             assert_eq!(r.plan, BodyPlan::Quadruped, "{rename:?}");
             (named(&names, &r.tail), names[r.head].clone())
         };
-        let tail = ["tail.001", "tail.002", "tail.003"];
-        assert_eq!(tailed([0.0, 1.10, 0.6], [0.0, 1.25, 0.03], &[]), (tail.map(String::from).to_vec(), "head".into()));
-        let up = ([0.0, 1.0, 1.6], [0.0, 0.9, 2.1]);
+        let tail = TAIL.map(String::from).to_vec();
+        let base = [0.0, 0.85, 1.08];
+        assert_eq!(tailed([base, [0.0, 1.10, 0.6], [0.0, 1.25, 0.03]], &[]), (tail.clone(), "head".into()));
+        let up = [base, [0.0, 1.0, 1.6], [0.0, 0.9, 2.1]];
         let plume = [("tail.001", "plume.001"), ("tail.002", "plume.002"), ("tail.003", "plume.003")];
-        let (_, head) = tailed(up.0, up.1, &plume);
+        let (_, head) = tailed(up, &plume);
         assert_eq!(head, "head");
         let unnamed = [("neck", "n1"), ("head", "n2"), ("jaw", "n3")];
-        assert_eq!(tailed(up.0, up.1, &unnamed), (tail.map(String::from).to_vec(), "n2".into()));
+        assert_eq!(tailed(up, &unnamed), (tail, "n2".into()));
         // Hanging straight down under the hips (2 cm back over its 0.5 m), the chain is a
         // flap, not a tail: a tail points back by more than 5 % of the height.
-        let (names, mut h, mut t, p) = creature();
-        let joints = [[0.0, 0.56, 0.8], [0.0, 0.565, 0.65], [0.0, 0.57, 0.5]];
-        for (k, name) in tail.iter().enumerate() {
-            let b = names.iter().position(|n| n == name).unwrap();
-            if k > 0 {
-                h[b] = joints[k - 1];
-            }
-            t[b] = joints[k];
-        }
-        assert!(detect_roles(&h, &t, &p, &names).unwrap().tail.is_empty());
+        let flap = [[0.0, 0.56, 0.8], [0.0, 0.565, 0.65], [0.0, 0.57, 0.5]];
+        assert_eq!(tailed(flap, &[]), (vec![], "head".into()));
     }
 
     /// A pair of cape panels (one long bone each, hanging off the chest like a pair of arms)
