@@ -39,14 +39,48 @@ class RigError(ValueError):
 
 # ---------------------------------------------------------------------------- edit mode
 
+_POSE_CHANNELS = ("location", "rotation_quaternion", "rotation_euler", "rotation_axis_angle", "scale")
+
+
+def pose_values(arm_ob) -> dict[str, np.ndarray]:
+    """Every pose bone's local transform channels, read at once: {channel: (bones, width)}."""
+    bones = arm_ob.pose.bones
+    out = {}
+    for name in _POSE_CHANNELS:
+        width = 4 if name in ("rotation_quaternion", "rotation_axis_angle") else 3
+        out[name] = np.empty(len(bones) * width, dtype=np.float32)
+        bones.foreach_get(name, out[name])
+        out[name] = out[name].reshape(len(bones), width)
+    out["names"] = [b.name for b in bones]
+    return out
+
+
+def put_back_pose(arm_ob, before: dict) -> None:
+    """Give the pose bones still named as in ``before`` (``pose_values``) those values again
+    where they changed: leaving Edit Mode re-evaluates the armature's action, which drops pose
+    changes not yet keyed on animated bones (as Tab does), though the pose is the rigger's."""
+    now = pose_values(arm_ob)
+    index = {name: i for i, name in enumerate(now["names"])}
+    bones = arm_ob.pose.bones
+    for i, name in enumerate(before["names"]):
+        j = index.get(name)
+        if j is None:
+            continue
+        for channel in _POSE_CHANNELS:
+            if not np.array_equal(before[channel][i], now[channel][j]):
+                setattr(bones[j], channel, before[channel][i].tolist())
+
+
 @contextmanager
 def armature_edit(context, arm_ob):
     """Edit Mode on ``arm_ob`` for the block (edit bones in armature space), then the previous
-    mode and active object again. Yields ``arm_ob.data.edit_bones``. An armature disabled in
-    viewports (which Blender does not let into Edit Mode) is enabled for the block only."""
+    mode and active object again, with the pose as it was (``put_back_pose``). Yields
+    ``arm_ob.data.edit_bones``. An armature disabled in viewports (which Blender does not let
+    into Edit Mode) is enabled for the block only."""
     view_layer = context.view_layer
     prev_active = view_layer.objects.active
     prev_mode = arm_ob.mode
+    pose = pose_values(arm_ob) if prev_mode != "EDIT" else None
     with mesh_io.viewport_hidden(arm_ob, False):
         if prev_active is not arm_ob:
             if prev_active is not None and prev_active.mode != "OBJECT":
@@ -59,6 +93,7 @@ def armature_edit(context, arm_ob):
         finally:
             if prev_mode != "EDIT":
                 bpy.ops.object.mode_set(mode=prev_mode)
+                put_back_pose(arm_ob, pose)
             else:
                 arm_ob.update_from_editmode()
             if prev_active is not arm_ob and prev_active is not None:

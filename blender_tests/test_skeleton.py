@@ -1147,6 +1147,32 @@ def test_fit_that_fails_leaves_a_pose_not_yet_keyed_as_it_was():
     assert tuple(neck.rotation_quaternion) != pytest.approx(tried, abs=1e-3)
 
 
+@pytest.mark.parametrize("mode", ["OBJECT", "POSE"])
+def test_fit_keep_and_restore_leave_a_pose_not_yet_keyed_as_it_was(mode):
+    """Fit, Keep Current as Original and Restore Original Skeleton pass through Edit Mode, which
+    evaluates the armature's action again; the pose the rigger is trying out, not yet keyed, is
+    still there after each (and the keyed pose of the other bones is unchanged)."""
+    body, arm = creature.build()
+    builders.set_active(arm)
+    assert bpy.ops.pose.miniskeleton_add_motion(motion="WALK") == {"FINISHED"}
+    bpy.context.scene.frame_set(5)
+    neck = arm.pose.bones["neck"]
+    tried = (0.9, 0.3, 0.1, 0.0)
+    neck.rotation_quaternion = tried  # tried out, not keyed
+    keyed = {b.name: tuple(b.rotation_quaternion) for b in arm.pose.bones if b.name != "neck"}
+    assert any(q != pytest.approx((1, 0, 0, 0)) for q in keyed.values())
+    builders.select_for_parenting([body], arm)
+    bpy.ops.object.mode_set(mode=mode)
+    for op in (bpy.ops.armature.miniskeleton_fit_skeleton, bpy.ops.armature.miniskeleton_snapshot_skeleton,
+               bpy.ops.armature.miniskeleton_restore_skeleton):
+        assert op() == {"FINISHED"}
+        assert arm.mode == mode
+        assert tuple(neck.rotation_quaternion) == pytest.approx(tried), op.idname()
+        assert {b.name: tuple(b.rotation_quaternion) for b in arm.pose.bones if b.name != "neck"} == keyed
+    bpy.context.view_layer.update()
+    assert tuple(neck.rotation_quaternion) == pytest.approx(tried)
+
+
 def test_open_and_piecewise_meshes_warn(capfd):
     verts, faces = builders.cylinder_arrays()
     open_faces = [f for f in faces if len(f) == 4]  # no caps
