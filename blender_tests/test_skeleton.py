@@ -1123,10 +1123,9 @@ def test_bones_just_made_in_edit_mode_are_fitted_and_kept():
     assert rig_io.load_snapshot(data)["names"] == ["B0", "B1", "B2"]
 
 
-def test_fit_that_fails_leaves_a_pose_not_yet_keyed_as_it_was():
-    """A refused Fit changes nothing, not even the pose of an animated armature that the rigger
-    has changed without keying it: Edit Mode would evaluate the action again and drop that pose,
-    so Fit reads the bones and fits before it enters Edit Mode, only to write."""
+def _walking_creature_with_a_pose_tried():
+    """The creature walking (keyed), at frame 5 with its neck turned but not keyed:
+    (body, armature, neck pose bone, the neck's tried rotation)."""
     body, arm = creature.build()
     builders.set_active(arm)
     assert bpy.ops.pose.miniskeleton_add_motion(motion="WALK") == {"FINISHED"}
@@ -1134,6 +1133,14 @@ def test_fit_that_fails_leaves_a_pose_not_yet_keyed_as_it_was():
     neck = arm.pose.bones["neck"]
     tried = (0.9, 0.3, 0.1, 0.0)
     neck.rotation_quaternion = tried  # tried out, not keyed
+    return body, arm, neck, tried
+
+
+def test_fit_that_fails_leaves_a_pose_not_yet_keyed_as_it_was():
+    """A refused Fit changes nothing, not even the pose of an animated armature that the rigger
+    has changed without keying it: Edit Mode would evaluate the action again and drop that pose,
+    so Fit reads the bones and fits before it enters Edit Mode, only to write."""
+    body, arm, neck, tried = _walking_creature_with_a_pose_tried()
     box = builders.cylinder("Elsewhere", radius=0.2, height=0.5)
     box.location = (50.0, 0.0, 0.0)
     builders.select_for_parenting([box], arm)
@@ -1152,13 +1159,7 @@ def test_fit_keep_and_restore_leave_a_pose_not_yet_keyed_as_it_was(mode):
     """Fit, Keep Current as Original and Restore Original Skeleton pass through Edit Mode, which
     evaluates the armature's action again; the pose the rigger is trying out, not yet keyed, is
     still there after each (and the keyed pose of the other bones is unchanged)."""
-    body, arm = creature.build()
-    builders.set_active(arm)
-    assert bpy.ops.pose.miniskeleton_add_motion(motion="WALK") == {"FINISHED"}
-    bpy.context.scene.frame_set(5)
-    neck = arm.pose.bones["neck"]
-    tried = (0.9, 0.3, 0.1, 0.0)
-    neck.rotation_quaternion = tried  # tried out, not keyed
+    body, arm, neck, tried = _walking_creature_with_a_pose_tried()
     keyed = {b.name: tuple(b.rotation_quaternion) for b in arm.pose.bones if b.name != "neck"}
     assert any(q != pytest.approx((1, 0, 0, 0)) for q in keyed.values())
     builders.select_for_parenting([body], arm)
