@@ -25,7 +25,8 @@
 //!   flexes by K sin(π s) in swing (s = swing progress), a little in stance; the ankle keeps the
 //!   foot level and lifts its toe in swing. The flexing direction of each joint is the one that
 //!   brings the limb's end closer to the joint above (read from the rest pose), so knees and
-//!   hocks bend their own way. A = asin(stride · d / 2L) for leg length L.
+//!   hocks bend their own way. A = asin(stride · d / 2L) for leg length L. An insect's femur,
+//!   rising from the body before the tibia turns down, lifts the leg by F sin(π s) in swing.
 //! - Phases: biped L 0 / R ½; quadruped walk in diagonal pairs (front L 0, front R ½, back R
 //!   0.15, back L 0.65: back legs offset); quadruped run as a rotary gallop (back L 0, back R
 //!   0.1, front R 0.45, front L 0.55); more legs alternate by group (tripod-like).
@@ -461,6 +462,8 @@ struct Cadence {
     knee_amp: f32,
     knee_stance: f32,
     ankle_amp: f32,
+    /// A rising femur's lift in swing (`LegJoints::lift`).
+    lift_amp: f32,
 }
 
 /// The cadence follows a pendulum of the leg's length (assumed in metres; clamped so rigs in
@@ -490,14 +493,18 @@ fn cadence(roles: &Roles, p: &GaitParams) -> Result<Cadence> {
         knee_amp: if run { 80f32 } else { 45.0 }.to_radians(),
         knee_stance: if run { 15f32 } else { 6.0 }.to_radians(),
         ankle_amp: if run { 30f32 } else { 20.0 }.to_radians(),
+        lift_amp: if run { 35f32 } else { 25.0 }.to_radians(),
     })
 }
 
-/// A leg's swinging bone (hip), and its knee and ankle as (bone, flex sign) if any.
+/// A leg's swinging bone (hip), its knee and ankle as (bone, flex sign) if any, and the rising
+/// bone before the hip that lifts the leg in swing, as (bone, sign of the turn about the forward
+/// axis that raises its tail), if any.
 struct LegJoints {
     hip: usize,
     knee: Option<(usize, f32)>,
     ankle: Option<(usize, f32)>,
+    lift: Option<(usize, f32)>,
 }
 
 /// An arm's swinging bone, its elbow (bone, flex sign) if any, and its side.
@@ -508,7 +515,10 @@ struct ArmJoints {
 }
 
 /// The joints that bend in each leg, from its first bone pointing down; flex signs about `right`.
-fn leg_joints(heads: &[[f32; 3]], tails: &[[f32; 3]], roles: &Roles, right: Vec3) -> Vec<LegJoints> {
+/// An insect's or a spider's leg rises from the body (femur) before it turns down (tibia): the
+/// tibia swings, and it has no knee below it to fold, so the femur lifts the leg in swing
+/// instead, turning about `fwd`.
+fn leg_joints(heads: &[[f32; 3]], tails: &[[f32; 3]], roles: &Roles, (fwd, right): (Vec3, Vec3)) -> Vec<LegJoints> {
     let hv = |b: usize| Vec3::from(heads[b]);
     roles
         .legs
@@ -518,10 +528,20 @@ fn leg_joints(heads: &[[f32; 3]], tails: &[[f32; 3]], roles: &Roles, right: Vec3
             let bones = &limb.bones[i0..];
             let knee = bones.get(1).map(|&b| (b, flex_sign(heads, tails, b, hv(bones[0]), right, -1.0)));
             let ankle = bones.get(2).map(|&b| (b, flex_sign(heads, tails, b, hv(bones[1]), right, 1.0)));
-            LegJoints { hip: bones[0], knee, ankle }
+            let lift = i0.checked_sub(1).map(|i| limb.bones[i]).and_then(|b| {
+                let d = Vec3::from(tails[b]) - hv(b);
+                let raise = fwd.cross(d).z;
+                (d.z > RISING * d.length() && raise.abs() > RISING * d.length()).then_some((b, raise.signum()))
+            });
+            LegJoints { hip: bones[0], knee, ankle, lift }
         })
         .collect()
 }
+
+/// A bone before a leg's swinging bone lifts the leg when its tail is this much (a fraction of
+/// its length) above its head and it points this much sideways (a femur rising out of an
+/// insect's body; not a pelvis or a shoulder blade, which slope down or lie along the body).
+const RISING: f32 = 0.2;
 
 /// The joints that swing in each arm: the longer of its first two bones, each measured to the
 /// next bone's head (an imported rig's tails are stubs of one length, so the clavicle-or-upper-
@@ -550,22 +570,26 @@ fn pose_legs(
     phases: &[f32],
     c: &Cadence,
     phi: f32,
-    right: Vec3,
+    (fwd, right): (Vec3, Vec3),
 ) -> (f32, f32) {
     let (mut left_hip, mut right_hip) = (0.0, 0.0);
     for (leg, (joints, &offset)) in roles.legs.iter().zip(legs.iter().zip(phases)) {
         let ph = (phi + offset).fract();
-        let (theta, knee, ankle) = if ph < c.duty {
+        let (theta, knee, ankle, lift) = if ph < c.duty {
             let s = ph / c.duty;
-            (c.hip_amp * (1.0 - 2.0 * s), c.knee_stance * (PI * s).sin(), 0.0)
+            (c.hip_amp * (1.0 - 2.0 * s), c.knee_stance * (PI * s).sin(), 0.0, 0.0)
         } else {
             let s = (ph - c.duty) / (1.0 - c.duty);
-            (-c.hip_amp * (PI * s).cos(), c.knee_amp * (PI * s).sin(), c.ankle_amp * (PI * s).sin())
+            let up = (PI * s).sin();
+            (-c.hip_amp * (PI * s).cos(), c.knee_amp * up, c.ankle_amp * up, c.lift_amp * up)
         };
         if leg.side == Side::Left {
             left_hip = theta
         } else {
             right_hip = theta
+        }
+        if let Some((b, sign)) = joints.lift {
+            poser.rotate(b, fwd, sign * lift);
         }
         poser.rotate(joints.hip, right, theta);
         let mut bend = theta;
@@ -663,7 +687,7 @@ fn gait(
     let hv = |b: usize| Vec3::from(heads[b]);
     let c = cadence(roles, p)?;
     let phases = leg_phases(roles, p.motion);
-    let legs = leg_joints(heads, tails, roles, right);
+    let legs = leg_joints(heads, tails, roles, (fwd, right));
     let arms = arm_joints(heads, tails, roles, right);
     // spine bones that sway: all but the root when there are others
     let sway: Vec<usize> = if roles.spine.len() > 1 {
@@ -689,7 +713,7 @@ fn gait(
     for k in 0..c.frames {
         poser.q.fill(Quat::IDENTITY);
         let phi = k as f32 / c.fpc;
-        let hips = pose_legs(&mut poser, roles, &legs, &phases, &c, phi, right);
+        let hips = pose_legs(&mut poser, roles, &legs, &phases, &c, phi, (fwd, right));
         pose_arms(&mut poser, &arms, hips, run, right);
         pose_body(&mut poser, roles, &sway, TAU * phi, run, (up, fwd, right));
         let mut local: Vec<[f32; 4]> = poser.q.iter().map(|&q| to_wxyz(q)).collect();
@@ -734,7 +758,7 @@ fn gait(
 mod tests {
     use super::*;
     use crate::roles::detect_roles;
-    use crate::roles::tests::{biped, creature, ik_biped, spot, Skeleton};
+    use crate::roles::tests::{biped, creature, hexapod, ik_biped, spot, Skeleton};
 
     /// A test rig run through a motion: names, heads, tails, parents, rest matrices, roles, clip.
     type Animated = (Vec<String>, Vec<[f32; 3]>, Vec<[f32; 3]>, Vec<i32>, Vec<[f32; 9]>, Roles, Clip);
@@ -830,7 +854,7 @@ mod tests {
             let li = roles.legs.iter().position(|l| l.group == g && l.side == Side::Left).unwrap();
             let ri = roles.legs.iter().position(|l| l.group == g && l.side == Side::Right).unwrap();
             let d = circ(peak_phase(&z[li], fpc), peak_phase(&z[ri], fpc));
-            if motion == Motion::Walk || roles.plan == BodyPlan::Biped {
+            if motion == Motion::Walk || roles.plan != BodyPlan::Quadruped {
                 assert!((d - 0.5).abs() < 0.1, "group {g}: left/right peaks {d} of a cycle apart");
             } else {
                 assert!(d < 0.2, "gallop group {g}: left/right peaks {d} apart");
@@ -869,6 +893,40 @@ mod tests {
     fn quadruped_of_separate_trees_walks() {
         check_walk(spot(), Motion::Walk);
         check_walk(spot(), Motion::Run);
+    }
+
+    #[test]
+    fn six_legs_walk_in_alternating_tripods() {
+        let skel = hexapod();
+        check_walk(skel.clone(), Motion::Walk);
+        check_walk(skel.clone(), Motion::Run);
+        let (names, h, t, p, rest, roles, clip) = run(skel, Motion::Walk);
+        assert_eq!((roles.plan, roles.legs.len()), (BodyPlan::Multiped, 6));
+        // a tripod: each leg steps with the other side's legs of the neighbouring pairs and half
+        // a cycle from its own side's neighbours
+        let z = foot_heights(&h, &t, &p, &rest, &roles, &clip);
+        let fpc = clip.frames_per_cycle as usize;
+        let peak = |pair: &str, side: &str| {
+            let leg =
+                roles.legs.iter().position(|l| l.bones.iter().any(|&b| names[b] == format!("{pair}_foot.{side}")));
+            peak_phase(&z[leg.unwrap()], fpc)
+        };
+        for side in ["L", "R"] {
+            let other = if side == "L" { "R" } else { "L" };
+            assert!(circ(peak("front", side), peak("middle", other)) < 0.1, "front.{side} and middle.{other}");
+            assert!(circ(peak("back", side), peak("middle", other)) < 0.1, "back.{side} and middle.{other}");
+            assert!((circ(peak("front", side), peak("middle", side)) - 0.5).abs() < 0.1, "front.{side}, middle.{side}");
+        }
+        // only an insect's rising femurs lift its legs
+        let lifting = |(names, h, t, p): Skeleton| {
+            let roles = detect_roles(&h, &t, &p, &names).unwrap();
+            let (fwd, up) = (Vec3::from(roles.forward), Vec3::from(roles.up));
+            leg_joints(&h, &t, &roles, (fwd, fwd.cross(up).normalize())).iter().filter(|l| l.lift.is_some()).count()
+        };
+        assert_eq!(lifting(hexapod()), 6);
+        for skel in [creature(), spot(), biped(), ik_biped(false), ik_biped(true)] {
+            assert_eq!(lifting(skel), 0, "a pelvis, a shoulder or a thigh lifts no leg");
+        }
     }
 
     #[test]

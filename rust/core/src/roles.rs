@@ -889,6 +889,28 @@ pub(crate) mod tests {
         b
     }
 
+    /// A six-legged insect facing -Y, Z up: abdomen (root) -> thorax -> head, and three pairs
+    /// of legs off the thorax, each a femur rising outward and a tibia down to the ground, with
+    /// a short foot.
+    pub fn hexapod() -> Skeleton {
+        let mut b: Vec<BoneSpec> = vec![
+            ("abdomen".into(), [0.0, 0.7, 0.5], [0.0, 0.3, 0.5], None),
+            ("thorax".into(), [0.0, 0.3, 0.5], [0.0, -0.3, 0.5], Some("abdomen".into())),
+            ("head".into(), [0.0, -0.3, 0.5], [0.0, -0.55, 0.55], Some("thorax".into())),
+        ];
+        for (s, x) in [("L", 1.0f32), ("R", -1.0)] {
+            for (pair, y) in [("front", -0.25f32), ("middle", 0.0), ("back", 0.25)] {
+                let f = |n: &str| format!("{pair}_{n}.{s}");
+                b.extend([
+                    (f("femur"), [0.08 * x, y, 0.5], [0.35 * x, y, 0.6], Some("thorax".into())),
+                    (f("tibia"), [0.35 * x, y, 0.6], [0.5 * x, y, 0.05], Some(f("femur"))),
+                    (f("foot"), [0.5 * x, y, 0.05], [0.55 * x, y, 0.0], Some(f("tibia"))),
+                ]);
+            }
+        }
+        skeleton_of(&b)
+    }
+
     /// A game-style biped exported from an IK set-up (the structure of the Quaternius and
     /// RobotExpressive rigs, not their data): a ground root carrying the feet and knee pole
     /// targets, a body bone carrying the legs and a hips -> torso -> neck -> head chain, long
