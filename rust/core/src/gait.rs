@@ -1172,6 +1172,16 @@ mod tests {
         let roles = detect_roles(&h, &t, &p, &names).unwrap();
         let bad = GaitParams { fps: 0.0, ..Default::default() };
         assert!(motion_clip(&h, &t, &p, &rest, &roles, &bad).is_err());
+        for motion in [Motion::HeadShake, Motion::Walk] {
+            let nan = GaitParams { motion, amplitude: f32::NAN, ..Default::default() };
+            let err = motion_clip(&h, &t, &p, &rest, &roles, &nan).unwrap_err().to_string();
+            assert!(err.contains("amplitude"), "{err}");
+        }
+        // roles from another rig: every role is checked, not only the head and the legs
+        let mut stale = roles.clone();
+        stale.tail.push(h.len());
+        let err = motion_clip(&h, &t, &p, &rest, &stale, &GaitParams::default()).unwrap_err().to_string();
+        assert!(err.contains("not in the arrays"), "{err}");
         assert!(motion_clip(&h, &t, &p, &rest[1..], &roles, &GaitParams::default()).is_err());
         // Clips past Blender's last frame are refused before anything is allocated.
         for (motion, fps, duration, cycles) in
@@ -1180,6 +1190,147 @@ mod tests {
             let long = GaitParams { motion, fps, duration, cycles, ..Default::default() };
             let err = motion_clip(&h, &t, &p, &rest, &roles, &long).unwrap_err().to_string();
             assert!(err.contains("frames"), "{err}");
+        }
+    }
+
+    /// Largest rotation angle of bone `b` over the clip.
+    fn largest_angle(clip: &Clip, b: usize) -> f32 {
+        (0..clip.frames).map(|f| q(clip.rotation(f, b)).to_axis_angle().1).fold(0.0, f32::max)
+    }
+
+    #[test]
+    fn a_head_shake_turns_neck_and_head_by_the_amplitude_and_its_cycle_is_one_shake() {
+        let (_, h, t, p, rest, roles, clip) = run(creature(), Motion::HeadShake);
+        let amp = GaitParams::default().amplitude;
+        let head = largest_angle(&clip, roles.head);
+        let neck: f32 = roles.neck.iter().map(|&b| largest_angle(&clip, b)).sum();
+        assert!((head - 0.5 * amp).abs() < 0.05 * amp && (neck - 0.5 * amp).abs() < 0.05 * amp, "{head} {neck}");
+        let cycles = GaitParams::default().cycles;
+        assert_eq!(clip.frames_per_cycle * cycles, (clip.frames - 1) as f32);
+        // with no neck, the head turns alone by the whole amplitude
+        let neckless = Roles { neck: Vec::new(), ..roles.clone() };
+        let params = GaitParams { motion: Motion::HeadShake, ..Default::default() };
+        let alone = motion_clip(&h, &t, &p, &rest, &neckless, &params).unwrap();
+        assert!((largest_angle(&alone, roles.head) - amp).abs() < 0.05 * amp);
+    }
+
+    #[test]
+    fn upright_ears_swing_sideways_in_a_head_shake() {
+        // the robot's ears, made to stand straight up from its head: turned about the up axis
+        // they would only spin about themselves
+        let (names, h, mut t, p) = ik_biped(false);
+        let ear = bone(&names, "Ear1.L");
+        t[ear] = [h[ear][0], h[ear][1], h[ear][2] + 0.3];
+        let (_, h, t, p, rest, roles, clip) = run((names, h, t, p), Motion::HeadShake);
+        assert!(roles.head_extras.contains(&ear));
+        let head = roles.head;
+        let n = clip.bone_count;
+        let mut swing = 0.0f32;
+        for f in 0..clip.frames {
+            // the ear's own turn alone (neck and head held still), as seen at its tip
+            let mut local = clip.rotations[f * n..(f + 1) * n].to_vec();
+            for &b in roles.neck.iter().chain([&head]) {
+                local[b] = [1.0, 0.0, 0.0, 0.0];
+            }
+            let (_, pt) = posed_points(&h, &t, &p, &rest, &local, &[], [0.0; 3]);
+            swing = swing.max((Vec3::from(pt[ear]) - Vec3::from(t[ear])).length());
+        }
+        let len = (Vec3::from(t[ear]) - Vec3::from(h[ear])).length();
+        assert!(swing > 0.1 * len, "the ear's tip moves {swing} of its length {len}");
+    }
+
+    #[test]
+    fn straight_legs_fold_their_knees_backward() {
+        // thigh and shin exactly in line: no bend in the rest pose tells the knee its way, and it
+        // takes a human knee's (the foot goes back behind the knee in swing)
+        let (names, mut h, mut t, p) = biped();
+        for s in ["L", "R"] {
+            let (thigh, shin) = (bone(&names, &format!("thigh.{s}")), bone(&names, &format!("shin.{s}")));
+            t[thigh][1] = h[thigh][1];
+            h[shin][1] = h[thigh][1];
+            t[shin][1] = h[thigh][1];
+        }
+        let (names, h, t, p, rest, roles, clip) = run((names, h, t, p), Motion::Walk);
+        let fwd = Vec3::from(roles.forward);
+        for s in ["L", "R"] {
+            let shin = bone(&names, &format!("shin.{s}"));
+            let most_bent = (0..clip.frames)
+                .map(|f| {
+                    let n = clip.bone_count;
+                    let (ph, pt) = posed_points(&h, &t, &p, &rest, &clip.rotations[f * n..(f + 1) * n], &[], [0.0; 3]);
+                    (Vec3::from(pt[shin]) - Vec3::from(ph[shin])).dot(fwd)
+                })
+                .fold(0.0f32, |a, d| if d.abs() > a.abs() { d } else { a });
+            assert!(most_bent < -0.05 * roles.leg_length, "shin.{s}: foot {most_bent} ahead of the knee");
+        }
+    }
+
+    #[test]
+    fn sheared_rest_frames_give_the_motion_of_their_orthonormal_frames() {
+        // an unevenly scaled armature's rest frames are not rotations: each is taken as the
+        // rotation with its bone axis and the X axis made orthogonal to it
+        let (names, h, t, p) = biped();
+        let rest = rest_of(&h, &t);
+        let sheared: Vec<[f32; 9]> = rest
+            .iter()
+            .map(|m| {
+                let m = Mat3::from_cols_array(m).transpose();
+                Mat3::from_cols(m.x_axis + 0.4 * m.y_axis, m.y_axis * 1.7, m.z_axis).transpose().to_cols_array()
+            })
+            .collect();
+        let roles = detect_roles(&h, &t, &p, &names).unwrap();
+        let a = motion_clip(&h, &t, &p, &rest, &roles, &GaitParams::default()).unwrap();
+        let b = motion_clip(&h, &t, &p, &sheared, &roles, &GaitParams::default()).unwrap();
+        for (x, y) in a.rotations.iter().zip(&b.rotations) {
+            assert!(q(*x).dot(q(*y)).abs() > 1.0 - 1e-5, "{x:?} {y:?}");
+        }
+    }
+
+    #[test]
+    fn a_rider_on_a_turning_root_is_put_where_its_leg_carries_it() {
+        // rider_pose's contract with the root turned too (the gait keeps a rig's ground root
+        // still, so the walk tests never turn it)
+        let (names, h, t, p) = ik_biped(false);
+        let rest = rest_of(&h, &t);
+        let roles = detect_roles(&h, &t, &p, &names).unwrap();
+        let rq = rest_quats(&rest);
+        let mut carried = p.clone();
+        for &[r, e] in &roles.riders {
+            carried[r] = e as i32;
+        }
+        let mut local: Vec<[f32; 4]> = (0..h.len())
+            .map(|b| to_wxyz(Quat::from_axis_angle(Vec3::new(0.3, -0.5, 0.8).normalize(), 0.1 + 0.05 * b as f32)))
+            .collect();
+        let on_legs = posed_frames(&h, &carried, &rq, &local, &[], [0.0; 3]);
+        let real = posed_frames(&h, &p, &rq, &local, &[], [0.0; 3]);
+        let mut locations = vec![[0.0; 3]; h.len()];
+        for &[r, _] in &roles.riders {
+            let (q, loc) = rider_pose(r, &h, &p, &rq, (&on_legs.0, &on_legs.1), (&real.0, &real.1));
+            local[r] = to_wxyz(q);
+            locations[r] = loc.to_array();
+        }
+        let (d, ph) = posed_frames(&h, &p, &rq, &local, &locations, [0.0; 3]);
+        assert!(!roles.riders.is_empty());
+        for &[r, _] in &roles.riders {
+            assert!(d[r].dot(on_legs.0[r]).abs() > 1.0 - 1e-5, "{}", names[r]);
+            assert!((ph[r] - on_legs.1[r]).length() < 1e-5, "{}", names[r]);
+        }
+    }
+
+    #[test]
+    fn any_fps_and_stride_give_a_whole_finite_cycle() {
+        let (names, h, t, p) = creature();
+        let rest = rest_of(&h, &t);
+        let roles = detect_roles(&h, &t, &p, &names).unwrap();
+        // a slideshow of 2 frames a second still has 8 frames a step cycle
+        let slow = GaitParams { fps: 2.0, ..Default::default() };
+        assert!(motion_clip(&h, &t, &p, &rest, &roles, &slow).unwrap().frames_per_cycle >= 8.0);
+        // a stride longer than the legs can take swings them as far as they go, not to NaN
+        for motion in [Motion::Walk, Motion::Run] {
+            let long = GaitParams { motion, stride: 5.0, ..Default::default() };
+            let clip = motion_clip(&h, &t, &p, &rest, &roles, &long).unwrap();
+            assert!(clip.rotations.iter().flatten().all(|v| v.is_finite()));
+            assert!(clip.root_offset.iter().flatten().all(|v| v.is_finite()));
         }
     }
 
