@@ -246,9 +246,6 @@ impl Poser {
         self.q[b] *= Quat::from_axis_angle(local.normalize(), angle);
         self.touched[b] = true;
     }
-    fn touch(&mut self, b: usize) {
-        self.touched[b] = true;
-    }
 }
 
 /// +1 or -1: the rotation about `axis` of bone `b` that brings its tail closer to `pivot`.
@@ -663,9 +660,6 @@ fn pose_body(
             poser.rotate(b, up, a * s)
         }
     }
-    if sway.is_empty() && roles.neck.is_empty() {
-        poser.touch(roles.head);
-    }
 }
 
 /// A walk or run cycle (see the module doc): legs, arms and body posed frame by frame, the
@@ -964,6 +958,9 @@ mod tests {
             let (names, h, t, p, rest, roles, clip) = run(ik_biped(invented_tails), Motion::Walk);
             let located: Vec<&str> = clip.located.iter().map(|&b| names[b].as_str()).collect();
             assert_eq!(located, ["Foot.L", "Foot.R"]);
+            // the feet are turned and moved: listed once among the animated bones, in order
+            assert!(clip.located.iter().all(|b| clip.animated.contains(b)));
+            assert!(clip.animated.windows(2).all(|w| w[0] < w[1]), "{:?}", clip.animated);
             // in the rig's own hierarchy, rotation and location keys put every bone where it
             // is with the feet carried by the legs
             let mut carried = p.clone();
@@ -1134,6 +1131,40 @@ mod tests {
     fn cadence_does_not_depend_on_units_beyond_reason() {
         let (.., cow) = run(spot(), Motion::Walk); // ~40 units per leg
         assert!(cow.frames_per_cycle <= 1.05 * 1.6 * 24.0 + 1.0, "{}", cow.frames_per_cycle);
+    }
+
+    #[test]
+    fn the_body_travels_as_fast_as_the_feet_push_it() {
+        // the root moves one stride a cycle, the speed at which a foot on the ground sweeps back,
+        // so planted feet barely move (a tenth of the stride, at most 0.15): at half that speed
+        // they slid back 0.36 of it
+        for motion in [Motion::Walk, Motion::Run] {
+            let (_, h, t, p, rest, roles, clip) = run(biped(), motion);
+            let c = cadence(&roles, &GaitParams { motion, ..Default::default() }).unwrap();
+            let fwd = Vec3::from(roles.forward);
+            let travel = Vec3::from(clip.root_offset[clip.frames - 1]).dot(fwd);
+            assert!((travel - 2.0 * c.stride).abs() < 1e-3 * c.stride, "{travel} {}", c.stride);
+            let n = clip.bone_count;
+            for (leg, offset) in roles.legs.iter().zip(leg_phases(&roles, motion)) {
+                let foot = *leg.bones.last().unwrap();
+                let planted = |f: usize| {
+                    let ph = (f as f32 / c.fpc + offset).fract();
+                    ph > 0.1 * c.duty && ph < 0.9 * c.duty
+                };
+                let x = |f: usize| {
+                    let rot = &clip.rotations[f * n..(f + 1) * n];
+                    let (_, pt) = posed_points(&h, &t, &p, &rest, rot, &[], clip.root_offset[f]);
+                    Vec3::from(pt[foot]).dot(fwd)
+                };
+                // the fastest a planted foot moves, over a whole stance (a bound on its slide)
+                let speed = (0..clip.frames - 1)
+                    .filter(|&f| planted(f) && planted(f + 1))
+                    .map(|f| (x(f + 1) - x(f)).abs())
+                    .fold(0.0f32, f32::max);
+                let slide = speed * c.duty * c.fpc;
+                assert!(slide < 0.25 * c.stride, "{motion:?}: a planted foot slides {slide} of {}", c.stride);
+            }
+        }
     }
 
     #[test]
