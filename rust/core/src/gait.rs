@@ -884,6 +884,30 @@ mod tests {
     }
 
     #[test]
+    fn a_foot_rising_from_the_ground_keeps_its_heel_on_it() {
+        // the last bone of each leg stands up from the ground (a toe bone pointing up, a hoof's
+        // leaf bone): its head is the lowest point, and a foot on the ground stays there
+        let (names, h, mut t, p) = biped();
+        for s in ["L", "R"] {
+            let toe = bone(&names, &format!("toe.{s}"));
+            t[toe] = [h[toe][0], h[toe][1], h[toe][2] + 0.1];
+        }
+        let (_, h, t, p, rest, roles, clip) = run((names, h, t, p), Motion::Walk);
+        let n = clip.bone_count;
+        for f in 0..clip.frames {
+            let (ph, pt) =
+                posed_points(&h, &t, &p, &rest, &clip.rotations[f * n..(f + 1) * n], &[], clip.root_offset[f]);
+            let low = roles
+                .legs
+                .iter()
+                .map(|l| *l.bones.last().unwrap())
+                .map(|b| ph[b][2].min(pt[b][2]) - h[b][2])
+                .fold(f32::MAX, f32::min);
+            assert!(low.abs() < 0.01 * roles.leg_length, "frame {f}: the lowest foot is {low} off the ground");
+        }
+    }
+
+    #[test]
     fn quadruped_of_separate_trees_walks() {
         check_walk(spot(), Motion::Walk);
         check_walk(spot(), Motion::Run);
@@ -1075,6 +1099,22 @@ mod tests {
                 swing(head),
                 swing(neck)
             );
+            // the neck turns against the spine's sway: the head turns less from side to side
+            // than the chest
+            let (p, rest, clip) = (&a.3, &a.4, &a.6);
+            let (rq, n, right) = (rest_quats(rest), clip.bone_count, fwd.cross(Vec3::from(roles.up)));
+            let headings: Vec<(f32, f32)> = (0..clip.frames)
+                .map(|f| {
+                    let (d, _) = posed_frames(h, p, &rq, &clip.rotations[f * n..(f + 1) * n], &[], [0.0; 3]);
+                    let yaw = |b: usize| (d[b] * fwd).dot(right).atan2((d[b] * fwd).dot(fwd));
+                    (yaw(bone(names, "chest")), yaw(head))
+                })
+                .collect();
+            let range =
+                |v: Vec<f32>| v.iter().cloned().fold(f32::MIN, f32::max) - v.iter().cloned().fold(f32::MAX, f32::min);
+            let chest = range(headings.iter().map(|x| x.0).collect());
+            let turned = range(headings.iter().map(|x| x.1).collect());
+            assert!(chest > 0.0 && turned < 0.6 * chest, "{motion:?}: the head turns {turned}, the chest {chest}");
         }
     }
 
