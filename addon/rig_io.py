@@ -42,8 +42,11 @@ class RigError(ValueError):
 _POSE_CHANNELS = ("location", "rotation_quaternion", "rotation_euler", "rotation_axis_angle", "scale")
 
 
-def pose_values(arm_ob) -> dict[str, np.ndarray]:
-    """Every pose bone's local transform channels, read at once: {channel: (bones, width)}."""
+def pose_values(arm_ob) -> dict[str, np.ndarray] | None:
+    """Every pose bone's local transform channels, read at once: {channel: (bones, width)};
+    None for an armature not evaluated yet (it has no pose)."""
+    if arm_ob.pose is None:
+        return None
     bones = arm_ob.pose.bones
     out = {}
     for name in _POSE_CHANNELS:
@@ -55,11 +58,13 @@ def pose_values(arm_ob) -> dict[str, np.ndarray]:
     return out
 
 
-def put_back_pose(arm_ob, before: dict) -> None:
+def put_back_pose(arm_ob, before: dict | None) -> None:
     """Give the pose bones still named as in ``before`` (``pose_values``) those values again
     where they changed: leaving Edit Mode re-evaluates the armature's action, which drops pose
     changes not yet keyed on animated bones (as Tab does), though the pose is the rigger's."""
     now = pose_values(arm_ob)
+    if before is None or now is None:
+        return
     index = {name: i for i, name in enumerate(now["names"])}
     bones = arm_ob.pose.bones
     for i, name in enumerate(before["names"]):

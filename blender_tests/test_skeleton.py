@@ -1174,6 +1174,19 @@ def test_fit_keep_and_restore_leave_a_pose_not_yet_keyed_as_it_was(mode):
     assert tuple(neck.rotation_quaternion) == pytest.approx(tried)
 
 
+def test_edit_mode_on_an_armature_not_evaluated_yet():
+    """An armature made by a script and not evaluated yet has no pose to keep: Edit Mode on it
+    still works (and leaves it as it was)."""
+    data = bpy.data.armatures.new("Fresh")
+    ob = bpy.data.objects.new("Fresh", data)
+    bpy.context.scene.collection.objects.link(ob)
+    assert ob.pose is None
+    with rig_io.armature_edit(bpy.context, ob) as ebs:
+        bone = ebs.new("Bone")
+        bone.tail = (0.0, 0.0, 1.0)
+    assert ob.mode == "OBJECT" and [b.name for b in data.bones] == ["Bone"]
+
+
 def test_open_and_piecewise_meshes_warn(capfd):
     verts, faces = builders.cylinder_arrays()
     open_faces = [f for f in faces if len(f) == 4]  # no caps
