@@ -781,3 +781,43 @@ fn dist2(a: [f64; 2], b: [f64; 2]) -> f64 {
     let d = sub(a, b);
     d[0] * d[0] + d[1] * d[1]
 }
+
+#[cfg(test)]
+mod tests {
+    //! The private steps of the CCD core; the solvers' behaviour is tested in tests/ik2d.rs.
+    use super::*;
+
+    #[test]
+    fn a_stall_bend_goes_the_way_the_limits_allow_and_alternates() {
+        // knees that bend one way only: asked to bend the other, each bends its own way
+        let mut chain = Chain2d::straight([0.0, 0.0], 0.0, vec![1.0; 4]);
+        chain.limits = vec![[-PI, PI], [0.0, 2.0], [0.0, 2.0], [0.0, 2.0]];
+        perturb(&mut chain, 1); // an odd count bends by a negative angle where it can
+        assert!(chain.angles[1..].iter().all(|&a| a > 0.1), "{:?}", chain.angles);
+        assert!((chain.angles[0] + 0.5 * chain.angles[1..].iter().sum::<f64>()).abs() < 1e-12);
+        // free joints: successive bends curl the chain one way, then the other
+        let bend = |count| {
+            let mut free = Chain2d::straight([0.0, 0.0], 0.0, vec![1.0; 4]);
+            perturb(&mut free, count);
+            free.angles[1]
+        };
+        assert!(bend(0) > 0.1 && bend(1) < -0.1, "{} {}", bend(0), bend(1));
+    }
+
+    #[test]
+    fn a_gauss_newton_step_turns_no_joint_more_than_half_a_radian() {
+        // nearly straight, with the target well off to the side: the undamped step is long
+        let mut chain = Chain2d::straight([0.0, 0.0], 0.0, vec![1.0, 1.0]);
+        chain.angles = vec![0.0, 0.02];
+        let effs = [Effector { joint: 2, target: [0.3, 1.6], weight: 1.0 }];
+        let mut pos = Vec::new();
+        fk_into(&chain, &mut pos);
+        let f = evaluate(&pos, &effs).0;
+        let before = chain.angles.clone();
+        let (f_new, _) = lm_step(&mut chain, &effs, &mut pos, f).expect("the step lowers the error");
+        assert!(f_new < f);
+        for (a, b) in chain.angles.iter().zip(&before) {
+            assert!((a - b).abs() <= 0.5 + 1e-12, "{:?} -> {:?}", before, chain.angles);
+        }
+    }
+}
