@@ -802,6 +802,22 @@ mod tests {
             free.angles[1]
         };
         assert!(bend(0) > 0.1 && bend(1) < -0.1, "{} {}", bend(0), bend(1));
+        // and further every second time, out of a saddle the first bends fell back into
+        assert!(bend(2) > 1.2 * bend(0) && bend(3) < 1.2 * bend(1), "{} {}", bend(2), bend(3));
+    }
+
+    #[test]
+    fn a_zero_length_bone_keeps_its_parents_direction_when_read_back_from_positions() {
+        let mut chain = Chain2d::straight([0.0, 0.0], 0.3, vec![1.0, 0.0, 1.0]);
+        chain.limits = vec![[-PI, PI], [-0.1, 0.1], [-PI, PI]];
+        let p = [[0.0, 0.0], [0.0, 1.0], [0.0, 1.0], [1.0, 1.0]];
+        positions_to_angles(&mut chain, &p);
+        assert_eq!(chain.angles[1], 0.0);
+        let mut back = Vec::new();
+        fk_into(&chain, &mut back);
+        for (a, b) in back.iter().zip(&p) {
+            assert!(dist2(*a, *b) < 1e-24, "{back:?}");
+        }
     }
 
     #[test]
