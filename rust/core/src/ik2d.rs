@@ -821,6 +821,16 @@ mod tests {
     }
 
     #[test]
+    fn a_bone_read_back_past_its_parents_limit_keeps_its_own_direction() {
+        // the first bone is clamped from 0.5 to 0.2 rad; the second still points at 0.5 rad
+        let mut chain = Chain2d::straight([0.0, 0.0], 0.0, vec![1.0, 1.0]);
+        chain.limits = vec![[-0.2, 0.2], [-PI, PI]];
+        let (c, s) = (0.5f64.cos(), 0.5f64.sin());
+        positions_to_angles(&mut chain, &[[0.0, 0.0], [c, s], [2.0 * c, 2.0 * s]]);
+        assert!((chain.angles[0] - 0.2).abs() < 1e-12 && (chain.angles[0] + chain.angles[1] - 0.5).abs() < 1e-12);
+    }
+
+    #[test]
     fn a_gauss_newton_step_turns_no_joint_more_than_half_a_radian() {
         // nearly straight, with the target well off to the side: the undamped step is long
         let mut chain = Chain2d::straight([0.0, 0.0], 0.0, vec![1.0, 1.0]);
