@@ -454,15 +454,24 @@ fn invalid_input_is_an_error_and_leaves_chain_untouched() {
     assert!(matches!(solve_ccd_classic3d(&mut c, [1.0, 1.0], opts), Err(Error::InvalidArgument(_))));
 
     let mut c = good.clone();
-    c.limits[0] = [1.0, -1.0];
+    c.limits[0] = [0.2, 0.1]; // min > max, however little
     assert!(matches!(solve_ccd(&mut c, [1.0, 1.0], opts), Err(Error::InvalidArgument(_))));
+    c.limits[0] = [f64::NAN, 0.1];
+    assert_eq!(solve_ccd(&mut c, [1.0, 1.0], opts), Err(Error::NonFinite { what: "joint limit", count: 1 }));
+
+    // each finite, their sum not
+    let mut c = Chain2d::straight([0.0, 0.0], 0.0, vec![f64::MAX, f64::MAX]);
+    let err = solve_ccd(&mut c, [1.0, 1.0], opts).unwrap_err().to_string();
+    assert!(err.contains("overflow"), "{err}");
 
     let mut c = Chain2d::straight([0.0, 0.0], 0.0, vec![]);
     assert!(matches!(solve_ccd(&mut c, [1.0, 1.0], opts), Err(Error::NoBones(_))));
 
     let mut c = good.clone();
-    let bad_opts = SolveOptions { max_iterations: 10, tolerance: f64::NAN };
-    assert!(matches!(solve_ccd(&mut c, [1.0, 1.0], bad_opts), Err(Error::InvalidArgument(_))));
+    for tolerance in [f64::NAN, -1e-3] {
+        let bad_opts = SolveOptions { max_iterations: 10, tolerance };
+        assert!(matches!(solve_ccd(&mut c, [1.0, 1.0], bad_opts), Err(Error::InvalidArgument(_))));
+    }
 
     let mut c = good.clone();
     for effs in [
