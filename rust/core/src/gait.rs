@@ -774,10 +774,17 @@ mod tests {
             .collect()
     }
 
-    fn run(skel: Skeleton, motion: Motion) -> Animated {
-        let (names, h, t, p) = skel;
+    /// A test rig with its rest matrices and roles: names, heads, tails, parents, rest, roles.
+    type Prepared = (Vec<String>, Vec<[f32; 3]>, Vec<[f32; 3]>, Vec<i32>, Vec<[f32; 9]>, Roles);
+
+    fn prepare((names, h, t, p): Skeleton) -> Prepared {
         let rest = rest_of(&h, &t);
         let roles = detect_roles(&h, &t, &p, &names).unwrap();
+        (names, h, t, p, rest, roles)
+    }
+
+    fn run(skel: Skeleton, motion: Motion) -> Animated {
+        let (names, h, t, p, rest, roles) = prepare(skel);
         let params = GaitParams { motion, cycles: 2.0, ..Default::default() };
         let clip = motion_clip(&h, &t, &p, &rest, &roles, &params).unwrap();
         (names, h, t, p, rest, roles, clip)
@@ -1238,9 +1245,7 @@ mod tests {
 
     #[test]
     fn bad_params() {
-        let (names, h, t, p) = creature();
-        let rest = rest_of(&h, &t);
-        let roles = detect_roles(&h, &t, &p, &names).unwrap();
+        let (_, h, t, p, rest, roles) = prepare(creature());
         let bad = GaitParams { fps: 0.0, ..Default::default() };
         assert!(motion_clip(&h, &t, &p, &rest, &roles, &bad).is_err());
         for motion in [Motion::HeadShake, Motion::Walk] {
@@ -1361,9 +1366,7 @@ mod tests {
     fn a_rider_on_a_turning_root_is_put_where_its_leg_carries_it() {
         // rider_pose's contract with the root turned too (the gait keeps a rig's ground root
         // still, so the walk tests never turn it)
-        let (names, h, t, p) = ik_biped(false);
-        let rest = rest_of(&h, &t);
-        let roles = detect_roles(&h, &t, &p, &names).unwrap();
+        let (names, h, _, p, rest, roles) = prepare(ik_biped(false));
         let rq = rest_quats(&rest);
         let mut carried = p.clone();
         for &[r, e] in &roles.riders {
@@ -1390,9 +1393,7 @@ mod tests {
 
     #[test]
     fn any_fps_and_stride_give_a_whole_finite_cycle() {
-        let (names, h, t, p) = creature();
-        let rest = rest_of(&h, &t);
-        let roles = detect_roles(&h, &t, &p, &names).unwrap();
+        let (_, h, t, p, rest, roles) = prepare(creature());
         // a slideshow of 2 frames a second still has 8 frames a step cycle
         let slow = GaitParams { fps: 2.0, ..Default::default() };
         assert!(motion_clip(&h, &t, &p, &rest, &roles, &slow).unwrap().frames_per_cycle >= 8.0);
