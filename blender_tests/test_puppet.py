@@ -221,6 +221,26 @@ def test_reachable_rods_are_reached_and_pose_stays_in_plane():
             assert_within_limits(rig)
 
 
+def test_the_pose_follows_the_rods_alone_from_the_seed_angles():
+    """A driven bone nudged by hand goes back at once, however little; the solve starts from each
+    bone's seed angle (the template's, an ID property on the pose bone), which picks among the
+    arm's many poses that reach the rod."""
+    rig, rods = add("FIVE_ROD")
+    base, tip = head_world(rig, ARM[0]), tip_world(rig, ARM[-1])
+    target = base + 0.6 * (tip - base) + Vector((0.1, 0.0, 0.1))
+    move_rod(rods["hand.R"], target.x, target.z)
+    solved = pose_of(rig, ARM)
+    rig.pose.bones["forearm.R"].rotation_euler.z += 5e-4
+    settle()
+    assert pose_of(rig, ARM) == solved
+    hand = rig.pose.bones["hand.R"]
+    rig.pose.bones["forearm.R"][R.SEED_KEY], hand[R.SEED_KEY] = 120.0, -50.0
+    rig.update_tag()   # as an edit in the Custom Properties panel does
+    settle()
+    assert (tip_world(rig, ARM[-1]) - rods["hand.R"].matrix_world.translation).length < 2e-3 * reach(rig, ARM)
+    assert abs(hand.rotation_euler.z - solved["hand.R"][2]) > 0.05, (solved, pose_of(rig, ARM))
+
+
 def test_unreachable_rod_gives_straight_arm_toward_it():
     rig, rods = add("THREE_ROD")
     shoulder = head_world(rig, ARM[0])
@@ -273,6 +293,11 @@ def test_free_bones_are_held_within_their_limits():
     abdomen.rotation_euler = (0.0, 0.5 * abdomen.ik_max_y, 0.5 * abdomen.ik_max_z)   # within: kept
     settle()
     assert tuple(abdomen.rotation_euler) == pytest.approx((0.0, 0.5 * abdomen.ik_max_y, 0.5 * abdomen.ik_max_z))
+    # a limit the rigger turns off (Bone > Inverse Kinematics) holds no more, though its values stay
+    chest.use_ik_limit_z = False
+    chest.rotation_euler.z = chest.ik_min_z - 0.2
+    settle()
+    assert chest.rotation_euler.z == pytest.approx(chest.ik_min_z - 0.2, abs=1e-6)
 
 
 def test_live_solve_off_leaves_the_pose_to_the_rigger():
@@ -408,6 +433,11 @@ def test_quadruped_translates_and_turns_its_head():
     settle()
     assert math.isclose(rig.pose.bones["head"].rotation_euler.z, rig.pose.bones["head"].ik_max_z, abs_tol=1e-6)
     assert all(rig.pose.bones[n].rotation_euler.z == 0 for n in ("body", "tail", "leg.FL"))
+    # the head turns with its rod relative to the figure: the whole figure tilted, it stays level
+    rods["head"].rotation_euler.y = 0.0
+    body.rotation_euler.y = math.radians(15)
+    settle()
+    assert abs(rig.pose.bones["head"].rotation_euler.z) < 1e-6
 
 
 # ---------------------------------------------------------------------------- bake
