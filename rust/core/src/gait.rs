@@ -752,7 +752,7 @@ fn gait(
 mod tests {
     use super::*;
     use crate::roles::detect_roles;
-    use crate::roles::tests::{biped, creature, hexapod, ik_biped, spot, Skeleton};
+    use crate::roles::tests::{biped, bone, creature, hexapod, ik_biped, spot, Skeleton};
 
     /// A test rig run through a motion: names, heads, tails, parents, rest matrices, roles, clip.
     type Animated = (Vec<String>, Vec<[f32; 3]>, Vec<[f32; 3]>, Vec<i32>, Vec<[f32; 9]>, Roles, Clip);
@@ -1038,10 +1038,6 @@ mod tests {
                 posed_points(h, t, p, rest, rot, loc, clip.root_offset[f])
             })
             .collect()
-    }
-
-    fn bone(names: &[String], name: &str) -> usize {
-        names.iter().position(|n| n == name).unwrap()
     }
 
     /// The largest angle (radians) bone `b` turns from rest over the clip.

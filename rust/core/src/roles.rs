@@ -784,6 +784,11 @@ pub(crate) mod tests {
     /// One bone of a hand-written rig: name, head, tail, parent's name (`None`: root).
     type BoneSpec = (String, [f32; 3], [f32; 3], Option<String>);
 
+    /// The index of the bone called `name`.
+    pub fn bone(names: &[String], name: &str) -> usize {
+        names.iter().position(|n| n == name).unwrap()
+    }
+
     /// The add-on's generated quadruped (scripts/creature.py), faces -Y.
     pub fn creature() -> Skeleton {
         let mut joints: Vec<(&str, [f32; 3])> = vec![
@@ -843,7 +848,7 @@ pub(crate) mod tests {
             ]);
         }
         let names: Vec<String> = bones.iter().map(|b| b.0.clone()).collect();
-        let idx = |n: &str| names.iter().position(|x| x == n).unwrap() as i32;
+        let idx = |n: &str| bone(&names, n) as i32;
         let heads = bones.iter().map(|b| jp(&b.1)).collect();
         let tails = bones.iter().map(|b| jp(&b.2)).collect();
         let parents = bones.iter().map(|b| b.3.as_deref().map_or(-1, idx)).collect();
@@ -853,7 +858,7 @@ pub(crate) mod tests {
     /// A hand-written rig as arrays, parents looked up by name.
     fn skeleton_of(b: &[BoneSpec]) -> Skeleton {
         let names: Vec<String> = b.iter().map(|x| x.0.clone()).collect();
-        let idx = |n: &str| names.iter().position(|x| x == n).unwrap() as i32;
+        let idx = |n: &str| bone(&names, n) as i32;
         let parents = b.iter().map(|x| x.3.as_deref().map_or(-1, idx)).collect();
         (names.clone(), b.iter().map(|x| x.1).collect(), b.iter().map(|x| x.2).collect(), parents)
     }
@@ -1077,16 +1082,15 @@ pub(crate) mod tests {
         // renamed.
         let tailed = |joints: [[f32; 3]; 3], rename: &[(&str, &str)]| {
             let (mut names, mut h, mut t, p) = creature();
-            let i = |names: &[String], n: &str| names.iter().position(|x| x == n).unwrap();
             for (k, name) in TAIL.iter().enumerate() {
-                let b = i(&names, name);
+                let b = bone(&names, name);
                 if k > 0 {
                     h[b] = joints[k - 1];
                 }
                 t[b] = joints[k];
             }
             for (from, to) in rename {
-                let k = i(&names, from);
+                let k = bone(&names, from);
                 names[k] = to.to_string();
             }
             let r = detect_roles(&h, &t, &p, &names).unwrap();
@@ -1113,7 +1117,7 @@ pub(crate) mod tests {
     #[test]
     fn hanging_single_bones_are_not_arms() {
         let (mut names, mut h, mut t, mut p) = creature();
-        let chest = names.iter().position(|n| n == "chest").unwrap() as i32;
+        let chest = bone(&names, "chest") as i32;
         for (side, x) in [("L", 0.15), ("R", -0.15)] {
             names.push(format!("cape.{side}"));
             h.push([x, -0.2, 1.1]);
@@ -1144,7 +1148,7 @@ pub(crate) mod tests {
             let (kind, side) = leg.split_once('.').unwrap();
             let bones = if kind == "front" { ["upper_arm", "forearm", "hand"] } else { ["thigh", "shin", "foot"] };
             for b in bones {
-                let i = names.iter().position(|n| *n == format!("{b}.{side}")).unwrap();
+                let i = bone(&names, &format!("{b}.{side}"));
                 h[i][1] += d;
                 t[i][1] += d;
             }
@@ -1176,11 +1180,11 @@ pub(crate) mod tests {
         // The creature with a middle pair of legs (its hind legs moved 0.5 forward, off the
         // spine): the tops of each pair lie within 0.15 h, the pairs 0.5 apart (h ~ 1.85).
         let (mut names, mut h, mut t, mut p) = creature();
-        let spine = names.iter().position(|n| n == "spine").unwrap() as i32;
+        let spine = bone(&names, "spine") as i32;
         for s in ["L", "R"] {
             let mut parent = spine;
             for b in ["thigh", "shin", "foot"] {
-                let i = names.iter().position(|n| *n == format!("{b}.{s}")).unwrap();
+                let i = bone(&names, &format!("{b}.{s}"));
                 let (mut head, mut tail) = (h[i], t[i]);
                 head[1] -= 0.5;
                 tail[1] -= 0.5;
@@ -1325,7 +1329,7 @@ pub(crate) mod tests {
         // 8000+ bone ends (it compares every pair) and still finds the body's plane
         let (mut names, mut h, mut t, mut p) = biped();
         let plain = detect_roles(&h, &t, &p, &names).unwrap();
-        let head = names.iter().position(|n| n == "head").unwrap() as i32;
+        let head = bone(&names, "head") as i32;
         for k in 0..400 {
             let x = 0.1 * ((k as f32 * 0.618).fract() - 0.5);
             for j in 0..10 {
