@@ -899,11 +899,9 @@ mod tests {
             let toe = bone(&names, &format!("toe.{s}"));
             t[toe] = [h[toe][0], h[toe][1], h[toe][2] + 0.1];
         }
-        let (_, h, t, p, rest, roles, clip) = run((names, h, t, p), Motion::Walk);
-        let n = clip.bone_count;
-        for f in 0..clip.frames {
-            let (ph, pt) =
-                posed_points(&h, &t, &p, &rest, &clip.rotations[f * n..(f + 1) * n], &[], clip.root_offset[f]);
+        let a = run((names, h, t, p), Motion::Walk);
+        let (h, roles) = (&a.1, &a.5);
+        for (f, (ph, pt)) in posed_clip(&a).iter().enumerate() {
             let low = roles
                 .legs
                 .iter()
@@ -943,8 +941,8 @@ mod tests {
             assert!((circ(peak("front", side), peak("middle", side)) - 0.5).abs() < 0.1, "front.{side}, middle.{side}");
         }
         // only an insect's rising femurs lift its legs
-        let lifting = |(names, h, t, p): Skeleton| {
-            let roles = detect_roles(&h, &t, &p, &names).unwrap();
+        let lifting = |skel: Skeleton| {
+            let (_, h, t, _, _, roles) = prepare(skel);
             let (fwd, up) = (Vec3::from(roles.forward), Vec3::from(roles.up));
             leg_joints(&h, &t, &roles, (fwd, fwd.cross(up).normalize())).iter().filter(|l| l.lift.is_some()).count()
         };
@@ -1182,23 +1180,20 @@ mod tests {
         // so planted feet barely move (a tenth of the stride, at most 0.15): at half that speed
         // they slid back 0.36 of it
         for motion in [Motion::Walk, Motion::Run] {
-            let (_, h, t, p, rest, roles, clip) = run(biped(), motion);
-            let c = cadence(&roles, &GaitParams { motion, ..Default::default() }).unwrap();
+            let a = run(biped(), motion);
+            let (roles, clip) = (&a.5, &a.6);
+            let posed = posed_clip(&a);
+            let c = cadence(roles, &GaitParams { motion, ..Default::default() }).unwrap();
             let fwd = Vec3::from(roles.forward);
             let travel = Vec3::from(clip.root_offset[clip.frames - 1]).dot(fwd);
             assert!((travel - 2.0 * c.stride).abs() < 1e-3 * c.stride, "{travel} {}", c.stride);
-            let n = clip.bone_count;
-            for (leg, offset) in roles.legs.iter().zip(leg_phases(&roles, motion)) {
+            for (leg, offset) in roles.legs.iter().zip(leg_phases(roles, motion)) {
                 let foot = *leg.bones.last().unwrap();
                 let planted = |f: usize| {
                     let ph = (f as f32 / c.fpc + offset).fract();
                     ph > 0.1 * c.duty && ph < 0.9 * c.duty
                 };
-                let x = |f: usize| {
-                    let rot = &clip.rotations[f * n..(f + 1) * n];
-                    let (_, pt) = posed_points(&h, &t, &p, &rest, rot, &[], clip.root_offset[f]);
-                    Vec3::from(pt[foot]).dot(fwd)
-                };
+                let x = |f: usize| Vec3::from(posed[f].1[foot]).dot(fwd);
                 // the fastest a planted foot moves, over a whole stance (a bound on its slide)
                 let speed = (0..clip.frames - 1)
                     .filter(|&f| planted(f) && planted(f + 1))
@@ -1265,17 +1260,12 @@ mod tests {
         }
     }
 
-    /// Largest rotation angle of bone `b` over the clip.
-    fn largest_angle(clip: &Clip, b: usize) -> f32 {
-        (0..clip.frames).map(|f| q(clip.rotation(f, b)).to_axis_angle().1).fold(0.0, f32::max)
-    }
-
     #[test]
     fn a_head_shake_turns_neck_and_head_by_the_amplitude_and_its_cycle_is_one_shake() {
         let (_, h, t, p, rest, roles, clip) = run(creature(), Motion::HeadShake);
         let amp = GaitParams::default().amplitude;
-        let head = largest_angle(&clip, roles.head);
-        let neck: f32 = roles.neck.iter().map(|&b| largest_angle(&clip, b)).sum();
+        let head = most_turned(&clip, roles.head);
+        let neck: f32 = roles.neck.iter().map(|&b| most_turned(&clip, b)).sum();
         assert!((head - 0.5 * amp).abs() < 0.05 * amp && (neck - 0.5 * amp).abs() < 0.05 * amp, "{head} {neck}");
         let cycles = GaitParams::default().cycles;
         assert_eq!(clip.frames_per_cycle * cycles, (clip.frames - 1) as f32);
@@ -1283,7 +1273,7 @@ mod tests {
         let neckless = Roles { neck: Vec::new(), ..roles.clone() };
         let params = GaitParams { motion: Motion::HeadShake, ..Default::default() };
         let alone = motion_clip(&h, &t, &p, &rest, &neckless, &params).unwrap();
-        assert!((largest_angle(&alone, roles.head) - amp).abs() < 0.05 * amp);
+        assert!((most_turned(&alone, roles.head) - amp).abs() < 0.05 * amp);
     }
 
     #[test]
@@ -1322,16 +1312,14 @@ mod tests {
             h[shin][1] = h[thigh][1];
             t[shin][1] = h[thigh][1];
         }
-        let (names, h, t, p, rest, roles, clip) = run((names, h, t, p), Motion::Walk);
+        let a = run((names, h, t, p), Motion::Walk);
+        let (names, roles, posed) = (&a.0, &a.5, posed_clip(&a));
         let fwd = Vec3::from(roles.forward);
         for s in ["L", "R"] {
-            let shin = bone(&names, &format!("shin.{s}"));
-            let most_bent = (0..clip.frames)
-                .map(|f| {
-                    let n = clip.bone_count;
-                    let (ph, pt) = posed_points(&h, &t, &p, &rest, &clip.rotations[f * n..(f + 1) * n], &[], [0.0; 3]);
-                    (Vec3::from(pt[shin]) - Vec3::from(ph[shin])).dot(fwd)
-                })
+            let shin = bone(names, &format!("shin.{s}"));
+            let most_bent = posed
+                .iter()
+                .map(|(ph, pt)| (Vec3::from(pt[shin]) - Vec3::from(ph[shin])).dot(fwd))
                 .fold(0.0f32, |a, d| if d.abs() > a.abs() { d } else { a });
             assert!(most_bent < -0.05 * roles.leg_length, "shin.{s}: foot {most_bent} ahead of the knee");
         }
@@ -1341,8 +1329,7 @@ mod tests {
     fn sheared_rest_frames_give_the_motion_of_their_orthonormal_frames() {
         // an unevenly scaled armature's rest frames are not rotations: each is taken as the
         // rotation with its bone axis and the X axis made orthogonal to it
-        let (names, h, t, p) = biped();
-        let rest = rest_of(&h, &t);
+        let (_, h, t, p, rest, roles) = prepare(biped());
         let sheared: Vec<[f32; 9]> = rest
             .iter()
             .map(|m| {
@@ -1350,7 +1337,6 @@ mod tests {
                 Mat3::from_cols(m.x_axis + 0.4 * m.y_axis, m.y_axis * 1.7, m.z_axis).transpose().to_cols_array()
             })
             .collect();
-        let roles = detect_roles(&h, &t, &p, &names).unwrap();
         let a = motion_clip(&h, &t, &p, &rest, &roles, &GaitParams::default()).unwrap();
         let b = motion_clip(&h, &t, &p, &sheared, &roles, &GaitParams::default()).unwrap();
         for (x, y) in a.rotations.iter().zip(&b.rotations) {
