@@ -813,8 +813,7 @@ mod tests {
         let p = [[0.0, 0.0], [0.0, 1.0], [0.0, 1.0], [1.0, 1.0]];
         positions_to_angles(&mut chain, &p);
         assert_eq!(chain.angles[1], 0.0);
-        let mut back = Vec::new();
-        fk_into(&chain, &mut back);
+        let back = forward(&chain).unwrap();
         for (a, b) in back.iter().zip(&p) {
             assert!(dist2(*a, *b) < 1e-24, "{back:?}");
         }
