@@ -345,6 +345,11 @@ fn check(
     if all.into_iter().any(|&b| b >= n) {
         return Err(Error::Shape("roles refer to bones that are not in the arrays".into()));
     }
+    // A NaN rest frame would turn every key of its bone and of the bones below it into NaN.
+    let bad = rest.iter().filter(|m| !m.iter().all(|x| x.is_finite())).count();
+    if bad > 0 {
+        return Err(Error::NonFinite { what: "rest matrix", count: bad });
+    }
     if !(p.fps > 0.0 && p.fps.is_finite()) {
         return Err(Error::InvalidArgument(format!("fps must be positive, got {}", p.fps)));
     }
@@ -1250,6 +1255,14 @@ mod tests {
         let err = motion_clip(&h, &t, &p, &rest, &stale, &GaitParams::default()).unwrap_err().to_string();
         assert!(err.contains("not in the arrays"), "{err}");
         assert!(motion_clip(&h, &t, &p, &rest[1..], &roles, &GaitParams::default()).is_err());
+        // A NaN rest frame (one entry is enough) is refused, not keyed as NaN.
+        for motion in [Motion::HeadShake, Motion::Walk] {
+            let mut nan = rest.clone();
+            nan[roles.head][4] = f32::NAN;
+            let params = GaitParams { motion, ..Default::default() };
+            let err = motion_clip(&h, &t, &p, &nan, &roles, &params).unwrap_err().to_string();
+            assert!(err.contains("1 rest matrix(s) have NaN"), "{err}");
+        }
         // Clips past Blender's last frame are refused before anything is allocated.
         for (motion, fps, duration, cycles) in
             [(Motion::HeadShake, 1e9, 1e9, 1.0), (Motion::HeadShake, 1e30, 1e30, 1.0), (Motion::Walk, 24.0, 2.0, 1e12)]
