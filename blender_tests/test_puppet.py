@@ -666,6 +666,12 @@ def test_a_rod_or_rig_without_a_finite_place_keeps_the_pose_and_is_not_baked(cap
     with pytest.raises(RuntimeError, match=r"At frame 1: Puppet 'FiveRodPuppet' is scaled to zero"):
         bpy.ops.object.miniskeleton_bake_puppet()
     assert rig.animation_data is None
+    rig.scale.x = 1e-13                # zero relative to the other axes: as singular as 0
+    settle()
+    assert pose_of(rig) == posed
+    with pytest.raises(RuntimeError, match=r"Puppet 'FiveRodPuppet' is scaled to zero on an axis \(1e-13, 1, 1\)"):
+        bpy.ops.object.miniskeleton_bake_puppet()
+    assert rig.animation_data is None
     rig.scale.x = 1.0                                  # mended: it solves and bakes again
     settle()
     assert bpy.ops.object.miniskeleton_bake_puppet() == {"FINISHED"}
