@@ -156,13 +156,14 @@ def name_list(names: list[str], most: int = 5) -> str:
 
 def make_folder(path: Path) -> str | None:
     """Make the folder the file ``path`` goes in (and its parents): None, or why it cannot be
-    written there (for the exports' and Make Video's reports)."""
-    if path.is_dir():
-        return "it is a folder"
-    blocker = next((p for p in path.parents if p.exists()), None)
-    if blocker is not None and not blocker.is_dir():
-        return f"'{blocker}' is a file, not a folder"
+    written there (for the exports' and Make Video's reports). A name the file system refuses
+    (too long) fails the checks themselves: that is a reason too, not a traceback."""
     try:
+        if path.is_dir():
+            return "it is a folder"
+        blocker = next((p for p in path.parents if p.exists()), None)
+        if blocker is not None and not blocker.is_dir():
+            return f"'{blocker}' is a file, not a folder"
         path.parent.mkdir(parents=True, exist_ok=True)
     except OSError as err:
         return err.strerror or str(err)
@@ -177,11 +178,12 @@ def keyed_action(ob: bpy.types.Object) -> bpy.types.Action | None:
 def shaped_world_mesh(ob: bpy.types.Object) -> tuple[np.ndarray, np.ndarray]:
     """World vertices (n, 3) float64 and triangles (m, 3) uint32 of ``ob`` as the rigger sees it
     undeformed: its modifier stack (Mirror, Subdivision, Solidify, ...) evaluated with its
-    Armature modifiers off. Its own mesh when it has no other enabled modifier, or when it is
-    linked (read-only: its modifiers cannot be switched). For reading only (Fit); weights are
-    written to the mesh's own vertices, so Heat reads those, as Blender's Ctrl+P does."""
+    Armature modifiers off. Its own mesh when it has no other enabled modifier. An object
+    linked from a library too: Blender lets its modifiers be switched off and on. For reading
+    only (Fit); weights are written to the mesh's own vertices, so Heat reads those, as
+    Blender's Ctrl+P does."""
     shaping = any(m.show_viewport and m.type != "ARMATURE" for m in ob.modifiers)
-    if not shaping or not ob.is_editable:
+    if not shaping:
         return mesh_world_vertices(ob), mesh_triangles(ob)
     deforming = [m for m in ob.modifiers if m.type == "ARMATURE" and m.show_viewport]
     for m in deforming:

@@ -415,7 +415,11 @@ def output_path(filepath: str, ext: str) -> Path:
     if not filepath.strip():
         raise RigError("no file name given")
     path = Path(bpy.path.abspath(filepath))
-    if path.is_dir() or filepath.endswith(("/", "\\")):
+    try:
+        folder = path.is_dir()
+    except OSError as err:   # a name the file system refuses (too long)
+        raise RigError(f"cannot write '{path}': {err.strerror or err}") from err
+    if folder or filepath.endswith(("/", "\\")):
         raise RigError(f"'{path}' is a folder: give a file name")
     if path.suffix.lower() != ext:
         path = path.with_name(path.name + ext)

@@ -255,6 +255,23 @@ def test_a_constrained_mesh_stays_where_it_is(parent):
     assert np.abs(np.array(ob.matrix_world) - np.array(world)).max() > 0.1
 
 
+def test_a_new_parenting_keeps_the_meshs_transform_values_as_ctrl_p_does():
+    """A mesh not yet parented gets the armature's inverse as its parent inverse, as Blender's
+    Ctrl+P does, so its Location, Rotation and Scale fields keep the values the rigger typed
+    (a basis rewritten to compensate would have put the armature's offset into them)."""
+    arm = B.chain(location=(1.0, -2.0, 0.5), rotation=(0.0, 0.0, 0.4), scale=(2.0, 2.0, 2.0))
+    ob = B.cylinder(location=(0.25, 0.5, -0.5), rotation=(0.1, 0.0, 0.0), scale=(1.5, 1.5, 1.5))
+    bpy.context.view_layer.update()
+    world, basis = np.array(ob.matrix_world), np.array(ob.matrix_basis)
+    assert bind([ob], arm, method="HEAT") == {"FINISHED"}
+    bpy.context.view_layer.update()
+    assert ob.parent == arm and ob.parent_type == "OBJECT"
+    np.testing.assert_allclose(np.array(ob.matrix_basis), basis, atol=1e-6)
+    np.testing.assert_allclose(np.array(ob.matrix_parent_inverse), np.linalg.inv(np.array(arm.matrix_world)),
+                               atol=1e-6)
+    np.testing.assert_allclose(np.array(ob.matrix_world), world, atol=1e-6)
+
+
 def test_a_mesh_already_parented_to_the_armature_keeps_its_own_transform_values():
     """Re-binding a mesh already object-parented to the armature (here without inverse, its
     offset in Location) leaves its parenting and transform values as the rigger set them, rather
@@ -463,6 +480,14 @@ def test_b_bones_are_weighted_along_their_rest_curve_like_ctrl_p():
     blender8, _ = weights(blender, 8)
     assert l1(ours1, ours8, used) > 0.02
     assert l1(ours8, blender8, used) < 0.5 * l1(ours1, blender8, used)
+    # Segments set by a script just before (Blender has no segment data for them until the
+    # next depsgraph update, which the operator call makes first): the same weights.
+    ob = setup(1)
+    for bone in bpy.data.objects["Rig"].data.bones:
+        bone.bbone_segments = 8
+    assert ours() == {"FINISHED"}
+    scripted = B.weights_matrix(ob, names)
+    assert l1(scripted / np.maximum(scripted.sum(1, keepdims=True), 1e-12), ours8, used) < 1e-6
     lone1, _ = weights(ours, 1, chain=False)
     lone8, _ = weights(ours, 8, chain=False)
     assert l1(lone8, lone1, used) < 1e-3  # the same up to ties at the joints (max 0.002)

@@ -1006,9 +1006,14 @@ def test_video_path_that_cannot_be_written_is_an_error_and_adds_nothing(tmp_path
     creature.build_body(subdivisions=0)
     blocker = tmp_path / "file"
     blocker.write_text("a file, not a folder")
-    with pytest.raises(RuntimeError, match="Cannot write the video to .*clip.mp4"):
-        bpy.ops.render.miniskeleton_make_video(filepath=str(blocker / "clip.mp4"))
-    assert bpy.context.scene.camera is None and not any(o.type == "LIGHT" for o in bpy.data.objects)
+    folder = tmp_path / "named.mp4"   # a folder with a video's name
+    folder.mkdir()
+    for bad, why in ((blocker / "clip.mp4", "is a file, not a folder"), (folder, "it is a folder"),
+                     (tmp_path / ("x" * 300 + ".mp4"), "File name too long")):
+        with pytest.raises(RuntimeError, match=f"Cannot write the video to .*{bad.name}: .*{why}"):
+            bpy.ops.render.miniskeleton_make_video(filepath=str(bad))
+        assert bpy.context.scene.camera is None and not any(o.type == "LIGHT" for o in bpy.data.objects)
+    assert not any(folder.iterdir())
 
 
 def test_undo_after_a_video_takes_back_its_camera_and_light_only(tmp_path):

@@ -8,10 +8,12 @@ from __future__ import annotations
 import importlib
 import json
 import re
+from pathlib import Path
 
 import bpy
 import numpy as np
 import pytest
+from mathutils import Vector
 
 import builders
 import creature
@@ -164,12 +166,13 @@ def test_fit_does_not_depend_on_the_armatures_scale():
     builders.select_for_parenting([body], arm)
     assert bpy.ops.armature.miniskeleton_fit_skeleton() == {"FINISHED"}
     np.testing.assert_allclose(world_joints(arm, ends), reference, atol=1e-5 * diag)
-    arm.scale.y = 0.0
     before = edit_state(arm)
-    builders.select_for_parenting([body], arm)
-    with pytest.raises(RuntimeError, match="has a zero scale"):
-        bpy.ops.armature.miniskeleton_fit_skeleton()
-    assert edit_state(arm) == before
+    for zero in (0.0, 1e-12):   # 1e-12 of the other axes: as singular as 0
+        arm.scale.y = zero
+        builders.select_for_parenting([body], arm)
+        with pytest.raises(RuntimeError, match="has a zero scale"):
+            bpy.ops.armature.miniskeleton_fit_skeleton()
+        assert edit_state(arm) == before
 
 
 def test_fit_far_from_the_world_origin_gives_the_joints_it_gives_at_the_origin():
@@ -743,6 +746,28 @@ def test_linked_armature_is_refused_and_a_linked_mesh_is_only_read(tmp_path):
     assert [(tuple(b.head_local), tuple(b.tail_local)) for b in rig.data.bones] == before
     assert rig.mode == "OBJECT"
 
+
+def test_a_linked_half_modelled_character_is_fitted_into_the_whole_body(tmp_path):
+    """A character linked from a library, its object and not only its data, modelled as one
+    half with a Mirror modifier: its modifiers can still be switched for the read (Blender
+    allows it on linked objects), so Fit reads the whole body as for a local one. It read the
+    half alone, and the right side's joints went into the left half."""
+    body, arm, ends, orig, moved, diag = creature_setup(seed=1)
+    assert bpy.ops.armature.miniskeleton_fit_skeleton() == {"FINISHED"}
+    whole = joints_of(arm, ends)
+    set_joints(arm, moved, ends)
+    builders.keep_positive_x_half(body)
+    body.modifiers.new("Mirror", "MIRROR").use_clip = True
+    body.modifiers.new("Armature", "ARMATURE").object = arm
+    linked = builders.link_from_library(body, tmp_path / "body.blend")
+    bpy.context.scene.collection.objects.link(linked)
+    bpy.data.objects.remove(body)
+    bpy.context.view_layer.update()
+    builders.select_for_parenting([linked], arm)
+    assert bpy.ops.armature.miniskeleton_fit_skeleton() == {"FINISHED"}
+    assert np.linalg.norm(joints_of(arm, ends) - whole, axis=1).mean() < 1e-3 * diag
+    assert [(m.type, m.show_viewport) for m in linked.modifiers] == [("MIRROR", True), ("ARMATURE", True)]
+
 # ---------------------------------------------------------------------------- exchange
 
 def test_npz_round_trip_and_mismatch(tmp_path):
@@ -796,6 +821,13 @@ def test_export_paths_like_blenders_exporters(tmp_path, monkeypatch):
                          (str(tmp_path / f"plain{ext}" / f"x{ext}"), "is a file, not a folder")):
             with pytest.raises(RuntimeError, match=why):
                 op(filepath=bad)
+        # A name longer than the file system takes (the checks before writing failed on it),
+        # and a folder where no file can be made: errors, not tracebacks.
+        for bad, why in ((tmp_path / ("x" * 300), "File name too long"),
+                         (tmp_path / ("x" * 252), "File name too long"),   # too long with its extension
+                         (Path("/proc") / f"miniskeleton{ext}", "No such file or directory")):
+            with pytest.raises(RuntimeError, match=f"Not exported: cannot write .*: {why}"):
+                op(filepath=str(bad))
         assert not list(work.iterdir()) and not (tmp_path.parent / f"{tmp_path.name}{ext}").exists()
     builders.set_active(ob)
     with pytest.raises(RuntimeError, match="is not an .npz rig bundle"):
@@ -1003,6 +1035,11 @@ def test_json_debug_export(tmp_path):
     for i, b in enumerate(data["bones"]):
         assert b["vertices_influenced"] == int((w[:, i] > 0).sum()) > 0
         assert b["max_weight"] == pytest.approx(w[:, i].max(), abs=1e-7)
+    # Nothing but the armature selected: the meshes it deforms, parented to it or not.
+    ob.parent = None
+    builders.set_active(arm)
+    assert bpy.ops.export_scene.miniskeleton_json(filepath=str(path)) == {"FINISHED"}
+    assert json.loads(path.read_text())["bones"] == data["bones"]
 
 
 def test_glb_round_trip(tmp_path):
@@ -1204,3 +1241,91 @@ def test_open_and_piecewise_meshes_warn(capfd):
     capfd.readouterr()
     assert bpy.ops.armature.miniskeleton_fit_skeleton() == {"FINISHED"}
     assert "separate pieces" in "".join(capfd.readouterr())
+
+
+# ---------------------------------------------------------------------------- fit options
+
+def gltf_style(arm, diag):
+    """The rig as a glTF import leaves it: no bone connected, and every tail invented (a short
+    stub along +Y from its head), so the joints are the heads and the parent -> child links."""
+    builders.set_active(arm)
+    bpy.ops.object.mode_set(mode="EDIT")
+    for eb in arm.data.edit_bones:
+        eb.use_connect = False
+    for eb in arm.data.edit_bones:
+        eb.tail = eb.head + Vector((0.0, 0.02 * diag, 0.0))
+    bpy.ops.object.mode_set(mode="OBJECT")
+
+
+def test_fit_an_imported_rig_through_its_parent_child_links():
+    """On a rig whose tails were all invented (glTF), the joints are its bone heads and its
+    bones the parent -> child links: fitted through those, the heads' error is halved as on the
+    rig built in Blender, and leaf heads (ankles, the jaw) stay on their limb rather than going
+    to its tip, which only a real tail would."""
+    body, arm, ends, orig, moved, diag = creature_setup(seed=3)
+    gltf_style(arm, diag)
+    heads = ends[:, 0]
+    builders.select_for_parenting([body], arm)
+    assert bpy.ops.armature.miniskeleton_fit_skeleton() == {"FINISHED"}
+    now = np.array([b.head_local for b in arm.data.bones])
+    err = np.linalg.norm(now - orig[heads], axis=1)
+    before = np.linalg.norm(moved[heads] - orig[heads], axis=1)
+    leaves = [i for i, b in enumerate(arm.data.bones) if not b.children]
+    assert err.mean() <= 0.5 * before.mean()             # 0.48 (0.91 without the links)
+    assert err[leaves].max() < before[leaves].max()      # 3.1 % of 4.5 % (6.2 % sent to the tips)
+    assert all(b.tail_local[1] - b.head_local[1] == pytest.approx(0.02 * diag, abs=1e-5) for b in arm.data.bones)
+
+
+def test_fit_options_max_move_and_rounds_reach_the_fit():
+    """Max Move caps how far a joint inside the mesh moves (in % of the diagonal), and Rounds
+    how many rounds of centre lines the fit takes: both from the operator's panel."""
+    body, arm, ends, orig, moved, diag = creature_setup(seed=3)
+    v, t = mesh_arrays(body)
+    inside = core.points_inside(v, t, moved.astype(np.float32))
+    results = {}
+    for max_move, rounds in ((0.5, 12), (5.0, 12), (5.0, 1)):
+        set_joints(arm, moved, ends)
+        builders.select_for_parenting([body], arm)
+        assert bpy.ops.armature.miniskeleton_fit_skeleton(max_move=max_move, rounds=rounds) == {"FINISHED"}
+        results[max_move, rounds] = joints_of(arm, ends)
+    step = {k: np.linalg.norm(j - moved, axis=1)[inside] / diag for k, j in results.items()}
+    assert step[0.5, 12].max() <= 0.005 + 1e-6 < step[5.0, 12].max()
+    assert np.abs(results[5.0, 1] - results[5.0, 12]).max() > 1e-3 * diag
+
+
+def test_fit_refuses_a_mesh_in_edit_mode_or_with_nan_vertices():
+    """A mesh in Edit Mode keeps its edits apart from its data until Edit Mode ends, so Fit
+    would fit the mesh as it was; one with a NaN vertex has no inside. Both are errors naming
+    the mesh, and the armature is left as it was."""
+    body, arm, ends, orig, moved, diag = creature_setup(seed=3)
+    before = edit_state(arm)
+    builders.set_active(body)
+    bpy.ops.object.mode_set(mode="EDIT")
+    builders.set_active(arm, selected=[body])
+    with pytest.raises(RuntimeError, match=r"Mesh in Edit Mode: Creature; leave Edit Mode first"):
+        bpy.ops.armature.miniskeleton_fit_skeleton()
+    builders.set_active(body)
+    bpy.ops.object.mode_set(mode="OBJECT")
+    body.data.vertices[7].co.x = float("nan")
+    builders.select_for_parenting([body], arm)
+    with pytest.raises(RuntimeError, match=r"Mesh 'Creature' has 1 vertices with NaN or infinite coordinates"):
+        bpy.ops.armature.miniskeleton_fit_skeleton()
+    assert edit_state(arm) == before
+
+
+def test_fit_of_a_tiny_or_huge_rig_is_the_fit_at_unit_size_scaled():
+    """The creature and its rig scaled by 1e-4 and 1e5 in their data (not the objects, whose
+    scale the armature frame takes out): the fit is the unit-size fit scaled. (At 1e-5 the
+    creature's bones are about 1e-6 long, where Blender's Edit Mode itself alters bones.)"""
+    from mathutils import Matrix
+
+    body, arm, ends, orig, moved, diag = creature_setup(seed=3)
+    assert bpy.ops.armature.miniskeleton_fit_skeleton() == {"FINISHED"}
+    reference = joints_of(arm, ends)
+    for factor in (1e-4, 1e5):
+        set_joints(arm, moved * factor, ends)
+        body.data.transform(Matrix.Scale(factor, 4))
+        builders.select_for_parenting([body], arm)
+        assert bpy.ops.armature.miniskeleton_fit_skeleton() == {"FINISHED"}
+        np.testing.assert_allclose(joints_of(arm, ends) / factor, reference, atol=1e-5 * diag)
+        body.data.transform(Matrix.Scale(1.0 / factor, 4))
