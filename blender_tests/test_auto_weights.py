@@ -35,6 +35,20 @@ def test_installed_from_zip_like_a_user():
     assert hasattr(bpy.ops.object, "miniskeleton_auto_weights")
 
 
+def test_installed_manifest_asks_for_the_file_access_the_rig_exchange_uses():
+    """The NPZ / JSON exports and the NPZ import open files themselves, and Set Part Image loads a
+    picture, so Blender's extension rules want a ``files`` permission (a reason of at most 64
+    characters with no final punctuation) in the manifest that was installed, and nothing more."""
+    import tomllib
+
+    folder = os.path.dirname(importlib.import_module("bl_ext.user_default.miniskeleton").__file__)
+    with open(os.path.join(folder, "blender_manifest.toml"), "rb") as f:
+        manifest = tomllib.load(f)
+    reason = manifest["permissions"]["files"]
+    assert 0 < len(reason) <= 64 and (reason[-1].isalnum() or reason[-1] == ")")
+    assert set(manifest["permissions"]) == {"files"}  # no network, clipboard, camera or microphone
+
+
 def test_menus_offer_the_operator():
     for menu in ("VIEW3D_MT_object_parent", "VIEW3D_MT_paint_weight"):
         funcs = getattr(bpy.types, menu)._dyn_ui_initialize()
