@@ -1,7 +1,7 @@
 """Fit Skeleton to Mesh against the artists' own skeletons.
 
     .venv/bin/python bench/bench_fit.py [--models Fox.glb,CesiumMan.gltf,spot_rig.glb] [--seeds 10] [--symmetry X]
-                                        [--displace ball|depth]
+                                        [--displace ball|depth] [--per-joint]
 
 For each model in ``../shared/models/`` (relative to the project root; missing files are
 skipped, never copied here) and for the generated creature (scripts/creature.py): take the
@@ -17,7 +17,9 @@ bones with several children); those are displaced with the rest but not scored. 
 markdown table: mean joint error before / after (% of the diagonal), the ratio, the error after
 over the joints that were inside the mesh in the original rest pose, joints outside the mesh
 (original, before, after), the floor (how far the fit moves the undisplaced artist joints) and
-the operator's time; also writes it to out/bench_fit.md. Nothing is asserted (the test on the
+the operator's time; also writes it to out/bench_fit.md. ``--per-joint`` adds a table per model
+of each scored joint's mean errors, split into the part along the limb (which centring cannot
+undo) and across it, worst after / before first. Nothing is asserted (the test on the
 creature asserts).
 """
 
@@ -148,6 +150,41 @@ def displacements(rng, n, diag, along=None):
     return d * (0.05 * diag * rng.random(n) ** (1 / 3) / np.linalg.norm(d, axis=1))[:, None]
 
 
+def limb_axes(joints, ends):
+    """(j, 3) unit direction of the limb at each joint: the mean of its bones' directions (head to
+    tail), for splitting an error into its part along the limb and across it."""
+    axis = np.zeros_like(joints)
+    for h, t in ends:
+        d = joints[t] - joints[h]
+        n = np.linalg.norm(d)
+        if n > 0:
+            axis[h] += d / n
+            axis[t] += d / n
+    return axis / np.maximum(np.linalg.norm(axis, axis=1, keepdims=True), 1e-12)
+
+
+def joint_names(bones, ends):
+    """A name for each joint: the first bone end found there ("Bone.head" / "Bone.tail")."""
+    names = {}
+    for bone, (h, t) in zip(bones, ends):
+        names.setdefault(int(h), bone + ".head")
+        names.setdefault(int(t), bone + ".tail")
+    return names
+
+
+def per_joint_table(r):
+    """Markdown rows of the per-joint means over the seeds: before, after, the part of after along the
+    limb (a centring fit cannot undo it: for a move uniform in direction it is half the move on
+    average) and across it, the floor, and after / before, worst ratio first."""
+    lines = [f"#### {r['model']}", "", "| joint | before % | after % | along % | across % | floor % | after / before |",
+             "|---|---:|---:|---:|---:|---:|---:|"]
+    for name, before, after, along, floor in sorted(r["joint_rows"], key=lambda j: -j[2] / j[1]):
+        across = np.sqrt(max(after ** 2 - along ** 2, 0.0))
+        lines.append(f"| {name} | {before:.2f} | {after:.2f} | {along:.2f} | {across:.2f} | {floor:.2f} "
+                     f"| {after / before:.2f} |")
+    return lines + [""]
+
+
 def run(bpy, name, seeds, rig_io, core, mesh_io, displace="ball", **op):
     arm, meshes = load(bpy, name)
     if arm is None or not meshes:
@@ -166,12 +203,14 @@ def run(bpy, name, seeds, rig_io, core, mesh_io, displace="ball", **op):
     # with the artist, no displacement can be undone below this).
     if not fit(bpy, arm, meshes, **op)[0]:
         return None
-    floor = np.linalg.norm(joints_now(bpy, arm, ends) - orig, axis=1)[real].mean() / diag * 100
+    floor_each = np.linalg.norm(joints_now(bpy, arm, ends) - orig, axis=1) / diag * 100
+    floor = floor_each[real].mean()
     set_joints(bpy, arm, orig, ends, rig_io)
     along = depth_axis(arm, meshes, mesh_io) if displace == "depth" else None
     if along is not None:
         print(f"{name}: view depth in the armature's space {np.round(along, 3).tolist()}", flush=True)
-    rows = []
+    rows, per_before, per_after, per_along = [], [], [], []
+    axis = limb_axes(orig, ends)
     for seed in range(seeds):
         moved = orig + displacements(np.random.default_rng(seed + 1), len(orig), diag, along)
         set_joints(bpy, arm, moved, ends, rig_io)
@@ -183,11 +222,17 @@ def run(bpy, name, seeds, rig_io, core, mesh_io, displace="ball", **op):
         err1 = np.linalg.norm(fitted - orig, axis=1) / diag * 100
         rows.append((err0[real].mean(), err1[real].mean(), err0[scored_in].mean(), err1[scored_in].mean(),
                      outside(moved), outside(fitted), secs))
+        per_before.append(err0)
+        per_after.append(err1)
+        per_along.append(np.abs(((fitted - orig) * axis).sum(axis=1)) / diag * 100)
         set_joints(bpy, arm, orig, ends, rig_io)
     r = np.array(rows, dtype=np.float64)
+    names = joint_names([b.name for b in arm.data.bones], ends)
+    before, after, along = (np.mean(e, axis=0) for e in (per_before, per_after, per_along))
+    joint_rows = [(names[j], before[j], after[j], along[j], floor_each[j]) for j in np.nonzero(real)[0]]
     return dict(model=name, joints=int(real.sum()), ends=len(orig), vertices=len(verts), out_orig=out_orig, floor=floor,
                 before=r[:, 0].mean(), after=r[:, 1].mean(), before_in=r[:, 2].mean(), after_in=r[:, 3].mean(),
-                out_before=r[:, 4].mean(), out_after=r[:, 5].max(), secs=r[:, 6].mean())
+                out_before=r[:, 4].mean(), out_after=r[:, 5].max(), secs=r[:, 6].mean(), joint_rows=joint_rows)
 
 
 def main():
@@ -197,6 +242,8 @@ def main():
     ap.add_argument("--tails", default="AUTO", help="the operator's Free Tails option")
     ap.add_argument("--max-move", type=float, default=None, help="the operator's Max Move (%%)")
     ap.add_argument("--symmetry", default="NONE", choices=["NONE", "X"], help="the operator's Symmetry")
+    ap.add_argument("--per-joint", action="store_true",
+                    help="also a table per model of every scored joint's mean errors, worst after/before first")
     ap.add_argument("--displace", default="ball", choices=["ball", "depth"],
                     help="ball: the issue's 5 %% ball; depth: up to 5 %% along the view depth only")
     args = ap.parse_args()
@@ -215,6 +262,7 @@ def main():
              "| after/before | before / after, joints inside originally % | outside before (mean) "
              "| outside after (max) | floor % | fit s |",
              "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    details = []
     for name in names:
         op = dict(tails=args.tails, symmetry=args.symmetry) | ({} if args.max_move is None
                                                               else dict(max_move=args.max_move))
@@ -227,7 +275,9 @@ def main():
                      f"{r['before_in']:.2f} / {r['after_in']:.2f} | {r['out_before']:.1f} | "
                      f"{int(r['out_after'])} | {r['floor']:.2f} | {r['secs']:.2f} |")
         print(lines[-1], flush=True)
-    table = "\n".join(lines)
+        if args.per_joint:
+            details += per_joint_table(r)
+    table = "\n".join(lines + ([""] + details if details else []))
     how = ("uniformly in a ball of 5 % of the diagonal" if args.displace == "ball" else
            "uniformly within 5 % of the diagonal along the view depth only (the narrower horizontal axis)")
     print(f"\nJoints displaced {how}, {args.seeds} seeds; errors in % of "
