@@ -4,7 +4,7 @@
 //! Blender's normal-weighted distance, with near-ties sharing, and the nearest bone by plain
 //! distance for the fallbacks.
 
-use crate::segment::closest_point_on_segment;
+use crate::segment::{closest_point_on_segment, Segment};
 use crate::visibility::RayMesh;
 use glam::DVec3;
 use rayon::prelude::*;
@@ -51,20 +51,22 @@ pub(crate) fn heat_sources(
     inside: &[bool],
 ) -> Vec<Source> {
     let mut sources: Vec<Source> = Vec::with_capacity(wpos.len());
+    let segs: Vec<Segment> = segs.iter().map(|(h, t)| Segment::new(*h, *t)).collect();
+    let segs = &segs[..];
     wpos.par_iter()
         .with_min_len(256)
         .zip(normals.par_iter())
         .zip(labels.par_iter())
         .map_init(
-            || vec![0.0f64; 2 * segs.len()],
-            |dist, ((x, n), &piece)| {
+            || Ranking::new(segs.len()),
+            |scratch, ((x, n), &piece)| {
                 let whole = rays.map(|rays| Sight { rays, tri_piece: None, piece, normal: *n });
-                let s = nearest_visible_bone(*x, *n, segs, whole, dist);
+                let s = nearest_visible_bone(*x, *n, segs, whole, scratch);
                 if s.count > 0 || tri_piece.is_none() || !inside[piece as usize] {
                     return s.owned(owner);
                 }
                 let own = rays.map(|rays| Sight { rays, tri_piece, piece, normal: *n });
-                nearest_visible_bone(*x, *n, segs, own, dist).owned(owner)
+                nearest_visible_bone(*x, *n, segs, own, scratch).owned(owner)
             },
         )
         .collect_into_vec(&mut sources);
@@ -138,41 +140,124 @@ fn least(d: &[f64]) -> Ties {
 }
 
 /// Nearest visible bone(s) of the point `x` (unit frame) with unit normal `normal` (zero:
-/// none). `scratch` is `(2 b,)`.
+/// none), using the per-thread `scratch`.
 ///
 /// Bones are ranked by the normal-weighted distance `d / ((cos + 1.001) / 2)` (Blender's bone
 /// heat), `cos` the cosine between the normal and the direction from the bone's closest point
 /// to `x`: a bone behind the surface keeps its distance, one beside it counts double, one in
 /// front of it (outside the body) is all but excluded. The heat source uses that distance too.
 /// `nearest` is the nearest bone by plain distance.
+///
+/// This runs for every vertex and bone, so only the bones whose bounding ball comes close
+/// enough to matter are measured ([`ranked_near`]); all of them when that does not settle it.
 fn nearest_visible_bone(
     x: DVec3,
     normal: DVec3,
-    bones: &[(DVec3, DVec3)],
+    bones: &[Segment],
     sight: Option<Sight>,
-    scratch: &mut [f64],
+    scratch: &mut Ranking,
 ) -> Source {
-    let b = bones.len();
-    let (dist, euclid) = scratch.split_at_mut(b);
-    let mut src =
-        Source { bones: [u32::MAX; MAX_TIES], count: 0, dist: 0.0, nearest: Ties::one(0), nearest_dist: f64::INFINITY };
-    for (j, (h, t)) in bones.iter().enumerate() {
-        let (s, d) = closest_point_on_segment(x, *h, *t);
-        euclid[j] = d;
-        dist[j] = d;
-        if d > 0.0 && normal != DVec3::ZERO {
-            let cos = (x - (*h + (*t - *h) * s)).dot(normal) / d;
-            dist[j] = d / (0.5 * (cos + 1.001));
+    if let Some(limit) = ranked_near(x, normal, bones, scratch) {
+        if let Some(src) = walk(x, bones, scratch, sight, limit) {
+            return src;
         }
-        src.nearest_dist = src.nearest_dist.min(d);
     }
-    src.nearest = least(euclid);
-    // Walk the bones in increasing (distance, index) order without sorting.
+    scratch.candidates.clear();
+    for (j, seg) in bones.iter().enumerate() {
+        (scratch.euclid[j], scratch.dist[j]) = ranked_distance(x, normal, seg);
+        scratch.candidates.push(j);
+    }
+    walk(x, bones, scratch, sight, f64::INFINITY).expect("no limit")
+}
+
+/// Per-thread work space of [`nearest_visible_bone`]: every bone's plain and weighted distance
+/// (valid for the candidates only) and the candidates, in increasing index.
+pub(crate) struct Ranking {
+    euclid: Vec<f64>,
+    dist: Vec<f64>,
+    candidates: Vec<usize>,
+}
+
+impl Ranking {
+    pub(crate) fn new(bones: usize) -> Ranking {
+        Ranking { euclid: vec![0.0; bones], dist: vec![0.0; bones], candidates: Vec::with_capacity(bones) }
+    }
+}
+
+/// Plain and normal-weighted distance from `x` to the bone `seg` (see [`nearest_visible_bone`]):
+/// `d / ((cos + 1.001) / 2)` as `2 d^2 / (r . n + 1.001 d)`, `r` the offset from the bone's
+/// closest point.
+#[inline]
+fn ranked_distance(x: DVec3, normal: DVec3, seg: &Segment) -> (f64, f64) {
+    let (_, r) = seg.offset(x);
+    let d2 = r.length_squared();
+    let d = d2.sqrt();
+    let weighted = if normal != DVec3::ZERO && d > 0.0 { 2.0 * d2 / (r.dot(normal) + 1.001 * d) } else { d };
+    (d, weighted)
+}
+
+/// Measure the bones that can be the nearest ones in either ranking (the candidates) and
+/// return the weighted distance below which the ranking is complete: every other bone is
+/// farther. `None` if there are no bones.
+///
+/// A bone is no nearer than `|x - centre| - half length` (its bounding ball), and its weighted
+/// distance is at least its distance over 1.0005 (`(cos + 1.001) / 2 <= 1.0005`). The bone with
+/// the nearest centre gives the bounds `U` (weighted) and `E` (plain); every bone whose ball
+/// comes within `max(1.001 TIE_RATIO U, TIE_RATIO E)` (plus rounding room) is measured, which
+/// covers the nearest bone and its ties in both rankings. Compared squared: no square root
+/// for the bones left out.
+fn ranked_near(x: DVec3, normal: DVec3, bones: &[Segment], scratch: &mut Ranking) -> Option<f64> {
+    let mut best = (f64::INFINITY, usize::MAX);
+    for (j, seg) in bones.iter().enumerate() {
+        let c2 = seg.centre_distance_squared(x);
+        scratch.dist[j] = c2;
+        if c2 < best.0 {
+            best = (c2, j);
+        }
+    }
+    if best.1 == usize::MAX {
+        return None;
+    }
+    let (e, u) = ranked_distance(x, normal, &bones[best.1]);
+    // Complete up to the ties of a bone as near as U (the walk's tie test, with room to spare).
+    let limit = TIE_RATIO * u * (1.0 + 1e-6) + 1e-12;
+    // 1e-9: rounding of the ball distances.
+    let reach = (1.001 * limit).max(TIE_RATIO * e + 1e-12) * (1.0 + 1e-9) + 1e-12;
+    scratch.candidates.clear();
+    for (j, seg) in bones.iter().enumerate() {
+        let r = reach + seg.half_length();
+        if scratch.dist[j] <= r * r {
+            (scratch.euclid[j], scratch.dist[j]) = ranked_distance(x, normal, seg);
+            scratch.candidates.push(j);
+        }
+    }
+    Some(limit)
+}
+
+/// The nearest visible bone(s) among the candidates of `scratch`, walking them in increasing
+/// (weighted distance, index) order without sorting; `None` if the walk would need a bone
+/// farther than `limit` (the candidates are complete below it only, see [`ranked_near`]).
+fn walk(x: DVec3, bones: &[Segment], scratch: &Ranking, sight: Option<Sight>, limit: f64) -> Option<Source> {
+    let (cand, dist, euclid) = (&scratch.candidates[..], &scratch.dist[..], &scratch.euclid[..]);
+    let nearest_dist = cand.iter().map(|&j| euclid[j]).fold(f64::INFINITY, f64::min);
+    let mut src = Source { bones: [u32::MAX; MAX_TIES], count: 0, dist: 0.0, nearest: Ties::one(0), nearest_dist };
+    // Nearest by plain distance, as `least` ranks them.
+    src.nearest.count = 0;
+    for &j in cand {
+        if euclid[j] <= nearest_dist * TIE_RATIO + 1e-12 && (src.nearest.count as usize) < MAX_TIES {
+            src.nearest.bones[src.nearest.count as usize] = j as u32;
+            src.nearest.count += 1;
+        }
+    }
+    if src.nearest.count == 0 {
+        src.nearest = Ties::one(0);
+    }
     let mut prev = (f64::NEG_INFINITY, usize::MAX);
     let mut first: Option<f64> = None;
-    for step in 0..b {
+    for step in 0..cand.len() {
         let mut cur = (f64::INFINITY, usize::MAX);
-        for (j, &d) in dist.iter().enumerate() {
+        for &j in cand {
+            let d = dist[j];
             let after_prev = d > prev.0 || (d == prev.0 && (prev.1 == usize::MAX || j > prev.1));
             if after_prev && (d < cur.0 || (d == cur.0 && j < cur.1)) {
                 cur = (d, j);
@@ -183,14 +268,20 @@ fn nearest_visible_bone(
         }
         if let Some(d0) = first {
             if cur.0 > d0 * TIE_RATIO + 1e-12 || src.count as usize == MAX_TIES {
-                break;
+                return Some(src);
             }
         }
         if first.is_none() && step >= MAX_VISIBILITY_TESTS {
-            break;
+            return Some(src);
+        }
+        if cur.0 > limit {
+            return None;
         }
         if is_visible(x, bones[cur.1], euclid[cur.1], sight) {
             if first.is_none() {
+                if cur.0 * TIE_RATIO + 1e-12 > limit {
+                    return None; // its ties may lie beyond the limit
+                }
                 first = Some(cur.0);
                 src.dist = cur.0;
             }
@@ -199,20 +290,21 @@ fn nearest_visible_bone(
         }
         prev = cur;
     }
-    src
+    // Every candidate walked: complete unless a bone beyond them could still come next.
+    (first.is_some() || limit == f64::INFINITY).then_some(src)
 }
 
 /// Is the straight segment from the bone's closest point to `x` free of the surface?
 /// The segment starts at the bone and stops at `(1 - 1e-4) d - 1e-6` so the faces around
 /// the vertex itself do not count.
-fn is_visible(x: DVec3, bone: (DVec3, DVec3), d: f64, sight: Option<Sight>) -> bool {
+fn is_visible(x: DVec3, bone: Segment, d: f64, sight: Option<Sight>) -> bool {
     let Some(Sight { rays, tri_piece, piece, normal }) = sight else { return true };
     let stop = (1.0 - 1e-4) - 1e-6 / d.max(1e-300);
     if !(stop > 0.0) {
         return true;
     }
-    let (t, _) = closest_point_on_segment(x, bone.0, bone.1);
-    let from = bone.0 + (bone.1 - bone.0) * t;
+    let (t, _) = bone.offset(x);
+    let from = bone.a + bone.ab * t;
     let to = from + (x - from) * stop;
     match tri_piece {
         // Through its own piece a vertex sees only bones behind its surface, inside the piece.
@@ -247,6 +339,10 @@ struct Sight<'a> {
 mod tests {
     use super::*;
 
+    fn prepared(bones: &[(DVec3, DVec3)]) -> Vec<Segment> {
+        bones.iter().map(|(h, t)| Segment::new(*h, *t)).collect()
+    }
+
     /// The unit cube's surface, for ray queries.
     fn unit_cube() -> RayMesh {
         let (v, t) = crate::visibility::tests::unit_cube();
@@ -262,17 +358,17 @@ mod tests {
             (DVec3::new(1.2, 0.5, 0.2), DVec3::new(1.2, 0.5, 0.8)), // outside, nearer
             (DVec3::new(0.5, 0.5, 0.2), DVec3::new(0.5, 0.5, 0.8)), // inside
         ];
-        let mut scratch = vec![0.0; 4];
+        let mut scratch = Ranking::new(2);
         let p = DVec3::new(0.9, 0.5, 0.5);
         let whole = Some(Sight { rays: &rm, tri_piece: None, piece: 0, normal: DVec3::ZERO });
-        let s = nearest_visible_bone(p, DVec3::ZERO, &bones, whole, &mut scratch);
+        let s = nearest_visible_bone(p, DVec3::ZERO, &prepared(&bones), whole, &mut scratch);
         assert_eq!((s.count, s.bones[0], s.nearest), (1, 1, Ties::one(0)));
         assert!((s.dist - 0.4).abs() < 1e-9);
-        let s = nearest_visible_bone(p, DVec3::ZERO, &bones, None, &mut scratch);
+        let s = nearest_visible_bone(p, DVec3::ZERO, &prepared(&bones), None, &mut scratch);
         assert_eq!((s.count, s.bones[0]), (1, 0));
         // Equidistant bones tie.
         let tie = [bones[1], (DVec3::new(0.5, 0.5, 0.8), DVec3::new(0.5, 0.5, 0.2))];
-        let s = nearest_visible_bone(p, DVec3::ZERO, &tie, whole, &mut scratch);
+        let s = nearest_visible_bone(p, DVec3::ZERO, &prepared(&tie), whole, &mut scratch);
         assert_eq!((s.count, s.bones[0], s.bones[1]), (2, 0, 1));
     }
 
@@ -289,8 +385,9 @@ mod tests {
         let whole = Some(Sight { rays: &rm, tri_piece: None, piece: 0, normal });
         let own = Some(Sight { rays: &rm, tri_piece: Some(&tri_piece), piece: 0, normal });
         for (bone, seen_whole, seen_own) in [(front, true, false), (behind, true, true)] {
-            assert_eq!(is_visible(x, bone, 0.5, whole), seen_whole, "{bone:?}");
-            assert_eq!(is_visible(x, bone, 0.5, own), seen_own, "{bone:?}");
+            let seg = Segment::new(bone.0, bone.1);
+            assert_eq!(is_visible(x, seg, 0.5, whole), seen_whole, "{bone:?}");
+            assert_eq!(is_visible(x, seg, 0.5, own), seen_own, "{bone:?}");
         }
     }
 
@@ -306,10 +403,10 @@ mod tests {
             })
             .collect();
         let p = DVec3::new(0.5, 0.5, 0.1); // below the hub: every finger's nearest point is the hub
-        let mut scratch = vec![0.0; 2 * fan.len()];
+        let mut scratch = Ranking::new(fan.len());
         let rm = unit_cube();
         for sight in [None, Some(Sight { rays: &rm, tri_piece: None, piece: 0, normal: DVec3::ZERO })] {
-            let s = nearest_visible_bone(p, -DVec3::Z, &fan, sight, &mut scratch);
+            let s = nearest_visible_bone(p, -DVec3::Z, &prepared(&fan), sight, &mut scratch);
             assert_eq!((s.count, s.bones), (MAX_TIES as u8, [0, 1, 2, 3]));
             assert!((s.dist - 0.2 / (0.5 * 2.001)).abs() < 1e-9); // straight behind: cos = 1
             assert_eq!(s.nearest, Ties { bones: [0, 1, 2, 3], count: MAX_TIES as u8 });
@@ -323,16 +420,65 @@ mod tests {
     fn near_ties_within_the_ratio_share() {
         let rm = unit_cube();
         let whole = Some(Sight { rays: &rm, tri_piece: None, piece: 0, normal: DVec3::ZERO });
-        let mut scratch = vec![0.0; 4];
+        let mut scratch = Ranking::new(2);
         let p = DVec3::new(0.9, 0.5, 0.5);
         let inner = (DVec3::new(0.5, 0.5, 0.2), DVec3::new(0.5, 0.5, 0.8)); // 0.4 away
         for (rel, count) in [(0.0, 2), (0.5 * (TIE_RATIO - 1.0), 2), (5.0 * (TIE_RATIO - 1.0), 1)] {
             let y = 0.5 - 0.4 * (1.0 + rel);
             let side = (DVec3::new(0.9, y, 0.2), DVec3::new(0.9, y, 0.8));
-            let s = nearest_visible_bone(p, DVec3::ZERO, &[inner, side], whole, &mut scratch);
+            let s = nearest_visible_bone(p, DVec3::ZERO, &prepared(&[inner, side]), whole, &mut scratch);
             assert_eq!((s.count, s.bones[0]), (count, 0), "relative gap {rel}");
             let t = nearest_bones(p, &[inner, side]);
             assert_eq!((t.count, t.bones[0]), (count, 0), "relative gap {rel}");
         }
+    }
+
+    /// Measuring only the bones whose bounding ball comes near enough gives exactly what
+    /// measuring every bone gives: random bones (some of zero length, some sharing a joint,
+    /// some outside the cube and hidden), points inside and outside, with and without normals.
+    #[test]
+    fn pruned_ranking_equals_measuring_every_bone() {
+        let rm = unit_cube();
+        let mut seed = 0x9E37_79B9_7F4A_7C15u64;
+        let mut rnd = move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let mut pruned_settled = 0;
+        for case in 0..400 {
+            let nb = 1 + case % 23;
+            let hub = DVec3::new(rnd(), rnd(), rnd());
+            let bones: Vec<Segment> = (0..nb)
+                .map(|k| {
+                    let a = if k % 4 == 0 { hub } else { DVec3::new(rnd(), rnd(), rnd()) * 1.6 - 0.3 };
+                    let b = if k % 7 == 3 { a } else { a + (DVec3::new(rnd(), rnd(), rnd()) - 0.5) * 0.6 };
+                    Segment::new(a, b)
+                })
+                .collect();
+            let x = DVec3::new(rnd(), rnd(), rnd()) * 1.2 - 0.1;
+            let normal = match case % 3 {
+                0 => DVec3::ZERO,
+                _ => (DVec3::new(rnd(), rnd(), rnd()) - 0.5).normalize(),
+            };
+            let sight = (case % 2 == 0).then_some(Sight { rays: &rm, tri_piece: None, piece: 0, normal });
+            let mut scratch = Ranking::new(nb);
+            let got = nearest_visible_bone(x, normal, &bones, sight, &mut scratch);
+            scratch.candidates = (0..nb).collect();
+            for (j, seg) in bones.iter().enumerate() {
+                (scratch.euclid[j], scratch.dist[j]) = ranked_distance(x, normal, seg);
+            }
+            let want = walk(x, &bones, &scratch, sight, f64::INFINITY).unwrap();
+            assert_eq!(
+                (got.bones, got.count, got.dist, got.nearest, got.nearest_dist),
+                (want.bones, want.count, want.dist, want.nearest, want.nearest_dist),
+                "case {case}"
+            );
+            let limit = ranked_near(x, normal, &bones, &mut scratch).unwrap();
+            pruned_settled += walk(x, &bones, &scratch, sight, limit).is_some() as usize;
+        }
+        // The shortcut settles most cases (else this tests only the fallback).
+        assert!(pruned_settled > 300, "{pruned_settled}");
     }
 }
