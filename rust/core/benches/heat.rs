@@ -1,5 +1,6 @@
 //! Bone-heat benchmark on generated capped cylinders (plain `std::time`, no harness).
-//! Run: `cargo bench -p miniskeleton-core --bench heat`.
+//! Run: `cargo bench -p miniskeleton-core --bench heat` (`HEAT_BENCH_MAX=<vertices>` skips the
+//! larger sizes, `HEAT_BENCH_REPEATS=<n>` takes the best of n runs instead of 2).
 
 use miniskeleton_core::bilinear::{bilinear_weights, BilinearOptions};
 use miniskeleton_core::heat::{heat_weights, HeatOptions};
@@ -11,6 +12,7 @@ fn main() {
     // (rings, segments, bones): ~6.5k, 26k, 103k, 206k vertices.
     let sizes = [(81, 80, 10), (161, 160, 20), (321, 320, 40), (454, 454, 40)];
     let only: Option<usize> = std::env::var("HEAT_BENCH_MAX").ok().and_then(|s| s.parse().ok());
+    let repeats: usize = std::env::var("HEAT_BENCH_REPEATS").ok().and_then(|s| s.parse().ok()).unwrap_or(2).max(1);
     println!("threads: {}", rayon::current_num_threads());
     for &(rings, segs, nb) in &sizes {
         let height = 2.0;
@@ -20,10 +22,10 @@ fn main() {
         }
         let (h, tl, _) = bone_chain(height, nb);
         let opts = HeatOptions::default();
-        // Warm-up on the smallest run only matters for the thread pool; take the best of 2.
+        // Warm-up on the smallest run only matters for the thread pool; take the best run.
         let mut best = f64::INFINITY;
         let mut timings = Vec::new();
-        for _ in 0..2 {
+        for _ in 0..repeats {
             let s = Instant::now();
             let (inf, rep) = heat_weights(&v, &t, &h, &tl, &opts, None).expect("heat");
             let e = s.elapsed().as_secs_f64();
@@ -35,7 +37,7 @@ fn main() {
         }
         let get = |k: &str| timings.iter().find(|(n, _)| *n == k).map_or(0.0, |x| x.1);
         println!(
-            "heat {:>7} verts {:>7} tris {:>3} bones: total {:.3} s | factor+solve {:.3} s (symbolic {:.3} [overlapped with visibility], factor {:.3}, solve {:.3})",
+            "heat {:>7} verts {:>7} tris {:>3} bones: total {:.3} s | factor+solve {:.3} s (symbolic {:.3} [overlapped with visibility], factor {:.3}, solve {:.3}) | total / (sym+f+s) {:.2}",
             v.len(),
             t.len(),
             nb,
@@ -44,6 +46,7 @@ fn main() {
             get("symbolic"),
             get("factor"),
             get("solve"),
+            best / (get("symbolic") + get("factor") + get("solve")),
         );
         let detail: Vec<String> = timings.iter().map(|(n, s)| format!("{n} {:.3}", s)).collect();
         println!("     stages: {}", detail.join(", "));

@@ -171,9 +171,10 @@ pub struct HeatReport {
     /// Every Cholesky attempt failed: nearest-bone weights were returned instead.
     pub factorization_failed: bool,
     /// Wall-clock seconds per stage, in order: "prepare" (validate, normalize, weld, faces),
-    /// "bvh|laplacian" (wall time of two overlapped tasks, followed by their own durations:
-    /// "bvh"; "laplacian" = pieces, cotangents, normals, sparse pattern), "symbolic|rays"
-    /// (likewise: "symbolic" = the Cholesky analysis, "rays" = nearest visible bone), "assemble", "factor", "solve" (the solves and the clip),
+    /// "visibility|matrix" (wall time of two chains run side by side, followed by their own
+    /// durations: "bvh", then "rays" = pieces, normals and every vertex's nearest visible bone;
+    /// "laplacian" = cotangents, mass and sparse pattern, then "symbolic" = the Cholesky
+    /// analysis), "assemble", "factor", "solve" (the solves and the clip),
     /// "finish" (right-hand sides, rigid pieces, symmetry, top-k, copy back), "total".
     pub timings: Vec<(&'static str, f64)>,
 }
@@ -300,78 +301,79 @@ pub fn heat_weights(
     lap(&mut report, "prepare");
     tick(0.05)?;
 
-    // 3-5. The BVH of the triangles (for visibility) is built on one thread while the other
-    //      finds the pieces, the cotangent stiffness and mass, the normals and the sparse
-    //      pattern; then the symbolic Cholesky analysis of that pattern (AMD ordering +
-    //      supernodes, one thread) overlaps every vertex's search for its nearest visible bone
-    //      (all threads), which needs the BVH and the pieces but not the factor.
+    // 3-5. Two chains side by side. One thread assembles the cotangent stiffness and its
+    //      sparse pattern, then runs the symbolic Cholesky analysis of that pattern (AMD
+    //      ordering + supernodes, one thread). The other builds the BVH of the triangles, finds
+    //      the pieces and the normals, then every vertex's nearest visible bone (all threads
+    //      once the first chain is done): the rays need the BVH and the pieces, not the matrix.
     let need_rays = opts.visibility || opts.rigid_accessories || opts.parents.is_some();
-    let ((ray_mesh, t_bvh), ((labels, npieces), oriented, cot, normals, csc, t_lap)) = rayon::join(
-        || {
-            let s = Instant::now();
-            let ray_mesh = need_rays.then(|| {
-                let wpos32: Vec<[f32; 3]> = wpos.iter().map(|p| p.as_vec3().to_array()).collect();
-                RayMesh::new(&wpos32, &tris)
-            });
-            (ray_mesh, s.elapsed().as_secs_f64())
-        },
-        || {
-            let s = Instant::now();
-            let pieces = connected_components(nw, &tris);
-            let cot = cotan_laplacian(&wpos, &tris);
-            let oriented = orient_faces(nw, &tris);
-            let normals = if opts.normal_distance {
-                vertex_normals(&wpos, &oriented.0, &pieces.0, pieces.1)
-            } else {
-                vec![DVec3::ZERO; nw]
-            };
-            let csc = stiffness_lower_csc(nw, &cot.edges);
-            (pieces, oriented, cot, normals, csc, s.elapsed().as_secs_f64())
-        },
-    );
-    lap(&mut report, "bvh|laplacian");
-    report.timings.extend([("bvh", t_bvh), ("laplacian", t_lap)]);
+    #[allow(clippy::type_complexity)]
+    let ((ray_mesh, labels, _, flipped, mut pieces, segs, owner, inside, mut sources, t_bvh, t_rays), matrix) =
+        rayon::join(
+            || {
+                let s = Instant::now();
+                let ray_mesh = need_rays.then(|| {
+                    let wpos32: Vec<[f32; 3]> = wpos.iter().map(|p| p.as_vec3().to_array()).collect();
+                    RayMesh::new(&wpos32, &tris)
+                });
+                let t_bvh = s.elapsed().as_secs_f64();
+                let s = Instant::now();
+                let (labels, npieces) = connected_components(nw, &tris);
+                let (oriented, flipped) = orient_faces(nw, &tris);
+                let normals = if opts.normal_distance {
+                    vertex_normals(&wpos, &oriented, &labels, npieces)
+                } else {
+                    vec![DVec3::ZERO; nw]
+                };
+                let pieces = piece_stats(&labels, npieces, &wpos, &oriented);
+                drop(oriented);
+                // The segments standing for the bones (several per bone on imported rigs), and
+                // each segment's bone; sources below are in bones.
+                let (segs, owner) = match (&opts.parents, ray_mesh.as_ref()) {
+                    (Some(parents), Some(rm)) => reach_segments(rm, &bones, parents, &pieces, &labels, &tris),
+                    _ => (bones.clone(), (0..b as u32).collect()),
+                };
+                let (segs, owner) = match &opts.curves {
+                    Some(c) if !c.points.is_empty() => bend(segs, owner, &bones, c, &frame),
+                    _ => (segs, owner),
+                };
+                // Which pieces hold a bone (see the doc): for rigid accessories, and on a mesh in
+                // several pieces for the second look through a vertex's own piece (see
+                // `sources::heat_sources`).
+                let rays = ray_mesh.as_ref().filter(|_| opts.visibility);
+                let inside: Vec<bool> = match ray_mesh.as_ref() {
+                    Some(rm) if opts.rigid_accessories || (npieces > 1 && rays.is_some()) => (0..npieces)
+                        .into_par_iter()
+                        .map(|i| {
+                            pieces[i].active && piece_contains_bone(rm, i as u32, &pieces[i], &segs, &labels, &tris)
+                        })
+                        .collect(),
+                    _ => vec![false; npieces],
+                };
+                let tri_piece: Option<Vec<u32>> =
+                    (npieces > 1).then(|| tris.iter().map(|t| labels[t[0] as usize]).collect());
+                let sources =
+                    heat_sources(&wpos, &normals, &labels, &segs, &owner, rays, tri_piece.as_deref(), &inside);
+                let t_rays = s.elapsed().as_secs_f64();
+                (ray_mesh, labels, npieces, flipped, pieces, segs, owner, inside, sources, t_bvh, t_rays)
+            },
+            || {
+                let s = Instant::now();
+                let cot = cotan_laplacian(&wpos, &tris);
+                let csc = stiffness_lower_csc(nw, &cot.edges);
+                let t_lap = s.elapsed().as_secs_f64();
+                let s = Instant::now();
+                let pattern = SymbolicSparseColMatRef::new_checked(nw, nw, &csc.col_ptr, None, &csc.row_idx);
+                let symbolic = symbolic_factor(pattern);
+                (cot, csc, symbolic, t_lap, s.elapsed().as_secs_f64())
+            },
+        );
+    let (cot, csc, symbolic, t_lap, t_sym) = matrix;
+    lap(&mut report, "visibility|matrix");
+    report.timings.extend([("bvh", t_bvh), ("rays", t_rays), ("laplacian", t_lap), ("symbolic", t_sym)]);
     let symbolic_mat = SymbolicSparseColMatRef::new_checked(nw, nw, &csc.col_ptr, None, &csc.row_idx);
     let mass = &cot.mass;
-    report.flipped_faces = oriented.1;
-    let mut pieces = piece_stats(&labels, npieces, &wpos, &oriented.0, mass);
-    drop(oriented);
-    let ((symbolic, t_sym), (segs, owner, inside, mut sources, t_rays)) = rayon::join(
-        || {
-            let s = Instant::now();
-            (symbolic_factor(symbolic_mat), s.elapsed().as_secs_f64())
-        },
-        || {
-            let s = Instant::now();
-            // The segments standing for the bones (several per bone on imported rigs), and
-            // each segment's bone; sources below are in bones.
-            let (segs, owner) = match (&opts.parents, ray_mesh.as_ref()) {
-                (Some(parents), Some(rm)) => reach_segments(rm, &bones, parents, &pieces, &labels, &tris),
-                _ => (bones.clone(), (0..b as u32).collect()),
-            };
-            let (segs, owner) = match &opts.curves {
-                Some(c) if !c.points.is_empty() => bend(segs, owner, &bones, c, &frame),
-                _ => (segs, owner),
-            };
-            // Which pieces hold a bone (see the doc): for rigid accessories, and on a mesh in
-            // several pieces for the second look through a vertex's own piece (see
-            // `sources::heat_sources`).
-            let rays = ray_mesh.as_ref().filter(|_| opts.visibility);
-            let inside: Vec<bool> = match ray_mesh.as_ref() {
-                Some(rm) if opts.rigid_accessories || (npieces > 1 && rays.is_some()) => (0..npieces)
-                    .into_par_iter()
-                    .map(|i| pieces[i].active && piece_contains_bone(rm, i as u32, &pieces[i], &segs, &labels, &tris))
-                    .collect(),
-                _ => vec![false; npieces],
-            };
-            let tri_piece: Option<Vec<u32>> =
-                (npieces > 1).then(|| tris.iter().map(|t| labels[t[0] as usize]).collect());
-            let sources = heat_sources(&wpos, &normals, &labels, &segs, &owner, rays, tri_piece.as_deref(), &inside);
-            (segs, owner, inside, sources, s.elapsed().as_secs_f64())
-        },
-    );
-    lap(&mut report, "symbolic|rays");
-    report.timings.extend([("symbolic", t_sym), ("rays", t_rays)]);
+    report.flipped_faces = flipped;
     mark_sources(&mut pieces, &labels, &sources);
     let mut bone_len = vec![0.0f64; b];
     for ((h, t), &o) in segs.iter().zip(&owner) {

@@ -105,19 +105,14 @@ impl PieceStats {
 }
 
 /// Per-piece geometry: bbox, area, volume, closedness (an XOR of hashed edges per piece is
-/// 0 exactly when, up to hash collisions, every edge occurs an even number of times).
+/// 0 exactly when, up to hash collisions, every edge occurs an even number of times); a piece
+/// is active when it has a triangle (`tris` holds non-degenerate ones only, so its vertices
+/// have mass).
 /// Visibility and the nearest bone come later, from [`mark_sources`].
-pub(crate) fn piece_stats(
-    labels: &[u32],
-    npieces: usize,
-    wpos: &[DVec3],
-    tris: &[[u32; 3]],
-    mass: &[f64],
-) -> Vec<PieceStats> {
+pub(crate) fn piece_stats(labels: &[u32], npieces: usize, wpos: &[DVec3], tris: &[[u32; 3]]) -> Vec<PieceStats> {
     let mut pieces = vec![PieceStats::default(); npieces];
     for (v, &l) in labels.iter().enumerate() {
         let p = &mut pieces[l as usize];
-        p.active |= mass[v] > 0.0;
         p.lo = p.lo.min(wpos[v]);
         p.hi = p.hi.max(wpos[v]);
     }
@@ -125,6 +120,7 @@ pub(crate) fn piece_stats(
     for t in tris {
         let l = labels[t[0] as usize] as usize;
         let p = &mut pieces[l];
+        p.active = true;
         let r = 0.5 * (p.lo + p.hi);
         let [a, b, c] = t.map(|i| wpos[i as usize]);
         let area = 0.5 * (b - a).cross(c - a).length();
