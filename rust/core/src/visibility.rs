@@ -408,6 +408,29 @@ pub(crate) mod tests {
         }
     }
 
+    /// Consecutive triangles sharing an edge pair up into one leaf, others stay alone (input
+    /// indices through `orig`, so a dropped triangle in between breaks a pair); rays still see
+    /// every triangle, paired or not, and a shuffled triangle list (fewer pairs) answers the same.
+    #[test]
+    fn quads_pair_into_leaves() {
+        let t = [[0, 1, 2], [0, 2, 3], [4, 5, 6], [7, 8, 9], [7, 9, 10], [3, 2, 11]];
+        assert_eq!(quad_leaves(&t, &[0, 1, 2, 3, 4, 5]), vec![0, 2, 3, 5, 6]);
+        assert_eq!(quad_leaves(&t, &[0, 2, 3, 4]), vec![0, 1, 2, 4]);
+        let (v, t) = unit_cube();
+        let shuffled: Vec<[u32; 3]> = [0, 6, 1, 8, 3, 11, 5, 2, 9, 4, 10, 7].iter().map(|&k| t[k]).collect();
+        let (paired, single) = (RayMesh::new(&v, &t), RayMesh::new(&v, &shuffled));
+        assert_eq!(paired.starts.len(), 7); // six quads
+        assert!(single.starts.len() > 9, "{:?}", single.starts);
+        let c = Vec3::splat(0.5);
+        for target in [Vec3::new(0.5, 0.5, -1.0), Vec3::new(2.0, 2.0, 2.0), Vec3::new(-1.0, 0.3, 0.6)] {
+            assert!(paired.segment_blocked(c, target) && single.segment_blocked(c, target), "{target}");
+            let (o, d) = (c - (target - c), target - c);
+            assert!(paired.ray_hits(o, d, 10.0).len() >= 2, "{target}"); // in and out
+            assert_eq!(paired.ray_hits(o, d, 10.0), single.ray_hits(o, d, 10.0), "{target}");
+            assert!(!paired.segment_blocked(c, c + (target - c) * 0.2));
+        }
+    }
+
     /// Distance to the surface against a brute-force minimum over the cube's faces.
     #[test]
     fn near_surface_matches_the_distance_to_the_cube() {
