@@ -308,7 +308,7 @@ pub fn heat_weights(
     //      once the first chain is done): the rays need the BVH and the pieces, not the matrix.
     let need_rays = opts.visibility || opts.rigid_accessories || opts.parents.is_some();
     #[allow(clippy::type_complexity)]
-    let ((ray_mesh, labels, _, flipped, mut pieces, segs, owner, inside, mut sources, t_bvh, t_rays), matrix) =
+    let ((ray_mesh, labels, flipped, mut pieces, segs, owner, inside, mut sources, t_bvh, t_rays), matrix) =
         rayon::join(
             || {
                 let s = Instant::now();
@@ -355,7 +355,7 @@ pub fn heat_weights(
                 let sources =
                     heat_sources(&wpos, &normals, &labels, &segs, &owner, rays, tri_piece.as_deref(), &inside);
                 let t_rays = s.elapsed().as_secs_f64();
-                (ray_mesh, labels, npieces, flipped, pieces, segs, owner, inside, sources, t_bvh, t_rays)
+                (ray_mesh, labels, flipped, pieces, segs, owner, inside, sources, t_bvh, t_rays)
             },
             || {
                 let s = Instant::now();

@@ -119,15 +119,15 @@ impl Source {
 /// The bone(s) nearest to the point `p` (ties within [`TIE_RATIO`], lowest indices first).
 pub(crate) fn nearest_bones(p: DVec3, bones: &[(DVec3, DVec3)]) -> Ties {
     let d: Vec<f64> = bones.iter().map(|(h, t)| closest_point_on_segment(p, *h, *t).1).collect();
-    least(&d)
+    least(d.iter().copied().enumerate()).0
 }
 
-/// The indices of the least of the distances `d` (ties within [`TIE_RATIO`], lowest first; 0
-/// when there is none).
-fn least(d: &[f64]) -> Ties {
-    let best = d.iter().copied().fold(f64::INFINITY, f64::min);
+/// The indices of the least of the `(index, distance)` pairs `d`, in increasing index (ties
+/// within [`TIE_RATIO`], lowest first; 0 when there is none), and that least distance.
+fn least(d: impl Iterator<Item = (usize, f64)> + Clone) -> (Ties, f64) {
+    let best = d.clone().fold(f64::INFINITY, |m, (_, dj)| m.min(dj));
     let mut out = Ties { bones: [u32::MAX; MAX_TIES], count: 0 };
-    for (j, &dj) in d.iter().enumerate() {
+    for (j, dj) in d {
         if dj <= best * TIE_RATIO + 1e-12 && (out.count as usize) < MAX_TIES {
             out.bones[out.count as usize] = j as u32;
             out.count += 1;
@@ -136,7 +136,7 @@ fn least(d: &[f64]) -> Ties {
     if out.count == 0 {
         out = Ties::one(0);
     }
-    out
+    (out, best)
 }
 
 /// Nearest visible bone(s) of the point `x` (unit frame) with unit normal `normal` (zero:
@@ -239,19 +239,8 @@ fn ranked_near(x: DVec3, normal: DVec3, bones: &[Segment], scratch: &mut Ranking
 /// farther than `limit` (the candidates are complete below it only, see [`ranked_near`]).
 fn walk(x: DVec3, bones: &[Segment], scratch: &Ranking, sight: Option<Sight>, limit: f64) -> Option<Source> {
     let (cand, dist, euclid) = (&scratch.candidates[..], &scratch.dist[..], &scratch.euclid[..]);
-    let nearest_dist = cand.iter().map(|&j| euclid[j]).fold(f64::INFINITY, f64::min);
-    let mut src = Source { bones: [u32::MAX; MAX_TIES], count: 0, dist: 0.0, nearest: Ties::one(0), nearest_dist };
-    // Nearest by plain distance, as `least` ranks them.
-    src.nearest.count = 0;
-    for &j in cand {
-        if euclid[j] <= nearest_dist * TIE_RATIO + 1e-12 && (src.nearest.count as usize) < MAX_TIES {
-            src.nearest.bones[src.nearest.count as usize] = j as u32;
-            src.nearest.count += 1;
-        }
-    }
-    if src.nearest.count == 0 {
-        src.nearest = Ties::one(0);
-    }
+    let (nearest, nearest_dist) = least(cand.iter().map(|&j| (j, euclid[j])));
+    let mut src = Source { bones: [u32::MAX; MAX_TIES], count: 0, dist: 0.0, nearest, nearest_dist };
     let mut prev = (f64::NEG_INFINITY, usize::MAX);
     let mut first: Option<f64> = None;
     for step in 0..cand.len() {
