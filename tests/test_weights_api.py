@@ -294,7 +294,8 @@ def test_heat_parents_make_imported_bones_reach_their_children():
     assert reach[mid, 0].mean() > 0.9 > plain[mid, 0].mean()
     # Roots only (no child anywhere) change nothing.
     np.testing.assert_array_equal(dense(*msc.heat_weights(v, t, heads, tails, parents=[-1, -1]), 2), plain)
-    for bad, what in (([-1], "parents for 2 bones"), ([-1, 1], "parent of bone 1"), ([-1, 5], "parent of bone 1")):
+    for bad, what in (([-1], "parents for 2 bones"), ([-1, 1], "parent of bone 1"), ([-1, 5], "parent of bone 1"),
+                      ([1, 0], "parent cycle")):
         with pytest.raises(ValueError, match=what):
             msc.heat_weights(v, t, heads, tails, parents=bad)
 

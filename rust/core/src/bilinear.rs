@@ -4,7 +4,7 @@
 
 use crate::idw::bones_in_frame;
 use crate::influence::{top_k_row, Influences};
-use crate::mesh::{validate_bones, validate_mesh, Frame};
+use crate::mesh::{validate_bones, validate_mesh, validate_parents, Frame};
 use crate::segment::closest_point_on_segment;
 use crate::{Error, Result};
 use rayon::prelude::*;
@@ -66,12 +66,7 @@ pub fn bilinear_weights(
     validate_mesh(vertices, &[], false)?;
     validate_bones(heads, tails)?;
     let b = heads.len();
-    if parents.len() != b {
-        return Err(Error::Shape(format!("{} parents for {} bones", parents.len(), b)));
-    }
-    if let Some((i, p)) = parents.iter().enumerate().find(|(i, &p)| p < -1 || p >= b as i32 || p == *i as i32) {
-        return Err(Error::InvalidArgument(format!("bone {i} has invalid parent {p}")));
-    }
+    validate_parents(parents, b)?;
     if opts.nearest == 0 || opts.max_influences == 0 {
         return Err(Error::InvalidArgument("nearest and max_influences must be >= 1".into()));
     }

@@ -47,6 +47,7 @@
 //! world-up-based axes, so a character lying down is animated as if standing.
 
 use crate::error::{Error, Result};
+use crate::mesh::validate_parents;
 use crate::roles::{BodyPlan, Limb, Roles, Side};
 use glam::{Mat3, Quat, Vec3};
 use std::f32::consts::{PI, TAU};
@@ -333,6 +334,7 @@ fn check(
             rest.len()
         )));
     }
+    validate_parents(parents, n)?;
     let all = roles
         .spine
         .iter()

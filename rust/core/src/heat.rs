@@ -32,7 +32,7 @@ use crate::cotan::{cotan_laplacian, stiffness_lower_csc, triangle_cotangents};
 use crate::idw::bones_in_frame;
 use crate::influence::Influences;
 use crate::islands::connected_components;
-use crate::mesh::{count_non_finite, validate_bones, validate_mesh, Frame};
+use crate::mesh::{count_non_finite, validate_bones, validate_mesh, validate_parents, Frame};
 use crate::orient::{orient_faces, vertex_normals};
 use crate::pieces::{mark_sources, piece_contains_bone, piece_stats, rigid_pieces};
 use crate::reach::reach_segments;
@@ -521,7 +521,7 @@ fn validate(
         }
     }
     if let Some(parents) = &opts.parents {
-        crate::reach::validate_parents(parents, b)?;
+        validate_parents(parents, b)?;
     }
     if let Some(c) = &opts.curves {
         if c.points.len() != c.bone.len() {

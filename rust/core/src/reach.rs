@@ -8,27 +8,11 @@
 
 use crate::pieces::{piece_contains_bone, PieceStats};
 use crate::visibility::RayMesh;
-use crate::{Error, Result};
 use glam::DVec3;
 use rayon::prelude::*;
 
 /// Distance (unit frame) under which a child's head counts as starting at a bone's tail or head.
 const REACH_TOLERANCE: f64 = 1e-5;
-
-/// Check a parent list for `b` bones: `(b,)`, each `-1` (root) or another bone's index.
-pub fn validate_parents(parents: &[i32], b: usize) -> Result<()> {
-    if parents.len() != b {
-        return Err(Error::Shape(format!("{} parents for {b} bones", parents.len())));
-    }
-    for (i, &p) in parents.iter().enumerate() {
-        if p < -1 || p >= b as i32 || p == i as i32 {
-            return Err(Error::InvalidArgument(format!(
-                "parent of bone {i} is {p}; it must be -1 or another bone's index (0..{b})"
-            )));
-        }
-    }
-    Ok(())
-}
 
 /// Spans from bones to children that do not start at the bone's tail.
 ///
@@ -100,6 +84,7 @@ pub(crate) fn reach_segments(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::mesh::validate_parents;
 
     #[test]
     fn spans_skip_connected_and_coincident_children() {
@@ -117,13 +102,5 @@ mod tests {
         let (spans, tail_child) = child_segments(&heads, &tails, &parents, 1e-6);
         assert_eq!(spans, vec![(0, heads[1])]);
         assert_eq!(tail_child, vec![false, true, false, false]);
-    }
-
-    #[test]
-    fn bad_parents_are_errors() {
-        assert!(matches!(validate_parents(&[-1, 0], 3), Err(Error::Shape(_))));
-        assert!(matches!(validate_parents(&[-1, 1], 2), Err(Error::InvalidArgument(_))));
-        assert!(matches!(validate_parents(&[-1, 2], 2), Err(Error::InvalidArgument(_))));
-        assert!(matches!(validate_parents(&[-2, 0], 2), Err(Error::InvalidArgument(_))));
     }
 }

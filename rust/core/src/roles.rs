@@ -45,6 +45,7 @@
 
 use crate::error::{Error, Result};
 use crate::hierarchy::{build_tree, joined_hierarchy, subtree, Tree};
+use crate::mesh::validate_parents;
 use glam::Vec3;
 
 /// Which side of the body a limb is on (the character's own left/right).
@@ -165,23 +166,7 @@ fn validate(heads: &[[f32; 3]], tails: &[[f32; 3]], parents: &[i32], names: &[St
     if bad > 0 {
         return Err(Error::NonFinite { what: "bone", count: bad });
     }
-    for (b, &p) in parents.iter().enumerate() {
-        if p < -1 || p >= n as i32 || p == b as i32 {
-            return Err(Error::InvalidArgument(format!("bone {b} has parent {p}")));
-        }
-    }
-    // Cycles: walking up from any bone must reach a root within n steps.
-    for b in 0..n {
-        let (mut cur, mut steps) = (b as i32, 0);
-        while cur >= 0 {
-            cur = parents[cur as usize];
-            steps += 1;
-            if steps > n {
-                return Err(Error::InvalidArgument(format!("bone {b} is in a parent cycle")));
-            }
-        }
-    }
-    Ok(())
+    validate_parents(parents, n)
 }
 
 /// Most points the mirror-plane scan compares: each score is quadratic in them (4000 bones took

@@ -655,28 +655,48 @@ fn random_imported_rigs_always_give_weights() {
     let base = v.len() as u32;
     v.extend(v2.iter().map(|p| [p[0] + 1.0, p[1], p[2]]));
     t.extend(t2.iter().map(|f| f.map(|i| i + base)));
+    let mut cycles = 0;
     for _ in 0..40 {
         let b = 1 + (next() * 8.0) as usize;
         let mut point = || [next() * 2.0 - 0.5, next() * 0.6 - 0.3, next() * 2.6 - 0.3];
         let heads: Vec<[f32; 3]> = (0..b).map(|_| point()).collect();
         let tails: Vec<[f32; 3]> = heads.iter().map(|h| [h[0] + 0.1, h[1], h[2] + 0.05]).collect();
-        // Parents: -1 or any other bone (cycles included: only direct parents matter).
-        let parents: Vec<i32> = (0..b)
-            .map(|i| {
-                let p = ((next() * (b + 1) as f32) as i32 - 1).min(b as i32 - 1);
-                if p == i as i32 {
-                    -1
-                } else {
-                    p
-                }
-            })
-            .collect();
+        // Parents: a random forest in a random bone order (each bone's parent, if any, comes
+        // earlier in that order, so there is no cycle).
+        let mut order: Vec<usize> = (0..b).collect();
+        for k in (1..b).rev() {
+            order.swap(k, ((next() * (k + 1) as f32) as usize).min(k));
+        }
+        let mut parents = vec![-1i32; b];
+        for k in 1..b {
+            let j = (next() * (k + 1) as f32) as usize; // k: a root
+            if j < k {
+                parents[order[k]] = order[j] as i32;
+            }
+        }
         let opts = HeatOptions { parents: Some(parents.clone()), ..HeatOptions::default() };
         let (inf, _) =
             heat_weights(&v, &t, &heads, &tails, &opts, None).unwrap_or_else(|e| panic!("parents {parents:?}: {e}"));
         assert_rows_sum_to_one(&inf);
         assert!(inf.indices.iter().all(|&j| j < b as i32));
+        // Closing a cycle (the first root under one of its descendants) is a clear error.
+        let root = order[0];
+        let below_root = |mut c: usize| loop {
+            match parents[c] {
+                -1 => return false,
+                p if p as usize == root => return true,
+                p => c = p as usize,
+            }
+        };
+        if let Some(k) = (1..b).rev().find(|&k| below_root(order[k])) {
+            parents[root] = order[k] as i32;
+            let opts = HeatOptions { parents: Some(parents.clone()), ..HeatOptions::default() };
+            let cycle = heat_weights(&v, &t, &heads, &tails, &opts, None);
+            assert!(matches!(cycle, Err(Error::InvalidArgument(_))), "parents {parents:?}");
+            cycles += 1;
+        }
     }
+    assert!(cycles >= 10, "only {cycles} cycles tried");
 }
 
 #[test]
