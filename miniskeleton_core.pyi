@@ -54,7 +54,8 @@ def heat_weights(
     parents (b,): parent bone of each bone (-1 for roots), for imported (glTF/FBX) rigs whose tails
     the importer invented: a bone whose children start away from its tail is then the segments
     from its head to their heads that lie inside the mesh (plus head -> tail when a child starts
-    there; head -> tail alone when no such segment is inside, e.g. a root on the ground).
+    there; head -> tail alone when no such segment is inside, e.g. a root on the ground); a bone
+    with no children also continues its parent's line into the mesh, as long as itself.
     curve_points (p,3) with curve_bones (p,): interior points of bent bones (Blender's B-Bones in
     their rest curve), each bone's in order from head to tail; such a bone is the polyline
     head -> points -> tail, as Blender's bone heat splits a B-Bone into its segments."""

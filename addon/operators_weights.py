@@ -100,8 +100,8 @@ class MINISKELETON_OT_auto_weights(bpy.types.Operator):
                 "imports are): To Children; rigs built in Blender: Head to Tail"),
                ("TAIL", "Head to Tail", "Each bone is its head-to-tail segment, as in Blender"),
                ("CHILDREN", "To Children", "A bone whose children start away from its tail reaches "
-                "their heads (the segments that lie inside the mesh); importers invent tails, "
-                "often pointing out of the limb")])
+                "their heads (the segments that lie inside the mesh), and a bone with no children "
+                "continues its parent's line; importers invent tails, often pointing out of the limb")])
     # IDW
     power: FloatProperty(name="Power", default=2.0, min=0.1, max=16.0,
                          description="Inverse-distance exponent p")

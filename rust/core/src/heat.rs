@@ -95,7 +95,8 @@ pub struct HeatOptions {
     /// whose tails Blender invents: when given, a bone whose children start away from its
     /// tail is represented by the segments from its head to those children's heads that lie
     /// inside the mesh (see [`crate::reach`]), plus head -> tail when a child starts there;
-    /// a bone with no such segment inside (a root on the ground) keeps head -> tail.
+    /// a bone with no such segment inside (a root on the ground) keeps head -> tail, and a
+    /// bone with no children also continues its parent's line into the mesh.
     /// Default `None`: every bone is head -> tail, as in Blender.
     pub parents: Option<Vec<i32>>,
     /// Bent bones (Blender's B-Bones, whose rest shape is a curve): each such bone is the

@@ -5,6 +5,9 @@
 //! arm points forward while its leg goes down to the forearm's head. On such a rig a bone
 //! really spans from its head to the heads of its children; [`child_segments`] lists those
 //! spans, and [`crate::heat`] uses the ones lying inside the mesh in place of head -> tail.
+//! A bone with no children (a head, a tail tip, a hand) has no child to reach; its invented
+//! tail may point anywhere (the Fox's head bone points up while its snout lies ahead), so it
+//! also continues its parent's line into the mesh ([`leaf_continuation`]).
 
 use crate::pieces::{piece_contains_bone, PieceStats};
 use crate::visibility::RayMesh;
@@ -13,6 +16,22 @@ use rayon::prelude::*;
 
 /// Distance (unit frame) under which a child's head counts as starting at a bone's tail or head.
 const REACH_TOLERANCE: f64 = 1e-5;
+
+/// The continuation of a childless bone's parent line: from the bone's head along
+/// `head - parent head`, as long as the bone itself, cut where the ray first meets the mesh.
+///
+/// Inputs: the mesh's rays `rm`, the bone's `head` and `tail`, its parent's head `parent_head`
+/// (unit frame). Output: the segment, or `None` when the two heads coincide or the head lies on
+/// the surface (the line leaves the mesh at once).
+pub(crate) fn leaf_continuation(rm: &RayMesh, head: DVec3, tail: DVec3, parent_head: DVec3) -> Option<(DVec3, DVec3)> {
+    let dir = (head - parent_head).normalize_or_zero();
+    let len = head.distance(tail);
+    if dir == DVec3::ZERO || !(len > REACH_TOLERANCE) {
+        return None;
+    }
+    let hit = rm.ray_hits(head.as_vec3(), dir.as_vec3(), len as f32).first().map_or(len, |&t| t as f64);
+    (hit > REACH_TOLERANCE).then(|| (head, head + dir * hit.min(len)))
+}
 
 /// Spans from bones to children that do not start at the bone's tail.
 ///
@@ -46,7 +65,8 @@ pub fn child_segments(heads: &[DVec3], tails: &[DVec3], parents: &[i32], tol: f6
 /// The segments standing for the bones on an imported rig (see [`crate::heat::HeatOptions::parents`]):
 /// per bone, its spans to children ([`crate::reach::child_segments`]) that lie inside a
 /// piece of the mesh (as in [`piece_contains_bone`]), plus head -> tail when a child starts
-/// at the tail or no span is inside. Returns `(segments, bone of each segment)`.
+/// at the tail or no span is inside, plus for a bone with a parent and no children its
+/// [`leaf_continuation`] when that lies inside. Returns `(segments, bone of each segment)`.
 pub(crate) fn reach_segments(
     rm: &RayMesh,
     bones: &[(DVec3, DVec3)],
@@ -58,7 +78,16 @@ pub(crate) fn reach_segments(
     let heads: Vec<DVec3> = bones.iter().map(|s| s.0).collect();
     let tails: Vec<DVec3> = bones.iter().map(|s| s.1).collect();
     let (spans, tail_child) = crate::reach::child_segments(&heads, &tails, parents, REACH_TOLERANCE);
-    let inside: Vec<bool> = spans
+    let mut childless = vec![true; bones.len()];
+    for &p in parents.iter().filter(|&&p| p >= 0) {
+        childless[p as usize] = false;
+    }
+    // Every candidate segment beside head -> tail: spans to children, then leaf continuations.
+    let leaves = (0..bones.len())
+        .filter(|&j| childless[j] && parents[j] >= 0)
+        .filter_map(|j| leaf_continuation(rm, heads[j], tails[j], heads[parents[j] as usize]).map(|(_, end)| (j, end)));
+    let extra: Vec<(usize, DVec3)> = spans.iter().copied().chain(leaves).collect();
+    let inside: Vec<bool> = extra
         .par_iter()
         .map(|&(j, c)| {
             let seg = [(heads[j], c)];
@@ -78,6 +107,10 @@ pub(crate) fn reach_segments(
             owner.push(j as u32);
         }
     }
+    for (&(j, end), _) in extra[spans.len()..].iter().zip(&inside[spans.len()..]).filter(|(_, &ins)| ins) {
+        segs.push((heads[j], end));
+        owner.push(j as u32);
+    }
     (segs, owner)
 }
 
@@ -85,6 +118,25 @@ pub(crate) fn reach_segments(
 mod tests {
     use super::*;
     use crate::mesh::validate_parents;
+
+    #[test]
+    fn a_leaf_continues_its_parent_line_up_to_the_surface() {
+        let (v, t) = crate::visibility::tests::unit_cube();
+        let rm = RayMesh::new(&v, &t);
+        let (parent, head) = (DVec3::new(0.5, 0.5, 0.0), DVec3::new(0.5, 0.5, 0.5));
+        // A sideways invented tail of length 0.2: the line goes up 0.2, inside the cube.
+        let (a, b) = leaf_continuation(&rm, head, head + DVec3::new(0.2, 0.0, 0.0), parent).unwrap();
+        assert_eq!(a, head);
+        assert!(b.distance(DVec3::new(0.5, 0.5, 0.7)) < 1e-6, "{b}");
+        // Length 2: cut where the line leaves the cube (z = 1).
+        let (_, b) = leaf_continuation(&rm, head, head + DVec3::new(0.0, 2.0, 0.0), parent).unwrap();
+        assert!(b.distance(DVec3::new(0.5, 0.5, 1.0)) < 1e-5, "{b}");
+        // No line (heads coincide), no length, or a head on the surface: nothing.
+        assert!(leaf_continuation(&rm, head, head + DVec3::X, head).is_none());
+        assert!(leaf_continuation(&rm, head, head, parent).is_none());
+        let top = DVec3::new(0.5, 0.5, 1.0);
+        assert!(leaf_continuation(&rm, top, top + DVec3::X, parent).is_none());
+    }
 
     #[test]
     fn spans_skip_connected_and_coincident_children() {

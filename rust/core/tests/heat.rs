@@ -621,6 +621,26 @@ fn a_reaching_bone_drops_its_invented_tail() {
     assert!(mean_weight(&m, &reach, 1, 1.2, 1.6) > 0.8);
 }
 
+/// A childless bone whose invented tail points sideways (as the Fox's head bone points up while
+/// its snout lies ahead) also continues its parent's line: the limb beyond the joint is its own,
+/// not shared half and half with the parent, whose end is just as near.
+#[test]
+fn a_childless_bone_continues_its_parent_line() {
+    let m = capped_cylinder(0.3, 2.0, 41, 16);
+    let heads = vec![[0.0, 0.0, 0.1], [0.0, 0.0, 1.0]];
+    let tails = vec![[0.0, 0.0, 1.0], [0.25, 0.0, 1.0]];
+    let b = (heads, tails);
+    let opts = HeatOptions { parents: Some(vec![-1, 0]), ..HeatOptions::default() };
+    let (reach, _) = heat(&m, &b, &opts);
+    let (tails, _) = heat(&m, &b, &HeatOptions::default());
+    assert_rows_sum_to_one(&reach);
+    let (with, without) = (mean_weight(&m, &reach, 1, 1.4, 2.0), mean_weight(&m, &tails, 1, 1.4, 2.0));
+    assert!(with > 0.95, "the leaf continuing its parent's line: {with}");
+    assert!(without < with - 0.1, "the leaf as its sideways tail: {without}");
+    // The parent keeps its own part.
+    assert!(mean_weight(&m, &reach, 0, 0.2, 0.7) > 0.9);
+}
+
 /// A bone whose tail starts a connected child and which has a child elsewhere too (a chest with
 /// its neck at its tail and shoulders beside it, as CesiumMan's) stands for head -> tail as well
 /// as for its span to that child: the span alone would hand the chest's upper part to the neck
