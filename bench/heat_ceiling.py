@@ -95,7 +95,8 @@ def laplacian(p, f):
 
 
 def bone_segments(h, tl, parents, diag):
-    """The core's segments of each bone (``reach::child_segments``, every span taken as inside)."""
+    """The core's segments of each bone (``reach::reach_segments``, every span taken as inside,
+    a childless bone's continuation of its parent's line not cut at the surface)."""
     segs, owner = [], []
     kids = [[] for _ in h]
     for c, par in enumerate(parents if parents is not None else []):
@@ -112,6 +113,12 @@ def bone_segments(h, tl, parents, diag):
         owner += [b] * len(spans)
         if tail_child or not spans:
             segs.append((h[b], tl[b]))
+            owner.append(b)
+    for b in range(len(h)):
+        par = parents[b] if parents is not None else -1
+        line = h[b] - h[par] if par >= 0 and not kids[b] else np.zeros(3)
+        if np.linalg.norm(line) > 1e-5 * diag:
+            segs.append((h[b], h[b] + line / np.linalg.norm(line) * np.linalg.norm(tl[b] - h[b])))
             owner.append(b)
     return segs, np.array(owner)
 
