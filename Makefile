@@ -81,6 +81,7 @@ bench: $(EXT_ZIP)
 	cargo bench -p miniskeleton-core
 	$(VPY) bench/bench_weights.py
 	$(VPY) bench/eval_weights.py
+	$(VPY) bench/heat_ceiling.py
 	$(VPY) bench/bench_fit.py
 	$(VPY) bench/bench_keys.py
 
