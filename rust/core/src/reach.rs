@@ -21,16 +21,16 @@ const REACH_TOLERANCE: f64 = 1e-5;
 /// `head - parent head`, as long as the bone itself, cut where the ray first meets the mesh.
 ///
 /// Inputs: the mesh's rays `rm`, the bone's `head` and `tail`, its parent's head `parent_head`
-/// (unit frame). Output: the segment, or `None` when the two heads coincide or the head lies on
-/// the surface (the line leaves the mesh at once).
-pub(crate) fn leaf_continuation(rm: &RayMesh, head: DVec3, tail: DVec3, parent_head: DVec3) -> Option<(DVec3, DVec3)> {
+/// (unit frame). Output: the segment's end (it starts at `head`), or `None` when the two heads
+/// coincide or the head lies on the surface (the line leaves the mesh at once).
+pub(crate) fn leaf_continuation(rm: &RayMesh, head: DVec3, tail: DVec3, parent_head: DVec3) -> Option<DVec3> {
     let dir = (head - parent_head).normalize_or_zero();
     let len = head.distance(tail);
     if dir == DVec3::ZERO || !(len > REACH_TOLERANCE) {
         return None;
     }
     let hit = rm.ray_hits(head.as_vec3(), dir.as_vec3(), len as f32).first().map_or(len, |&t| t as f64);
-    (hit > REACH_TOLERANCE).then(|| (head, head + dir * hit.min(len)))
+    (hit > REACH_TOLERANCE).then(|| head + dir * hit.min(len))
 }
 
 /// Spans from bones to children that do not start at the bone's tail.
@@ -85,7 +85,7 @@ pub(crate) fn reach_segments(
     // Every candidate segment beside head -> tail: spans to children, then leaf continuations.
     let leaves = (0..bones.len())
         .filter(|&j| childless[j] && parents[j] >= 0)
-        .filter_map(|j| leaf_continuation(rm, heads[j], tails[j], heads[parents[j] as usize]).map(|(_, end)| (j, end)));
+        .filter_map(|j| leaf_continuation(rm, heads[j], tails[j], heads[parents[j] as usize]).map(|end| (j, end)));
     let extra: Vec<(usize, DVec3)> = spans.iter().copied().chain(leaves).collect();
     let inside: Vec<bool> = extra
         .par_iter()
@@ -125,11 +125,10 @@ mod tests {
         let rm = RayMesh::new(&v, &t);
         let (parent, head) = (DVec3::new(0.5, 0.5, 0.0), DVec3::new(0.5, 0.5, 0.5));
         // A sideways invented tail of length 0.2: the line goes up 0.2, inside the cube.
-        let (a, b) = leaf_continuation(&rm, head, head + DVec3::new(0.2, 0.0, 0.0), parent).unwrap();
-        assert_eq!(a, head);
+        let b = leaf_continuation(&rm, head, head + DVec3::new(0.2, 0.0, 0.0), parent).unwrap();
         assert!(b.distance(DVec3::new(0.5, 0.5, 0.7)) < 1e-6, "{b}");
         // Length 2: cut where the line leaves the cube (z = 1).
-        let (_, b) = leaf_continuation(&rm, head, head + DVec3::new(0.0, 2.0, 0.0), parent).unwrap();
+        let b = leaf_continuation(&rm, head, head + DVec3::new(0.0, 2.0, 0.0), parent).unwrap();
         assert!(b.distance(DVec3::new(0.5, 0.5, 1.0)) < 1e-5, "{b}");
         // No line (heads coincide), no length, or a head on the surface: nothing.
         assert!(leaf_continuation(&rm, head, head + DVec3::X, head).is_none());
