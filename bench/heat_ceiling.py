@@ -38,7 +38,7 @@ import blender_session  # noqa: E402
 import eval_weights as ev  # noqa: E402
 
 HEAT_SCALE = 4.0  # the core's heat::HEAT_SCALE
-MIN_DISTANCE = 1e-6  # the core's heat::MIN_DISTANCE, in bbox diagonals
+MIN_DISTANCE = 1e-5  # the core's heat::MIN_DISTANCE, in bbox diagonals
 RAMP = (0.05, 0.025)  # Blender's WEIGHT_LIMIT_START / _END, the core's default ramp
 MAX_DENSE = 8000  # welded vertices solved densely at most
 
@@ -183,7 +183,8 @@ def one_model(bpy, calls, model, path, args):
     one = np.eye(bones)
     sources = (("nearest", one[near], ranked[np.arange(len(p)), near]),
                ("oracle: artist's dominant bone", one[oracle], ranked[np.arange(len(p)), oracle]),
-               ("oracle: artist's weights", votes / votes.sum(axis=1, keepdims=True), ranked.min(axis=1)))
+               ("oracle: artist's weights", votes / np.maximum(votes.sum(axis=1, keepdims=True), 1e-300),
+                ranked.min(axis=1)))
     rows = [(name, [deform(heat(stiff, mass, shares, dist, c, diag)[inv]) for c in args.constants])
             for name, shares, dist in sources]
     print(f"\n{model}: {n_total} vertices ({len(p)} welded), {bones} bones, {len(poses)} frames; "
