@@ -3,13 +3,14 @@
 ``start()`` points Blender at a throw-away user directory *before* ``bpy`` is imported, then
 installs the extension zip built by ``make extension`` with ``package_install_files``.
 Used by the demo, the benchmarks and blender_tests/conftest.py. ``write_report`` saves a
-benchmark's markdown under out/.
+benchmark's markdown under out/, and ``Stages`` prints the demos' stage timings.
 """
 
 from __future__ import annotations
 
 import os
 import tempfile
+import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -55,3 +56,21 @@ def reset_scene() -> None:
 
     bpy.ops.wm.read_factory_settings(use_empty=True)
     bpy.ops.preferences.addon_enable(module=ADDON_MODULE)
+
+
+class Stages:
+    """Prints '[prefix] name ... 1.23 s' lines, one per stage, and the total."""
+
+    def __init__(self, prefix: str = "demo"):
+        self.prefix = prefix
+        self.t0 = time.perf_counter()
+
+    def run(self, name, fn, *args):
+        t = time.perf_counter()
+        print(f"[{self.prefix}] {name} ...", flush=True)
+        out = fn(*args)
+        print(f"[{self.prefix}] {name}: {time.perf_counter() - t:.2f} s", flush=True)
+        return out
+
+    def total(self):
+        print(f"[{self.prefix}] total: {time.perf_counter() - self.t0:.2f} s", flush=True)

@@ -19,30 +19,11 @@ from __future__ import annotations
 import argparse
 import math
 import sys
-import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import blender_session  # noqa: E402
-
-
-class Stages:
-    """Prints '[prefix] name ... 1.23 s' lines, one per stage, and the total."""
-
-    def __init__(self, prefix: str = "demo"):
-        self.prefix = prefix
-        self.t0 = time.perf_counter()
-
-    def run(self, name, fn, *args):
-        t = time.perf_counter()
-        print(f"[{self.prefix}] {name} ...", flush=True)
-        out = fn(*args)
-        print(f"[{self.prefix}] {name}: {time.perf_counter() - t:.2f} s", flush=True)
-        return out
-
-    def total(self):
-        print(f"[{self.prefix}] total: {time.perf_counter() - self.t0:.2f} s", flush=True)
 
 
 def make_creature():
@@ -256,7 +237,7 @@ def main(argv=None):
         return puppet_demo.main(["--out", str(args.out), "--puppet", args.puppet])
     args.out.mkdir(parents=True, exist_ok=True)
 
-    st = Stages()
+    st = blender_session.Stages()
     bpy = st.run("start Blender and install the extension", blender_session.start)
     st.run("empty scene", blender_session.reset_scene)
     if args.model:

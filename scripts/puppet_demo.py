@@ -20,7 +20,6 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import blender_session  # noqa: E402
-from demo import Stages  # noqa: E402
 
 KINDS = {"three-rod": "THREE_ROD", "five-rod": "FIVE_ROD", "prop": "PROP", "strip": "STRIP",
          "quadruped": "QUADRUPED"}
@@ -128,7 +127,7 @@ def main(argv=None):
     out = args.out.resolve()
     out.mkdir(parents=True, exist_ok=True)
 
-    st = Stages("puppet")
+    st = blender_session.Stages("puppet")
     bpy = st.run("start Blender and install the extension", blender_session.start)
     st.run("empty scene", blender_session.reset_scene)
     rig, rods = st.run(f"build {args.puppet} puppet", build, kind)
