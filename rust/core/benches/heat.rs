@@ -2,10 +2,10 @@
 //! Run: `cargo bench -p miniskeleton-core --bench heat` (`HEAT_BENCH_MAX=<vertices>` skips the
 //! larger sizes, `HEAT_BENCH_REPEATS=<n>` takes the best of n runs instead of 2).
 
-use miniskeleton_core::bilinear::{bilinear_weights, BilinearOptions};
-use miniskeleton_core::heat::{heat_weights, HeatOptions};
-use miniskeleton_core::idw::{idw_weights, IdwOptions};
 use miniskeleton_core::primitives::{bone_chain, capped_cylinder};
+use miniskeleton_core::weights::{bilinear_weights, BilinearOptions};
+use miniskeleton_core::weights::{heat_weights, HeatOptions};
+use miniskeleton_core::weights::{idw_weights, IdwOptions};
 use std::time::Instant;
 
 fn main() {

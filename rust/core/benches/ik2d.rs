@@ -12,7 +12,7 @@ use std::f64::consts::PI;
 use std::hint::black_box;
 use std::time::Instant;
 
-use miniskeleton_core::ik2d::{
+use miniskeleton_core::posing::ik2d::{
     forward, solve_ccd, solve_ccd_classic3d, solve_ccd_pure, solve_fabrik, Chain2d, SolveOptions, SolveReport,
 };
 use miniskeleton_core::Result;

@@ -1,46 +1,24 @@
 //! MiniSkeleton core: geometry processing for automatic rigging, in pure Rust.
 //!
-//! One algorithm per module, libigl style. Inputs are plain slices (`[f32; 3]` positions,
-//! `[u32; 3]` triangles) so the Python bindings can pass numpy buffers straight through.
-//! Nothing here knows about Python or Blender.
+//! Grouped by area; each area is a folder whose `mod.rs` re-exports what callers use and keeps
+//! the stages of its algorithms private:
+//! - [`mesh`]: input checks, the unit frame, welding, pieces, winding, the cotangent Laplacian,
+//!   ray queries, inside tests, Catmull-Clark limit positions, seams between meshes;
+//! - [`weights`]: skinning weights (bone heat, bilinear, inverse distance), the top-k influence
+//!   rows they share and left/right symmetry;
+//! - [`skeleton`]: parent lists and fitting joints into the mesh;
+//! - [`motion`]: the roles of a rig's bones and the head-shake / walk / run clips;
+//! - [`posing`]: linear blend skinning and planar IK.
+//!
+//! Inputs are plain slices (`[f32; 3]` positions, `[u32; 3]` triangles) so the Python bindings
+//! pass numpy buffers straight through. Nothing here knows about Python or Blender.
 
 pub mod error;
 pub use error::{Error, Result};
 
-// Mesh input, topology and operators.
-pub mod catmull_clark;
-pub mod cotan;
-pub mod islands;
 pub mod mesh;
-pub mod orient;
+pub mod motion;
+pub mod posing;
 pub mod primitives;
-pub mod seams;
-pub mod segment;
-pub mod solid;
-pub mod visibility;
-pub mod weld;
-
-// Skinning weights.
-pub mod bilinear;
-mod blocks;
-mod cholesky;
-pub mod heat;
-pub mod idw;
-pub mod influence;
-mod pieces;
-pub mod reach;
-mod sources;
-pub mod symmetry;
-
-// Posing.
-pub mod ik2d;
-pub mod lbs;
-
-// Skeleton.
-pub mod fit;
-mod sections;
-
-// Motion.
-pub mod gait;
-mod hierarchy;
-pub mod roles;
+pub mod skeleton;
+pub mod weights;

@@ -1,8 +1,9 @@
 //! Skeleton fitting on generated tubes: centring, bends, idempotence, outside joints,
 //! symmetry, fixed joints, scale, mesh checks and bad input.
 
-use miniskeleton_core::fit::{fit_joints, points_inside, FitOptions, Symmetry};
+use miniskeleton_core::mesh::Symmetry;
 use miniskeleton_core::primitives::capped_cylinder;
+use miniskeleton_core::skeleton::{fit_joints, points_inside, FitOptions};
 use miniskeleton_core::Error;
 
 type Mesh = (Vec<[f32; 3]>, Vec<[u32; 3]>);

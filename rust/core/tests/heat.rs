@@ -1,10 +1,9 @@
 //! Integration tests of bone-heat weights (Baran & Popovic 2007) on generated meshes.
 
-use miniskeleton_core::heat::{
-    heat_weights, heat_weights_many, BoneCurves, HeatOptions, HeatReport, MeshRef, Symmetry,
-};
-use miniskeleton_core::influence::Influences;
+use miniskeleton_core::mesh::Symmetry;
 use miniskeleton_core::primitives::{bone_chain, capped_cylinder, split_flat};
+use miniskeleton_core::weights::Influences;
+use miniskeleton_core::weights::{heat_weights, heat_weights_many, BoneCurves, HeatOptions, HeatReport, MeshRef};
 use miniskeleton_core::Error;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
@@ -102,7 +101,8 @@ fn symmetric_mesh_and_skeleton_give_symmetric_weights() {
     assert_rows_sum_to_one(&plain);
     check(&plain, 1e-3);
     let sym = HeatOptions {
-        symmetry: Some(Symmetry { axis: 0, bone_mirror: vec![3, 2, 1, 0], tolerance: 1e-4 }),
+        symmetry: Some(Symmetry { axis: 0, plane: 0.0, mirror: vec![3, 2, 1, 0] }),
+        mirror_tolerance: 1e-4,
         ..Default::default()
     };
     let (avg, rep) = heat(&m, &b, &sym);
@@ -117,7 +117,8 @@ fn symmetric_mesh_and_skeleton_give_symmetric_weights() {
     assert!(rep.mirrored_vertices < m.0.len() / 10, "{} twins", rep.mirrored_vertices);
     // A bad mirror map is an error.
     let bad = HeatOptions {
-        symmetry: Some(Symmetry { axis: 0, bone_mirror: vec![3, 2, 2, 0], tolerance: 1e-4 }),
+        symmetry: Some(Symmetry { axis: 0, plane: 0.0, mirror: vec![3, 2, 2, 0] }),
+        mirror_tolerance: 1e-4,
         ..Default::default()
     };
     assert!(heat_weights(&m.0, &m.1, &b.0, &b.1, &bad, None).is_err());
@@ -133,7 +134,8 @@ fn side_bones_given_as_centre_bones_are_paired_by_place() {
     let x = |x: f32| [x, 0.0, 0.0];
     let b = (vec![x(-0.05), x(-0.5), x(0.05), x(0.5)], vec![x(-0.5), x(-0.95), x(0.5), x(0.95)]);
     let sym = |bone_mirror: Vec<i32>| HeatOptions {
-        symmetry: Some(Symmetry { axis: 0, bone_mirror, tolerance: 1e-4 }),
+        symmetry: Some(Symmetry { axis: 0, plane: 0.0, mirror: bone_mirror }),
+        mirror_tolerance: 1e-4,
         ..Default::default()
     };
     let (named, rep) = heat(&m, &b, &sym(vec![2, 3, 0, 1]));
@@ -451,7 +453,7 @@ fn is_rigid_on(inf: &Influences, verts: std::ops::Range<usize>, bone: i32) -> bo
 
 #[test]
 fn weight_ramp_is_continuous_and_drops_small_weights() {
-    use miniskeleton_core::heat::weight_limit;
+    use miniskeleton_core::weights::weight_limit;
     let (s, e) = (0.05, 0.025);
     assert_eq!(weight_limit(0.02, s, e), 0.0);
     assert_eq!(weight_limit(f32::NAN, s, e), 0.0);
@@ -802,9 +804,10 @@ fn bones_solved_in_blocks_give_the_same_weights() {
     t.push([0.0, 0.62, 0.0]);
     add_box(&mut m, [0.0, 0.68, 0.0], [0.05, 0.07, 0.05], false);
     let b = (h, t);
-    let sym = Some(Symmetry { axis: 0, bone_mirror: vec![3, 2, 1, 0, 4], tolerance: 1e-4 });
+    let sym = Some(Symmetry { axis: 0, plane: 0.0, mirror: vec![3, 2, 1, 0, 4] });
     for symmetry in [None, sym] {
-        let whole = HeatOptions { symmetry: symmetry.clone(), max_influences: 3, ..Default::default() };
+        let whole =
+            HeatOptions { symmetry: symmetry.clone(), mirror_tolerance: 1e-4, max_influences: 3, ..Default::default() };
         let (all, rep) = heat(&m, &b, &whole);
         assert_eq!(rep.rigid_pieces, 1, "{rep:?}");
         for block_bones in [1, 2, 3] {

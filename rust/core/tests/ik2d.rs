@@ -2,7 +2,7 @@
 
 use std::f64::consts::PI;
 
-use miniskeleton_core::ik2d::{
+use miniskeleton_core::posing::ik2d::{
     clamp_to_limits, forward, solve_ccd, solve_ccd_classic3d, solve_ccd_pure, solve_fabrik, solve_multi,
     solve_two_arm_grip, wrap_angle, Chain2d, SolveOptions, SolveReport,
 };

@@ -1,6 +1,6 @@
 //! Linear blend skinning: identity, pure translation, rotation blend, validation.
 
-use miniskeleton_core::lbs::lbs;
+use miniskeleton_core::posing::lbs;
 use miniskeleton_core::Error;
 
 const IDENTITY: [[f32; 4]; 4] =

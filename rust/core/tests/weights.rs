@@ -1,11 +1,11 @@
 //! Integration tests of the closed-form weighting methods (IDW, bilinear) and top-k.
 
 use glam::DVec3;
-use miniskeleton_core::bilinear::{bilinear_weights, BilinearOptions, Falloff};
-use miniskeleton_core::idw::{idw_weights, IdwOptions};
-use miniskeleton_core::influence::{top_k_normalized, Influences};
+use miniskeleton_core::mesh::closest_point_on_segment;
 use miniskeleton_core::primitives::{bone_chain, capped_cylinder};
-use miniskeleton_core::segment::closest_point_on_segment;
+use miniskeleton_core::weights::{bilinear_weights, BilinearOptions, Falloff};
+use miniskeleton_core::weights::{idw_weights, IdwOptions};
+use miniskeleton_core::weights::{top_k_normalized, Influences};
 use miniskeleton_core::Error;
 
 fn assert_rows_sum_to_one(inf: &Influences) {

@@ -3,8 +3,8 @@
 
 use crate::convert::{from_rows, indices, rows, Indices};
 use crate::error::guarded;
-use miniskeleton_core::gait::{motion_clip, GaitParams, Motion};
-use miniskeleton_core::roles::{detect_roles as core_detect, BodyPlan, Limb, Roles, Side};
+use miniskeleton_core::motion::{detect_roles as core_detect, BodyPlan, Limb, Roles, Side};
+use miniskeleton_core::motion::{motion_clip, GaitParams, Motion};
 use numpy::ndarray::Array3;
 use numpy::{AllowTypeChange, IntoPyArray, PyArray1, PyArrayLike2};
 use pyo3::exceptions::PyValueError;

@@ -2,7 +2,7 @@
 
 use crate::convert::{from_rows, index_matrix, rows, vector, IndexRows};
 use crate::error::guarded;
-use miniskeleton_core::ik2d::{self, Chain2d, SolveOptions, SolveReport};
+use miniskeleton_core::posing::ik2d::{self, Chain2d, SolveOptions, SolveReport};
 use numpy::{AllowTypeChange, PyArray1, PyArray2, PyArrayLike1, PyArrayLike2, PyArrayLike3};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
@@ -36,7 +36,7 @@ pub fn lbs<'py>(
     }
     let mats: Vec<[[f32; 4]; 4]> =
         m.outer_iter().map(|mm| std::array::from_fn(|r| std::array::from_fn(|c| mm[[r, c]]))).collect();
-    let out = guarded(py, || miniskeleton_core::lbs::lbs(&v, &idx, &w, k, &mats))?;
+    let out = guarded(py, || miniskeleton_core::posing::lbs(&v, &idx, &w, k, &mats))?;
     from_rows(py, &out)
 }
 

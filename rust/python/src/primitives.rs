@@ -55,3 +55,10 @@ pub fn split_flat<'py>(
     let (sv, st) = miniskeleton_core::primitives::split_flat(&v, &t);
     Ok((from_rows(py, &sv)?, from_rows(py, &st)?))
 }
+
+pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_function(wrap_pyfunction!(capped_cylinder, m)?)?;
+    m.add_function(wrap_pyfunction!(bone_chain, m)?)?;
+    m.add_function(wrap_pyfunction!(split_flat, m)?)?;
+    Ok(())
+}

@@ -2,7 +2,8 @@
 
 use crate::convert::{from_rows, index_rows, indices, rows, vector, IndexRows, Indices};
 use crate::error::guarded;
-use miniskeleton_core::fit::{self, FitOptions, Symmetry};
+use miniskeleton_core::mesh::Symmetry;
+use miniskeleton_core::skeleton::{self, FitOptions};
 use numpy::{AllowTypeChange, PyArray1, PyArray2, PyArrayLike1, PyArrayLike2};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
@@ -50,7 +51,7 @@ pub fn fit_joints<'py>(
     };
     let opts =
         FitOptions { symmetry, rays, samples, rounds, tolerance, stiffness, tip, max_move, stub_ratio, min_sections };
-    let (out, rep) = guarded(py, move || fit::fit_joints(&v, &t, &j, &b, &mv, &opts))?;
+    let (out, rep) = guarded(py, move || skeleton::fit_joints(&v, &t, &j, &b, &mv, &opts))?;
     let d = PyDict::new(py);
     d.set_item("outside_before", rep.count_outside_before())?;
     d.set_item("outside_after", rep.count_outside_after())?;
@@ -77,7 +78,7 @@ pub fn points_inside<'py>(
     let v = rows::<f32, 3>(&vertices, "vertices")?;
     let t = index_rows::<u32, 3>(&triangles, "triangles")?;
     let p = rows::<f32, 3>(&points, "points")?;
-    let out = guarded(py, move || fit::points_inside(&v, &t, &p))?;
+    let out = guarded(py, move || skeleton::points_inside(&v, &t, &p))?;
     Ok(PyArray1::from_vec(py, out))
 }
 

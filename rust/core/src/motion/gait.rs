@@ -9,7 +9,7 @@
 //!                 X, Y (along the bone), Z axes in the same space (Blender:
 //!                 `armature.matrix_world.to_3x3() @ bone.matrix_local.to_3x3()`); scale is
 //!                 normalised away
-//!   roles         from [`crate::roles::detect_roles`]
+//!   roles         from [`crate::motion::roles::detect_roles`]
 //!   params        [`GaitParams`]
 //! Output
 //!   [`Clip`]: `frames` × #B local rotations (w, x, y, z) in each bone's rest frame, i.e.
@@ -47,8 +47,8 @@
 //! world-up-based axes, so a character lying down is animated as if standing.
 
 use crate::error::{Error, Result};
-use crate::mesh::validate_parents;
-use crate::roles::{BodyPlan, Limb, Roles, Side};
+use crate::motion::roles::{BodyPlan, Limb, Roles, Side};
+use crate::skeleton::validate_parents;
 use glam::{Mat3, Quat, Vec3};
 use std::f32::consts::{PI, TAU};
 
@@ -758,8 +758,8 @@ fn gait(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::roles::detect_roles;
-    use crate::roles::tests::{biped, bone, creature, hexapod, ik_biped, spot, Skeleton};
+    use crate::motion::roles::detect_roles;
+    use crate::motion::roles::tests::{biped, bone, creature, hexapod, ik_biped, spot, Skeleton};
 
     /// A test rig run through a motion: names, heads, tails, parents, rest matrices, roles, clip.
     type Animated = (Vec<String>, Vec<[f32; 3]>, Vec<[f32; 3]>, Vec<i32>, Vec<[f32; 9]>, Roles, Clip);

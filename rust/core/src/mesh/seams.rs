@@ -1,17 +1,17 @@
 //! Meshes that meet along a seam: a character split into objects (a head and a body sharing
 //! the neck's vertices) is one surface, and heat must flow across the cut as it does across
-//! the split seams of one mesh ([`crate::weld`]); solved apart, the two copies of a seam
+//! the split seams of one mesh ([`crate::mesh::weld`]); solved apart, the two copies of a seam
 //! vertex get unrelated weights and the surface cracks open when posed.
 
+use crate::mesh::weld::weld;
 use crate::mesh::{validate_mesh, Frame};
-use crate::weld::weld;
 use crate::{Error, Result};
 
 /// Most meshes [`touching_meshes`] takes (far more objects than a scene holds; bounds the memory).
 pub const MAX_MESHES: usize = 1 << 24;
 
 /// Group meshes that share at least `min_shared` vertex positions (welded within `tolerance`
-/// of the bounding-box diagonal of all of them, as [`crate::heat::heat_weights`] welds),
+/// of the bounding-box diagonal of all of them, as [`crate::weights::heat::heat_weights`] welds),
 /// transitively. Clothes over a body or a prop in a hand share no vertex and stay apart.
 ///
 /// Inputs: `vertices` `(n, 3)` of all meshes stacked, `mesh_of` `(n,)` the mesh of each

@@ -7,8 +7,10 @@
 //! the ground root bone; either way the parent indices alone do not say which bones form the
 //! body. Thresholds are fractions of the rig's height.
 
-use crate::roles::GROUND_FRACTION;
 use glam::Vec3;
+
+/// A leaf bone ending this low (fraction of the height above the lowest point) is a foot.
+pub(crate) const GROUND_FRACTION: f32 = 0.2;
 
 /// How far a foot riding on the root may lie from the end of its leg chain, as fractions of the
 /// height: horizontally, and below it (RobotExpressive's shins end at the knee, 0.3 above).
@@ -29,7 +31,7 @@ fn v(p: [f32; 3]) -> Vec3 {
     Vec3::from_array(p)
 }
 
-/// Step 1 of [`crate::roles::detect_roles`]: separate trees joined where they touch
+/// Step 1 of [`crate::motion::roles::detect_roles`]: separate trees joined where they touch
 /// ([`joined_parents`]), then feet hanging off a root made children of their leg
 /// ([`foot_riders`]). Returns the joined parents and the riders.
 pub(crate) fn joined_hierarchy(heads: &[[f32; 3]], tails: &[[f32; 3]], parents: &[i32]) -> (Vec<i32>, Vec<[usize; 2]>) {

@@ -1,10 +1,9 @@
 //! Inverse-distance weighting of bones: the fast, always-defined fallback method.
 
-use crate::influence::{top_k_row, Influences};
-use crate::mesh::{validate_bones, validate_mesh, Frame};
-use crate::segment::closest_point_on_segment;
+use crate::mesh::segment::closest_point_on_segment;
+use crate::mesh::{bones_in_frame, validate_bones, validate_mesh, Frame};
+use crate::weights::influence::{top_k_row, Influences};
 use crate::{Error, Result};
-use glam::DVec3;
 use rayon::prelude::*;
 
 /// Options of [`idw_weights`].
@@ -23,11 +22,6 @@ impl Default for IdwOptions {
     fn default() -> Self {
         IdwOptions { power: 2.0, max_influences: 4, epsilon: 1e-4 }
     }
-}
-
-/// Bones as segments in the unit frame of the mesh.
-pub(crate) fn bones_in_frame(frame: &Frame, heads: &[[f32; 3]], tails: &[[f32; 3]]) -> Vec<(DVec3, DVec3)> {
-    heads.iter().zip(tails).map(|(h, t)| (frame.to_unit(*h), frame.to_unit(*t))).collect()
 }
 
 /// Inverse-distance bone weights (Shepard 1968 applied to bone segments).

@@ -20,44 +20,41 @@
 //!
 //! This module holds the options, the report and the order of the steps; the steps with
 //! their own rules are in their own modules: `sources` (each vertex's nearest visible
-//! bones), `pieces` (per-piece geometry, the inside test, rigid pieces), [`crate::reach`]
+//! bones), `pieces` (per-piece geometry, the inside test, rigid pieces), `reach`
 //! (the spans of imported rigs' bones), `cholesky` (factor and solves), `blocks` (the bones
-//! solved in blocks of columns, each vertex's running top k), and [`crate::orient`] (winding
+//! solved in blocks of columns, each vertex's running top k), and [`crate::mesh::orient`] (winding
 //! and outward normals).
 
-pub use crate::blocks::BLOCK_BYTES;
-use crate::blocks::{block_weights, bone_blocks, Rows, RunningTopK};
-use crate::cholesky::{factor_first, symbolic_factor};
-use crate::cotan::{cotan_laplacian, stiffness_lower_csc, triangle_cotangents};
-use crate::idw::bones_in_frame;
-use crate::influence::Influences;
-use crate::islands::connected_components;
-use crate::mesh::{count_non_finite, validate_bones, validate_mesh, validate_parents, Frame};
-use crate::orient::{orient_faces, vertex_normals};
-use crate::pieces::{mark_sources, piece_contains_bone, piece_stats, rigid_pieces};
-use crate::reach::reach_segments;
-use crate::sources::heat_sources;
-use crate::symmetry::{mirror_map, pair_side_bones_by_place, validate_bone_mirror};
-use crate::visibility::RayMesh;
-use crate::weld::weld;
+mod blocks;
+mod cholesky;
+mod pieces;
+pub(crate) mod reach;
+mod sources;
+
+use crate::mesh::bones_in_frame;
+use crate::mesh::cotan::{cotan_laplacian, stiffness_lower_csc, triangle_cotangents};
+use crate::mesh::islands::connected_components;
+use crate::mesh::mirror::mirror_map;
+pub use crate::mesh::mirror::Symmetry;
+use crate::mesh::orient::{orient_faces, vertex_normals};
+use crate::mesh::visibility::RayMesh;
+use crate::mesh::weld::weld;
+use crate::mesh::{count_non_finite, validate_bones, validate_mesh, Frame};
+use crate::skeleton::validate_parents;
+pub use crate::weights::influence::weight_limit;
+use crate::weights::influence::Influences;
+use crate::weights::symmetry::{pair_side_bones_by_place, validate_bone_mirror};
 use crate::{Error, Result};
+pub use blocks::BLOCK_BYTES;
+use blocks::{block_weights, bone_blocks, Rows, RunningTopK};
+use cholesky::{factor_first, symbolic_factor};
 use faer::sparse::SymbolicSparseColMatRef;
 use glam::DVec3;
+use pieces::{mark_sources, piece_contains_bone, piece_stats, rigid_pieces};
 use rayon::prelude::*;
+use reach::reach_segments;
+use sources::heat_sources;
 use std::time::Instant;
-
-/// Left/right symmetry of the character, used to average the weights of mirrored vertices.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Symmetry {
-    /// Mirror axis: 0 = X, 1 = Y, 2 = Z. The mirror plane is the input coordinate 0 on it.
-    pub axis: usize,
-    /// `(b,)` mirror bone of each bone (itself for centre bones, -1 for a side bone with no
-    /// partner, left unaveraged); must be an involution. A "centre" bone off the plane is
-    /// paired by place or left unaveraged ([`pair_side_bones_by_place`]).
-    pub bone_mirror: Vec<i32>,
-    /// Matching tolerance for mirrored vertex positions, relative to the bbox diagonal.
-    pub tolerance: f32,
-}
 
 /// Options of [`heat_weights`].
 #[derive(Debug, Clone, PartialEq)]
@@ -65,7 +62,7 @@ pub struct HeatOptions {
     /// Bones kept per vertex (>= 1; the result has min(this, bones) columns). Default 4.
     pub max_influences: usize,
     /// Pruning threshold relative to the kept total, see
-    /// [`top_k_normalized`](crate::influence::top_k_normalized). Default 1e-3.
+    /// [`top_k_normalized`](crate::weights::influence::top_k_normalized). Default 1e-3.
     pub min_weight: f32,
     /// Ray-cast visibility test (Pinocchio). `false`: the nearest bone is always used. Default true.
     pub visibility: bool,
@@ -74,8 +71,15 @@ pub struct HeatOptions {
     /// Heat constant `c` in `H = HEAT_SCALE c / d^2` (> 0). Default 1 (Pinocchio's and
     /// Blender's `C_WEIGHT`; see [`HEAT_SCALE`]).
     pub heat_constant: f32,
-    /// Optional symmetric averaging. Default `None`.
+    /// Optional symmetric averaging: the weights of mirrored vertices are averaged across
+    /// [`Symmetry::plane`] (input units), [`Symmetry::mirror`] giving each bone's mirror bone
+    /// (`(b,)`, itself for centre bones, -1 for a side bone with no partner, left unaveraged;
+    /// an involution). A "centre" bone off the plane is paired by place or left unaveraged
+    /// ([`pair_side_bones_by_place`]). Default `None`.
     pub symmetry: Option<Symmetry>,
+    /// Matching tolerance for mirrored vertex positions, relative to the bbox diagonal (>= 0).
+    /// Default 1e-3.
+    pub mirror_tolerance: f32,
     /// Small-weight ramp (Blender's bone heat): a solved weight `w < weight_limit_end` becomes
     /// 0, one in `[weight_limit_end, weight_limit_start)` becomes
     /// `weight_limit_start (w - end) / (start - end)` (continuous, from 0 up to `start`), larger
@@ -94,7 +98,7 @@ pub struct HeatOptions {
     /// `(b,)` parent of each bone (`-1` for roots), for rigs imported from glTF or FBX,
     /// whose tails Blender invents: when given, a bone whose children start away from its
     /// tail is represented by the segments from its head to those children's heads that lie
-    /// inside the mesh (see [`crate::reach`]), plus head -> tail when a child starts there;
+    /// inside the mesh (see `reach`), plus head -> tail when a child starts there;
     /// a bone with no such segment inside (a root on the ground) keeps head -> tail, and a
     /// bone with no children also continues its parent's line into the mesh.
     /// Default `None`: every bone is head -> tail, as in Blender.
@@ -127,6 +131,7 @@ impl Default for HeatOptions {
             weld_tolerance: 1e-5,
             heat_constant: 1.0,
             symmetry: None,
+            mirror_tolerance: 1e-3,
             weight_limit_start: WEIGHT_LIMIT_START,
             weight_limit_end: WEIGHT_LIMIT_END,
             rigid_accessories: true,
@@ -186,7 +191,7 @@ pub struct HeatReport {
 /// `(L + M H) w = M H p`. Less diffusion than Pinocchio's `c = 1`; measured closer to the
 /// artists' weights on the real models of `bench/eval_weights.py`.
 pub const HEAT_SCALE: f64 = 4.0;
-pub use crate::sources::{MAX_VISIBILITY_TESTS, TIE_RATIO};
+pub use sources::{MAX_VISIBILITY_TESTS, TIE_RATIO};
 /// Default [`HeatOptions::weight_limit_start`] (Blender's `WEIGHT_LIMIT_START`).
 pub const WEIGHT_LIMIT_START: f32 = 0.05;
 /// Default [`HeatOptions::weight_limit_end`] (Blender's `WEIGHT_LIMIT_END`).
@@ -268,10 +273,10 @@ pub fn heat_weights(
     let resolved;
     let opts = match &opts.symmetry {
         Some(s) => {
-            let (bone_mirror, paired, alone) = pair_side_bones_by_place(heads, tails, &s.bone_mirror, s.axis)?;
+            let (bone_mirror, paired, alone) = pair_side_bones_by_place(heads, tails, &s.mirror, s.axis, s.plane)?;
             report.side_bones_paired = paired;
             report.side_bones_unpaired = alone;
-            let symmetry = Some(Symmetry { bone_mirror, ..s.clone() });
+            let symmetry = Some(Symmetry { mirror: bone_mirror, ..s.clone() });
             resolved = HeatOptions { symmetry, ..opts.clone() };
             &resolved
         }
@@ -431,14 +436,19 @@ pub fn heat_weights(
     //       solve (or, if the factorization failed, the nearest-bone sources), clip, rigid
     //       pieces and isolated vertices, symmetry, and merge into each vertex's top k.
     let vm = match &opts.symmetry {
-        Some(s) => Some(mirror_map(&wpos, s.axis, -frame.centre[s.axis] / frame.diagonal, s.tolerance as f64)?),
+        Some(s) => Some(mirror_map(
+            &wpos,
+            s.axis,
+            (s.plane - frame.centre[s.axis]) / frame.diagonal,
+            opts.mirror_tolerance as f64,
+        )?),
         None => None,
     };
     if let Some(vm) = &vm {
         report.mirrored_vertices = map.iter().filter(|&&w| vm[w as usize] >= 0).count();
     }
     let threads = rayon::current_num_threads().max(1);
-    let blocks = bone_blocks(b, nw, opts.block_bones, threads, opts.symmetry.as_ref().map(|s| &s.bone_mirror[..]));
+    let blocks = bone_blocks(b, nw, opts.block_bones, threads, opts.symmetry.as_ref().map(|s| &s.mirror[..]));
     let mut best = RunningTopK::new(nw, opts.max_influences.min(b));
     let (mut t_solve, mut done) = (0.0, 0usize);
     let sym = opts.symmetry.as_ref().zip(vm.as_deref());
@@ -516,9 +526,12 @@ fn validate(
     }
     let b = heads.len();
     if let Some(s) = &opts.symmetry {
-        validate_bone_mirror(&s.bone_mirror, b)?;
-        if s.axis > 2 || !(s.tolerance.is_finite() && s.tolerance >= 0.0) {
-            return Err(Error::InvalidArgument("symmetry axis must be 0..=2 and tolerance >= 0".into()));
+        validate_bone_mirror(&s.mirror, b)?;
+        if s.axis > 2 || !s.plane.is_finite() {
+            return Err(Error::InvalidArgument("symmetry axis must be 0..=2 and its plane finite".into()));
+        }
+        if !(opts.mirror_tolerance.is_finite() && opts.mirror_tolerance >= 0.0) {
+            return Err(Error::InvalidArgument("mirror tolerance must be >= 0".into()));
         }
     }
     if let Some(parents) = &opts.parents {
@@ -581,19 +594,6 @@ fn bend(
         }
     }
     (out, out_owner)
-}
-
-/// Blender's small-weight ramp (`heat_limit_weight`): 0 below `end`, linear from 0 to
-/// `start` on `[end, start)`, identity above; non-positive and NaN give 0.
-#[inline]
-pub fn weight_limit(w: f32, start: f32, end: f32) -> f32 {
-    if !(w > 0.0) || w < end {
-        0.0
-    } else if w < start {
-        start * (w - end) / (start - end)
-    } else {
-        w
-    }
 }
 
 #[cfg(test)]

@@ -8,11 +8,12 @@
 //! ([`BLOCK_BYTES`]); ranking by weight and then bone index makes the result independent of
 //! the blocks.
 
-use crate::cholesky::Factor;
-use crate::heat::{weight_limit, Symmetry};
-use crate::influence::{insert_ranked, normalize_pruned, Influences};
-use crate::sources::{Source, Ties};
-use crate::symmetry::symmetrize_columns;
+use super::cholesky::Factor;
+use super::sources::{Source, Ties};
+use crate::mesh::mirror::Symmetry;
+use crate::weights::influence::weight_limit;
+use crate::weights::influence::{insert_ranked, normalize_pruned, Influences};
+use crate::weights::symmetry::symmetrize_columns;
 use rayon::prelude::*;
 use std::time::Instant;
 
@@ -135,13 +136,11 @@ pub(crate) fn block_weights(
             }
         }
     }
-    // Symmetry (mirror plane: input coordinate 0 on the axis).
+    // Symmetry.
     if let Some((s, vm)) = sym {
         let col = block_columns(block);
-        let local: Vec<i32> = block
-            .iter()
-            .map(|&j| u32::try_from(s.bone_mirror[j]).ok().and_then(&col).map_or(-1, |c| c as i32))
-            .collect();
+        let local: Vec<i32> =
+            block.iter().map(|&j| u32::try_from(s.mirror[j]).ok().and_then(&col).map_or(-1, |c| c as i32)).collect();
         symmetrize_columns(&mut x, nw, vm, &local);
     }
     (x, secs)
@@ -181,7 +180,7 @@ fn block_columns(block: &[usize]) -> impl Fn(u32) -> Option<usize> + '_ {
 
 /// Each welded vertex's `k` largest weights so far, over the blocks of bones merged: after
 /// Blender's small-weight ramp ([`weight_limit`]), and unramped for the rows whose weights all
-/// fall below the ramp. Ranked as [`top_k_row`](crate::influence::top_k_row) ranks
+/// fall below the ramp. Ranked as [`top_k_row`](crate::weights::influence::top_k_row) ranks
 /// them, whatever the order of the blocks.
 pub(crate) struct RunningTopK {
     ramped: Influences,
@@ -248,7 +247,7 @@ mod tests {
     use super::*;
 
     fn source(bones: &[u32]) -> Source {
-        let mut tied = [u32::MAX; crate::sources::MAX_TIES];
+        let mut tied = [u32::MAX; crate::weights::heat::sources::MAX_TIES];
         tied[..bones.len()].copy_from_slice(bones);
         Source { bones: tied, count: bones.len() as u8, dist: 1.0, nearest: Ties::one(bones[0]), nearest_dist: 1.0 }
     }

@@ -141,6 +141,19 @@ pub fn top_k_normalized(dense: &[f32], n: usize, b: usize, k: usize, min_weight:
     out
 }
 
+/// Blender's small-weight ramp (`heat_limit_weight`): 0 below `end`, linear from 0 to
+/// `start` on `[end, start)`, identity above; non-positive and NaN give 0.
+#[inline]
+pub fn weight_limit(w: f32, start: f32, end: f32) -> f32 {
+    if !(w > 0.0) || w < end {
+        0.0
+    } else if w < start {
+        start * (w - end) / (start - end)
+    } else {
+        w
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

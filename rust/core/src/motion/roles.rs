@@ -44,8 +44,8 @@
 //! See also: `gait.rs`, which turns these roles into head-shake, walk and run cycles.
 
 use crate::error::{Error, Result};
-use crate::hierarchy::{build_tree, joined_hierarchy, subtree, Tree};
-use crate::mesh::validate_parents;
+use crate::motion::hierarchy::{build_tree, joined_hierarchy, subtree, Tree, GROUND_FRACTION};
+use crate::skeleton::validate_parents;
 use glam::Vec3;
 
 /// Which side of the body a limb is on (the character's own left/right).
@@ -112,8 +112,6 @@ pub struct Roles {
     pub notes: Vec<String>,
 }
 
-/// A leaf bone ending this low (fraction of the height above the lowest point) is a foot.
-pub(crate) const GROUND_FRACTION: f32 = 0.2;
 const LONG_FRACTION: f32 = 0.2;
 const MIDLINE_FRACTION: f32 = 0.05;
 const ARM_FRACTION: f32 = 0.2;
@@ -295,7 +293,7 @@ struct Rig<'a> {
     heads: &'a [[f32; 3]],
     tails: &'a [[f32; 3]],
     names: &'a [String],
-    /// Joined parents ([`crate::hierarchy::joined_hierarchy`]).
+    /// Joined parents ([`crate::motion::hierarchy::joined_hierarchy`]).
     parents: &'a [i32],
     tree: Tree,
     /// Head and tail of every main-tree bone, in tree order.

@@ -1,11 +1,11 @@
-//! Heat sources of the bone-heat solve ([`crate::heat`]): for every vertex, its nearest
+//! Heat sources of the bone-heat solve ([`crate::weights::heat`]): for every vertex, its nearest
 //! *visible* bone(s) (Baran & Popovic 2007, skin attachment: `p_j,i = 1` and `H_ii = c / d_i^2` come
 //! from the nearest bone whose straight line to the vertex stays inside the mesh), ranked by
 //! Blender's normal-weighted distance, with near-ties sharing, and the nearest bone by plain
 //! distance for the fallbacks.
 
-use crate::segment::{closest_point_on_segment, Segment};
-use crate::visibility::RayMesh;
+use crate::mesh::segment::{closest_point_on_segment, Segment};
+use crate::mesh::visibility::RayMesh;
 use glam::DVec3;
 use rayon::prelude::*;
 
@@ -334,7 +334,7 @@ mod tests {
 
     /// The unit cube's surface, for ray queries.
     fn unit_cube() -> RayMesh {
-        let (v, t) = crate::visibility::tests::unit_cube();
+        let (v, t) = crate::mesh::visibility::tests::unit_cube();
         RayMesh::new(&v, &t)
     }
 

@@ -8,8 +8,7 @@
 //! the unit frame of the mesh ([`crate::mesh::Frame`]); rays see the union of the mesh's
 //! pieces ([`Solid::hits`]). Used by `fit.rs`.
 
-use crate::fit::FitOptions;
-use crate::solid::Solid;
+use crate::mesh::solid::Solid;
 use glam::DVec3;
 
 /// A free limb end goes this many local radii short of the tip of the mesh beyond it.
@@ -25,6 +24,22 @@ const MAX_TILT_DEG: f64 = 60.0;
 
 /// Rays never need to be longer than this in the unit frame (the mesh fits in diagonal 1).
 const FAR: f32 = 4.0;
+
+/// How [`centre_line`] samples and accepts a bone's sections.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct LineOptions {
+    /// Chord directions per cross-section (>= 3).
+    pub rays: usize,
+    /// Fewest sections a line needs (clamped to `1..=samples`).
+    pub min_sections: usize,
+    /// Cross-sections per bone.
+    pub samples: usize,
+    /// A stub leaving a junction whose thinnest section is wider than this times its length has
+    /// no line; 0 turns the test off.
+    pub stub_ratio: f64,
+    /// Find where a free end's rounded tip stops.
+    pub tip: bool,
+}
 
 /// Where the ray from `p` along `dir` enters or leaves the mesh (the union of its pieces).
 pub(crate) fn hits(solid: &Solid, p: DVec3, dir: DVec3) -> Vec<f32> {
@@ -204,7 +219,7 @@ pub(crate) struct Line {
 /// `fractions` along it, kept when their centre is within the section reach of the bone, then
 /// a weighted least-squares line of their offsets (weights `1 / r^2`: thin sections, the limb
 /// itself, outweigh sections through the body it joins). `None` with too few sections
-/// ([`FitOptions::min_sections`]), for a stub leaving a `junction` ([`FitOptions::stub_ratio`]),
+/// ([`LineOptions::min_sections`]), for a stub leaving a `junction` ([`LineOptions::stub_ratio`]),
 /// or for a line tilted more than [`MAX_TILT_DEG`] from the bone.
 pub(crate) fn centre_line(
     rm: &Solid,
@@ -212,7 +227,7 @@ pub(crate) fn centre_line(
     t: DVec3,
     junction: bool,
     fractions: &[f64],
-    opts: &FitOptions,
+    opts: &LineOptions,
 ) -> Option<Line> {
     let axis = t - a;
     let len = axis.length();

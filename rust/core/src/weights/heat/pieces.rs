@@ -1,14 +1,14 @@
-//! Connected pieces of the welded mesh, for the robustness rules of [`crate::heat`]: each
+//! Connected pieces of the welded mesh, for the robustness rules of [`crate::weights::heat`]: each
 //! piece's geometry (bounding box, area, enclosed volume, closed or not), whether a bone lies
 //! inside it (ray parity), and which pieces are bound rigidly to one bone: accessories with no
 //! bone inside (an eye, a button, a held prop) and small pieces that see no bone.
 
-use crate::sources::{nearest_bones, Source, Ties};
-use crate::visibility::RayMesh;
+use super::sources::{nearest_bones, Source, Ties};
+use crate::mesh::visibility::RayMesh;
 use glam::{DVec3, Vec3};
 
 /// Fixed generic directions of the ray-parity inside test: the first 3 for closed pieces
-/// (majority 2 of 3), all 7 for open ones (majority 4 of 7, see [`crate::heat::heat_weights`]).
+/// (majority 2 of 3), all 7 for open ones (majority 4 of 7, see [`crate::weights::heat::heat_weights`]).
 const PARITY_DIRS: [[f32; 3]; 7] = [
     [0.48, 0.62, 0.62],
     [-0.70, 0.31, 0.64],
@@ -151,7 +151,7 @@ pub(crate) fn mark_sources(pieces: &mut [PieceStats], labels: &[u32], sources: &
     }
 }
 
-/// What [`rigid_pieces`] counted, for [`crate::heat::HeatReport`].
+/// What [`rigid_pieces`] counted, for [`crate::weights::heat::HeatReport`].
 #[derive(Clone, Copy, Debug, Default)]
 pub(crate) struct PieceCounts {
     /// Pieces with a usable triangle.
@@ -165,7 +165,7 @@ pub(crate) struct PieceCounts {
 }
 
 /// The bone(s) each piece is bound to rigidly, `None` for pieces solved by heat (the rules
-/// are in the doc of [`crate::heat::heat_weights`]). `accessories`: apply the accessory rules
+/// are in the doc of [`crate::weights::heat::heat_weights`]). `accessories`: apply the accessory rules
 /// (`inside[i]`: piece `i` holds a bone); with or without them, a piece that sees no bone and
 /// is no larger than its nearest bone (`bone_len`, per bone) is rigid on that bone.
 pub(crate) fn rigid_pieces(

@@ -7,9 +7,9 @@
 //! own, and a ray reports only where it enters or leaves the union of the pieces: for a mesh
 //! in one piece, exactly its own hits.
 
-use crate::islands::connected_components;
-use crate::visibility::RayMesh;
-use crate::weld::weld;
+use crate::mesh::islands::connected_components;
+use crate::mesh::visibility::RayMesh;
+use crate::mesh::weld::weld;
 use glam::{DVec3, Vec3};
 
 /// Fixed, irrational directions for the parity test.

@@ -4,13 +4,13 @@
 //! the joint's local Y axis, which on a limb often points out of it: the Fox sample's upper
 //! arm points forward while its leg goes down to the forearm's head. On such a rig a bone
 //! really spans from its head to the heads of its children; [`child_segments`] lists those
-//! spans, and [`crate::heat`] uses the ones lying inside the mesh in place of head -> tail.
+//! spans, and [`crate::weights::heat`] uses the ones lying inside the mesh in place of head -> tail.
 //! A bone with no children (a head, a tail tip, a hand) has no child to reach; its invented
 //! tail may point anywhere (the Fox's head bone points up while its snout lies ahead), so it
 //! also continues its parent's line into the mesh ([`leaf_continuation`]).
 
-use crate::pieces::{piece_contains_bone, PieceStats};
-use crate::visibility::RayMesh;
+use super::pieces::{piece_contains_bone, PieceStats};
+use crate::mesh::visibility::RayMesh;
 use glam::DVec3;
 use rayon::prelude::*;
 
@@ -62,8 +62,8 @@ pub fn child_segments(heads: &[DVec3], tails: &[DVec3], parents: &[i32], tol: f6
     (spans, tail_child)
 }
 
-/// The segments standing for the bones on an imported rig (see [`crate::heat::HeatOptions::parents`]):
-/// per bone, its spans to children ([`crate::reach::child_segments`]) that lie inside a
+/// The segments standing for the bones on an imported rig (see [`crate::weights::heat::HeatOptions::parents`]):
+/// per bone, its spans to children ([`child_segments`]) that lie inside a
 /// piece of the mesh (as in [`piece_contains_bone`]), plus head -> tail when a child starts
 /// at the tail or no span is inside, plus for a bone with a parent and no children its
 /// [`leaf_continuation`] when that lies inside. Returns `(segments, bone of each segment)`.
@@ -77,7 +77,7 @@ pub(crate) fn reach_segments(
 ) -> (Vec<(DVec3, DVec3)>, Vec<u32>) {
     let heads: Vec<DVec3> = bones.iter().map(|s| s.0).collect();
     let tails: Vec<DVec3> = bones.iter().map(|s| s.1).collect();
-    let (spans, tail_child) = crate::reach::child_segments(&heads, &tails, parents, REACH_TOLERANCE);
+    let (spans, tail_child) = child_segments(&heads, &tails, parents, REACH_TOLERANCE);
     let mut childless = vec![true; bones.len()];
     for &p in parents.iter().filter(|&&p| p >= 0) {
         childless[p as usize] = false;
@@ -117,11 +117,11 @@ pub(crate) fn reach_segments(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::mesh::validate_parents;
+    use crate::skeleton::validate_parents;
 
     #[test]
     fn a_leaf_continues_its_parent_line_up_to_the_surface() {
-        let (v, t) = crate::visibility::tests::unit_cube();
+        let (v, t) = crate::mesh::visibility::tests::unit_cube();
         let rm = RayMesh::new(&v, &t);
         let (parent, head) = (DVec3::new(0.5, 0.5, 0.0), DVec3::new(0.5, 0.5, 0.5));
         // A sideways invented tail of length 0.2: the line goes up 0.2, inside the cube.

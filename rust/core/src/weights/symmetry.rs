@@ -1,83 +1,10 @@
-//! Left/right symmetry: vertex mirror maps and symmetric averaging of bone weights.
+//! Left/right symmetry of skinning weights: bone mirror maps checked and completed by place,
+//! and weights averaged with their mirror images. The point mirror maps are in
+//! [`crate::mesh::mirror`].
 
+use crate::mesh::mirror::{mirror_map, mirror_point};
 use crate::{Error, Result};
 use glam::DVec3;
-
-/// Mirror `p` across the plane `x[axis] = plane`.
-#[inline]
-pub fn mirror_point(p: DVec3, axis: usize, plane: f64) -> DVec3 {
-    let mut q = p;
-    q[axis] = 2.0 * plane - p[axis];
-    q
-}
-
-/// Vertex mirror map.
-///
-/// Inputs: `points` `(n,)`, `axis` 0/1/2 (X/Y/Z), `plane` the coordinate of the mirror plane
-/// along `axis`, `tolerance` (same unit) for matching a mirrored position.
-/// Output `(n,)`: `m[v]` = the point nearest to the mirror image of `v` if it lies within
-/// `tolerance`, else `-1`; made an involution (`m[m[v]] == v`; one-sided matches are dropped
-/// to `-1`). Points on the plane map to themselves. Hash grid with cell `2 tolerance`:
-/// O(n) expected. Errors: `axis > 2`.
-pub fn mirror_map(points: &[DVec3], axis: usize, plane: f64, tolerance: f64) -> Result<Vec<i32>> {
-    if axis > 2 {
-        return Err(Error::InvalidArgument(format!("symmetry axis must be 0, 1 or 2, got {axis}")));
-    }
-    let tol = if tolerance.is_finite() && tolerance > 0.0 { tolerance } else { 0.0 };
-    let cell = (2.0 * tol).max(1e-12);
-    let inv = 1.0 / cell;
-    let n = points.len();
-    let bits = (usize::BITS - (2 * n.max(8)).leading_zeros()).min(40);
-    let mask = (1u64 << bits) - 1;
-    // Integer cell coordinates (saturating for far points): stepping a float cell coordinate by 1
-    // stalls past 2^53, where a bone far from the origin next to a small tolerance put it.
-    let cell_of = |p: DVec3| -> [i64; 3] { ((p * inv).floor()).to_array().map(|c| c as i64) };
-    let key = |c: [i64; 3]| -> usize {
-        let h = (c[0] as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15)
-            ^ (c[1] as u64).wrapping_mul(0xC2B2_AE3D_27D4_EB4F)
-            ^ (c[2] as u64).wrapping_mul(0x1656_67B1_9E37_79F9);
-        ((h ^ (h >> 29)) & mask) as usize
-    };
-    let mut head = vec![u32::MAX; 1usize << bits];
-    let mut next = vec![u32::MAX; n];
-    for (i, p) in points.iter().enumerate() {
-        let k = key(cell_of(*p));
-        next[i] = head[k];
-        head[k] = i as u32;
-    }
-    let tol2 = tol * tol;
-    let mut map: Vec<i32> = points
-        .iter()
-        .map(|p| {
-            let q = mirror_point(*p, axis, plane);
-            let lo = cell_of(q - DVec3::splat(tol));
-            let hi = cell_of(q + DVec3::splat(tol));
-            let mut best = (f64::INFINITY, -1i32);
-            for x in lo[0]..=hi[0] {
-                for y in lo[1]..=hi[1] {
-                    for z in lo[2]..=hi[2] {
-                        let mut i = head[key([x, y, z])];
-                        while i != u32::MAX {
-                            let d2 = (points[i as usize] - q).length_squared();
-                            if d2 <= tol2 && (d2 < best.0 || (d2 == best.0 && (i as i32) < best.1)) {
-                                best = (d2, i as i32);
-                            }
-                            i = next[i as usize];
-                        }
-                    }
-                }
-            }
-            best.1
-        })
-        .collect();
-    let snapshot = map.clone();
-    for (v, m) in map.iter_mut().enumerate() {
-        if *m >= 0 && snapshot[*m as usize] != v as i32 {
-            *m = -1;
-        }
-    }
-    Ok(map)
-}
 
 /// Check a bone mirror map: `(b,)`, entries in `0..b` forming an involution, or `-1` for a
 /// side bone with no partner (its weights are not averaged). Errors otherwise.
@@ -102,7 +29,7 @@ pub const CENTRE_BONE_OFF_PLANE: f64 = 0.01;
 
 /// Side bones among the bones given as centre bones, found by place: a bone that is its own
 /// mirror in `bone_mirror` but has an end farther than [`CENTRE_BONE_OFF_PLANE`] of the
-/// skeleton's diagonal from the plane `x[axis] = 0` would have its weights averaged with their
+/// skeleton's diagonal from the plane `x[axis] = plane` would have its weights averaged with their
 /// own mirror image, splitting a limb's weights between both sides. Each such bone is paired
 /// with the one whose midpoint [`mirror_map`] matches to its own (within that distance, both
 /// ways) when both their ends are mirror images within it too, or else left unpaired (`-1`,
@@ -114,6 +41,7 @@ pub fn pair_side_bones_by_place(
     tails: &[[f32; 3]],
     bone_mirror: &[i32],
     axis: usize,
+    plane: f64,
 ) -> Result<(Vec<i32>, usize, usize)> {
     let ends: Vec<[DVec3; 2]> =
         heads.iter().zip(tails).map(|(h, t)| [DVec3::from(h.map(f64::from)), DVec3::from(t.map(f64::from))]).collect();
@@ -121,13 +49,13 @@ pub fn pair_side_bones_by_place(
     let hi = ends.iter().flatten().fold(DVec3::splat(f64::NEG_INFINITY), |a, p| a.max(*p));
     let tol = CENTRE_BONE_OFF_PLANE * (hi - lo).length();
     let side: Vec<usize> = (0..ends.len())
-        .filter(|&i| bone_mirror.get(i) == Some(&(i as i32)) && ends[i].iter().any(|p| p[axis].abs() > tol))
+        .filter(|&i| bone_mirror.get(i) == Some(&(i as i32)) && ends[i].iter().any(|p| (p[axis] - plane).abs() > tol))
         .collect();
     let mids: Vec<DVec3> = side.iter().map(|&i| (ends[i][0] + ends[i][1]) * 0.5).collect();
-    let partner = mirror_map(&mids, axis, 0.0, tol)?;
+    let partner = mirror_map(&mids, axis, plane, tol)?;
     // The farther of bone i's two mirrored ends from bone j's (symmetric in i and j).
     let gap = |i: usize, j: usize| -> f64 {
-        (0..2).map(|e| (mirror_point(ends[i][e], axis, 0.0) - ends[j][e]).length()).fold(0.0, f64::max)
+        (0..2).map(|e| (mirror_point(ends[i][e], axis, plane) - ends[j][e]).length()).fold(0.0, f64::max)
     };
     let mut out = bone_mirror.to_vec();
     let mut paired = 0;
@@ -250,18 +178,18 @@ mod tests {
             [[0.0, 0.0, 0.0], [0.2, 0.0, 1.0], [-0.2, 0.0, 1.0], [0.1, 0.0, 1.5], [0.0, 0.0, 1.2], [0.0, 0.0, 1.2]];
         let tails =
             [[0.0, 0.0, 1.5], [1.0, 0.0, 1.0], [-1.0, 0.0, 1.0], [0.2, 0.0, 1.8], [0.3, 0.0, 1.3], [-0.3, 0.0, 1.3]];
-        let (m, paired, alone) = pair_side_bones_by_place(&heads, &tails, &[0, 1, 2, 3, 4, 5], 0).unwrap();
+        let (m, paired, alone) = pair_side_bones_by_place(&heads, &tails, &[0, 1, 2, 3, 4, 5], 0, 0.0).unwrap();
         assert_eq!(m, vec![0, 2, 1, -1, 5, 4]);
         assert_eq!((paired, alone), (4, 1));
         validate_bone_mirror(&m, 6).unwrap();
         // Named pairs and unpaired side bones are left as they are.
-        let (m, paired, alone) = pair_side_bones_by_place(&heads, &tails, &[0, 2, 1, -1, 5, 4], 0).unwrap();
+        let (m, paired, alone) = pair_side_bones_by_place(&heads, &tails, &[0, 2, 1, -1, 5, 4], 0, 0.0).unwrap();
         assert_eq!((m, paired, alone), (vec![0, 2, 1, -1, 5, 4], 0, 0));
         // Midpoints mirror images but the bones are not (one slopes down and out, the other up
         // and out): both stay unpaired.
         let heads = [[0.0, 0.0, 0.0], [0.3, 0.0, 1.2], [-0.3, 0.0, 0.8]];
         let tails = [[0.0, 0.0, 1.5], [0.7, 0.0, 0.8], [-0.7, 0.0, 1.2]];
-        let (m, paired, alone) = pair_side_bones_by_place(&heads, &tails, &[0, 1, 2], 0).unwrap();
+        let (m, paired, alone) = pair_side_bones_by_place(&heads, &tails, &[0, 1, 2], 0, 0.0).unwrap();
         assert_eq!((m, paired, alone), (vec![0, -1, -1], 0, 2));
     }
 }

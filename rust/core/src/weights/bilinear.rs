@@ -2,10 +2,11 @@
 //! bone towards the connected neighbour across its nearer joint. Smooth across joints, cheap,
 //! and independent of mesh topology (works on point clouds and broken meshes).
 
-use crate::idw::bones_in_frame;
-use crate::influence::{top_k_row, Influences};
-use crate::mesh::{validate_bones, validate_mesh, validate_parents, Frame};
-use crate::segment::closest_point_on_segment;
+use crate::mesh::bones_in_frame;
+use crate::mesh::segment::closest_point_on_segment;
+use crate::mesh::{validate_bones, validate_mesh, Frame};
+use crate::skeleton::validate_parents;
+use crate::weights::influence::{top_k_row, Influences};
 use crate::{Error, Result};
 use rayon::prelude::*;
 

@@ -28,26 +28,14 @@
 //! Known limits: a joint of a straight limb keeps its position along the limb; parity is
 //! unreliable on meshes with large holes.
 
+use crate::mesh::mirror::mirror_point;
+pub use crate::mesh::mirror::Symmetry;
+use crate::mesh::solid::Solid;
 use crate::mesh::{to_dvec, validate_mesh, Frame};
-use crate::sections::{centre_line, inside, pull_inside, Line};
-use crate::solid::Solid;
-use crate::symmetry::mirror_point;
+use crate::skeleton::sections::{centre_line, inside, pull_inside, Line, LineOptions};
 use crate::{Error, Result};
 use glam::{DMat3, DVec3};
 use rayon::prelude::*;
-
-/// Left/right symmetry of the joints.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Symmetry {
-    /// Mirror axis 0/1/2 (X/Y/Z).
-    pub axis: usize,
-    /// Coordinate of the mirror plane along `axis`, in input units.
-    pub plane: f64,
-    /// `(j,)`: the mirror joint of each joint, itself for centre-line joints, -1 for a joint
-    /// with no partner (a side joint whose mirror is missing: fitted on its own). A centre-line
-    /// joint farther than `max_move` from the plane is fitted on its own too.
-    pub mirror: Vec<i32>,
-}
 
 /// Most chord directions per cross-section (far past any gain; bounds the work and memory).
 pub const MAX_RAYS: usize = 1024;
@@ -58,6 +46,10 @@ pub const MAX_SAMPLES: usize = 1024;
 #[derive(Debug, Clone, PartialEq)]
 pub struct FitOptions {
     /// Mirrored pairs end exactly mirrored, centre-line joints on the plane.
+    /// [`Symmetry::mirror`] is `(j,)`: the mirror joint of each joint, itself for centre-line
+    /// joints, -1 for a joint with no partner (a side joint whose mirror is missing: fitted on
+    /// its own). A centre-line joint farther than `max_move` from the plane is fitted on its
+    /// own too.
     pub symmetry: Option<Symmetry>,
     /// Lines (chord directions) per cross-section, 3 ..= [`MAX_RAYS`].
     pub rays: usize,
@@ -166,7 +158,7 @@ fn sym_eigen(m: DMat3) -> Option<([f64; 3], [DVec3; 3])> {
 
 /// Mesh checks in the unit frame: (open edges, non-manifold edges, pieces) after welding.
 fn topology(unit: &[DVec3], triangles: &[[u32; 3]]) -> (usize, usize, usize) {
-    let (map, welded) = crate::weld::weld(unit, WELD);
+    let (map, welded) = crate::mesh::weld::weld(unit, WELD);
     let tris: Vec<[u32; 3]> = triangles
         .iter()
         .map(|t| t.map(|i| map[i as usize]))
@@ -193,7 +185,7 @@ fn topology(unit: &[DVec3], triangles: &[[u32; 3]]) -> (usize, usize, usize) {
         i = j;
     }
     // Pieces among the vertices that triangles use.
-    let (labels, _) = crate::islands::connected_components(welded.len(), &tris);
+    let (labels, _) = crate::mesh::islands::connected_components(welded.len(), &tris);
     let mut used = vec![false; welded.len()];
     for t in &tris {
         for &i in t {
@@ -283,6 +275,13 @@ pub fn fit_joints(
         }
     };
 
+    let line_opts = LineOptions {
+        rays: opts.rays,
+        min_sections: opts.min_sections,
+        samples: opts.samples,
+        stub_ratio: opts.stub_ratio,
+        tip: opts.tip,
+    };
     let fractions: Vec<f64> = (0..opts.samples)
         .map(|s| if opts.samples == 1 { 0.5 } else { 0.2 + 0.6 * s as f64 / (opts.samples - 1) as f64 })
         .collect();
@@ -305,7 +304,7 @@ pub fn fit_joints(
                     return lines[e].clone();
                 }
                 let junction = incident[b[0] as usize].len() >= 3;
-                centre_line(&rm, a, t, junction, &fractions, opts)
+                centre_line(&rm, a, t, junction, &fractions, &line_opts)
             })
             .collect();
         lines_at = p.clone();
@@ -591,7 +590,7 @@ fn exact_mirrors(out: &mut [[f32; 3]], s: &Symmetry, mirror: &[Option<usize>], m
 
 /// Share of the (unit-frame) vertices, at most [`MIRROR_SAMPLES`] evenly strided, whose mirror
 /// image across `plane` on `axis` lies within [`MIRROR_NEAR`] of the surface.
-fn mirrored_share(rm: &crate::visibility::RayMesh, unit: &[[f32; 3]], axis: usize, plane: f64) -> f64 {
+fn mirrored_share(rm: &crate::mesh::visibility::RayMesh, unit: &[[f32; 3]], axis: usize, plane: f64) -> f64 {
     let picks: Vec<&[f32; 3]> = unit.iter().step_by(unit.len().div_ceil(MIRROR_SAMPLES).max(1)).collect();
     let near = picks
         .par_iter()

@@ -16,7 +16,7 @@
 //! shared edge or vertex; the price is that a ray grazing within that band of a silhouette edge
 //! counts as a hit.
 
-use crate::cotan::DEGENERATE_RATIO;
+use crate::mesh::cotan::DEGENERATE_RATIO;
 use glam::Vec3;
 use parry3d::bounding_volume::Aabb;
 use parry3d::partitioning::{Bvh, BvhBuildStrategy, BvhNode, TraversalAction};

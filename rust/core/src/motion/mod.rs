@@ -1,0 +1,13 @@
+//! Motion: what each bone of a rig is (legs, spine, head, tail), and the head-shake, walk and
+//! run clips built on those roles.
+//!
+//! - [`detect_roles`]: legs, spine, neck, head and tail from the joints' layout and the bones'
+//!   names, with the joint tree it reads private in `hierarchy`;
+//! - [`motion_clip`]: per-frame bone rotations (and root motion) of a clip.
+
+pub mod gait;
+mod hierarchy;
+pub mod roles;
+
+pub use gait::{motion_clip, posed_points, Clip, GaitParams, Motion};
+pub use roles::{detect_roles, name_side, BodyPlan, Limb, Roles, Side};

@@ -1,0 +1,18 @@
+//! Skinning weights: for every vertex, the bones that move it and how much.
+//!
+//! - [`heat_weights`]: bone heat (Baran & Popovic 2007), with its stages private in `heat/`;
+//! - [`bilinear_weights`]: nearest-bone weights blended across joints;
+//! - [`idw_weights`]: inverse distance to the bone segments;
+//! - [`Influences`]: the top-k rows all three return, and the small-weight ramp;
+//! - [`symmetry`]: left/right averaging of weights.
+
+pub mod bilinear;
+pub mod heat;
+pub mod idw;
+pub mod influence;
+pub mod symmetry;
+
+pub use bilinear::{bilinear_weights, BilinearOptions, Falloff};
+pub use heat::{heat_weights, heat_weights_many, BoneCurves, HeatOptions, HeatReport, MeshRef};
+pub use idw::{idw_weights, IdwOptions};
+pub use influence::{top_k_normalized, weight_limit, Influences};
