@@ -142,7 +142,8 @@ def head_turn(arm, bone: str, frames) -> float:
     for f in frames:
         scene.frame_set(int(f))
         now = (arm.matrix_world @ arm.pose.bones[bone].matrix).to_quaternion()
-        worst = max(worst, math.degrees(rest.rotation_difference(now).angle))
+        angle = math.degrees(rest.rotation_difference(now).angle) % 360.0   # in [0, 360): q and -q
+        worst = max(worst, min(angle, 360.0 - angle))
     return worst
 
 
