@@ -12,6 +12,8 @@ keyed (``evaluated_get``, world space). ``diag`` is the rest meshes' bounding-bo
 ``ground`` their lowest z.
 
 - moves: the largest vertex displacement from rest, % of diag.
+- deform: the same with each frame's centroid travel taken off (the armature object sliding
+  along moves the mesh but deforms nothing).
 - skate: median over consecutive frame pairs of (mean horizontal step of the vertices within
   0.005 diag of that frame's lowest z in both frames) / (horizontal step of the vertices'
   centroid); 0 = planted feet, 1 = feet slide along with the body.
@@ -23,9 +25,9 @@ keyed (``evaluated_get``, world space). ``diag`` is the rest meshes' bounding-bo
 
 Targets (✓ / ✗ per cell): WALK and RUN finish, moves >= 2, skate <= 0.15, pen. <= 1,
 |float| <= 1; legless rigs refused with "no legs" and nothing keyed; never FINISHED when the
-meshes do not move (moves < 0.1); HEAD_SHAKE finishes, keeps the feet still (< 0.5) and turns
-the head (>= 5 degrees). The operator's INFO report names the roles (head, legs, spine); its
-full role list and warnings are written below the table.
+meshes do not deform (deform < 0.1: no keyed bone moves them); HEAD_SHAKE finishes, keeps the
+feet still (< 0.5) and turns the head (>= 5 degrees). The operator's INFO report names the
+roles (head, legs, spine); its full role list and warnings are written below the table.
 
 Rigs whose files are absent (no ../shared) are skipped with a line saying so. Writes the table
 to stdout and out/motion_corpus.md. Nothing is asserted: a Blender test can import ``measure``
@@ -112,8 +114,8 @@ def skate(points: np.ndarray, diag: float) -> float:
 
 def measure(arm, meshes, frames, rest: dict | None = None) -> dict:
     """Measures of ``meshes`` over ``frames`` against ``rest`` (``rest_of``, taken now when not
-    given, so the rig must then be at rest): moves, skate, pen(etration), float, feet (% of diag
-    but skate) and the per-frame lowest z. ``arm`` is unused here but for symmetry with
+    given, so the rig must then be at rest): moves, deform, skate, pen(etration), float, feet (% of
+    diag but skate) and the per-frame lowest z. ``arm`` is unused here but for symmetry with
     ``head_turn``; frames are scene frames."""
     rest = rest or rest_of(meshes)
     diag, ground, p0 = rest["diag"], rest["ground"], rest["points"]
@@ -124,6 +126,7 @@ def measure(arm, meshes, frames, rest: dict | None = None) -> dict:
     return dict(
         diag=diag, ground=ground, frames=len(frames),
         moves=float(np.linalg.norm(pts - p0, axis=2).max()) * pct,
+        deform=float(np.linalg.norm(pts - p0 - (pts.mean(axis=1) - p0.mean(axis=0))[:, None], axis=2).max()) * pct,
         skate=skate(pts, diag),
         pen=max(0.0, ground - float(low.min())) * pct,
         float=float(np.median(low - ground)) * pct,
@@ -270,11 +273,11 @@ def cells(row: dict, legless: bool) -> dict:
         if held:
             text += f"; warns: {held[0].split(':')[0]}"
     else:
-        text = "CANCELLED: " + shorten(re.sub(r"^Error: ", "", row["error"] or "").replace("\n", " "), 110)
+        text = "CANCELLED: " + shorten(re.sub(r"^Error: ", "", row["error"] or "").replace("\n", " "), 80)
     if legless and gait:
         ok = (not done) and "no legs" in (row["error"] or "") and not row["keyed_any"]
-    elif done and moves is not None and moves < TARGET["inert"]:
-        ok = False   # finished, but nothing the keys move deforms the mesh
+    elif done and row.get("deform") is not None and row["deform"] < TARGET["inert"]:
+        ok = False   # finished, but no keyed bone moves the mesh (at most the object slides)
     else:
         ok = done
     out = dict(result=text + mark(ok), roles=roles_cell(row), secs=f"{row['secs']:.2f}")
@@ -284,7 +287,7 @@ def cells(row: dict, legless: bool) -> dict:
                       pen=row["pen"] <= TARGET["pen"], float=abs(row["float"]) <= TARGET["float"])
     elif done and motion == "HEAD_SHAKE":
         checks = dict(feet=row["feet"] < TARGET["feet"], head=row.get("head", 0.0) >= TARGET["head"])
-    for key in ("moves", "skate", "pen", "float", "feet", "head"):
+    for key in ("moves", "deform", "skate", "pen", "float", "feet", "head"):
         if not done or (key == "feet" and motion != "HEAD_SHAKE") or (key == "head" and motion != "HEAD_SHAKE"):
             out[key] = "–"
         else:
@@ -310,7 +313,7 @@ def roles_cell(row: dict) -> str:
 
 
 COLUMNS = [("rig", "rig"), ("motion", "motion"), ("result", "result"), ("roles", "roles reported"),
-           ("moves", "moves %"), ("skate", "skate"), ("pen", "pen. %"), ("float", "float %"),
+           ("moves", "moves %"), ("deform", "deform %"), ("skate", "skate"), ("pen", "pen. %"), ("float", "float %"),
            ("feet", "feet %"), ("head", "head °"), ("secs", "op s")]
 
 
@@ -321,6 +324,17 @@ def table(rows) -> str:
         c = dict(rig=rig, motion=row["motion"], **cells(row, legless))
         lines.append("| " + " | ".join(str(c[key]).replace("|", "/") for key, _ in COLUMNS) + " |")
     return "\n".join(lines)
+
+
+def summary(rows) -> str:
+    """How many rows meet every target, and which rigs fail one."""
+    failing = {}
+    for rig, legless, row in rows:
+        if any("✗" in str(v) for v in cells(row, legless).values()):
+            failing.setdefault(rig, []).append(row["motion"])
+    met = len(rows) - sum(len(v) for v in failing.values())
+    listed = "; ".join(f"{rig} ({', '.join(m)})" for rig, m in failing.items())
+    return f"Rows meeting every target: {met} of {len(rows)}." + (f" Failing: {listed}." if listed else "")
 
 
 def details(rigs_notes, rows) -> str:
@@ -389,7 +403,7 @@ def main(argv=None) -> None:
             c = cells(row, rig.legless)
             print(f"{name:24s} {motion:10s} {c['result'][:70]:70s} moves {c['moves']:8s} skate {c['skate']:8s} "
                   f"pen {c['pen']:8s} float {c['float']:8s} feet {c['feet']:8s} head {c['head']}", flush=True)
-    text = "\n".join(["## Add Motion on the rig corpus", "", table(rows), ""] + skipped
+    text = "\n".join(["## Add Motion on the rig corpus", "", table(rows), "", summary(rows), ""] + skipped
                      + ["", "## Details", "", details(notes, rows)])
     print()
     print(text)
