@@ -47,6 +47,7 @@
 //! world-up-based axes, so a character lying down is animated as if standing.
 
 use crate::error::{Error, Result};
+use crate::motion::footfalls::{body_drop, foot_offset, foot_turn, leg_turns, planted_legs, swing_progress};
 use crate::motion::roles::{BodyPlan, Limb, Roles, Side};
 use crate::skeleton::validate_parents;
 use glam::{Mat3, Quat, Vec3};
@@ -165,7 +166,7 @@ pub fn posed_points(
 }
 
 /// Forward kinematics as rigid motions: each bone's world rotation from rest and posed head.
-fn posed_frames(
+pub(super) fn posed_frames(
     heads: &[[f32; 3]],
     parents: &[i32],
     rq: &[Quat],
@@ -468,6 +469,8 @@ struct Cadence {
     ankle_amp: f32,
     /// A rising femur's lift in swing (`LegJoints::lift`).
     lift_amp: f32,
+    /// How high a planted leg's ankle rises in swing, in the skeleton's units.
+    foot_lift: f32,
 }
 
 /// The cadence follows a pendulum of the leg's length (assumed in metres; clamped so rigs in
@@ -498,6 +501,7 @@ fn cadence(roles: &Roles, p: &GaitParams) -> Result<Cadence> {
         knee_stance: if run { 15f32 } else { 6.0 }.to_radians(),
         ankle_amp: if run { 30f32 } else { 20.0 }.to_radians(),
         lift_amp: if run { 35f32 } else { 25.0 }.to_radians(),
+        foot_lift: if run { 0.15 } else { 0.08 } * l,
     })
 }
 
@@ -697,6 +701,13 @@ fn gait(
         roles.spine.clone()
     };
 
+    // Legs planted by IK (see `footfalls`); all or none, so the body's height has one rule.
+    let swing_at: Vec<usize> = roles.legs.iter().map(|l| swing_index(heads, tails, l)).collect();
+    let knee_signs: Vec<f32> = legs.iter().map(|j| j.knee.map_or(-1.0, |k| k.1)).collect();
+    let planted = planted_legs(heads, tails, roles, &swing_at, &knee_signs, right);
+    let planted: Option<Vec<_>> = planted.into_iter().collect();
+    let planted = planted.filter(|legs| !legs.is_empty());
+
     let mut poser = new_poser(rest);
     let mut rotations = Vec::with_capacity(c.frames * n);
     let mut locations = vec![[0.0; 3]; c.frames * n];
@@ -717,15 +728,32 @@ fn gait(
         let hips = pose_legs(&mut poser, roles, &legs, &phases, &c, phi, (fwd, right));
         pose_arms(&mut poser, &arms, hips, run, right);
         pose_body(&mut poser, roles, &sway, TAU * phi, run, (up, fwd, right));
+        let travel = if p.root_motion { c.stride * phi } else { 0.0 };
+        let offset = match &planted {
+            Some(plant) => {
+                for limb in &roles.legs {
+                    for &b in &limb.bones {
+                        poser.q[b] = Quat::IDENTITY;
+                    }
+                }
+                let ctx = Planting { heads, carried: &carried, fwd, up, right };
+                plant_legs(&mut poser, &ctx, plant, &phases, &c, phi, travel)
+            }
+            None => {
+                let local: Vec<[f32; 4]> = poser.q.iter().map(|&q| to_wxyz(q)).collect();
+                let on_legs = posed_frames(heads, &carried, &poser.rest, &local, &[], [0.0; 3]);
+                let posed_low = |b: usize| {
+                    let tail = on_legs.1[b] + on_legs.0[b] * (Vec3::from(tails[b]) - hv(b));
+                    on_legs.1[b].z.min(tail.z)
+                };
+                let lift =
+                    feet.iter().zip(&rest_low).map(|(&b, &r)| r - posed_low(b)).fold(f32::NEG_INFINITY, f32::max);
+                fwd * travel + up * lift
+            }
+        };
+        root_offset.push(offset.to_array());
         let mut local: Vec<[f32; 4]> = poser.q.iter().map(|&q| to_wxyz(q)).collect();
         let on_legs = posed_frames(heads, &carried, &poser.rest, &local, &[], [0.0; 3]);
-        let posed_low = |b: usize| {
-            let tail = on_legs.1[b] + on_legs.0[b] * (Vec3::from(tails[b]) - hv(b));
-            on_legs.1[b].z.min(tail.z)
-        };
-        let lift = feet.iter().zip(&rest_low).map(|(&b, &r)| r - posed_low(b)).fold(f32::NEG_INFINITY, f32::max);
-        let travel = if p.root_motion { c.stride * phi } else { 0.0 };
-        root_offset.push((fwd * travel + up * lift).to_array());
         if !roles.riders.is_empty() {
             let real = posed_frames(heads, parents, &poser.rest, &local, &[], [0.0; 3]);
             for &[r, _] in &roles.riders {
@@ -753,6 +781,69 @@ fn gait(
         moves_root: true,
         frames_per_cycle: c.fpc,
     })
+}
+
+/// What planting the legs reads besides the pose: the rest heads, the hierarchy with riding
+/// feet on their legs, and the body axes.
+struct Planting<'a> {
+    heads: &'a [[f32; 3]],
+    carried: &'a [i32],
+    fwd: Vec3,
+    up: Vec3,
+    right: Vec3,
+}
+
+/// Plant the legs at cycle fraction `phi` (see `footfalls`): each ankle's target, the body's
+/// offset (forward `travel`, and down as far as the legs need), then each leg's two bones by
+/// IK and its foot level (stance) or pitched (swing). Returns the root offset.
+fn plant_legs(
+    poser: &mut Poser,
+    ctx: &Planting,
+    legs: &[crate::motion::footfalls::PlantedLeg],
+    phases: &[f32],
+    c: &Cadence,
+    phi: f32,
+    travel: f32,
+) -> Vec3 {
+    let fk = |poser: &Poser, offset: Vec3| {
+        let local: Vec<[f32; 4]> = poser.q.iter().map(|&q| to_wxyz(q)).collect();
+        posed_frames(ctx.heads, ctx.carried, &poser.rest, &local, &[], offset.to_array())
+    };
+    let phs: Vec<f32> = phases.iter().map(|o| (phi + o).fract()).collect();
+    let targets: Vec<Vec3> = legs
+        .iter()
+        .zip(&phs)
+        .map(|(leg, &ph)| {
+            let (ahead, lift) = foot_offset(ph, c.duty, c.stride, c.foot_lift, travel);
+            leg.ankle + ctx.fwd * ahead + ctx.up * lift
+        })
+        .collect();
+    let (_, hips0) = fk(poser, Vec3::ZERO);
+    let reach: Vec<_> = legs.iter().zip(&targets).map(|(leg, &t)| (leg, hips0[leg.upper], t)).collect();
+    let offset = ctx.fwd * travel + ctx.up * body_drop(&reach, ctx.fwd, travel);
+    let turn_to = |poser: &mut Poser, b: usize, world: Quat, parent_turn: Quat| {
+        let rq = poser.rest[b];
+        poser.q[b] = (rq.inverse() * parent_turn.inverse() * world * rq).normalize();
+        poser.touched[b] = true;
+    };
+    let parent_turn = |turns: &[Quat], b: usize| match ctx.carried[b] {
+        p if p >= 0 => turns[p as usize],
+        _ => Quat::IDENTITY,
+    };
+    for ((leg, &target), &ph) in legs.iter().zip(&targets).zip(&phs) {
+        let (turns, posed) = fk(poser, offset);
+        let pelvis = parent_turn(&turns, leg.upper);
+        let (upper, lower) = leg_turns(leg, posed[leg.upper], target, pelvis);
+        turn_to(poser, leg.upper, upper, pelvis);
+        let (turns, _) = fk(poser, offset);
+        turn_to(poser, leg.lower, lower, parent_turn(&turns, leg.lower));
+        if let Some(foot) = leg.foot {
+            let (turns, _) = fk(poser, offset);
+            let world = foot_turn(swing_progress(ph, c.duty), c.ankle_amp, ctx.right);
+            turn_to(poser, foot, world, parent_turn(&turns, foot));
+        }
+    }
+    offset
 }
 
 #[cfg(test)]

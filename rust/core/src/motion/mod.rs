@@ -3,8 +3,10 @@
 //!
 //! - [`detect_roles`]: legs, spine, neck, head and tail from the joints' layout and the bones'
 //!   names, with the joint tree it reads private in `hierarchy`;
-//! - [`motion_clip`]: per-frame bone rotations (and root motion) of a clip.
+//! - [`motion_clip`]: per-frame bone rotations (and root motion) of a clip, with the feet
+//!   planted by its private stage `footfalls`.
 
+mod footfalls;
 pub mod gait;
 mod hierarchy;
 pub mod roles;
