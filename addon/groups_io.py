@@ -2,7 +2,8 @@
 
 Weights are written one of two ways, whichever is cheaper for the object
 (``write_vertex_groups``): a float point attribute converted to a vertex group by Blender's own
-C code (``geometry.attribute_convert``, ~5x faster than a bmesh loop on a big mesh), or
+C code (``geometry.attribute_convert``, which does the per-vertex work that a bmesh loop
+would do in Python), or
 ``VertexGroup.add`` calls for small meshes in scenes of many objects, where every operator
 call's depsgraph rebuild would dominate. Neither stores zero weights. Groups of other bones and
 locked groups are left alone, and the list keeps its order.
@@ -41,9 +42,9 @@ class BoneRows:
         return self.verts[self.start[b]:self.start[b + 1]], self.values[self.start[b]:self.start[b + 1]]
 
 
-# Costs measured with bpy 5.0 on the 2-core machine (scratch timings, see the README): an
-# operator call rebuilds the depsgraph's relations, ~0.1 ms + 15 us per object in the view
-# layer, and converts ~7.5 ns per vertex; ``VertexGroup.add`` costs ~1 us per call.
+# The cost model that picks the cheaper way, in seconds: an operator call's fixed cost, its
+# rebuild of the depsgraph's relations per object in the view layer and its conversion per
+# vertex; one ``VertexGroup.add`` call.
 _OP_CALL_S, _OP_PER_OBJECT_S, _OP_PER_VERTEX_S, _ADD_CALL_S = 1e-4, 1.5e-5, 7.5e-9, 1e-6
 
 
@@ -57,7 +58,7 @@ def write_vertex_groups(ob: bpy.types.Object, names: list[str], rows: BoneRows,
     its place in the list; the mesh keeps its active attribute and its selection. Returns the
     names of locked groups that were kept. Both ways give the same groups; the cheaper one for
     this mesh and scene is used (one operator call per group costs a relations rebuild that
-    grows with the scene: ``bench_weights --parts 400`` took 104 s that way, 0.28 s now).
+    grows with the scene, so many small meshes are written by ``add`` calls).
     """
     order = [g.name for g in ob.vertex_groups]
     held = {b: _locked(ob, names[b]) for b in np.flatnonzero(write)}
@@ -82,8 +83,8 @@ def _keep_order(ob, order):
     """Put ``ob``'s groups back in the list ``order`` (their names before writing; new groups
     follow in the order made), as Blender's Ctrl+P, which rewrites a group in its place, leaves
     them. Rewriting makes a group anew at the end; one Sort by Name over temporary names that
-    sort in the wanted order moves them back (one remap of the weights: moving each group up
-    one step at a time took 2.7 s for 40 groups past 5 others at 103k vertices)."""
+    sort in the wanted order moves them back (one remap of the weights, where moving each
+    group up one step at a time remaps them once per step)."""
     groups = ob.vertex_groups
     index = {name: i for i, name in enumerate(order)}
     now = [g.name for g in groups]
@@ -108,8 +109,7 @@ def _keep_order(ob, order):
 def _convert_hidden(ob, names, rows: BoneRows, groups):
     """``_convert_groups`` with ``ob`` hidden from viewports, keeping the active attribute."""
     # Each bpy.ops call updates the view layer before and after it, which re-evaluates a visible
-    # mesh every time; hidden from viewports it is not evaluated at all (40 groups at 103k
-    # vertices: 0.17 s visible, 0.03 s hidden).
+    # mesh every time; hidden from viewports it is not evaluated at all.
     attrs = ob.data.attributes
     active = attrs.active.name if attrs.active is not None else None
     try:

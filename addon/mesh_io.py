@@ -73,8 +73,8 @@ def _positions(me: bpy.types.Mesh) -> np.ndarray:
 
 def _world(ob: bpy.types.Object, co: np.ndarray) -> np.ndarray:
     """Object-space coordinates (flat or (n, 3)) in world space by ``ob.matrix_world``, (n, 3)
-    float64: in single precision, world points 1e5 m from the origin are 8 mm apart, and a
-    character there lost its detail (``to_armature_frame`` brings them back near 0 first)."""
+    float64: in single precision, world points 1e5 m from the origin are 8 mm apart, too
+    coarse for a character's detail (``to_armature_frame`` brings them back near 0 first)."""
     m = np.array(ob.matrix_world, dtype=np.float64)
     return co.reshape(-1, 3).astype(np.float64) @ m[:3, :3].T + m[:3, 3]
 
@@ -121,8 +121,8 @@ def axis_scales(m) -> np.ndarray:
 def unplaced(*objects) -> str | None:
     """Why one of ``objects`` cannot be read in world space, or None: a NaN or infinite world
     transform (its own location, rotation or scale, a parent's, a constraint's, a driver gone
-    wrong) puts it nowhere. Read as it was, an armature's bones came out NaN and were reported
-    as "zero-length", and Fit stopped with a traceback."""
+    wrong) puts it nowhere. Read as it is, an armature's bones would come out NaN and be
+    reported as "zero-length", and Fit would stop with a traceback."""
     bad = [ob.name for ob in objects if ob is not None and not placed(ob.matrix_world)]
     if not bad:
         return None
@@ -133,8 +133,8 @@ def unplaced(*objects) -> str | None:
 
 def extent(ob: bpy.types.Object) -> float:
     """The diagonal of ``ob``'s bounding box as placed in the world, in double precision
-    (Blender's ``dimensions`` overflow to inf on an armature scaled by 1e30, which made every
-    one of its bones "zero-length")."""
+    (Blender's ``dimensions`` overflow to inf on an armature scaled by 1e30, which would make
+    every one of its bones "zero-length")."""
     m = np.array(ob.matrix_world, dtype=np.float64)
     corners = np.array(ob.bound_box, dtype=np.float64) @ m[:3, :3].T
     return float(np.linalg.norm(np.ptp(corners, axis=0)))

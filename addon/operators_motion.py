@@ -51,7 +51,7 @@ def motion_armature(context: bpy.types.Context) -> bpy.types.Object | None:
 def rest_matrices(arm: bpy.types.Object, names: list[str]) -> np.ndarray:
     """(b, 3, 3) rest orientation of each bone in world space (columns = bone X, Y, Z, of unit
     length: the armature's scale taken out in double precision, as the core's single-precision
-    thresholds took a rig scaled by 1e-15 or 1e25 for one with no axes)."""
+    thresholds would take a rig scaled by 1e-15 or 1e25 for one with no axes)."""
     world = np.array(arm.matrix_world.to_3x3(), dtype=np.float64)
     local = np.array([np.array(arm.data.bones[n].matrix_local.to_3x3()) for n in names],
                      dtype=np.float64).reshape(-1, 3, 3)
@@ -72,7 +72,7 @@ def motion_skeleton(arm: bpy.types.Object, bones) -> tuple[np.ndarray, np.ndarra
     heads, tails = bones.heads - origin, bones.tails - origin
     rest = rest_matrices(arm, bones.names)
     # in double precision: mathutils' single-precision determinant of a mirror scaled by 1e-15
-    # underflows to 0, and the mirror went unseen
+    # underflows to 0, and the mirror would go unseen
     if np.linalg.det(np.array(arm.matrix_world.to_3x3(), dtype=np.float64)) < 0:
         heads[:, 0] *= -1
         tails[:, 0] *= -1
@@ -267,12 +267,12 @@ class MINISKELETON_OT_add_motion(bpy.types.Operator):
 
         heads, tails, rest = motion_skeleton(arm, bones)
         # The cadence follows the leg length in metres: the core gets the skeleton in metres,
-        # by the scene's Unit Scale (in a centimetre scene, 0.01, a creature walked at the
-        # slowest cadence, as if its legs were metres long).
+        # by the scene's Unit Scale (in a centimetre scene, 0.01, a creature would otherwise walk
+        # at the slowest cadence, as if its legs were metres long).
         metres = scene_metres(scene)
         heads, tails = heads * metres, tails * metres
         # The core works in single precision and squares lengths: a skeleton over about 1e19
-        # units overflowed ("the skeleton is flat"). One larger than 1e6 m or smaller than
+        # units overflows ("the skeleton is flat"). One larger than 1e6 m or smaller than
         # 1e-3 m is given at that size, by a power of two (exact), and the offsets scaled back;
         # the cadence is clamped there all the same.
         size = float(np.linalg.norm(np.ptp(np.concatenate([heads, tails]).astype(np.float64), axis=0)))

@@ -66,7 +66,7 @@ class MINISKELETON_OT_bake_puppet(bpy.types.Operator):
         scene = context.scene
         wm = context.window_manager
         frames = scene_frames(scene)
-        wm.progress_begin(0, len(frames))  # each frame is evaluated and solved: 0.36 s for 1000 frames
+        wm.progress_begin(0, len(frames))  # each frame is evaluated and solved
         try:
             n = bake_puppet(scene, rig, frames, progress=wm.progress_update)
         except PuppetError as err:

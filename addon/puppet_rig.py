@@ -51,7 +51,7 @@ def scene_puppets(scene: bpy.types.Scene) -> list[bpy.types.Object]:
 
 def puppet_rods(rig: bpy.types.Object) -> dict[str, bpy.types.Object]:
     """{role: rod} of ``rig``'s rods that are still in a scene: one deleted in the viewport
-    stays in the file while the rig refers to it, and the limb went on following it unseen."""
+    stays in the file while the rig refers to it, and the limb would go on following it unseen."""
     rods = rig.get(RODS_KEY) or {}
     return {role: ob for role, ob in rods.items() if isinstance(ob, bpy.types.Object) and ob.users_scene}
 

@@ -66,8 +66,8 @@ def compute_weights(core, settings: dict, bones, inputs, progress):
 
 
 # Heat solves seam groups of at most this many vertices each in calls of this many vertices in
-# all to ``core.heat_weights_many`` (both cores busy, progress and Esc between calls): 400
-# objects of 74 vertices on 2 cores, the core's part 0.10 s one call per object, 0.04 s batched.
+# all to ``core.heat_weights_many`` (both cores busy, progress and Esc between calls): many
+# small objects share a call instead of paying one call's overhead each.
 BATCH_VERTICES = 20_000
 CALL_VERTICES = 100_000
 
@@ -158,7 +158,7 @@ def seam_groups(core, inputs) -> list[list[int]]:
 
 
 # Meshes with at least this many vertices in total are computed on a worker thread when the
-# operator is invoked from the UI (about 0.2 s of Heat on 2 cores): Esc cancels them.
+# operator is invoked from the UI: Esc cancels them.
 BACKGROUND_VERTICES = 50_000
 
 
