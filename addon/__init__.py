@@ -1,8 +1,8 @@
 """MiniSkeleton: automatic skinning, skeleton fitting and puppet IK backed by a Rust core.
 
 This file only registers; see operators_*.py (operators), ui.py (menus and panels),
-mesh_io.py (Blender data to arrays and back), keys.py (keyframes in bulk) and puppet_live.py
-(the handlers that solve shadow puppets live).
+common/ (Blender data to arrays and back, keyframes in bulk) and puppet_live.py (the handlers
+that solve shadow puppets live).
 """
 
 from . import operators_motion, operators_puppet, operators_skeleton, operators_weights, puppet_live, ui

@@ -18,10 +18,14 @@ import numpy as np
 from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty, StringProperty
 from mathutils import Matrix, Quaternion, Vector
 
-from . import mesh_io
+from .common.armatures import armature_bones
+from .common.files import make_folder
+from .common.keys import (action_fcurves, action_frame, key_rotation, key_series, keyed_action, rotation_path,
+                          rotation_series, value_at)
+from .common.reports import name_list, read_only, unplaced
+from .common.transforms import axis_scales, extent, inverse
 from .filming import (ENGINES, add_camera, add_follow_camera, add_light, character_objects, default_video_path,
                       kept_render_settings, motion_boxes, set_engine, set_mp4, union_box)
-from .keys import action_fcurves, action_frame, key_rotation, key_series, rotation_path, rotation_series, value_at
 
 MOTIONS = [
     ("HEAD_SHAKE", "Head Shake", "Neck and head yaw back and forth; ears and other head children follow"),
@@ -142,7 +146,7 @@ def animated_pose_bones(fcurves, paths: tuple[str, ...] = ROT_PATHS) -> set[str]
 def describe_roles(roles: dict, names: list[str]) -> list[str]:
     """One line per role: 'head: head (+ jaw, ear.L, ear.R)'."""
     def n(ids):  # a rig with hundreds of hair bones gets a dozen names and the count
-        listed = mesh_io.name_list([names[i] for i in ids], 12)
+        listed = name_list([names[i] for i in ids], 12)
         return (f"{listed} ({len(ids)} in all)" if len(ids) > 12 else listed) or "-"
 
     lines = [f"body: {roles['plan']}", f"root: {names[roles['root']]}", f"spine: {n(roles['spine'])}",
@@ -245,16 +249,16 @@ class MINISKELETON_OT_add_motion(bpy.types.Operator):
         if arm.mode == "EDIT":
             self.report({"ERROR"}, f"Armature '{arm.name}' is in Edit Mode: switch to Object or Pose Mode")
             return None
-        locked = mesh_io.read_only(arm, mesh_io.keyed_action(arm))
+        locked = read_only(arm, keyed_action(arm))
         if locked:
             self.report({"ERROR"}, locked)
             return None
-        unplaced = mesh_io.unplaced(arm)
-        if unplaced:
-            self.report({"ERROR"}, unplaced)
+        nowhere = unplaced(arm)
+        if nowhere:
+            self.report({"ERROR"}, nowhere)
             return None
-        scale = max(mesh_io.extent(arm), 1e-30)
-        bones = mesh_io.armature_bones(arm, min_length=1e-6 * scale)
+        scale = max(extent(arm), 1e-30)
+        bones = armature_bones(arm, min_length=1e-6 * scale)
         if len(bones.names) < 3:
             self.report({"ERROR"}, f"Armature '{arm.name}' has too few deform bones for a motion")
             return None
@@ -293,7 +297,7 @@ class MINISKELETON_OT_add_motion(bpy.types.Operator):
     def _warn(self, arm, keyed: set[str]):
         """Warnings on what keeps the ``keyed`` bones' motion from showing as keyed: uneven
         scale, rotation drivers, Rest Position, constraints."""
-        scale = mesh_io.axis_scales(arm.matrix_world)   # a mirror's negative scale is even
+        scale = axis_scales(arm.matrix_world)   # a mirror's negative scale is even
         if max(scale) > 1.001 * min(scale):
             self.report({"WARNING"}, f"Armature '{arm.name}' is scaled unevenly ({scale[0]:.3g}, {scale[1]:.3g}, "
                         f"{scale[2]:.3g}): its bones shear as they turn, so the motion looks stretched; "
@@ -301,7 +305,7 @@ class MINISKELETON_OT_add_motion(bpy.types.Operator):
         driven = sorted(driven_rotation_bones(arm) & keyed)
         if driven:
             self.report({"WARNING"}, f"{len(driven)} keyed bone(s) have rotation drivers, which "
-                        f"override their keys: {mesh_io.name_list(driven, 6)}")
+                        f"override their keys: {name_list(driven, 6)}")
         if arm.data.pose_position == "REST":
             self.report({"WARNING"}, f"Armature '{arm.name}' shows its Rest Position, so the motion does not "
                         "show: switch to Pose Position (Armature properties > Pose Position)")
@@ -310,7 +314,7 @@ class MINISKELETON_OT_add_motion(bpy.types.Operator):
         if held:
             named = [f"{n} ({constrained[n]})" for n in held]
             self.report({"WARNING"}, f"{len(held)} keyed bone(s) follow constraints that override their keys: "
-                        f"{mesh_io.name_list(named, 6)}; mute those constraints (or set their influence to 0) "
+                        f"{name_list(named, 6)}; mute those constraints (or set their influence to 0) "
                         "to see the motion")
 
     def write_keys(self, context, arm, names, out, start) -> int:
@@ -330,7 +334,7 @@ class MINISKELETON_OT_add_motion(bpy.types.Operator):
         # legs by location keys; the core gives them in world units
         located = [int(b) for b in out["located"]]
         located_before = keyed_location_bones(arm) - {root_pb.name}
-        unit = float(np.mean(mesh_io.axis_scales(arm.matrix_world)))
+        unit = float(np.mean(axis_scales(arm.matrix_world)))
 
         if earlier is not None:
             # bones this motion keys for the first time hold their pose until it starts
@@ -410,11 +414,11 @@ class MINISKELETON_OT_add_motion(bpy.types.Operator):
     def root_axes(arm, root_pb) -> tuple[Matrix, Matrix] | None:
         """(world offset -> the root pose bone's location space, and back); None when it cannot
         translate (connected, or a singular frame), or when the rig is several trees: then the
-        object moves instead. Inverted in double precision (``mesh_io.inverse``)."""
+        object moves instead. Inverted in double precision (``inverse``)."""
         if root_pb.bone.use_connect:
             return None
         m = np.array(arm.matrix_world.to_3x3(), dtype=np.float64) @ np.array(root_pb.bone.matrix_local.to_3x3())
-        inv = mesh_io.inverse(m)
+        inv = inverse(m)
         if inv is None:
             return None
         return Matrix(inv.tolist()), Matrix(m.tolist())
@@ -465,7 +469,7 @@ class MINISKELETON_OT_make_video(bpy.types.Operator):
         path = Path(bpy.path.abspath(self.filepath)) if self.filepath else default_video_path(scene)
         if path.suffix.lower() != ".mp4":
             path = path.with_suffix(".mp4")
-        why = mesh_io.make_folder(path)
+        why = make_folder(path)
         if why is None and not os.access(path.parent, os.W_OK):
             why = "its folder is not writable"
         if why is not None:
@@ -482,7 +486,7 @@ class MINISKELETON_OT_make_video(bpy.types.Operator):
             boxes = motion_boxes(scene, objects)
             if not boxes:
                 self.report({"ERROR"}, "Nothing to film: the objects to frame have a NaN or infinite "
-                            f"transform or shape: {mesh_io.name_list([ob.name for ob in objects])} "
+                            f"transform or shape: {name_list([ob.name for ob in objects])} "
                             "(Object Properties > Transform)")
                 return {"CANCELLED"}
             aspect = self.resolution_x / self.resolution_y

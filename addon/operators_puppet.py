@@ -12,7 +12,9 @@ import bpy
 from bpy.props import BoolProperty, EnumProperty, FloatProperty, StringProperty
 from bpy_extras.io_utils import ImportHelper
 
-from . import mesh_io, puppet
+from . import puppet
+from .common.keys import keyed_action
+from .common.reports import in_edit_mode, read_only
 from .puppet_build import build_puppet, set_part_image
 from .puppet_live import PuppetError, bake_puppet, scene_frames
 from .puppet_rig import GAPS, LIVE_KEY, PART_KEY, puppet_gaps, puppet_poll, puppet_rig, puppet_rods
@@ -59,7 +61,7 @@ class MINISKELETON_OT_bake_puppet(bpy.types.Operator):
 
     def execute(self, context):
         rig = puppet_rig(context.active_object)
-        locked = mesh_io.read_only(rig, mesh_io.keyed_action(rig))
+        locked = read_only(rig, keyed_action(rig))
         if locked:
             self.report({"ERROR"}, locked)
             return {"CANCELLED"}
@@ -105,7 +107,7 @@ class MINISKELETON_OT_set_part_image(bpy.types.Operator, ImportHelper):
             self.report({"ERROR"}, "Select a bone of the puppet (Pose Mode) first")
             return {"CANCELLED"}
         part = next((ob for ob in rig.children if ob.get(PART_KEY) == name), None)
-        locked = mesh_io.read_only(part) or (part is not None and mesh_io.in_edit_mode([part]))
+        locked = read_only(part) or (part is not None and in_edit_mode([part]))
         if locked:
             self.report({"ERROR"}, locked)
             return {"CANCELLED"}

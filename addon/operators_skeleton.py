@@ -2,7 +2,7 @@
 and rig exchange (NPZ bundle export/import, debug JSON export).
 
 Fitting is computed by ``miniskeleton_core.fit_joints`` in the armature's frame (its axes and
-origin at world size, ``mesh_io.armature_frame``: X symmetry is the armature's x = 0, and a scaled
+origin at world size, ``armature_frame``: X symmetry is the armature's x = 0, and a scaled
 armature does not stretch the mesh's cross-sections); rest-pose snapshots and file formats live in rig_io.py.
 """
 
@@ -15,8 +15,11 @@ import numpy as np
 from bpy.props import EnumProperty, FloatProperty, IntProperty, StringProperty
 from bpy_extras.io_utils import ExportHelper, ImportHelper
 
-from . import mesh_io, rig_io
-from .operators_weights import find_armature
+from . import rig_io
+from .common.armatures import find_armature, invented_tails, pose_flag, rest_pose
+from .common.meshes import shaped_world_mesh, stack_meshes
+from .common.reports import in_edit_mode, name_list, read_only, unplaced
+from .common.transforms import armature_frame, to_armature_frame
 
 
 def _selected_meshes(context, arm):
@@ -52,7 +55,7 @@ def _editable_armature(op, arm, need_bones=True):
     """``_armature_check``, and the armature can be changed (not linked from a library)."""
     if not _armature_check(op, arm, need_bones):
         return False
-    locked = mesh_io.read_only(arm, arm.data)
+    locked = read_only(arm, arm.data)
     if locked:
         op.report({"ERROR"}, locked)
         return False
@@ -153,15 +156,15 @@ class MINISKELETON_OT_fit_skeleton(bpy.types.Operator):
         if not meshes:
             self.report({"ERROR"}, "No mesh selected: select the mesh(es), then the armature (active)")
             return None
-        editing = mesh_io.in_edit_mode(meshes) or mesh_io.unplaced(*meshes)
+        editing = in_edit_mode(meshes) or unplaced(*meshes)
         if editing:
             self.report({"ERROR"}, editing)
             return None
         parts, faceless = [], []
         # Bone-parented parts are read where they are in the rest pose, as the bones are.
-        with mesh_io.rest_pose(arm, meshes):
+        with rest_pose(arm, meshes):
             for ob in meshes:
-                v, t = mesh_io.shaped_world_mesh(ob)
+                v, t = shaped_world_mesh(ob)
                 v = v.astype(np.float64)
                 if len(v) == 0 or len(t) == 0:
                     faceless.append(ob.name)
@@ -170,14 +173,14 @@ class MINISKELETON_OT_fit_skeleton(bpy.types.Operator):
                 if bad:
                     self.report({"ERROR"}, f"Mesh '{ob.name}' has {bad} vertices with NaN or infinite coordinates")
                     return None
-                parts.append((mesh_io.to_armature_frame(arm, v), t))
+                parts.append((to_armature_frame(arm, v), t))
         if not parts:
             self.report({"ERROR"}, f"Mesh '{faceless[0]}' has no faces: fitting needs a closed surface")
             return None
         if faceless:
             self.report({"WARNING"}, f"Skipped {len(faceless)} mesh(es) without faces: "
-                        f"{mesh_io.name_list(sorted(faceless))}")
-        return mesh_io.stack_meshes(parts)
+                        f"{name_list(sorted(faceless))}")
+        return stack_meshes(parts)
 
     def execute(self, context):
         import miniskeleton_core as core
@@ -185,13 +188,13 @@ class MINISKELETON_OT_fit_skeleton(bpy.types.Operator):
         arm = find_armature(context)
         if not _editable_armature(self, arm):
             return {"CANCELLED"}
-        unplaced = mesh_io.unplaced(arm)
-        if unplaced:
-            self.report({"ERROR"}, unplaced + "; nothing was changed")
+        nowhere = unplaced(arm)
+        if nowhere:
+            self.report({"ERROR"}, nowhere + "; nothing was changed")
             return {"CANCELLED"}
         # Bones are stored in armature space, the mesh is read in the armature's frame: the
         # stretch S (the armature's scale) maps one to the other, p_frame = S p_armature.
-        _, stretch, _ = mesh_io.armature_frame(arm)
+        _, stretch, _ = armature_frame(arm)
         sv = np.linalg.svd(stretch, compute_uv=False)
         if not sv.min() > 1e-9 * sv.max():
             self.report({"ERROR"}, f"Armature '{arm.name}' has a zero scale: set its Scale (Object "
@@ -202,7 +205,7 @@ class MINISKELETON_OT_fit_skeleton(bpy.types.Operator):
             return {"CANCELLED"}
         verts, tris = inputs
         mode = arm.mode
-        pose_sel = {b.name: mesh_io.pose_flag(arm, b, "select") for b in arm.data.bones} if mode == "POSE" else {}
+        pose_sel = {b.name: pose_flag(arm, b, "select") for b in arm.data.bones} if mode == "POSE" else {}
 
         # Read and fit without entering Edit Mode: an error leaves the armature exactly as it was
         # (Edit Mode would re-evaluate its action, dropping a pose the rigger has not keyed).
@@ -224,7 +227,7 @@ class MINISKELETON_OT_fit_skeleton(bpy.types.Operator):
 
         joints_f = joints @ stretch  # S is symmetric
         real = ends[:, 0] != ends[:, 1]
-        follow = self.tails == "FOLLOW" or (self.tails == "AUTO" and mesh_io.invented_tails(bones))
+        follow = self.tails == "FOLLOW" or (self.tails == "AUTO" and invented_tails(bones))
         fit_j, fit_bones, mirror = _fit_graph(ends, real, parents, follow, names)
         kw = {}
         if self.symmetry == "X":
@@ -316,9 +319,9 @@ class MINISKELETON_OT_restore_skeleton(bpy.types.Operator):
         # Bones added or renamed since lose their pose-bone settings: say which (Ctrl+Z undoes).
         changes = []
         if removed:
-            changes.append(f"removed {len(removed)} bone(s) added or renamed since: {mesh_io.name_list(removed)}")
+            changes.append(f"removed {len(removed)} bone(s) added or renamed since: {name_list(removed)}")
         if made:
-            changes.append(f"made again {len(made)} deleted or renamed: {mesh_io.name_list(made)}")
+            changes.append(f"made again {len(made)} deleted or renamed: {name_list(made)}")
         if changes:
             self.report({"WARNING"}, f"{done}; {'; '.join(changes)} (Ctrl+Z to undo)")
         else:
@@ -354,9 +357,9 @@ def _rig_context(op, context):
     if not meshes:
         op.report({"ERROR"}, "No mesh: select the skinned mesh(es) or bind a mesh to the armature")
         return None
-    unplaced = mesh_io.unplaced(arm, *meshes)   # world-space vertices and joints would be NaN
-    if unplaced:
-        op.report({"ERROR"}, unplaced + "; nothing was written")
+    nowhere = unplaced(arm, *meshes)   # world-space vertices and joints would be NaN
+    if nowhere:
+        op.report({"ERROR"}, nowhere + "; nothing was written")
         return None
     for ob in meshes:  # export what the rigger sees, edits made in Edit Mode included
         if ob.mode == "EDIT":
@@ -407,7 +410,7 @@ class MINISKELETON_OT_import_npz(bpy.types.Operator, ImportHelper):
         meshes = [ob for ob in context.selected_objects if ob.type == "MESH"]
         if not meshes and context.active_object is not None and context.active_object.type == "MESH":
             meshes = [context.active_object]
-        locked = mesh_io.read_only(*[ob.data for ob in meshes]) or mesh_io.in_edit_mode(meshes)
+        locked = read_only(*[ob.data for ob in meshes]) or in_edit_mode(meshes)
         if locked:
             self.report({"ERROR"}, locked + "; nothing was changed")
             return {"CANCELLED"}

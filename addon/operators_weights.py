@@ -19,7 +19,15 @@ import bpy
 import numpy as np
 from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty
 
-from . import groups_io, mesh_io
+from .common.armatures import Bones, armature_bones, bbone_curves, find_armature
+from .common.groups import BoneRows, write_vertex_groups
+from .common.meshes import mesh_polygons, mesh_triangles, mesh_world_vertices, paint_mask
+from .common.mirror import bone_mirror_indices
+from .common.modifiers import (ensure_armature_modifier, idle_armature_modifiers, other_armature_modifiers,
+                               smoothing_modifier)
+from .common.objects import parent_keep_transform
+from .common.reports import in_edit_mode, name_list, read_only, unplaced
+from .common.transforms import extent, to_armature_frame
 from .weights_compute import BACKGROUND_VERTICES, WeightsError, WeightsJob, compute_weights
 
 METHODS = [
@@ -31,23 +39,6 @@ METHODS = [
      "the nearer joint"),
     ("IDW", "Inverse Distance", "Inverse-distance weights to every bone segment, top influences kept"),
 ]
-
-
-def find_armature(context: bpy.types.Context) -> bpy.types.Object | None:
-    """The active armature; else a selected one; else the active mesh's Armature modifier or parent."""
-    active = context.active_object
-    if active is not None and active.type == "ARMATURE":
-        return active
-    for ob in context.selected_objects:
-        if ob.type == "ARMATURE":
-            return ob
-    if active is not None and active.type == "MESH":
-        for mod in active.modifiers:
-            if mod.type == "ARMATURE" and mod.object is not None:
-                return mod.object
-        if active.parent is not None and active.parent.type == "ARMATURE":
-            return active.parent
-    return None
 
 
 def find_meshes(context: bpy.types.Context) -> list[bpy.types.Object]:
@@ -65,7 +56,7 @@ class Prepared(NamedTuple):
     [(mesh, name, vertices, triangles)], linked duplicates [(mesh, the mesh it shares data
     with)] and Weight Paint masks {mesh: ((n,) bool, mask name)}."""
     arm: bpy.types.Object
-    bones: mesh_io.Bones
+    bones: Bones
     inputs: list
     linked: list
     masks: dict
@@ -157,32 +148,32 @@ class MINISKELETON_OT_auto_weights(bpy.types.Operator):
         others = [ob.name for ob in context.selected_objects if ob.type != "MESH" and ob != arm]
         if others:
             self.report({"WARNING"}, f"Skipped {len(others)} selected object(s) that are not meshes: "
-                        f"{mesh_io.name_list(sorted(others))} (Object > Convert > Mesh to weight them)")
+                        f"{name_list(sorted(others))} (Object > Convert > Mesh to weight them)")
         empty = [ob for ob in meshes if len(ob.data.vertices) == 0]
         if len(empty) == len(meshes):
             self.report({"ERROR"}, f"Mesh '{empty[0].name}' has no vertices; nothing was changed")
             return None
         if empty:
             self.report({"WARNING"}, f"Skipped {len(empty)} selected mesh(es) without vertices: "
-                        f"{mesh_io.name_list(sorted(ob.name for ob in empty))}")
+                        f"{name_list(sorted(ob.name for ob in empty))}")
             meshes = [ob for ob in meshes if ob not in empty]
-        locked = mesh_io.read_only(*[b for ob in meshes for b in (ob, ob.data)])
+        locked = read_only(*[b for ob in meshes for b in (ob, ob.data)])
         if locked:
             self.report({"ERROR"}, locked + "; nothing was changed")
             return None
-        editing = mesh_io.in_edit_mode(meshes)
+        editing = in_edit_mode(meshes)
         if editing:
             self.report({"ERROR"}, editing)
             return None
-        unplaced = mesh_io.unplaced(arm, *meshes)
-        if unplaced:
-            self.report({"ERROR"}, unplaced + "; nothing was changed")
+        nowhere = unplaced(arm, *meshes)
+        if nowhere:
+            self.report({"ERROR"}, nowhere + "; nothing was changed")
             return None
-        scale = max(mesh_io.extent(arm), 1e-30)
+        scale = max(extent(arm), 1e-30)
         # Weight Paint > Weights works like Blender's Assign Automatic from Bones there: hidden
         # bones take no part, and the selected (visible) bones are the ones written.
         painting = context.mode == "PAINT_WEIGHT"
-        bones = mesh_io.armature_bones(arm, min_length=1e-6 * scale, weight_paint=painting)
+        bones = armature_bones(arm, min_length=1e-6 * scale, weight_paint=painting)
         if not bones.names:
             what = ("has only hidden deform bones, which Weight Paint mode leaves out: unhide some "
                     "(Pose Mode, Alt+H)" if bones.hidden else
@@ -193,7 +184,7 @@ class MINISKELETON_OT_auto_weights(bpy.types.Operator):
             bones = self._weight_paint_selection(context.active_object, bones)
         if bones.skipped:
             self.report({"WARNING"}, f"Skipped {len(bones.skipped)} zero-length bone(s): "
-                        + mesh_io.name_list(bones.skipped))
+                        + name_list(bones.skipped))
         if self.selected_bones_only and not bones.selected.any():
             self.report({"ERROR"}, "Selected Bones Only is on, but no deform bone is selected")
             return None
@@ -207,7 +198,7 @@ class MINISKELETON_OT_auto_weights(bpy.types.Operator):
             self.selected_bones_only = True
         if not (self.selected_bones_only and painted.type == "MESH" and painted.data.use_mirror_x):
             return bones
-        partners = mesh_io.bone_mirror_indices(bones.names)[bones.selected]
+        partners = bone_mirror_indices(bones.names)[bones.selected]
         selected = bones.selected.copy()
         selected[partners[partners >= 0]] = True
         return dataclasses.replace(bones, selected=selected)
@@ -216,20 +207,20 @@ class MINISKELETON_OT_auto_weights(bpy.types.Operator):
 
     def _prepare(self, context):
         """Validate and read every input (``Prepared``) or return None (reported). Vertices and
-        bones are given in the armature's frame (``mesh_io.to_armature_frame``), not world."""
+        bones are given in the armature's frame (``to_armature_frame``), not world."""
         checked = self._validate(context)
         if checked is None:
             return None
         arm, meshes, bones = checked
         if self.method == "HEAT":  # B-Bones are weighted along their rest curve, as by Ctrl+P
-            points, owners = mesh_io.bbone_curves(arm, bones.names)
+            points, owners = bbone_curves(arm, bones.names)
             bones = dataclasses.replace(bones, curve_points=points, curve_bones=owners)
         # Every method works in the armature's frame, moved there in double precision: X
         # symmetry is about the armature's x = 0 (as for Fit), and the core's single precision
         # keeps a character 1e5 m from the world origin only 8 mm apart (its weights changed).
-        bones = dataclasses.replace(bones, heads=mesh_io.to_armature_frame(arm, bones.heads),
-                                    tails=mesh_io.to_armature_frame(arm, bones.tails),
-                                    curve_points=mesh_io.to_armature_frame(arm, bones.curve_points))
+        bones = dataclasses.replace(bones, heads=to_armature_frame(arm, bones.heads),
+                                    tails=to_armature_frame(arm, bones.tails),
+                                    curve_points=to_armature_frame(arm, bones.curve_points))
         inputs = []
         # Linked duplicates (Alt+D) share one mesh, and Blender keeps vertex weights in the
         # mesh: compute them once, on the first of those objects; the others get the modifier.
@@ -241,7 +232,7 @@ class MINISKELETON_OT_auto_weights(bpy.types.Operator):
             owner[ob.data] = ob
             # Weight Paint with a selection mask re-weights the selected vertices only, as
             # Blender's Assign Automatic from Bones does; the whole mesh is still solved.
-            picked, mask = mesh_io.paint_mask(ob)
+            picked, mask = paint_mask(ob)
             if picked is not None:
                 if not picked.any():
                     self.report({"ERROR"}, f"Weight Paint {mask} mask is on, but no vertex of '{ob.name}' "
@@ -249,23 +240,23 @@ class MINISKELETON_OT_auto_weights(bpy.types.Operator):
                                 "nothing was changed")
                     return None
                 masks[ob] = (picked, mask)
-            verts = mesh_io.mesh_world_vertices(ob)
+            verts = mesh_world_vertices(ob)
             bad = int((~np.isfinite(verts)).any(axis=1).sum())
             if bad:
                 self.report({"ERROR"}, f"Mesh '{ob.name}' has {bad} vertices with NaN or infinite "
                             "coordinates; nothing was changed")
                 return None
-            verts = mesh_io.to_armature_frame(arm, verts)
-            smoothing = mesh_io.smoothing_modifier(ob)
+            verts = to_armature_frame(arm, verts)
+            smoothing = smoothing_modifier(ob)
             if smoothing is not None:
                 # A subdivided cage is weighted where its vertices lie on the smooth surface,
                 # as Ctrl+P does (Catmull-Clark is affine: any frame is as good as its own).
                 import miniskeleton_core as core
 
                 verts = core.catmull_clark_limit(
-                    verts, *mesh_io.mesh_polygons(ob),
+                    verts, *mesh_polygons(ob),
                     keep_corners=smoothing.boundary_smooth == "PRESERVE_CORNERS")
-            tris = mesh_io.mesh_triangles(ob) if self.method == "HEAT" else None
+            tris = mesh_triangles(ob) if self.method == "HEAT" else None
             inputs.append((ob, ob.name, verts, tris))
         return Prepared(arm, bones, inputs, linked, masks)
 
@@ -274,7 +265,7 @@ class MINISKELETON_OT_auto_weights(bpy.types.Operator):
         return dict(method=self.method, k=self.max_influences, power=self.power, nearest=self.nearest,
                     falloff="gaussian" if self.falloff == "GAUSSIAN" else "inverse_power",
                     sigma=self.sigma if self.sigma > 0 else None, visibility=self.visibility,
-                    mirror=mesh_io.bone_mirror_indices(bones.names) if self.symmetry == "X" else None,
+                    mirror=bone_mirror_indices(bones.names) if self.symmetry == "X" else None,
                     parents=bones.parents if self._reach_children(bones) else None)
 
     def _reach_children(self, bones) -> bool:
@@ -289,28 +280,28 @@ class MINISKELETON_OT_auto_weights(bpy.types.Operator):
         write = bones.selected if self.selected_bones_only else np.ones(len(bones.names), bool)
         kept_locked, partial = set(), []
         for ob, i, w in results:
-            rows = groups_io.BoneRows(i, w, len(bones.names))
+            rows = BoneRows(i, w, len(bones.names))
             picked, mask = masks.get(ob, (None, ""))
-            kept_locked.update(groups_io.write_vertex_groups(ob, bones.names, rows, write, only=picked))
+            kept_locked.update(write_vertex_groups(ob, bones.names, rows, write, only=picked))
             if picked is not None:
                 partial.append(f"only the {int(picked.sum())} of {len(picked)} vertices of '{ob.name}' "
                                f"selected for the Weight Paint {mask} mask")
         written = [r[0] for r in results] + [ob for ob, _ in linked]
         loops = []
         for ob in written:
-            mesh_io.ensure_armature_modifier(ob, arm)
-            if not mesh_io.parent_keep_transform(ob, arm):
+            ensure_armature_modifier(ob, arm)
+            if not parent_keep_transform(ob, arm):
                 loops.append(ob.name)
         if loops:
-            notes.append(f"'{arm.name}' is a child of {mesh_io.name_list(loops)}, so they were not parented "
+            notes.append(f"'{arm.name}' is a child of {name_list(loops)}, so they were not parented "
                          "to it (a loop); their Armature modifier deforms them all the same")
         for ob in written:
-            idle = mesh_io.idle_armature_modifiers(ob, arm)
+            idle = idle_armature_modifiers(ob, arm)
             if idle:
                 notes.append(f"'{ob.name}': its Armature modifier {', '.join(idle)} for '{arm.name}' has Vertex "
                              "Groups off or is disabled, so the new weights do not deform it (turn them on in "
                              "the Modifier Properties)")
-            others = mesh_io.other_armature_modifiers(ob, arm)
+            others = other_armature_modifiers(ob, arm)
             if others:
                 notes.append(f"'{ob.name}' also has Armature modifier(s) {', '.join(others)} for another "
                              "armature, left as they were: they deform it too (remove or disable them "
@@ -327,9 +318,9 @@ class MINISKELETON_OT_auto_weights(bpy.types.Operator):
         if partial:
             msg += "; re-weighted " + ", ".join(partial)
         if bones.hidden:
-            msg += f"; hidden bones left out, their groups kept: {mesh_io.name_list(bones.hidden)}"
+            msg += f"; hidden bones left out, their groups kept: {name_list(bones.hidden)}"
         if kept_locked:
-            notes.append(f"locked groups kept: {mesh_io.name_list(sorted(kept_locked))}")
+            notes.append(f"locked groups kept: {name_list(sorted(kept_locked))}")
         for note in notes:
             self.report({"WARNING"}, note)
         self.report({"INFO"}, msg)

@@ -20,8 +20,10 @@ import bpy
 from bpy.app.handlers import persistent
 from mathutils import Euler, Matrix, Vector
 
-from . import mesh_io, puppet
-from .keys import key_series, rotation_path, rotation_series
+from . import puppet
+from .common.keys import key_series, rotation_path, rotation_series
+from .common.reports import name_list
+from .common.transforms import axis_scales, inverse, placed
 from .puppet_rig import GAPS, KIND_KEY, LIVE_KEY, SEED_KEY, puppet_gaps, puppet_rods, scene_puppets
 
 
@@ -136,16 +138,16 @@ def _plane_inverse(rig: bpy.types.Object, rods: dict) -> Matrix:
     finite places (a driver or constraint gone wrong can give NaN) and that the rig's scale is
     not zero on an axis (its picture plane has no inverse). PuppetError names what is wrong."""
     m = rig.matrix_world
-    if not mesh_io.placed(m):
+    if not placed(m):
         raise PuppetError(f"Puppet '{rig.name}' has no finite place (NaN or infinite transform)")
-    inv = mesh_io.inverse(m)   # in double precision, as a tiny puppet's needs
+    inv = inverse(m)   # in double precision, as a tiny puppet's needs
     if inv is None:
-        scales = ", ".join(f"{x:.3g}" for x in mesh_io.axis_scales(m))
+        scales = ", ".join(f"{x:.3g}" for x in axis_scales(m))
         raise PuppetError(f"Puppet '{rig.name}' is scaled to zero on an axis ({scales}): "
                           "set its scale (Object > Transform)")
-    bad = sorted(rod.name for rod in rods.values() if not mesh_io.placed(rod.matrix_world))
+    bad = sorted(rod.name for rod in rods.values() if not placed(rod.matrix_world))
     if bad:
-        raise PuppetError(f"Puppet '{rig.name}': rod(s) {mesh_io.name_list(bad)} have no finite place "
+        raise PuppetError(f"Puppet '{rig.name}': rod(s) {name_list(bad)} have no finite place "
                           "(NaN or infinite transform)")
     return Matrix(inv.tolist())
 

@@ -20,14 +20,18 @@ import json
 import zipfile
 from collections import Counter
 from contextlib import contextmanager
-from itertools import chain
 from pathlib import Path
 
-import bmesh
 import bpy
 import numpy as np
 
-from . import groups_io, mesh_io
+from .common.armatures import rest_pose
+from .common.files import make_folder
+from .common.groups import BoneRows, read_weights, write_vertex_groups
+from .common.meshes import mesh_triangles, mesh_world_vertices, stack_meshes
+from .common.mirror import bone_mirror_indices
+from .common.objects import follows_bone, unconstrained_world, viewport_hidden
+from .common.reports import name_list
 
 FORMAT_VERSION = 1
 SNAPSHOT_KEY = "miniskeleton_original_rest_pose"
@@ -86,7 +90,7 @@ def armature_edit(context, arm_ob):
     prev_active = view_layer.objects.active
     prev_mode = arm_ob.mode
     pose = pose_values(arm_ob) if prev_mode != "EDIT" else None
-    with mesh_io.viewport_hidden(arm_ob, False):
+    with viewport_hidden(arm_ob, False):
         if prev_active is not arm_ob:
             if prev_active is not None and prev_active.mode != "OBJECT":
                 bpy.ops.object.mode_set(mode="OBJECT")
@@ -123,13 +127,13 @@ def bone_children_stay(arm_ob):
     them along with their bone, so fitting a skeleton would move the very mesh it is fitted to.
     Their parent inverse is solved again afterwards; the armature stays in its rest position for
     the block, and its pose is left as it was."""
-    children = [o for o in bpy.data.objects if mesh_io.follows_bone(o, arm_ob)]
+    children = [o for o in bpy.data.objects if follows_bone(o, arm_ob)]
     if not children:
         yield
         return
-    with mesh_io.rest_pose(arm_ob, children):
+    with rest_pose(arm_ob, children):
         # Before their constraints act, which act again on the new parenting.
-        before = [mesh_io.unconstrained_world(o) for o in children]
+        before = [unconstrained_world(o) for o in children]
         try:
             yield
         finally:
@@ -137,7 +141,7 @@ def bone_children_stay(arm_ob):
             for o, w0 in zip(children, before):
                 basis = o.matrix_basis.copy()
                 # world = parent @ parent_inverse @ basis: keep world, solve parent_inverse.
-                w1 = mesh_io.unconstrained_world(o)
+                w1 = unconstrained_world(o)
                 o.matrix_parent_inverse = (o.matrix_parent_inverse @ basis @ w1.inverted_safe()
                                            @ w0 @ basis.inverted_safe())
             bpy.context.view_layer.update()
@@ -288,12 +292,12 @@ def _parents_first(parents: list[int]) -> list[int]:
 
 
 def joint_mirror(bone_names: list[str], bone_joints: np.ndarray) -> np.ndarray:
-    """Mirror joint of each joint by its bones' left/right names (``mesh_io.bone_mirror_indices``):
+    """Mirror joint of each joint by its bones' left/right names (``bone_mirror_indices``):
     the partner's joint; itself for a joint of centre bones only (it stays on the centre line);
     -1 for a joint of side bones without a partner (fitted on its own)."""
     j = int(bone_joints.max()) + 1 if len(bone_joints) else 0
     mirror = np.arange(j, dtype=np.int32)
-    bone_mirror = mesh_io.bone_mirror_indices(bone_names)
+    bone_mirror = bone_mirror_indices(bone_names)
     for bi, m in enumerate(bone_mirror):  # unpaired side bones first: a partner found later wins
         if m < 0:
             mirror[bone_joints[bi]] = -1
@@ -319,35 +323,6 @@ def world_bones(arm_ob):
     parents = np.array([index[b.parent.name] if b.parent else -1 for b in bones], dtype=np.int32)
     connected = [bool(b.use_connect) for b in bones]
     return names, h, t, parents, connected
-
-
-def read_weights(ob, bone_names: list[str]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Every weight > 0 in ``ob``'s bone-named groups: (vertex int64, bone int32, weight float32)
-    arrays, vertex by vertex, each vertex's weights in the order Blender stores them. Read through
-    a BMesh's deform layer, one call per vertex rather than one per weight (as reading
-    ``MeshVertex.groups`` takes)."""
-    index = {n: i for i, n in enumerate(bone_names)}
-    bone_of = np.full(len(ob.vertex_groups), -1, dtype=np.int64)
-    for g in ob.vertex_groups:
-        bone_of[g.index] = index.get(g.name, -1)
-    empty = (np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int32), np.zeros(0, dtype=np.float32))
-    if not (bone_of >= 0).any():
-        return empty
-    bm = bmesh.new()
-    try:
-        bm.from_mesh(ob.data)
-        layer = bm.verts.layers.deform.active
-        rows = [v[layer].items() for v in bm.verts] if layer is not None else []
-    finally:
-        bm.free()
-    counts = np.fromiter(map(len, rows), dtype=np.int64, count=len(rows))
-    pairs = np.fromiter(chain.from_iterable(chain.from_iterable(rows)), dtype=np.float64,
-                        count=2 * int(counts.sum())).reshape(-1, 2)
-    vertex = np.repeat(np.arange(len(rows), dtype=np.int64), counts)
-    group, weight = pairs[:, 0].astype(np.int64), pairs[:, 1].astype(np.float32)
-    bone = np.where(group < len(bone_of), bone_of[np.minimum(group, len(bone_of) - 1)], -1)
-    keep = (bone >= 0) & (weight > 0)
-    return vertex[keep], bone[keep].astype(np.int32), weight[keep]
 
 
 def top_k(vertex: np.ndarray, bone: np.ndarray, weight: np.ndarray, n: int,
@@ -384,8 +359,7 @@ def collect_rig(arm_ob, meshes, max_influences: int = 0) -> dict:
     if len(arm_ob.data.bones) == 0:
         raise RigError(f"armature '{arm_ob.name}' has no bones")
     names, h, t, parents, _ = world_bones(arm_ob)
-    verts, tris = mesh_io.stack_meshes((mesh_io.mesh_world_vertices(ob), mesh_io.mesh_triangles(ob))
-                                       for ob in meshes)
+    verts, tris = stack_meshes((mesh_world_vertices(ob), mesh_triangles(ob)) for ob in meshes)
     counts = [len(ob.data.vertices) for ob in meshes]
     read = [read_weights(ob, names) for ob in meshes]
     starts = np.cumsum([0] + counts[:-1])
@@ -423,7 +397,7 @@ def output_path(filepath: str, ext: str) -> Path:
         raise RigError(f"'{path}' is a folder: give a file name")
     if path.suffix.lower() != ext:
         path = path.with_name(path.name + ext)
-    why = mesh_io.make_folder(path)
+    why = make_folder(path)
     if why is not None:
         raise RigError(f"cannot write '{path}': {why}")
     return path
@@ -488,7 +462,7 @@ def load_npz(filepath: str) -> dict:
         raise RigError(f"bone names must be 1 to 63 bytes (Blender's limit): {unusable[0][:70]!r}")
     twice = sorted(s for s, count in Counter(names).items() if count > 1)
     if twice:
-        raise RigError(f"bone names appear twice: {mesh_io.name_list(twice)}")
+        raise RigError(f"bone names appear twice: {name_list(twice)}")
     if "mesh_names" in rig or "mesh_vertex_counts" in rig:
         counts = rig.get("mesh_vertex_counts", np.zeros(0, np.int32))
         if (len(rig.get("mesh_names", ())) != len(counts) or counts.dtype.kind not in "iu"
@@ -534,11 +508,11 @@ def apply_weights(rig: dict, meshes) -> int:
     for ob, start, count in targets:
         idx = rig["indices"][start:start + count]
         w = rig["weights"][start:start + count]
-        rows = groups_io.BoneRows(idx, w, len(names))
+        rows = BoneRows(idx, w, len(names))
         # The bundle's bones with weights here, and the mesh's groups of its other bones (emptied,
         # so the weights are the bundle's exactly; no empty group is added for the rest).
         write = (rows.counts() > 0) | np.array([ob.vertex_groups.get(s) is not None for s in names])
-        groups_io.write_vertex_groups(ob, names, rows, write)
+        write_vertex_groups(ob, names, rows, write)
     return sum(t[2] for t in targets)
 
 

@@ -8,7 +8,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import mesh_io
+from .common.meshes import stack_meshes
+from .common.reports import name_list
+
 
 
 def mesh_weights(core, settings: dict, verts, tris, bones, progress):
@@ -45,7 +47,7 @@ def compute_weights(core, settings: dict, bones, inputs, progress):
     try:
         groups = seam_groups(core, inputs) if settings["method"] == "HEAT" else [[m] for m in range(len(inputs))]
     except (ValueError, RuntimeError) as err:
-        raise WeightsError(f"Meshes {mesh_io.name_list([name for _, name, _, _ in inputs])}: {err}; "
+        raise WeightsError(f"Meshes {name_list([name for _, name, _, _ in inputs])}: {err}; "
                            "nothing was changed") from err
     sizes = [sum(len(inputs[m][2]) for m in members) for members in groups]
     batched = settings["method"] == "HEAT" and len(groups) > 1
@@ -84,7 +86,7 @@ def _solve_group(core, settings: dict, bones, inputs, members: list[int], progre
 def _stacked(inputs, members: list[int], settings: dict):
     """A seam group's vertices and (Heat only) triangles, its meshes one after the other."""
     if settings["method"] == "HEAT":
-        return mesh_io.stack_meshes((inputs[m][2], inputs[m][3]) for m in members)
+        return stack_meshes((inputs[m][2], inputs[m][3]) for m in members)
     return np.concatenate([inputs[m][2] for m in members]), None
 
 
@@ -149,7 +151,7 @@ def seam_groups(core, inputs) -> list[list[int]]:
         return [[m] for m in range(len(inputs))]
     sizes = [len(v) for _, _, v, _ in inputs]
     mesh_of = np.repeat(np.arange(len(inputs), dtype=np.uint32), sizes)
-    verts, tris = mesh_io.stack_meshes((v, t) for _, _, v, t in inputs)
+    verts, tris = stack_meshes((v, t) for _, _, v, t in inputs)
     ids = core.touching_meshes(verts, mesh_of, len(inputs), triangles=tris)
     groups: dict[int, list[int]] = {}
     for m, g in enumerate(ids.tolist()):

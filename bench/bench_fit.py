@@ -41,6 +41,11 @@ MODELS_DIR = ROOT.parent / "shared" / "models"
 MODELS = ["Fox.glb", "CesiumMan.gltf", "spot_rig.glb"]
 
 
+def addon(name: str):
+    """The installed add-on's module ``name`` (common.meshes, rig_io, ...)."""
+    return importlib.import_module(f"{blender_session.ADDON_MODULE}.{name}")
+
+
 def load(bpy, name):
     """Fresh scene with the model (or the creature): (armature, meshes)."""
     blender_session.reset_scene()
@@ -67,7 +72,7 @@ def edit_bones(bpy, arm):
     return arm.data.edit_bones
 
 
-def read_joints(bpy, arm, rig_io, diag):
+def read_joints(bpy, arm, diag):
     ebs = edit_bones(bpy, arm)
     bones = list(ebs)
     index = {eb.name: i for i, eb in enumerate(bones)}
@@ -76,7 +81,7 @@ def read_joints(bpy, arm, rig_io, diag):
     parents = [index[eb.parent.name] if eb.parent else -1 for eb in bones]
     conn = [eb.use_connect for eb in bones]
     bpy.ops.object.mode_set(mode="OBJECT")
-    return rig_io.joint_graph(h, t, parents, conn, 1e-6 * diag)
+    return addon("rig_io").joint_graph(h, t, parents, conn, 1e-6 * diag)
 
 
 def real_joints(ends, imported):
@@ -98,23 +103,25 @@ def joints_now(bpy, arm, ends):
     return j
 
 
-def set_joints(bpy, arm, joints, ends, rig_io):
+def set_joints(bpy, arm, joints, ends):
     """Move the joints; parts parented to bones stay where they are (the mesh is fixed, only the
     skeleton is rough), as they do while the operator fits."""
+    rig_io = addon("rig_io")
     with rig_io.bone_children_stay(arm):
         rig_io.place_bone_ends(edit_bones(bpy, arm), joints[ends[:, 0]], joints[ends[:, 1]])
         bpy.ops.object.mode_set(mode="OBJECT")
 
 
-def armature_space_mesh(arm, meshes, mesh_io):
+def armature_space_mesh(arm, meshes):
     """The meshes in the armature's space, where edit bones live: (vertices (n,3) float32,
     triangles (m,3) uint32, bounding-box diagonal)."""
     # As the operator reads them: bone-parented parts where the rest bones are, modifiers
     # (a Mirror, say) applied with the Armature modifiers off.
-    with mesh_io.rest_pose(arm, meshes):
-        parts = [mesh_io.shaped_world_mesh(ob) for ob in meshes]
+    common_meshes = addon("common.meshes")
+    with addon("common.armatures").rest_pose(arm, meshes):
+        parts = [common_meshes.shaped_world_mesh(ob) for ob in meshes]
     inv = np.linalg.inv(np.array(arm.matrix_world, dtype=np.float64))
-    verts, tris = mesh_io.stack_meshes(((v @ inv[:3, :3].T + inv[:3, 3]).astype(np.float32), t) for v, t in parts)
+    verts, tris = common_meshes.stack_meshes(((v @ inv[:3, :3].T + inv[:3, 3]).astype(np.float32), t) for v, t in parts)
     return verts, tris, float(np.linalg.norm(verts.max(0) - verts.min(0)))
 
 
@@ -128,12 +135,12 @@ def fit(bpy, arm, meshes, **op):
     return ok, time.perf_counter() - start
 
 
-def depth_axis(arm, meshes, mesh_io):
+def depth_axis(arm, meshes):
     """The view depth of placing joints by eye, as a unit vector in the armature's space: the world
     horizontal axis (X or Y) along which the meshes are narrowest. A biped is widest across its
     shoulders and placed in front view, a quadruped longest nose to tail and placed in side view;
     either way the joints come out right on the screen and wrong in depth."""
-    world = np.concatenate([mesh_io.mesh_world_vertices(ob) for ob in meshes])
+    world = np.concatenate([addon("common.meshes").mesh_world_vertices(ob) for ob in meshes])
     extent = world.max(0) - world.min(0)
     axis = np.eye(3)[int(np.argmin(extent[:2]))]
     inv = np.linalg.inv(np.array(arm.matrix_world, dtype=np.float64))[:3, :3]
@@ -185,12 +192,12 @@ def per_joint_table(r):
     return lines + [""]
 
 
-def run(bpy, name, seeds, rig_io, core, mesh_io, displace="ball", **op):
+def run(bpy, name, seeds, core, displace="ball", **op):
     arm, meshes = load(bpy, name)
     if arm is None or not meshes:
         return None
-    verts, tris, diag = armature_space_mesh(arm, meshes, mesh_io)
-    orig, ends = read_joints(bpy, arm, rig_io, diag)
+    verts, tris, diag = armature_space_mesh(arm, meshes)
+    orig, ends = read_joints(bpy, arm, diag)
     real = real_joints(ends, imported=name != "creature")
     inside_orig = core.points_inside(verts, tris, orig.astype(np.float32))
     out_orig = int((~inside_orig & real).sum())
@@ -205,15 +212,15 @@ def run(bpy, name, seeds, rig_io, core, mesh_io, displace="ball", **op):
         return None
     floor_each = np.linalg.norm(joints_now(bpy, arm, ends) - orig, axis=1) / diag * 100
     floor = floor_each[real].mean()
-    set_joints(bpy, arm, orig, ends, rig_io)
-    along = depth_axis(arm, meshes, mesh_io) if displace == "depth" else None
+    set_joints(bpy, arm, orig, ends)
+    along = depth_axis(arm, meshes) if displace == "depth" else None
     if along is not None:
         print(f"{name}: view depth in the armature's space {np.round(along, 3).tolist()}", flush=True)
     rows, per_before, per_after, per_along = [], [], [], []
     axis = limb_axes(orig, ends)
     for seed in range(seeds):
         moved = orig + displacements(np.random.default_rng(seed + 1), len(orig), diag, along)
-        set_joints(bpy, arm, moved, ends, rig_io)
+        set_joints(bpy, arm, moved, ends)
         ok, secs = fit(bpy, arm, meshes, **op)
         if not ok:
             return None
@@ -225,7 +232,7 @@ def run(bpy, name, seeds, rig_io, core, mesh_io, displace="ball", **op):
         per_before.append(err0)
         per_after.append(err1)
         per_along.append(np.abs(((fitted - orig) * axis).sum(axis=1)) / diag * 100)
-        set_joints(bpy, arm, orig, ends, rig_io)
+        set_joints(bpy, arm, orig, ends)
     r = np.array(rows, dtype=np.float64)
     names = joint_names([b.name for b in arm.data.bones], ends)
     before, after, along = (np.mean(e, axis=0) for e in (per_before, per_after, per_along))
@@ -248,8 +255,6 @@ def main():
                     help="ball: the issue's 5 %% ball; depth: up to 5 %% along the view depth only")
     args = ap.parse_args()
     bpy = blender_session.start()
-    rig_io = importlib.import_module(blender_session.ADDON_MODULE + ".rig_io")
-    mesh_io = importlib.import_module(blender_session.ADDON_MODULE + ".mesh_io")
     import miniskeleton_core as core
 
     names = ["creature"]
@@ -266,7 +271,7 @@ def main():
     for name in names:
         op = dict(tails=args.tails, symmetry=args.symmetry) | ({} if args.max_move is None
                                                               else dict(max_move=args.max_move))
-        r = run(bpy, name, args.seeds, rig_io, core, mesh_io, args.displace, **op)
+        r = run(bpy, name, args.seeds, core, args.displace, **op)
         if r is None:
             print(f"skipped {name}: no single armature with meshes, or the fit failed")
             continue

@@ -4,7 +4,7 @@
 
 Add Motion on the generated creature's rig (scripts/creature.py, 22 bones keyed) for each number
 of walk cycles, and Bake Puppet Animation on a five-rod shadow puppet over each scene range;
-both write every bone's keys as one series (``addon/keys.py``). Prints a markdown table of the
+both write every bone's keys as one series (``addon/common/keys.py``). Prints a markdown table of the
 operator's time (median of the repeats, a fresh scene each) and frames keyed, and writes it to
 out/bench_keys.md. Nothing is asserted (a Blender test checks the series equals keyframe_insert
 frame by frame).

@@ -183,7 +183,7 @@ def main(argv=None):
     args = ap.parse_args(argv)
     bpy = blender_session.start()
     import miniskeleton_core as core
-    mesh_io = importlib.import_module(blender_session.ADDON_MODULE + ".mesh_io")
+    common_meshes = importlib.import_module(blender_session.ADDON_MODULE + ".common.meshes")
 
     rows = []
     specs = [(shape, spec) for shape in args.shapes.split(",") if shape for spec in args.sizes.split(",") if spec]
@@ -203,8 +203,8 @@ def main(argv=None):
             continue
         blender_session.reset_scene()
         mesh = scan_rig.load_scan(bpy, path, scale)
-        v = mesh_io.mesh_world_vertices(mesh)
-        t = mesh_io.mesh_triangles(mesh).astype(np.uint32)
+        v = common_meshes.mesh_world_vertices(mesh)
+        t = common_meshes.mesh_triangles(mesh).astype(np.uint32)
         rig, _ = scan_rig.armature(bpy, v)
         select(bpy, mesh, rig)  # the rough rig fitted first, as a rigger would
         assert bpy.ops.armature.miniskeleton_fit_skeleton(tails="AUTO", symmetry="NONE") == {"FINISHED"}

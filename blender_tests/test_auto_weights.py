@@ -11,7 +11,7 @@ import pytest
 import builders as B
 import creature
 
-groups_io = importlib.import_module("bl_ext.user_default.miniskeleton.groups_io")
+common_groups = importlib.import_module("bl_ext.user_default.miniskeleton.common.groups")
 
 METHODS = ["HEAT", "BILINEAR", "IDW"]
 NAMES = [f"Bone{i}" for i in range(4)]
@@ -139,10 +139,11 @@ def test_each_option_reaches_the_core(method, options, core_kw):
     the creature differ from the defaults' (so an option that is dropped on the way shows)."""
     import miniskeleton_core as core
 
-    mesh_io = importlib.import_module("bl_ext.user_default.miniskeleton.mesh_io")
+    common_armatures = importlib.import_module("bl_ext.user_default.miniskeleton.common.armatures")
+    common_meshes = importlib.import_module("bl_ext.user_default.miniskeleton.common.meshes")
     body, arm = creature.build_body(subdivisions=0), creature.build_armature()
-    bones = mesh_io.armature_bones(arm)
-    v, t = B.world_vertices(body), mesh_io.mesh_triangles(body)
+    bones = common_armatures.armature_bones(arm)
+    v, t = B.world_vertices(body), common_meshes.mesh_triangles(body)
 
     def solve(**kw):
         if method == "IDW":
@@ -348,7 +349,8 @@ def test_a_subdivided_cage_is_weighted_on_its_smooth_surface_like_ctrl_p():
     import creature
     import miniskeleton_core as core
 
-    mesh_io = importlib.import_module("bl_ext.user_default.miniskeleton.mesh_io")
+    common_armatures = importlib.import_module("bl_ext.user_default.miniskeleton.common.armatures")
+    common_meshes = importlib.import_module("bl_ext.user_default.miniskeleton.common.meshes")
 
     def setup(subsurf=None):
         blender_session.reset_scene()
@@ -376,22 +378,23 @@ def test_a_subdivided_cage_is_weighted_on_its_smooth_surface_like_ctrl_p():
     names = [b.name for b in arm.data.bones]
     cage = np.array([v.co[:] for v in body.data.vertices])
     diag = np.linalg.norm(cage.max(0) - cage.min(0))
-    limit = core.catmull_clark_limit(cage, *mesh_io.mesh_polygons(body))
+    limit = core.catmull_clark_limit(cage, *common_meshes.mesh_polygons(body))
     np.testing.assert_allclose(limit, blender_limit(body), atol=1e-6 * diag)
     assert np.linalg.norm(limit - cage, axis=1).max() > 0.03 * diag
     bpy.ops.mesh.primitive_grid_add(x_subdivisions=5, y_subdivisions=4)
     grid = bpy.context.active_object
     flat = np.array([v.co[:] for v in grid.data.vertices])
-    np.testing.assert_allclose(core.catmull_clark_limit(flat, *mesh_io.mesh_polygons(grid), keep_corners=True),
+    np.testing.assert_allclose(core.catmull_clark_limit(flat, *common_meshes.mesh_polygons(grid), keep_corners=True),
                                blender_limit(grid, boundary_smooth="PRESERVE_CORNERS"), atol=1e-6)
 
     B.select_for_parenting([body], arm)
     assert bpy.ops.object.miniskeleton_auto_weights() == {"FINISHED"}
     plain = B.weights_matrix(body, names)
-    bones = mesh_io.armature_bones(arm)
+    bones = common_armatures.armature_bones(arm)
     assert bones.names == names
     m = np.array(body.matrix_world)
-    i, w = core.heat_weights(limit @ m[:3, :3].T + m[:3, 3], mesh_io.mesh_triangles(body), bones.heads, bones.tails)
+    i, w = core.heat_weights(limit @ m[:3, :3].T + m[:3, 3], common_meshes.mesh_triangles(body),
+                             bones.heads, bones.tails)
     twin = B.dense_weights(i, w, len(names))
 
     body, _ = setup({"levels": 2})
@@ -422,7 +425,8 @@ def test_an_open_subdivided_cage_is_weighted_with_its_modifiers_boundary_smooth(
     modifier shows, which differ from the other setting's."""
     import miniskeleton_core as core
 
-    mesh_io = importlib.import_module("bl_ext.user_default.miniskeleton.mesh_io")
+    common_armatures = importlib.import_module("bl_ext.user_default.miniskeleton.common.armatures")
+    common_meshes = importlib.import_module("bl_ext.user_default.miniskeleton.common.meshes")
     cols, rows = 3, 8
     verts = [(x, 0.0, z) for z in np.linspace(0.0, 4.0, rows + 1) for x in np.linspace(-0.6, 0.6, cols + 1)]
     faces = [(r * (cols + 1) + c, r * (cols + 1) + c + 1, (r + 1) * (cols + 1) + c + 1, (r + 1) * (cols + 1) + c)
@@ -433,12 +437,12 @@ def test_an_open_subdivided_cage_is_weighted_with_its_modifiers_boundary_smooth(
     arm = B.chain()
     assert bind([banner], arm) == {"FINISHED"}
     got = B.weights_matrix(banner, NAMES)
-    bones = mesh_io.armature_bones(arm)
+    bones = common_armatures.armature_bones(arm)
     cage = np.array(verts, dtype=np.float32)
-    tris = mesh_io.mesh_triangles(banner)
+    tris = common_meshes.mesh_triangles(banner)
     expected = {}
     for keep in (True, False):
-        limit = core.catmull_clark_limit(cage, *mesh_io.mesh_polygons(banner), keep_corners=keep)
+        limit = core.catmull_clark_limit(cage, *common_meshes.mesh_polygons(banner), keep_corners=keep)
         expected[keep] = B.dense_weights(*core.heat_weights(limit, tris, bones.heads, bones.tails), len(NAMES))
     keep = boundary == "PRESERVE_CORNERS"
     np.testing.assert_allclose(got, expected[keep], atol=1e-6)
@@ -535,7 +539,7 @@ def test_group_writer_ways_write_the_same_groups(way, monkeypatch):
     small ones in busy scenes) replace a bone's group in its place in the list, keep locked and
     foreign groups, store no zero weight, write exact values, and keep the viewport visibility
     and the selection."""
-    monkeypatch.setattr(groups_io, "_ADD_CALL_S", 0.0 if way == "add" else math.inf)
+    monkeypatch.setattr(common_groups, "_ADD_CALL_S", 0.0 if way == "add" else math.inf)
     ob = B.cylinder()
     n = len(ob.data.vertices)
     ob.vertex_groups.new(name="Mine").add([0, 1], 0.25, "REPLACE")
@@ -551,8 +555,8 @@ def test_group_writer_ways_write_the_same_groups(way, monkeypatch):
     for hidden in (True, False):
         ob.hide_viewport = hidden
         selected = ob.select_get()
-        rows = groups_io.BoneRows(np.tile(np.arange(5, dtype=np.int32), (n, 1)), dense.T.copy(), 5)
-        kept = groups_io.write_vertex_groups(ob, names, rows, np.ones(5, bool))
+        rows = common_groups.BoneRows(np.tile(np.arange(5, dtype=np.int32), (n, 1)), dense.T.copy(), 5)
+        kept = common_groups.write_vertex_groups(ob, names, rows, np.ones(5, bool))
         assert kept == ["Held"] and ob.hide_viewport == hidden
         assert ob.select_get() == selected
         # B stays second, between the user's groups; the new ones follow in the bones' order
@@ -982,10 +986,12 @@ def test_weight_paint_assigns_the_selected_bones_and_leaves_hidden_ones_out(capf
 
     import miniskeleton_core as core
 
-    mesh_io = importlib.import_module("bl_ext.user_default.miniskeleton.mesh_io")
-    bones = mesh_io.armature_bones(arm)
+    common_armatures = importlib.import_module("bl_ext.user_default.miniskeleton.common.armatures")
+    common_meshes = importlib.import_module("bl_ext.user_default.miniskeleton.common.meshes")
+    bones = common_armatures.armature_bones(arm)
     seen = [0, 1, 3]  # Bone2 is hidden: no heat source
-    i, w = core.heat_weights(B.world_vertices(ob), mesh_io.mesh_triangles(ob), bones.heads[seen], bones.tails[seen])
+    i, w = core.heat_weights(B.world_vertices(ob), common_meshes.mesh_triangles(ob),
+                             bones.heads[seen], bones.tails[seen])
     np.testing.assert_allclose(after[:, 1], B.dense_weights(i, w, 3)[:, 1], atol=1e-6)
     z = np.array([v.co.z for v in ob.data.vertices])
     low_half = (z > 2.0) & (z < 2.3)  # of Bone2 (z 2.0 to 2.9)
@@ -1011,7 +1017,7 @@ def test_weight_paint_assigns_the_selected_bones_and_leaves_hidden_ones_out(capf
     # In Object Mode (Ctrl+P), as in Blender, hiding and selection change nothing.
     bind([ob], arm, method="HEAT")
     np.testing.assert_allclose(B.weights_matrix(ob, NAMES), B.dense_weights(
-        *core.heat_weights(B.world_vertices(ob), mesh_io.mesh_triangles(ob), bones.heads, bones.tails), 4),
+        *core.heat_weights(B.world_vertices(ob), common_meshes.mesh_triangles(ob), bones.heads, bones.tails), 4),
         atol=1e-6)
 
 
@@ -1023,11 +1029,12 @@ def _weights_module():
 
 
 def _job_inputs(rings=120, segments=64):
-    mesh_io = importlib.import_module("bl_ext.user_default.miniskeleton.mesh_io")
+    common_armatures = importlib.import_module("bl_ext.user_default.miniskeleton.common.armatures")
+    common_meshes = importlib.import_module("bl_ext.user_default.miniskeleton.common.meshes")
     ob = B.cylinder(rings=rings, segments=segments)
     arm = B.chain()
-    bones = mesh_io.armature_bones(arm)
-    inputs = [(ob, ob.name, mesh_io.mesh_world_vertices(ob), mesh_io.mesh_triangles(ob))]
+    bones = common_armatures.armature_bones(arm)
+    inputs = [(ob, ob.name, common_meshes.mesh_world_vertices(ob), common_meshes.mesh_triangles(ob))]
     settings = dict(method="HEAT", k=4, power=2.0, nearest=3, falloff="gaussian", sigma=None,
                     visibility=True, mirror=None, parents=None)
     return ob, bones, inputs, settings
@@ -1095,7 +1102,8 @@ def test_many_small_meshes_solved_in_batches_get_the_one_by_one_weights_and_note
     import miniskeleton_core as core
 
     ow = _weights_module()
-    mesh_io = importlib.import_module("bl_ext.user_default.miniskeleton.mesh_io")
+    common_armatures = importlib.import_module("bl_ext.user_default.miniskeleton.common.armatures")
+    common_meshes = importlib.import_module("bl_ext.user_default.miniskeleton.common.meshes")
     part = dict(radius=0.3, height=0.5, rings=4, segments=8)
     obs = [B.cylinder(name=f"Part{i}", location=(0.0, 0.0, 0.35 * i), **part) for i in range(6)]
     obs.append(B.cylinder(name="Big", radius=0.27, height=0.5, rings=20, segments=16, location=(0.013, 0.0, 2.1)))
@@ -1103,8 +1111,8 @@ def test_many_small_meshes_solved_in_batches_get_the_one_by_one_weights_and_note
     obs.append(B.cylinder(name="Upper", location=(0.0, 0.0, 4.0), **part))
     obs.append(B.cylinder(name="Lower", location=(0.0, 0.0, 3.5), **part))  # one seam group with Upper
     arm = B.chain()
-    bones = mesh_io.armature_bones(arm)
-    inputs = [(ob, ob.name, mesh_io.mesh_world_vertices(ob), mesh_io.mesh_triangles(ob)) for ob in obs]
+    bones = common_armatures.armature_bones(arm)
+    inputs = [(ob, ob.name, common_meshes.mesh_world_vertices(ob), common_meshes.mesh_triangles(ob)) for ob in obs]
     flipped = inputs[3][3].copy()
     flipped[: len(flipped) // 2] = flipped[: len(flipped) // 2, ::-1]
     inputs[3] = inputs[3][:3] + (flipped,)

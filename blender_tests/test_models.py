@@ -69,11 +69,9 @@ def test_fox_snout_follows_the_head():
 @pytest.mark.parametrize("name", ["Fox.glb", "CesiumMan.gltf", "spot_rig.glb"])
 def test_fit_real_models_leaves_no_joint_outside(name):
     need(name)
-    rig_io = importlib.import_module(blender_session.ADDON_MODULE + ".rig_io")
-    mesh_io = importlib.import_module(blender_session.ADDON_MODULE + ".mesh_io")
     import miniskeleton_core as core
 
-    r = bench_fit.run(bpy, name, 2, rig_io, core, mesh_io, tails="AUTO", symmetry="NONE")
+    r = bench_fit.run(bpy, name, 2, core, tails="AUTO", symmetry="NONE")
     assert r is not None, name
     assert r["out_before"] > 0  # the displacement pushes some joints out ...
     assert r["out_after"] == 0  # ... and the fit brings every one back in
@@ -83,11 +81,9 @@ def test_fit_real_models_leaves_no_joint_outside(name):
 def fit_artist_rig(name):
     """Fit the model's own, undisplaced skeleton: (armature, bone names, joint ends (b, 2), how
     far each joint moved as a fraction of the diagonal)."""
-    rig_io = importlib.import_module(blender_session.ADDON_MODULE + ".rig_io")
-    mesh_io = importlib.import_module(blender_session.ADDON_MODULE + ".mesh_io")
     arm, meshes = bench_fit.load(bpy, name)
-    _, _, diag = bench_fit.armature_space_mesh(arm, meshes, mesh_io)  # edit bones' space
-    orig, ends = bench_fit.read_joints(bpy, arm, rig_io, diag)
+    _, _, diag = bench_fit.armature_space_mesh(arm, meshes)  # edit bones' space
+    orig, ends = bench_fit.read_joints(bpy, arm, diag)
     names = [b.name for b in arm.data.bones]
     assert bench_fit.fit(bpy, arm, meshes, tails="AUTO", symmetry="NONE")[0]
     moved = np.linalg.norm(bench_fit.joints_now(bpy, arm, ends) - orig, axis=1) / diag
@@ -117,11 +113,11 @@ def test_fit_leaves_the_robots_knees_where_the_artist_put_them_and_it_still_walk
     import miniskeleton_core as core
 
     arm, names, ends, moved = fit_artist_rig("RobotExpressive.glb")
-    mesh_io = importlib.import_module(blender_session.ADDON_MODULE + ".mesh_io")
+    common_armatures = importlib.import_module(blender_session.ADDON_MODULE + ".common.armatures")
     for n in ["LowerLeg.L", "LowerLeg.R"]:
         j = ends[names.index(n), 0]
         assert moved[j] < 0.01, f"{n} moved {moved[j]:.3f} of the diagonal"
-    rig = mesh_io.armature_bones(arm)
+    rig = common_armatures.armature_bones(arm)
     roles = core.detect_roles(rig.heads, rig.tails, rig.parents, names=rig.names)
     assert roles["plan"] == "biped", roles["plan"]
     assert sorted(rig.names[leg["bones"][0]] for leg in roles["legs"]) == ["UpperLeg.L", "UpperLeg.R"]
@@ -135,12 +131,13 @@ def test_rough_rig_on_unrigged_scans_fits_inside_and_binds_each_hoof_to_its_leg(
     fitted rig walks as a quadruped, front and back pairs by name: the horse stands in mid-stride,
     its rough hips over its feet, and was a "multiped" with a front-right "middle" leg."""
     path = need(name)
-    mesh_io = importlib.import_module(blender_session.ADDON_MODULE + ".mesh_io")
+    common_armatures = importlib.import_module(blender_session.ADDON_MODULE + ".common.armatures")
+    common_meshes = importlib.import_module(blender_session.ADDON_MODULE + ".common.meshes")
     import miniskeleton_core as core
 
     ob = scan_rig.load_scan(bpy, path)
-    verts = mesh_io.mesh_world_vertices(ob)
-    tris = mesh_io.mesh_triangles(ob).astype(np.uint32)
+    verts = common_meshes.mesh_world_vertices(ob)
+    tris = common_meshes.mesh_triangles(ob).astype(np.uint32)
     arm, foot_of = scan_rig.armature(bpy, verts)
 
     def joints():
@@ -159,7 +156,7 @@ def test_rough_rig_on_unrigged_scans_fits_inside_and_binds_each_hoof_to_its_leg(
         assert hoof.sum() > 20, (leg, hoof.sum())
         shin = w[hoof, bones.index(f"shin.{leg}")]
         assert shin.min() > 0.9, f"{leg}: hoof vertices' shin weight {shin.min():.3f} .. {shin.max():.3f}"
-    rig = mesh_io.armature_bones(arm)
+    rig = common_armatures.armature_bones(arm)
     roles = core.detect_roles(rig.heads, rig.tails, rig.parents, names=rig.names)
     assert roles["plan"] == "quadruped", roles["plan"]
     legs = {(leg["group"], leg["side"]): rig.names[leg["bones"][0]] for leg in roles["legs"]}
@@ -179,7 +176,7 @@ def test_game_rigs_with_feet_on_the_root_walk_with_their_feet_on_their_legs(name
         pb.matrix_basis.identity()
     B.set_active(arm)
     assert bpy.ops.pose.miniskeleton_add_motion(motion="WALK", cycles=1, append=False) == {"FINISHED"}
-    bones = importlib.import_module("bl_ext.user_default.miniskeleton.mesh_io").armature_bones(arm)
+    bones = importlib.import_module(blender_session.ADDON_MODULE + ".common.armatures").armature_bones(arm)
     import miniskeleton_core as core
 
     r = core.detect_roles(bones.heads, bones.tails, bones.parents, names=bones.names)

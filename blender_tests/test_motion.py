@@ -25,8 +25,8 @@ def motion_module():
 
 def skeleton_arrays(arm):
     """(names, heads, tails, parents, rest) as the operator reads them."""
-    mesh_io = __import__(ADDON + ".mesh_io", fromlist=["mesh_io"])
-    bones = mesh_io.armature_bones(arm)
+    common_armatures = __import__(ADDON + ".common.armatures", fromlist=["armatures"])
+    bones = common_armatures.armature_bones(arm)
     return bones, motion_module().rest_matrices(arm, bones.names)
 
 
@@ -502,7 +502,7 @@ def test_a_key_series_is_the_keys_keyframe_insert_makes_one_by_one(before, path)
     one frame at a time, after a curve's earlier keys, over keys in its range or before later
     ones (the rigger's keys there constant, breakdowns, eased in: new keys are Blender's kind,
     not theirs)."""
-    keys = __import__(ADDON + ".keys", fromlist=["keys"])
+    keys = __import__(ADDON + ".common.keys", fromlist=["keys"])
     rng = np.random.default_rng(5)
     values = rng.normal(size=(21, 4 if path == "rotation_quaternion" else 3))
     frames = range(10, 31)
@@ -578,7 +578,7 @@ def test_a_bone_spinning_a_full_turn_gets_keys_that_turn_one_way_round(mode):
     """Rotations handed over with w >= 0 (as a matrix's ``to_quaternion`` gives them) jump to
     the other hemisphere half-way through a full spin; each key continues from the one before
     it, so every step between keys is the short 15 degrees, never the long way back."""
-    keys = __import__(ADDON + ".keys", fromlist=["keys"])
+    keys = __import__(ADDON + ".common.keys", fromlist=["keys"])
     arm = biped_rig()
     pb = arm.pose.bones["head"]
     pb.rotation_mode = mode

@@ -17,7 +17,7 @@ import builders as B
 R = importlib.import_module("bl_ext.user_default.miniskeleton.puppet_rig")
 L = importlib.import_module("bl_ext.user_default.miniskeleton.puppet_live")
 T = importlib.import_module("bl_ext.user_default.miniskeleton.puppet")
-K = importlib.import_module("bl_ext.user_default.miniskeleton.keys")
+K = importlib.import_module("bl_ext.user_default.miniskeleton.common.keys")
 
 HUMAN_BONES = {"abdomen", "chest", "neck", "head", "skirt"} | {
     f"{b}.{s}" for b in ("upper_arm", "forearm", "hand", "thigh", "shin", "foot") for s in "LR"}

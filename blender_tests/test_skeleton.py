@@ -459,10 +459,10 @@ def test_fit_symmetry_on_a_mesh_off_the_plane_says_why_joints_end_outside(capfd)
 
 
 def test_mirror_pairs_by_name():
-    mesh_io = importlib.import_module("bl_ext.user_default.miniskeleton.mesh_io")
+    common_mirror = importlib.import_module("bl_ext.user_default.miniskeleton.common.mirror")
     names = ["spine", "arm.L", "arm.R", "b_LeftUpperArm_09", "b_RightUpperArm_06", "leg_back_L_knee",
              "leg_back_R_knee", "hand_L", "tail.001", "ear.L"]
-    m = mesh_io.bone_mirror_indices(names).tolist()
+    m = common_mirror.bone_mirror_indices(names).tolist()
     assert m[0] == 0 and m[8] == 8                      # centre bones: themselves
     assert (m[1], m[2]) == (2, 1)                       # Blender's suffixes
     assert (m[3], m[4]) == (4, 3)                       # numbered glTF names, Left/Right words
@@ -470,7 +470,7 @@ def test_mirror_pairs_by_name():
     assert m[7] == -1 and m[9] == -1                    # side bones without a partner: free
     # b_LeftArm_01 finds b_RightArm_02 by its stem, but that one's stem has two left bones:
     # a pair must agree both ways, so all three stay free.
-    m = mesh_io.bone_mirror_indices(["b_LeftArm_01", "b_RightArm_02", "b_LeftArm_03"]).tolist()
+    m = common_mirror.bone_mirror_indices(["b_LeftArm_01", "b_RightArm_02", "b_LeftArm_03"]).tolist()
     assert m == [-1, -1, -1]
 
 

@@ -58,7 +58,7 @@ def import_model(path: Path):
 
 
 def addon_module(name: str):
-    """The installed add-on's module ``name`` (mesh_io, puppet_build, ...)."""
+    """The installed add-on's module ``name`` (common.meshes, puppet_build, ...)."""
     import importlib
 
     return importlib.import_module(f"{blender_session.ADDON_MODULE}.{name}")
@@ -70,7 +70,7 @@ def rough_rig(meshes):
     import bpy
     import scan_rig
 
-    rig, _ = scan_rig.armature(bpy, addon_module("mesh_io").mesh_world_vertices(meshes[0]))
+    rig, _ = scan_rig.armature(bpy, addon_module("common.meshes").mesh_world_vertices(meshes[0]))
     print(f"[demo]   {len(rig.data.bones)} bones")
     return rig
 

@@ -1,4 +1,5 @@
-"""Keyframes: an object's F-curves, and a whole series of keys on one property in one go.
+"""Keyframes: an object's action and F-curves, and a whole series of keys on one property in
+one go.
 
 ``keyframe_insert`` gets slower as an F-curve grows (each key goes into a sorted array), so
 keying a long motion one frame at a time grows with the square of its length. ``key_series``
@@ -30,6 +31,11 @@ def action_fcurves(ob: bpy.types.ID) -> list:
         except (ImportError, AttributeError):
             pass
     return list(getattr(ad.action, "fcurves", []))
+
+
+def keyed_action(ob: bpy.types.Object) -> bpy.types.Action | None:
+    """The action new keys on ``ob`` go to (the tweaked strip's in NLA tweak mode), or None."""
+    return ob.animation_data.action if ob.animation_data is not None else None
 
 
 def action_frame(ob: bpy.types.ID, frame: float, invert: bool = False) -> float:

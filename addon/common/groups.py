@@ -1,22 +1,54 @@
-"""Vertex groups written from top-k weights, keeping what the user made.
+"""Vertex groups: the bone weights in them read as arrays, and written from top-k weights,
+keeping what the user made.
 
 Weights are written one of two ways, whichever is cheaper for the object
 (``write_vertex_groups``): a float point attribute converted to a vertex group by Blender's own
-C code (``geometry.attribute_convert``, which does the per-vertex work that a bmesh loop
-would do in Python), or
-``VertexGroup.add`` calls for small meshes in scenes of many objects, where every operator
-call's depsgraph rebuild would dominate. Neither stores zero weights. Groups of other bones and
-locked groups are left alone, and the list keeps its order.
+C code (``geometry.attribute_convert``, which does the per-vertex work that a bmesh loop would
+do in Python), or ``VertexGroup.add`` calls for small meshes in scenes of many objects, where
+every operator call's depsgraph rebuild would dominate. Neither stores zero weights. Groups of
+other bones and locked groups are left alone, and the list keeps its order.
 """
 
 from __future__ import annotations
 
+from itertools import chain
+
+import bmesh
 import bpy
 import numpy as np
 
-from . import mesh_io
+from .objects import viewport_hidden
 
 _TMP_ATTR = "__miniskeleton_weights_tmp"
+
+
+def read_weights(ob, bone_names: list[str]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Every weight > 0 in ``ob``'s bone-named groups: (vertex int64, bone int32, weight float32)
+    arrays, vertex by vertex, each vertex's weights in the order Blender stores them. Read through
+    a BMesh's deform layer, one call per vertex rather than one per weight (as reading
+    ``MeshVertex.groups`` takes)."""
+    index = {n: i for i, n in enumerate(bone_names)}
+    bone_of = np.full(len(ob.vertex_groups), -1, dtype=np.int64)
+    for g in ob.vertex_groups:
+        bone_of[g.index] = index.get(g.name, -1)
+    empty = (np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int32), np.zeros(0, dtype=np.float32))
+    if not (bone_of >= 0).any():
+        return empty
+    bm = bmesh.new()
+    try:
+        bm.from_mesh(ob.data)
+        layer = bm.verts.layers.deform.active
+        rows = [v[layer].items() for v in bm.verts] if layer is not None else []
+    finally:
+        bm.free()
+    counts = np.fromiter(map(len, rows), dtype=np.int64, count=len(rows))
+    pairs = np.fromiter(chain.from_iterable(chain.from_iterable(rows)), dtype=np.float64,
+                        count=2 * int(counts.sum())).reshape(-1, 2)
+    vertex = np.repeat(np.arange(len(rows), dtype=np.int64), counts)
+    group, weight = pairs[:, 0].astype(np.int64), pairs[:, 1].astype(np.float32)
+    bone = np.where(group < len(bone_of), bone_of[np.minimum(group, len(bone_of) - 1)], -1)
+    keep = (bone >= 0) & (weight > 0)
+    return vertex[keep], bone[keep].astype(np.int32), weight[keep]
 
 
 class BoneRows:
@@ -99,7 +131,7 @@ def _keep_order(ob, order):
         g.name = f"{tag}{rank[g.name]:06d}"
     try:
         # Blender sorts no group of an object hidden from viewports.
-        with mesh_io.viewport_hidden(ob, False), bpy.context.temp_override(object=ob, active_object=ob):
+        with viewport_hidden(ob, False), bpy.context.temp_override(object=ob, active_object=ob):
             bpy.ops.object.vertex_group_sort(sort_type="NAME")
     finally:
         for g in list(groups):
@@ -113,7 +145,7 @@ def _convert_hidden(ob, names, rows: BoneRows, groups):
     attrs = ob.data.attributes
     active = attrs.active.name if attrs.active is not None else None
     try:
-        with mesh_io.viewport_hidden(ob, True):
+        with viewport_hidden(ob, True):
             _convert_groups(ob, names, rows, groups)
     finally:
         attrs.active = attrs.get(active) if active is not None else None
