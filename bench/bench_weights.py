@@ -154,7 +154,7 @@ def measure_parts(bpy, core, count, args):
         select(bpy, parts, rig)
         blender_s, _ = timed(lambda: bpy.ops.object.parent_set(type="ARMATURE_AUTO"))
     # Ours as shipped (small objects to the core many per call) and one call per object, alternating.
-    weights_ops = importlib.import_module(blender_session.ADDON_MODULE + ".weights_compute")
+    weights_ops = importlib.import_module(blender_session.ADDON_MODULE + ".weights.compute")
     batch = weights_ops.BATCH_VERTICES
     batched, serial = [], []
     try:

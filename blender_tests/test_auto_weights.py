@@ -1025,7 +1025,7 @@ def test_weight_paint_assigns_the_selected_bones_and_leaves_hidden_ones_out(capf
 
 
 def _weights_module():
-    return importlib.import_module("bl_ext.user_default.miniskeleton.weights_compute")
+    return importlib.import_module("bl_ext.user_default.miniskeleton.weights.compute")
 
 
 def _job_inputs(rings=120, segments=64):

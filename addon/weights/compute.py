@@ -8,8 +8,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .common.meshes import stack_meshes
-from .common.reports import name_list
+from ..common.meshes import stack_meshes
+from ..common.reports import name_list
 
 
 

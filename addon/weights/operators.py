@@ -6,29 +6,25 @@ armature, hidden bones left out, the selected ones and, with X Mirror, their par
 written). Everything is validated and computed before anything is written, so an error leaves
 every mesh as it was. Invoked from the UI on large meshes, the computation runs on a worker
 thread (the core releases the GIL) while a modal loop shows progress; Esc cancels it and
-nothing is written. The computing itself, without bpy, is in ``weights_compute``.
+nothing is written. Reading and writing Blender data is in ``binding``; the computing itself,
+without bpy, in ``compute``.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import time
-from typing import NamedTuple
 
 import bpy
 import numpy as np
 from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty
 
-from .common.armatures import Bones, armature_bones, bbone_curves, find_armature
-from .common.groups import BoneRows, write_vertex_groups
-from .common.meshes import mesh_polygons, mesh_triangles, mesh_world_vertices, paint_mask
-from .common.mirror import bone_mirror_indices
-from .common.modifiers import (ensure_armature_modifier, idle_armature_modifiers, other_armature_modifiers,
-                               smoothing_modifier)
-from .common.objects import parent_keep_transform
-from .common.reports import in_edit_mode, name_list, read_only, unplaced
-from .common.transforms import extent, to_armature_frame
-from .weights_compute import BACKGROUND_VERTICES, WeightsError, WeightsJob, compute_weights
+from ..common.armatures import armature_bones, find_armature
+from ..common.mirror import bone_mirror_indices
+from ..common.reports import in_edit_mode, name_list, read_only, unplaced
+from ..common.transforms import extent
+from .binding import find_meshes, read_inputs, write_weights
+from .compute import BACKGROUND_VERTICES, WeightsError, WeightsJob, compute_weights
 
 METHODS = [
     ("HEAT", "Auto Weights (Heat)",
@@ -39,27 +35,6 @@ METHODS = [
      "the nearer joint"),
     ("IDW", "Inverse Distance", "Inverse-distance weights to every bone segment, top influences kept"),
 ]
-
-
-def find_meshes(context: bpy.types.Context) -> list[bpy.types.Object]:
-    """Selected mesh objects; in Weight Paint mode the painted mesh even if not selected."""
-    meshes = [ob for ob in context.selected_objects if ob.type == "MESH"]
-    active = context.active_object
-    if active is not None and active.type == "MESH" and active not in meshes:
-        if context.mode == "PAINT_WEIGHT":
-            meshes.append(active)
-    return meshes
-
-
-class Prepared(NamedTuple):
-    """Everything read and checked before computing: the armature, its bones, the inputs
-    [(mesh, name, vertices, triangles)], linked duplicates [(mesh, the mesh it shares data
-    with)] and Weight Paint masks {mesh: ((n,) bool, mask name)}."""
-    arm: bpy.types.Object
-    bones: Bones
-    inputs: list
-    linked: list
-    masks: dict
 
 
 class MINISKELETON_OT_auto_weights(bpy.types.Operator):
@@ -206,59 +181,16 @@ class MINISKELETON_OT_auto_weights(bpy.types.Operator):
     # ------------------------------------------------------------------ run
 
     def _prepare(self, context):
-        """Validate and read every input (``Prepared``) or return None (reported). Vertices and
-        bones are given in the armature's frame (``to_armature_frame``), not world."""
+        """Validate and read every input (``Prepared``) or return None (reported)."""
         checked = self._validate(context)
         if checked is None:
             return None
         arm, meshes, bones = checked
-        if self.method == "HEAT":  # B-Bones are weighted along their rest curve, as by Ctrl+P
-            points, owners = bbone_curves(arm, bones.names)
-            bones = dataclasses.replace(bones, curve_points=points, curve_bones=owners)
-        # Every method works in the armature's frame, moved there in double precision: X
-        # symmetry is about the armature's x = 0 (as for Fit), and the core's single precision
-        # keeps a character 1e5 m from the world origin only 8 mm apart (its weights changed).
-        bones = dataclasses.replace(bones, heads=to_armature_frame(arm, bones.heads),
-                                    tails=to_armature_frame(arm, bones.tails),
-                                    curve_points=to_armature_frame(arm, bones.curve_points))
-        inputs = []
-        # Linked duplicates (Alt+D) share one mesh, and Blender keeps vertex weights in the
-        # mesh: compute them once, on the first of those objects; the others get the modifier.
-        owner, linked, masks = {}, [], {}
-        for ob in meshes:
-            if ob.data in owner:
-                linked.append((ob, owner[ob.data]))
-                continue
-            owner[ob.data] = ob
-            # Weight Paint with a selection mask re-weights the selected vertices only, as
-            # Blender's Assign Automatic from Bones does; the whole mesh is still solved.
-            picked, mask = paint_mask(ob)
-            if picked is not None:
-                if not picked.any():
-                    self.report({"ERROR"}, f"Weight Paint {mask} mask is on, but no vertex of '{ob.name}' "
-                                "is selected: select the vertices to re-weight, or turn the mask off; "
-                                "nothing was changed")
-                    return None
-                masks[ob] = (picked, mask)
-            verts = mesh_world_vertices(ob)
-            bad = int((~np.isfinite(verts)).any(axis=1).sum())
-            if bad:
-                self.report({"ERROR"}, f"Mesh '{ob.name}' has {bad} vertices with NaN or infinite "
-                            "coordinates; nothing was changed")
-                return None
-            verts = to_armature_frame(arm, verts)
-            smoothing = smoothing_modifier(ob)
-            if smoothing is not None:
-                # A subdivided cage is weighted where its vertices lie on the smooth surface,
-                # as Ctrl+P does (Catmull-Clark is affine: any frame is as good as its own).
-                import miniskeleton_core as core
-
-                verts = core.catmull_clark_limit(
-                    verts, *mesh_polygons(ob),
-                    keep_corners=smoothing.boundary_smooth == "PRESERVE_CORNERS")
-            tris = mesh_triangles(ob) if self.method == "HEAT" else None
-            inputs.append((ob, ob.name, verts, tris))
-        return Prepared(arm, bones, inputs, linked, masks)
+        try:
+            return read_inputs(arm, meshes, bones, heat=self.method == "HEAT")
+        except WeightsError as err:
+            self.report({"ERROR"}, str(err))
+            return None
 
     def _settings(self, bones) -> dict:
         """The options as plain values, safe to use from a worker thread."""
@@ -276,39 +208,10 @@ class MINISKELETON_OT_auto_weights(bpy.types.Operator):
 
     def _write(self, prepared, results, notes, secs):
         """Write groups, modifier and parent for every mesh (main thread), then report."""
-        arm, bones, inputs, linked, masks = prepared
+        bones, inputs = prepared.bones, prepared.inputs
         write = bones.selected if self.selected_bones_only else np.ones(len(bones.names), bool)
-        kept_locked, partial = set(), []
-        for ob, i, w in results:
-            rows = BoneRows(i, w, len(bones.names))
-            picked, mask = masks.get(ob, (None, ""))
-            kept_locked.update(write_vertex_groups(ob, bones.names, rows, write, only=picked))
-            if picked is not None:
-                partial.append(f"only the {int(picked.sum())} of {len(picked)} vertices of '{ob.name}' "
-                               f"selected for the Weight Paint {mask} mask")
-        written = [r[0] for r in results] + [ob for ob, _ in linked]
-        loops = []
-        for ob in written:
-            ensure_armature_modifier(ob, arm)
-            if not parent_keep_transform(ob, arm):
-                loops.append(ob.name)
-        if loops:
-            notes.append(f"'{arm.name}' is a child of {name_list(loops)}, so they were not parented "
-                         "to it (a loop); their Armature modifier deforms them all the same")
-        for ob in written:
-            idle = idle_armature_modifiers(ob, arm)
-            if idle:
-                notes.append(f"'{ob.name}': its Armature modifier {', '.join(idle)} for '{arm.name}' has Vertex "
-                             "Groups off or is disabled, so the new weights do not deform it (turn them on in "
-                             "the Modifier Properties)")
-            others = other_armature_modifiers(ob, arm)
-            if others:
-                notes.append(f"'{ob.name}' also has Armature modifier(s) {', '.join(others)} for another "
-                             "armature, left as they were: they deform it too (remove or disable them "
-                             "if the mesh moves twice)")
-        for ob, first in linked:
-            notes.append(f"'{ob.name}' shares its mesh with '{first.name}': weights computed once, "
-                         f"from '{first.name}'")
+        written_notes, partial, kept_locked = write_weights(prepared, results, write)
+        notes += written_notes
         nverts = sum(len(v) for _, _, v, _ in inputs)
         label = dict((m[0], m[1]) for m in METHODS)[self.method]
         msg = (f"{label}: {nverts} vertices in {len(inputs)} mesh(es), {int(write.sum())} bones, "
