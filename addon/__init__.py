@@ -5,7 +5,8 @@ common/ (Blender data to arrays and back, keyframes in bulk) and puppet_live.py 
 that solve shadow puppets live).
 """
 
-from . import operators_motion, operators_puppet, operators_skeleton, puppet_live, ui
+from . import operators_motion, operators_puppet, puppet_live, ui
+from .skeleton import operators as operators_skeleton
 from .weights import operators as operators_weights
 
 _modules = (operators_weights, operators_skeleton, operators_motion, operators_puppet, ui)

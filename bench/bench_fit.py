@@ -42,7 +42,7 @@ MODELS = ["Fox.glb", "CesiumMan.gltf", "spot_rig.glb"]
 
 
 def addon(name: str):
-    """The installed add-on's module ``name`` (common.meshes, rig_io, ...)."""
+    """The installed add-on's module ``name`` (common.meshes, skeleton.joints, ...)."""
     return importlib.import_module(f"{blender_session.ADDON_MODULE}.{name}")
 
 
@@ -81,7 +81,7 @@ def read_joints(bpy, arm, diag):
     parents = [index[eb.parent.name] if eb.parent else -1 for eb in bones]
     conn = [eb.use_connect for eb in bones]
     bpy.ops.object.mode_set(mode="OBJECT")
-    return addon("rig_io").joint_graph(h, t, parents, conn, 1e-6 * diag)
+    return addon("skeleton.joints").joint_graph(h, t, parents, conn, 1e-6 * diag)
 
 
 def real_joints(ends, imported):
@@ -106,9 +106,9 @@ def joints_now(bpy, arm, ends):
 def set_joints(bpy, arm, joints, ends):
     """Move the joints; parts parented to bones stay where they are (the mesh is fixed, only the
     skeleton is rough), as they do while the operator fits."""
-    rig_io = addon("rig_io")
-    with rig_io.bone_children_stay(arm):
-        rig_io.place_bone_ends(edit_bones(bpy, arm), joints[ends[:, 0]], joints[ends[:, 1]])
+    editing = addon("skeleton.editing")
+    with editing.bone_children_stay(arm):
+        editing.place_bone_ends(edit_bones(bpy, arm), joints[ends[:, 0]], joints[ends[:, 1]])
         bpy.ops.object.mode_set(mode="OBJECT")
 
 

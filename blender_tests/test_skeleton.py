@@ -18,7 +18,9 @@ from mathutils import Vector
 import builders
 import creature
 
-rig_io = importlib.import_module("bl_ext.user_default.miniskeleton.rig_io")
+skeleton_editing = importlib.import_module("bl_ext.user_default.miniskeleton.skeleton.editing")
+skeleton_joints = importlib.import_module("bl_ext.user_default.miniskeleton.skeleton.joints")
+skeleton_snapshot = importlib.import_module("bl_ext.user_default.miniskeleton.skeleton.snapshot")
 core = importlib.import_module("miniskeleton_core")
 
 
@@ -63,7 +65,7 @@ def set_joints(arm, joints, ends):
     """Move every bone end to its joint (Edit Mode), keeping connections."""
     builders.set_active(arm)
     bpy.ops.object.mode_set(mode="EDIT")
-    rig_io.place_bone_ends(arm.data.edit_bones, joints[ends[:, 0]], joints[ends[:, 1]])
+    skeleton_editing.place_bone_ends(arm.data.edit_bones, joints[ends[:, 0]], joints[ends[:, 1]])
     bpy.ops.object.mode_set(mode="OBJECT")
 
 
@@ -74,7 +76,7 @@ def creature_setup(seed=1, scale=0.05):
     names, h, t, parents, conn = bone_arrays(arm)
     verts = builders.world_vertices(body)
     diag = float(np.linalg.norm(verts.max(0) - verts.min(0)))
-    joints, ends = rig_io.joint_graph(h, t, parents, conn, 1e-6 * diag)
+    joints, ends = skeleton_joints.joint_graph(h, t, parents, conn, 1e-6 * diag)
     rng = np.random.default_rng(seed)
     d = rng.normal(size=joints.shape)
     d *= (scale * diag * rng.random(len(joints)) ** (1 / 3) / np.linalg.norm(d, axis=1))[:, None]
@@ -242,7 +244,7 @@ def test_fit_reads_bone_parented_parts_in_the_rest_pose():
     ob = builders.cylinder("Body", radius=0.5, height=4.0, rings=24, segments=16)
     arm = builders.chain("Rig", count=4)
     names, h, t, parents, conn = bone_arrays(arm)
-    joints, ends = rig_io.joint_graph(h, t, parents, conn, 1e-6)
+    joints, ends = skeleton_joints.joint_graph(h, t, parents, conn, 1e-6)
     moved = joints + np.array([0.2, -0.15, 0.0])
     set_joints(arm, moved, ends)
     builders.select_for_parenting([ob], arm)
@@ -288,7 +290,7 @@ def test_fit_and_restore_keep_a_constrained_bone_child_in_place():
     ob = builders.cylinder("Body", radius=0.5, height=4.0, rings=24, segments=16)
     arm = builders.chain("Rig", count=4)
     names, h, t, parents, conn = bone_arrays(arm)
-    joints, ends = rig_io.joint_graph(h, t, parents, conn, 1e-6)
+    joints, ends = skeleton_joints.joint_graph(h, t, parents, conn, 1e-6)
     set_joints(arm, joints + np.array([0.2, -0.15, 0.0]), ends)
     arm.data.bones.active = arm.data.bones["Bone0"]
     builders.select_for_parenting([ob], arm)
@@ -478,10 +480,9 @@ def test_joint_mirror_a_paired_bone_wins_a_joint_it_shares_with_an_unpaired_one(
     """Joint mirrors from bone names: an unpaired side bone (a shoulder pad on the left only)
     leaves its own free end unpaired but not the joint it shares with a paired bone; centre
     joints are their own mirror."""
-    rig_io = importlib.import_module("bl_ext.user_default.miniskeleton.rig_io")
     names = ["spine", "arm.L", "arm.R", "pad.L"]
     bone_joints = np.array([[0, 1], [1, 2], [1, 3], [2, 4]], dtype=np.int32)
-    assert rig_io.joint_mirror(names, bone_joints).tolist() == [0, 1, 3, 2, -1]
+    assert skeleton_joints.joint_mirror(names, bone_joints).tolist() == [0, 1, 3, 2, -1]
 
 
 def test_fit_symmetry_leaves_unpaired_side_joints_off_the_centre_line():
@@ -559,7 +560,7 @@ def test_fit_keeps_control_bones_outside_the_mesh_where_they_are(capfd):
 
 
 def test_joint_graph_merges_ends_within_the_tolerance_and_takes_any_bone_order():
-    """rig_io.joint_graph against its definition (every end compared with every joint so far,
+    """skeleton.joints.joint_graph against its definition (every end compared with every joint so far,
     in parents-first order; the first joint within the tolerance wins): near-coincident ends
     just inside and just outside the tolerance, and a 1500-bone chain listed tip first (the
     recursive parents-first walk it replaces went 1500 calls deep; Python stops at 1000)."""
@@ -597,7 +598,7 @@ def test_joint_graph_merges_ends_within_the_tolerance_and_takes_any_bone_order()
             ends[i, 1] = find_or_add(tails[i])
         return np.array(joints), ends
 
-    joints, ends = rig_io.joint_graph(heads, tails, parents, connected, tol)
+    joints, ends = skeleton_joints.joint_graph(heads, tails, parents, connected, tol)
     want_joints, want_ends = reference(heads, tails, parents, connected)
     np.testing.assert_array_equal(ends, want_ends)
     np.testing.assert_array_equal(joints, want_joints)
@@ -609,7 +610,7 @@ def test_joint_graph_merges_ends_within_the_tolerance_and_takes_any_bone_order()
     heads = np.stack([np.zeros(count), np.zeros(count), z[1:]], axis=1)
     tails = np.stack([np.zeros(count), np.zeros(count), z[:-1]], axis=1)
     parents = list(range(1, count)) + [-1]
-    joints, ends = rig_io.joint_graph(heads, tails, parents, [True] * (count - 1) + [False], tol)
+    joints, ends = skeleton_joints.joint_graph(heads, tails, parents, [True] * (count - 1) + [False], tol)
     assert len(joints) == count + 1
     assert all(ends[i, 0] == ends[i + 1, 1] for i in range(count - 1))
 
@@ -1115,7 +1116,7 @@ def test_bad_inputs_are_reported(capfd):
     with pytest.raises(RuntimeError, match="All 4 joints of 'Far' are outside.*Nothing was changed"):
         bpy.ops.armature.miniskeleton_fit_skeleton()
     assert [(tuple(b.head_local), tuple(b.tail_local)) for b in far.data.bones] == rest
-    assert rig_io.load_snapshot(far.data) is None  # no original stored: nothing was changed
+    assert skeleton_snapshot.load_snapshot(far.data) is None  # no original stored: nothing was changed
     flat = builders.mesh_object("Points", [(0, 0, 0), (1, 0, 0), (0, 1, 0)], [])
     builders.select_for_parenting([flat], arm)
     with pytest.raises(RuntimeError, match="no faces"):
@@ -1157,7 +1158,7 @@ def test_bones_just_made_in_edit_mode_are_fitted_and_kept():
     for eb in data.edit_bones:
         assert abs(eb.head.x) < 0.03 and abs(eb.tail.x) < 0.03, (eb.name, tuple(eb.head), tuple(eb.tail))
     assert bpy.ops.armature.miniskeleton_snapshot_skeleton() == {"FINISHED"}
-    assert rig_io.load_snapshot(data)["names"] == ["B0", "B1", "B2"]
+    assert skeleton_snapshot.load_snapshot(data)["names"] == ["B0", "B1", "B2"]
 
 
 def _walking_creature_with_a_pose_tried():
@@ -1184,7 +1185,7 @@ def test_fit_that_fails_leaves_a_pose_not_yet_keyed_as_it_was():
     with pytest.raises(RuntimeError, match="All 27 joints of 'CreatureRig' are outside.*Nothing was changed"):
         bpy.ops.armature.miniskeleton_fit_skeleton()
     assert tuple(neck.rotation_quaternion) == pytest.approx(tried)
-    assert arm.mode == "OBJECT" and rig_io.load_snapshot(arm.data) is None
+    assert arm.mode == "OBJECT" and skeleton_snapshot.load_snapshot(arm.data) is None
     # Blender's own Edit Mode does drop it: what the test guards against is real.
     bpy.ops.object.mode_set(mode="EDIT")
     bpy.ops.object.mode_set(mode="OBJECT")
@@ -1218,7 +1219,7 @@ def test_edit_mode_on_an_armature_not_evaluated_yet():
     ob = bpy.data.objects.new("Fresh", data)
     bpy.context.scene.collection.objects.link(ob)
     assert ob.pose is None
-    with rig_io.armature_edit(bpy.context, ob) as ebs:
+    with skeleton_editing.armature_edit(bpy.context, ob) as ebs:
         bone = ebs.new("Bone")
         bone.tail = (0.0, 0.0, 1.0)
     assert ob.mode == "OBJECT" and [b.name for b in data.bones] == ["Bone"]

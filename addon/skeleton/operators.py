@@ -3,23 +3,26 @@ and rig exchange (NPZ bundle export/import, debug JSON export).
 
 Fitting is computed by ``miniskeleton_core.fit_joints`` in the armature's frame (its axes and
 origin at world size, ``armature_frame``: X symmetry is the armature's x = 0, and a scaled
-armature does not stretch the mesh's cross-sections); rest-pose snapshots and file formats live in rig_io.py.
+armature does not stretch the mesh's cross-sections). The operators check and report; the work is
+in ``fitting``, ``snapshot`` (the original rest pose), ``editing`` (Edit Mode and bone ends),
+``joints`` (the joint graph) and ``exchange`` (NPZ / JSON).
 """
 
 from __future__ import annotations
-
-import json
 
 import bpy
 import numpy as np
 from bpy.props import EnumProperty, FloatProperty, IntProperty, StringProperty
 from bpy_extras.io_utils import ExportHelper, ImportHelper
 
-from . import rig_io
-from .common.armatures import find_armature, invented_tails, pose_flag, rest_pose
-from .common.meshes import shaped_world_mesh, stack_meshes
-from .common.reports import in_edit_mode, name_list, read_only, unplaced
-from .common.transforms import armature_frame, to_armature_frame
+from ..common.armatures import find_armature, invented_tails, pose_flag, rest_pose
+from ..common.meshes import shaped_world_mesh, stack_meshes
+from ..common.reports import in_edit_mode, name_list, read_only, unplaced
+from ..common.transforms import armature_frame, to_armature_frame
+from .editing import armature_edit, bone_children_stay
+from .exchange import RigError, apply_weights, collect_rig, load_npz, output_path, rig_json, save_json, save_npz
+from .fitting import FitError, fit_skeleton, movable_joints, place_fitted, read_skeleton
+from .snapshot import apply_rest_pose, load_snapshot, read_edit_rest_pose, store_snapshot
 
 
 def _selected_meshes(context, arm):
@@ -60,68 +63,6 @@ def _editable_armature(op, arm, need_bones=True):
         op.report({"ERROR"}, locked)
         return False
     return True
-
-
-def _fit_graph(ends, real, parents, follow, names):
-    """The joints and bones the fit sees: (joint indices (k,), bones (e,2) uint32 into them,
-    mirror (k,) int32). Without ``follow`` every bone end is a joint and every bone an edge. With
-    ``follow`` (a rig whose tails were invented by an importer) only bone heads and tails that are
-    some bone's head are joints, and the edges are the bones whose tail is such a joint plus
-    parent head -> child head (glTF's own joint hierarchy)."""
-    nj = int(ends.max()) + 1
-    if not follow:
-        keep = np.arange(nj)
-        edges = [tuple(e) for e in ends[real]]
-    else:
-        is_head = np.zeros(nj, dtype=bool)
-        is_head[ends[:, 0]] = True
-        keep = np.flatnonzero(is_head)
-        edges = []
-        for i, (h, t) in enumerate(ends):
-            if real[i] and is_head[t]:
-                edges.append((h, t))
-            p = parents[i]
-            if p >= 0 and ends[p, 0] != h:
-                edges.append((ends[p, 0], h))
-        seen, uniq = set(), []
-        for a, b in edges:
-            if (a, b) not in seen and (b, a) not in seen:
-                seen.add((a, b))
-                uniq.append((a, b))
-        edges = uniq
-    pos = np.full(nj, -1, dtype=np.int64)
-    pos[keep] = np.arange(len(keep))
-    bones = np.array([(pos[a], pos[b]) for a, b in edges], dtype=np.uint32).reshape(-1, 2)
-    full = rig_io.joint_mirror(names, ends)
-    # A partner that is not a fitted joint (an invented tail) leaves the joint free (-1).
-    mirror = np.array([pos[m] if 0 <= m < nj and pos[m] >= 0 else -1 for m in full[keep]], dtype=np.int32)
-    return keep, bones, mirror
-
-
-def _movable_joints(mode: str, bones, pose_sel: dict, ends: np.ndarray, nj: int) -> tuple[np.ndarray, np.ndarray]:
-    """(movable, controls) (nj,) bools: the selected joints (bone ends selected in Edit Mode,
-    ends of bones selected in Pose Mode); with none selected, every joint of a deform bone,
-    and the joints only non-deform bones use (IK and pole targets, a root on the ground:
-    controls, which place no weight) are the ``controls`` that keep their place."""
-    sel = np.zeros(nj, dtype=bool)
-    if mode == "EDIT":
-        for i, eb in enumerate(bones):
-            sel[ends[i, 0]] |= eb.select_head
-            sel[ends[i, 1]] |= eb.select_tail
-    elif mode == "POSE":
-        for i, eb in enumerate(bones):
-            if pose_sel.get(eb.name):
-                sel[ends[i]] = True
-    controls = np.zeros(nj, dtype=bool)
-    if sel.any():
-        return sel, controls
-    deform = np.zeros(nj, dtype=bool)
-    for i, eb in enumerate(bones):
-        if eb.use_deform:
-            deform[ends[i]] = True
-    if deform.any():
-        return deform, ~deform
-    return np.ones(nj, dtype=bool), controls
 
 
 class MINISKELETON_OT_fit_skeleton(bpy.types.Operator):
@@ -207,60 +148,26 @@ class MINISKELETON_OT_fit_skeleton(bpy.types.Operator):
         mode = arm.mode
         pose_sel = {b.name: pose_flag(arm, b, "select") for b in arm.data.bones} if mode == "POSE" else {}
 
-        # Read and fit without entering Edit Mode: an error leaves the armature exactly as it was
-        # (Edit Mode would re-evaluate its action, dropping a pose the rigger has not keyed).
-        bones, heads, tails = rig_io.current_bones(arm)
-        if not bones:
+        # Read and fit without entering Edit Mode: an error leaves the armature exactly as it was.
+        skel = read_skeleton(arm)
+        if skel is None:
             self.report({"ERROR"}, f"Armature '{arm.name}' has no bones")
             return {"CANCELLED"}
-        names = [b.name for b in bones]
-        index = {n: i for i, n in enumerate(names)}
-        parents = [index[b.parent.name] if b.parent else -1 for b in bones]
-        connected = [bool(b.use_connect) for b in bones]
-        # Joints coincide relative to the skeleton's size (a stray mesh vertex far away
-        # must not merge distinct joints).
-        size = float(np.linalg.norm(np.ptp(np.concatenate([heads, tails]), axis=0)))
-        joints, ends = rig_io.joint_graph(heads, tails, parents, connected, 1e-6 * max(size, 1e-30))
-        nj = len(joints)
-
-        movable, controls = _movable_joints(mode, bones, pose_sel, ends, nj)
-
-        joints_f = joints @ stretch  # S is symmetric
-        real = ends[:, 0] != ends[:, 1]
-        follow = self.tails == "FOLLOW" or (self.tails == "AUTO" and invented_tails(bones))
-        fit_j, fit_bones, mirror = _fit_graph(ends, real, parents, follow, names)
-        kw = {}
-        if self.symmetry == "X":
-            kw = dict(symmetry_axis=0, symmetry_plane=0.0, joint_mirror=mirror)
+        nj = len(skel.joints)
+        movable, controls = movable_joints(mode, skel.bones, pose_sel, skel.ends, nj)
+        follow = self.tails == "FOLLOW" or (self.tails == "AUTO" and invented_tails(skel.bones))
         try:
-            sub, rep = core.fit_joints(verts, tris, joints_f[fit_j].astype(np.float32), fit_bones,
-                                       movable[fit_j], rounds=self.rounds, tip=not follow,
-                                       max_move=self.max_move / 100.0, **kw)
-        except (ValueError, RuntimeError) as err:
-            self.report({"ERROR"}, f"Fit failed: {err}; nothing was changed")
+            new_heads, new_tails, rep, fit_j = fit_skeleton(core, skel, verts, tris, stretch, movable, follow,
+                                                            self.symmetry, self.rounds, self.max_move / 100.0)
+        except FitError as err:
+            self.report({"ERROR"}, str(err))
             return {"CANCELLED"}
         if rep["outside_before_mask"].all():
             self.report({"ERROR"}, f"All {len(fit_j)} joints of '{arm.name}' are outside the selected "
                         "mesh(es): is this the right mesh, and are both objects placed over each other? "
                         "Nothing was changed")
             return {"CANCELLED"}
-        new = joints.copy()
-        new[fit_j] = np.linalg.solve(stretch, np.asarray(sub, dtype=np.float64).T).T
-        fitted = np.zeros(nj, dtype=bool)
-        fitted[fit_j] = True
-        new_heads = new[ends[:, 0]]
-        new_tails = new[ends[:, 1]]
-        for i in range(len(bones)):
-            h = new_heads[i]
-            # An invented tail (not fitted) keeps the bone's direction and length from its head.
-            if not (real[i] and fitted[ends[i, 1]]) or np.linalg.norm(new_tails[i] - h) <= 1e-6 * size:
-                new_tails[i] = h + (tails[i] - heads[i])  # and never collapse a bone (Blender deletes it)
-
-        with rig_io.bone_children_stay(arm), rig_io.armature_edit(context, arm) as ebs:
-            rig_io.ensure_snapshot(arm, ebs)
-            edit = [ebs[n] for n in names]
-            rig_io.place_bone_ends(edit, new_heads, new_tails, [eb.z_axis.copy() for eb in edit])
-
+        place_fitted(context, arm, skel.names, new_heads, new_tails)
         self._report_fit(rep, movable[fit_j], controls[fit_j], nj)
         return {"FINISHED"}
 
@@ -308,13 +215,13 @@ class MINISKELETON_OT_restore_skeleton(bpy.types.Operator):
         arm = find_armature(context)
         if not _editable_armature(self, arm, need_bones=False):  # all deleted: still restorable
             return {"CANCELLED"}
-        snap = rig_io.load_snapshot(arm.data)
+        snap = load_snapshot(arm.data)
         if snap is None:
             self.report({"ERROR"}, f"Armature '{arm.name}' has no stored original skeleton "
                         "(MiniSkeleton has not changed it)")
             return {"CANCELLED"}
-        with rig_io.bone_children_stay(arm), rig_io.armature_edit(context, arm) as ebs:
-            removed, made = rig_io.apply_rest_pose(ebs, snap)
+        with bone_children_stay(arm), armature_edit(context, arm) as ebs:
+            removed, made = apply_rest_pose(ebs, snap)
         done = f"Restored the original skeleton of '{arm.name}' ({len(snap['names'])} bones)"
         # Bones added or renamed since lose their pose-bone settings: say which (Ctrl+Z undoes).
         changes = []
@@ -340,8 +247,8 @@ class MINISKELETON_OT_snapshot_skeleton(bpy.types.Operator):
         arm = find_armature(context)
         if not _editable_armature(self, arm):
             return {"CANCELLED"}
-        with rig_io.armature_edit(context, arm) as ebs:
-            rig_io.store_snapshot(arm.data, rig_io.read_edit_rest_pose(ebs))
+        with armature_edit(context, arm) as ebs:
+            store_snapshot(arm.data, read_edit_rest_pose(ebs))
         self.report({"INFO"}, f"Current skeleton of '{arm.name}' kept as the original")
         return {"FINISHED"}
 
@@ -385,10 +292,10 @@ class MINISKELETON_OT_export_npz(bpy.types.Operator, ExportHelper):
             return {"CANCELLED"}
         arm, meshes = found
         try:
-            rig = rig_io.collect_rig(arm, meshes, self.max_influences)
-            path = rig_io.output_path(self.filepath, self.filename_ext)
-            rig_io.save_npz(path, rig)
-        except rig_io.RigError as err:
+            rig = collect_rig(arm, meshes, self.max_influences)
+            path = output_path(self.filepath, self.filename_ext)
+            save_npz(path, rig)
+        except RigError as err:
             self.report({"ERROR"}, f"Not exported: {err}")
             return {"CANCELLED"}
         self.report({"INFO"}, f"Exported {len(rig['vertices'])} vertices, {len(rig['bone_names'])} bones "
@@ -415,9 +322,9 @@ class MINISKELETON_OT_import_npz(bpy.types.Operator, ImportHelper):
             self.report({"ERROR"}, locked + "; nothing was changed")
             return {"CANCELLED"}
         try:
-            rig = rig_io.load_npz(self.filepath)
-            n = rig_io.apply_weights(rig, meshes)
-        except rig_io.RigError as err:
+            rig = load_npz(self.filepath)
+            n = apply_weights(rig, meshes)
+        except RigError as err:
             self.report({"ERROR"}, str(err))
             return {"CANCELLED"}
         self.report({"INFO"}, f"Weights of {len(rig['bone_names'])} bones restored on {n} vertices")
@@ -440,15 +347,11 @@ class MINISKELETON_OT_export_json(bpy.types.Operator, ExportHelper):
             return {"CANCELLED"}
         arm, meshes = found
         try:
-            data = rig_io.rig_json(arm, meshes)
-            path = rig_io.output_path(self.filepath, self.filename_ext)
-            with open(path, "w", encoding="utf-8") as f:
-                json.dump(data, f, indent=1)
-        except rig_io.RigError as err:
+            data = rig_json(arm, meshes)
+            path = output_path(self.filepath, self.filename_ext)
+            save_json(path, data)
+        except RigError as err:
             self.report({"ERROR"}, f"Not exported: {err}")
-            return {"CANCELLED"}
-        except OSError as err:
-            self.report({"ERROR"}, f"Not exported: cannot write '{path}': {err.strerror or err}")
             return {"CANCELLED"}
         self.report({"INFO"}, f"Exported {len(data['joints'])} joints, {len(data['bones'])} bones to {path}")
         return {"FINISHED"}

@@ -1,5 +1,5 @@
-"""Rig data in and out of Blender, no UI: the original rest-pose snapshot, the joint graph of an
-armature, and the NPZ bundle / debug JSON exchange formats.
+"""The rig exchange formats, no UI: the NPZ bundle (mesh, skeleton and weights) written and read
+back, and the debug JSON (joints, bone edges, per-bone weight statistics).
 
 NPZ bundle (``FORMAT_VERSION`` 1), what RigNet-style learning pipelines read:
   format_version ()  int32
@@ -19,296 +19,23 @@ from __future__ import annotations
 import json
 import zipfile
 from collections import Counter
-from contextlib import contextmanager
 from pathlib import Path
 
 import bpy
 import numpy as np
 
-from .common.armatures import rest_pose
-from .common.files import make_folder
-from .common.groups import BoneRows, read_weights, write_vertex_groups
-from .common.meshes import mesh_triangles, mesh_world_vertices, stack_meshes
-from .common.mirror import bone_mirror_indices
-from .common.objects import follows_bone, unconstrained_world, viewport_hidden
-from .common.reports import name_list
+from ..common.files import make_folder
+from ..common.groups import BoneRows, read_weights, write_vertex_groups
+from ..common.meshes import mesh_triangles, mesh_world_vertices, stack_meshes
+from ..common.reports import name_list
+from .joints import joint_graph
 
 FORMAT_VERSION = 1
-SNAPSHOT_KEY = "miniskeleton_original_rest_pose"
 
 
 class RigError(ValueError):
     """A rig file or scene that cannot be used, with a message for the status bar."""
 
-
-# ---------------------------------------------------------------------------- edit mode
-
-_POSE_CHANNELS = ("location", "rotation_quaternion", "rotation_euler", "rotation_axis_angle", "scale")
-
-
-def pose_values(arm_ob) -> dict[str, np.ndarray] | None:
-    """Every pose bone's local transform channels, read at once: {channel: (bones, width)};
-    None for an armature not evaluated yet (it has no pose)."""
-    if arm_ob.pose is None:
-        return None
-    bones = arm_ob.pose.bones
-    out = {}
-    for name in _POSE_CHANNELS:
-        width = 4 if name in ("rotation_quaternion", "rotation_axis_angle") else 3
-        out[name] = np.empty(len(bones) * width, dtype=np.float32)
-        bones.foreach_get(name, out[name])
-        out[name] = out[name].reshape(len(bones), width)
-    out["names"] = [b.name for b in bones]
-    return out
-
-
-def put_back_pose(arm_ob, before: dict | None) -> None:
-    """Give the pose bones still named as in ``before`` (``pose_values``) those values again
-    where they changed: leaving Edit Mode re-evaluates the armature's action, which drops pose
-    changes not yet keyed on animated bones (as Tab does), though the pose is the rigger's."""
-    now = pose_values(arm_ob)
-    if before is None or now is None:
-        return
-    index = {name: i for i, name in enumerate(now["names"])}
-    bones = arm_ob.pose.bones
-    for i, name in enumerate(before["names"]):
-        j = index.get(name)
-        if j is None:
-            continue
-        for channel in _POSE_CHANNELS:
-            if not np.array_equal(before[channel][i], now[channel][j]):
-                setattr(bones[j], channel, before[channel][i].tolist())
-
-
-@contextmanager
-def armature_edit(context, arm_ob):
-    """Edit Mode on ``arm_ob`` for the block (edit bones in armature space), then the previous
-    mode and active object again, with the pose as it was (``put_back_pose``). Yields
-    ``arm_ob.data.edit_bones``. An armature disabled in viewports (which Blender does not let
-    into Edit Mode) is enabled for the block only."""
-    view_layer = context.view_layer
-    prev_active = view_layer.objects.active
-    prev_mode = arm_ob.mode
-    pose = pose_values(arm_ob) if prev_mode != "EDIT" else None
-    with viewport_hidden(arm_ob, False):
-        if prev_active is not arm_ob:
-            if prev_active is not None and prev_active.mode != "OBJECT":
-                bpy.ops.object.mode_set(mode="OBJECT")
-            view_layer.objects.active = arm_ob
-        if arm_ob.mode != "EDIT":
-            bpy.ops.object.mode_set(mode="EDIT")
-        try:
-            yield arm_ob.data.edit_bones
-        finally:
-            if prev_mode != "EDIT":
-                bpy.ops.object.mode_set(mode=prev_mode)
-                put_back_pose(arm_ob, pose)
-            else:
-                arm_ob.update_from_editmode()
-            if prev_active is not arm_ob and prev_active is not None:
-                view_layer.objects.active = prev_active
-
-
-def current_bones(arm_ob) -> tuple[list, np.ndarray, np.ndarray]:
-    """The armature's bones as the rigger sees them, read without changing mode: its edit bones
-    in Edit Mode (edits not yet in its bones), else its bones; with their heads and tails (b, 3)
-    float64 in armature space."""
-    edit = arm_ob.mode == "EDIT"
-    bones = list(arm_ob.data.edit_bones if edit else arm_ob.data.bones)
-    heads = np.array([b.head if edit else b.head_local for b in bones], dtype=np.float64).reshape(-1, 3)
-    tails = np.array([b.tail if edit else b.tail_local for b in bones], dtype=np.float64).reshape(-1, 3)
-    return bones, heads, tails
-
-
-@contextmanager
-def bone_children_stay(arm_ob):
-    """Objects parented to bones of ``arm_ob`` (Bone parenting: a robot's rigid parts, a
-    prop in a hand) keep their rest-pose place while the block moves bones: Blender would carry
-    them along with their bone, so fitting a skeleton would move the very mesh it is fitted to.
-    Their parent inverse is solved again afterwards; the armature stays in its rest position for
-    the block, and its pose is left as it was."""
-    children = [o for o in bpy.data.objects if follows_bone(o, arm_ob)]
-    if not children:
-        yield
-        return
-    with rest_pose(arm_ob, children):
-        # Before their constraints act, which act again on the new parenting.
-        before = [unconstrained_world(o) for o in children]
-        try:
-            yield
-        finally:
-            bpy.context.view_layer.update()  # the children where their moved bones took them
-            for o, w0 in zip(children, before):
-                basis = o.matrix_basis.copy()
-                # world = parent @ parent_inverse @ basis: keep world, solve parent_inverse.
-                w1 = unconstrained_world(o)
-                o.matrix_parent_inverse = (o.matrix_parent_inverse @ basis @ w1.inverted_safe()
-                                           @ w0 @ basis.inverted_safe())
-            bpy.context.view_layer.update()
-
-
-# ---------------------------------------------------------------------------- snapshot
-
-def read_edit_rest_pose(edit_bones) -> dict:
-    """Heads, tails, rolls, parents and connection of every edit bone (armature space)."""
-    bones = list(edit_bones)
-    return {
-        "version": 1,
-        "names": [eb.name for eb in bones],
-        "heads": [list(map(float, eb.head)) for eb in bones],
-        "tails": [list(map(float, eb.tail)) for eb in bones],
-        "rolls": [float(eb.roll) for eb in bones],
-        "parents": [eb.parent.name if eb.parent else "" for eb in bones],
-        "connect": [bool(eb.use_connect) for eb in bones],
-    }
-
-
-def has_snapshot(arm_data) -> bool:
-    return SNAPSHOT_KEY in arm_data.keys()
-
-
-def store_snapshot(arm_data, snap: dict) -> None:
-    """Keep ``snap`` on the armature data (an ID property: saved in the .blend, undoable).
-    JSON keeps every float exactly (repr round trip)."""
-    arm_data[SNAPSHOT_KEY] = json.dumps(snap)
-
-
-def load_snapshot(arm_data) -> dict | None:
-    raw = arm_data.get(SNAPSHOT_KEY)
-    if raw is None:
-        return None
-    try:
-        snap = json.loads(raw)
-    except (TypeError, ValueError):
-        return None
-    return snap if isinstance(snap, dict) and "names" in snap else None
-
-
-def ensure_snapshot(arm_ob, edit_bones) -> bool:
-    """Store the current rest pose as the original unless one is stored. Call it in Edit Mode
-    before any MiniSkeleton operator changes the rest pose. True if it stored one now."""
-    if has_snapshot(arm_ob.data):
-        return False
-    store_snapshot(arm_ob.data, read_edit_rest_pose(edit_bones))
-    return True
-
-
-def apply_rest_pose(edit_bones, snap: dict) -> tuple[list[str], list[str]]:
-    """Put the rest pose ``snap`` back exactly: bones not in it are removed, missing ones made.
-    Returns the names of the bones (removed, made), for the report."""
-    names = snap["names"]
-    wanted = set(names)
-    removed = [eb.name for eb in edit_bones if eb.name not in wanted]
-    for n in removed:
-        edit_bones.remove(edit_bones[n])
-    made = [n for n in names if edit_bones.get(n) is None]
-    for n in made:
-        eb = edit_bones.new(n)
-        eb.tail = (0.0, 0.0, 1.0)
-    ebs = [edit_bones[n] for n in names]
-    for eb in ebs:
-        eb.use_connect = False
-        eb.parent = None
-    for eb, h, t, r in zip(ebs, snap["heads"], snap["tails"], snap["rolls"]):
-        eb.head = h
-        eb.tail = t
-        eb.roll = r
-    for eb, p in zip(ebs, snap["parents"]):
-        if p:
-            eb.parent = edit_bones[p]
-    for eb, c in zip(ebs, snap["connect"]):
-        eb.use_connect = bool(c)
-    return removed, made
-
-
-def place_bone_ends(edit_bones, heads, tails, z_axes=None) -> None:
-    """Move every edit bone to ``heads[i]``/``tails[i]`` (armature space), keeping which bones
-    are connected: connections are dropped first so that moving a child never drags its
-    parent's tail, then put back. With ``z_axes``, each bone's roll is re-aligned to it."""
-    ebs = list(edit_bones)
-    connected = [eb.use_connect for eb in ebs]
-    for eb in ebs:
-        eb.use_connect = False
-    for i, eb in enumerate(ebs):
-        eb.head = heads[i]
-        eb.tail = tails[i]
-        if z_axes is not None:
-            eb.align_roll(z_axes[i])
-    for eb, c in zip(ebs, connected):
-        eb.use_connect = c
-
-
-# ---------------------------------------------------------------------------- joint graph
-
-def joint_graph(heads: np.ndarray, tails: np.ndarray, parents: list[int], connected: list[bool],
-                tolerance: float) -> tuple[np.ndarray, np.ndarray]:
-    """Unique joints of a skeleton: a connected child's head is its parent's tail, and bone ends
-    closer than ``tolerance`` are one joint. Returns ``joints`` (j, 3) float64 and ``bone_joints``
-    (b, 2) int32 (head joint, tail joint)."""
-    b = len(heads)
-    joints: list[np.ndarray] = []
-    ends = np.full((b, 2), -1, dtype=np.int32)
-    # joints by grid cell of side ``tolerance``: a match lies in one of the 27 cells around
-    # (a scan of every joint would make Fit quadratic in the number of bones)
-    cell = tolerance if tolerance > 0 else 1.0
-    grid: dict[tuple[int, int, int], list[int]] = {}
-
-    def find_or_add(p):
-        p = np.asarray(p, dtype=np.float64)
-        if not np.isfinite(p).all():  # never equal to another joint; the caller reports it
-            joints.append(p)
-            return len(joints) - 1
-        key = tuple(int(k) for k in np.floor(p / cell))
-        near = [i for dx in (-1, 0, 1) for dy in (-1, 0, 1) for dz in (-1, 0, 1)
-                for i in grid.get((key[0] + dx, key[1] + dy, key[2] + dz), ())
-                if np.linalg.norm(joints[i] - p) <= tolerance]
-        if near:
-            return min(near)
-        joints.append(p)
-        grid.setdefault(key, []).append(len(joints) - 1)
-        return len(joints) - 1
-
-    order = _parents_first(parents)
-    for i in order:
-        if connected[i] and parents[i] >= 0:
-            ends[i, 0] = ends[parents[i], 1]
-        else:
-            ends[i, 0] = find_or_add(heads[i])
-        ends[i, 1] = find_or_add(tails[i])
-    return np.asarray(joints, dtype=np.float64).reshape(-1, 3), ends
-
-
-def _parents_first(parents: list[int]) -> list[int]:
-    """Bone indices with every parent before its children (no recursion: chains of thousands)."""
-    done, order = set(), []
-    for i in range(len(parents)):
-        path = []
-        while i >= 0 and i not in done:
-            done.add(i)
-            path.append(i)
-            i = parents[i]
-        order.extend(reversed(path))
-    return order
-
-
-def joint_mirror(bone_names: list[str], bone_joints: np.ndarray) -> np.ndarray:
-    """Mirror joint of each joint by its bones' left/right names (``bone_mirror_indices``):
-    the partner's joint; itself for a joint of centre bones only (it stays on the centre line);
-    -1 for a joint of side bones without a partner (fitted on its own)."""
-    j = int(bone_joints.max()) + 1 if len(bone_joints) else 0
-    mirror = np.arange(j, dtype=np.int32)
-    bone_mirror = bone_mirror_indices(bone_names)
-    for bi, m in enumerate(bone_mirror):  # unpaired side bones first: a partner found later wins
-        if m < 0:
-            mirror[bone_joints[bi]] = -1
-    for bi, m in enumerate(bone_mirror):
-        if m >= 0 and m != bi:
-            for end in (0, 1):
-                mirror[bone_joints[bi, end]] = bone_joints[m, end]
-    return mirror
-
-
-# ---------------------------------------------------------------------------- exchange
 
 def world_bones(arm_ob):
     """Every bone of ``arm_ob`` (rest pose, world space): names, heads (b,3), tails (b,3), parents (b,)."""
@@ -410,6 +137,15 @@ def save_npz(path: Path, rig: dict) -> None:
     try:
         with open(path, "wb") as fh:
             np.savez_compressed(fh, **rig)
+    except OSError as err:
+        raise RigError(f"cannot write '{path}': {err.strerror or err}") from err
+
+
+def save_json(path: Path, data: dict) -> None:
+    """Write the debug JSON ``data`` (``rig_json``); RigError when the file cannot be written."""
+    try:
+        with open(path, "w", encoding="utf-8") as f:
+            json.dump(data, f, indent=1)
     except OSError as err:
         raise RigError(f"cannot write '{path}': {err.strerror or err}") from err
 
