@@ -5,7 +5,8 @@ common/ (Blender data to arrays and back, keyframes in bulk) and puppet_live.py 
 that solve shadow puppets live).
 """
 
-from . import operators_motion, operators_puppet, puppet_live, ui
+from . import operators_puppet, puppet_live, ui
+from .motion import operators as operators_motion
 from .skeleton import operators as operators_skeleton
 from .weights import operators as operators_weights
 

@@ -20,7 +20,7 @@ ADDON = "bl_ext.user_default.miniskeleton"
 def motion_module():
     import importlib
 
-    return importlib.import_module(ADDON + ".operators_motion")
+    return importlib.import_module(ADDON + ".motion.operators")
 
 
 def skeleton_arrays(arm):
@@ -837,7 +837,7 @@ def test_a_framing_camera_films_a_long_walk_from_the_side_at_any_size():
     walk is filmed from the side, not from behind), with the whole path in view and between its
     clipping distances, also for a 2 cm figure (inside a new camera's 0.1 m clip start) and a
     2 km one (beyond its 1 km clip end)."""
-    filming = __import__(ADDON + ".filming", fromlist=["filming"])
+    filming = __import__(ADDON + ".motion.filming", fromlist=["filming"])
     scene = bpy.context.scene
     scene.render.resolution_x, scene.render.resolution_y = 160, 90
     boxes = [((-0.5, -6.0, 0.0), (0.5, 0.0, 1.5), 0), ((-6.0, -0.5, 0.0), (0.0, 0.5, 1.5), 1),
@@ -862,7 +862,7 @@ def test_a_following_camera_travels_level_with_the_walker_and_keeps_it_in_frame(
     """Make Video's FOLLOW camera is keyed along a 10 m walk at one height (the walker bobs, the
     camera does not), much nearer the walker than a camera framing the whole path, and has it in
     frame at every frame; a walker that stays in place gets a fixed framing camera instead."""
-    filming = __import__(ADDON + ".filming", fromlist=["filming"])
+    filming = __import__(ADDON + ".motion.filming", fromlist=["filming"])
     scene = bpy.context.scene
     scene.frame_start, scene.frame_end = 1, 41
     scene.render.resolution_x, scene.render.resolution_y = 160, 90
@@ -897,7 +897,7 @@ def test_the_camera_frames_the_visible_meshes_an_armature_deforms():
     """What Make Video frames: visible meshes deformed by (or parented to) an armature, not a
     hidden proxy or an unrigged ground plane; without a rigged mesh every visible mesh; without
     a mesh the armatures."""
-    filming = __import__(ADDON + ".filming", fromlist=["filming"])
+    filming = __import__(ADDON + ".motion.filming", fromlist=["filming"])
     scene = bpy.context.scene
     arm = B.chain("Rig", count=2)
     body, proxy, hat = B.cylinder("Body"), B.cylinder("Proxy"), B.cylinder("Hat")
@@ -917,7 +917,7 @@ def test_the_camera_frames_the_visible_meshes_an_armature_deforms():
 
 
 def test_the_video_goes_next_to_the_saved_blend_file_by_default(tmp_path):
-    filming = __import__(ADDON + ".filming", fromlist=["filming"])
+    filming = __import__(ADDON + ".motion.filming", fromlist=["filming"])
     scene = bpy.context.scene
     from pathlib import Path
 

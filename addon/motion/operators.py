@@ -18,12 +18,12 @@ import numpy as np
 from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty, StringProperty
 from mathutils import Matrix, Quaternion, Vector
 
-from .common.armatures import armature_bones
-from .common.files import make_folder
-from .common.keys import (action_fcurves, action_frame, key_rotation, key_series, keyed_action, rotation_path,
+from ..common.armatures import armature_bones
+from ..common.files import make_folder
+from ..common.keys import (action_fcurves, action_frame, key_rotation, key_series, keyed_action, rotation_path,
                           rotation_series, value_at)
-from .common.reports import name_list, read_only, unplaced
-from .common.transforms import axis_scales, extent, inverse
+from ..common.reports import name_list, read_only, unplaced
+from ..common.transforms import axis_scales, extent, inverse
 from .filming import (ENGINES, add_camera, add_follow_camera, add_light, character_objects, default_video_path,
                       kept_render_settings, motion_boxes, set_engine, set_mp4, union_box)
 
