@@ -17,17 +17,33 @@ import creature
 ADDON = "bl_ext.user_default.miniskeleton"
 
 
-def motion_module():
+def addon_module(name: str):
+    """The installed add-on's module ``name``."""
     import importlib
 
-    return importlib.import_module(ADDON + ".motion.operators")
+    return importlib.import_module(f"{ADDON}.{name}")
+
+
+def keying():
+    """motion.keying: the keys a motion wrote (last_key_frame, keyed_rotation_bones)."""
+    return addon_module("motion.keying")
+
+
+def planning():
+    """motion.planning: the skeleton the core reads, the roles it found."""
+    return addon_module("motion.planning")
+
+
+def common_keys():
+    """common.keys: an object's F-curves (action_fcurves)."""
+    return addon_module("common.keys")
 
 
 def skeleton_arrays(arm):
     """(names, heads, tails, parents, rest) as the operator reads them."""
     common_armatures = __import__(ADDON + ".common.armatures", fromlist=["armatures"])
     bones = common_armatures.armature_bones(arm)
-    return bones, motion_module().rest_matrices(arm, bones.names)
+    return bones, planning().rest_matrices(arm, bones.names)
 
 
 def biped_rig():
@@ -147,7 +163,7 @@ def test_no_legs_or_no_head_is_refused_clearly():
     arm.location.z = 2.0
     with pytest.raises(RuntimeError, match="no legs"):
         add_motion(arm, motion="WALK")
-    assert arm.animation_data is None or not motion_module().action_fcurves(arm)
+    assert arm.animation_data is None or not common_keys().action_fcurves(arm)
     legs_only = B.armature("Stool", [("seat", (-0.3, 0, 1), (0.3, 0, 1), None, False),
                                      ("leg.L", (0.3, 0, 1), (0.3, 0, 0), "seat", False),
                                      ("leg.R", (-0.3, 0, 1), (-0.3, 0, 0), "seat", False)])
@@ -182,7 +198,7 @@ def test_action_linked_from_a_library_gets_no_keys_and_a_clear_error(tmp_path):
     frame_end = bpy.context.scene.frame_end
     with pytest.raises(RuntimeError, match=r"Action 'Library walk' is linked from actions.blend .*Action Editor"):
         add_motion(arm, motion="WALK")
-    assert motion_module().last_key_frame(arm) is None and bpy.context.scene.frame_end == frame_end
+    assert keying().last_key_frame(arm) is None and bpy.context.scene.frame_end == frame_end
     assert all(pb.matrix_basis == Matrix() for pb in arm.pose.bones)
 
 
@@ -202,7 +218,7 @@ def test_an_armature_in_rest_position_gets_the_keys_and_a_warning(capfd):
     assert add_motion(arm, motion="WALK", cycles=1) == {"FINISHED"}
     assert "shows its Rest Position, so the motion does not show: switch to Pose Position" \
         in "".join(capfd.readouterr())
-    assert motion_module().keyed_rotation_bones(arm) >= {"thigh.L", "shin.R"}
+    assert keying().keyed_rotation_bones(arm) >= {"thigh.L", "shin.R"}
     arm.data.pose_position = "POSE"
     capfd.readouterr()
     assert add_motion(arm, motion="WALK", cycles=1) == {"FINISHED"}
@@ -216,7 +232,7 @@ def test_roles_of_a_rig_with_hundreds_of_hair_bones_are_listed_shortly():
     roles = dict(plan="biped", root=0, spine=[0], neck=[], head=1, head_extras=list(range(2, 1002)), tail=[],
                  legs=[dict(bones=[1002], side="L", group=0), dict(bones=[1003], side="R", group=0)],
                  arms=[], notes=[])
-    lines = motion_module().describe_roles(roles, names)
+    lines = planning().describe_roles(roles, names)
     head = next(line for line in lines if line.startswith("head:"))
     assert head == "head: head (+ " + ", ".join(f"hair{k}" for k in range(12)) + " ... (1000 in all))", head
     assert "leg L: thigh.L" in lines
@@ -409,8 +425,7 @@ def test_feet_hanging_off_the_root_walk_with_their_legs(invented_tails, scale, c
     assert "feet hanging off the root bone, not their legs (an IK rig without its constraints): " \
            "Foot.L, Foot.R" in capsys.readouterr().out
     scene = bpy.context.scene
-    mm = motion_module()
-    end = int(mm.last_key_frame(arm))
+    end = int(keying().last_key_frame(arm))
     leg = 0.93   # hip height above the foot (world units: the bones keep their world size)
     peaks = []
     for s in "LR":
@@ -424,7 +439,7 @@ def test_feet_hanging_off_the_root_walk_with_their_legs(invented_tails, scale, c
 
     assert add_motion(arm, motion="HEAD_SHAKE", duration=1.0) == {"FINISHED"}
     start = end + 1
-    for f in (start + round(scene.render.fps * 0.25), int(mm.last_key_frame(arm))):
+    for f in (start + round(scene.render.fps * 0.25), int(keying().last_key_frame(arm))):
         scene.frame_set(f)
         for s in "LR":
             assert tuple(arm.pose.bones[f"Foot.{s}"].location) == pytest.approx((0, 0, 0), abs=1e-6)
@@ -435,9 +450,8 @@ def test_a_walk_appended_to_one_ending_mid_stride_bobs_through_the_same_heights(
     appended to one that ends mid-stride rises and sinks through the same heights."""
     arm = creature.build_armature()
     scene = bpy.context.scene
-    mm = motion_module()
     assert add_motion(arm, motion="WALK", cycles=1.25) == {"FINISHED"}
-    first_end = int(mm.last_key_frame(arm))
+    first_end = int(keying().last_key_frame(arm))
     assert add_motion(arm, motion="WALK", cycles=1, blend=0.0) == {"FINISHED"}
     root = next(pb for pb in arm.pose.bones if pb.parent is None)
 
@@ -449,7 +463,7 @@ def test_a_walk_appended_to_one_ending_mid_stride_bobs_through_the_same_heights(
         return np.array(out)
 
     first = heights(range(scene.frame_start, first_end + 1))
-    second = heights(range(first_end + 1, int(mm.last_key_frame(arm)) + 1))
+    second = heights(range(first_end + 1, int(keying().last_key_frame(arm)) + 1))
     bob = np.ptp(first)
     assert bob > 1e-3
     assert abs(first.min() - second.min()) < 0.05 * bob and abs(first.max() - second.max()) < 0.05 * bob, \
@@ -461,12 +475,11 @@ def test_the_root_stays_at_rest_through_a_head_shake_before_an_appended_walk():
     rest place through the shake (the walk's first key, with its bob, reached back)."""
     arm = creature.build_armature()
     scene = bpy.context.scene
-    mm = motion_module()
     assert add_motion(arm, motion="HEAD_SHAKE", duration=1.0) == {"FINISHED"}
-    shake_end = int(mm.last_key_frame(arm))
+    shake_end = int(keying().last_key_frame(arm))
     assert add_motion(arm, motion="WALK", cycles=1) == {"FINISHED"}
     root = next(pb for pb in arm.pose.bones if pb.parent is None)
-    assert any(fc.data_path == root.path_from_id("location") for fc in mm.action_fcurves(arm))
+    assert any(fc.data_path == root.path_from_id("location") for fc in common_keys().action_fcurves(arm))
     for f in range(scene.frame_start, shake_end + 1):
         scene.frame_set(f)
         assert tuple(root.location) == pytest.approx((0, 0, 0), abs=1e-6), f
@@ -479,10 +492,10 @@ def test_feet_hanging_off_the_root_stay_at_rest_before_a_walk_appended_to_a_head
     arm = ik_exported_rig()
     scene = bpy.context.scene
     assert add_motion(arm, motion="HEAD_SHAKE", duration=1.0) == {"FINISHED"}
-    shake_end = int(motion_module().last_key_frame(arm))
+    shake_end = int(keying().last_key_frame(arm))
     assert add_motion(arm, motion="WALK", cycles=1) == {"FINISHED"}
     moved = set()
-    for f in range(scene.frame_start, int(motion_module().last_key_frame(arm)) + 1):
+    for f in range(scene.frame_start, int(keying().last_key_frame(arm)) + 1):
         scene.frame_set(f)
         for s in "LR":
             loc = tuple(arm.pose.bones[f"Foot.{s}"].location)
@@ -550,7 +563,7 @@ def test_keys_in_every_rotation_mode_interpolate_the_short_way(mode):
             pb.rotation_mode = mode
         assert add_motion(arm, motion="WALK", cycles=1) == {"FINISHED"}
         assert add_motion(arm, motion="HEAD_SHAKE", cycles=1) == {"FINISHED"}
-        end = int(motion_module().last_key_frame(arm))
+        end = int(keying().last_key_frame(arm))
         turns = []
         for f in range(scene.frame_start, end + 1):
             for sub in (0.0, 0.5):
@@ -618,9 +631,9 @@ def test_a_motion_continues_the_short_way_from_a_key_a_full_turn_round(mode, cha
         pb.rotation_euler = (0.0, 0.0, 2 * np.pi)
         path = "rotation_euler"
     pb.keyframe_insert(path, index=channel, frame=scene.frame_start)
-    assert len(motion_module().action_fcurves(arm)) == (1 if channel >= 0 else len(getattr(pb, path)))
+    assert len(common_keys().action_fcurves(arm)) == (1 if channel >= 0 else len(getattr(pb, path)))
     assert add_motion(arm, motion="HEAD_SHAKE", cycles=1) == {"FINISHED"}
-    end = int(motion_module().last_key_frame(arm))
+    end = int(keying().last_key_frame(arm))
     worst = 0.0
     for f in range(scene.frame_start, end + 1):
         for sub in (0.0, 0.25, 0.5, 0.75):
@@ -633,36 +646,35 @@ def test_head_shake_moves_head_not_feet_and_walk_appends():
     arm = creature.build_armature()
     scene = bpy.context.scene
     assert add_motion(arm, motion="HEAD_SHAKE", duration=1.0, cycles=2) == {"FINISHED"}
-    mm = motion_module()
-    end = mm.last_key_frame(arm)
+    end = keying().last_key_frame(arm)
     assert end == scene.frame_start + round(scene.render.fps * 1.0)
     frames = range(scene.frame_start, int(end) + 1)
     pos = tails_over_frames(arm, ["head", "jaw", "hand.L", "foot.R"], frames)
     assert np.ptp(pos["jaw"][:, 0]) > 0.1          # the snout swings sideways
     for foot in ("hand.L", "foot.R"):
         assert np.ptp(pos[foot], axis=0).max() < 1e-5
-    paths = {fc.data_path for fc in mm.action_fcurves(arm)}
+    paths = {fc.data_path for fc in common_keys().action_fcurves(arm)}
     assert 'pose.bones["head"].rotation_quaternion' in paths
     assert not any('"foot.L"' in p for p in paths)
     # appending: the walk starts after the shake; the action now holds both
     assert add_motion(arm, motion="WALK", cycles=1, blend=0.5) == {"FINISHED"}
-    foot_w = next(fc for fc in mm.action_fcurves(arm)
+    foot_w = next(fc for fc in common_keys().action_fcurves(arm)
                   if fc.data_path == 'pose.bones["foot.L"].rotation_quaternion' and fc.array_index == 0)
     keys = sorted(kp.co[:] for kp in foot_w.keyframe_points)
     assert keys[0] == (end, 1.0)      # the foot holds its rest pose until the walk starts
     assert keys[1][0] == end + round(0.5 * scene.render.fps)   # Blend: half a second later
-    assert scene.frame_end >= mm.last_key_frame(arm)
+    assert scene.frame_end >= keying().last_key_frame(arm)
     # Append off: a motion starts at the current frame, here past the others.
     scene.frame_set(300)
     assert add_motion(arm, motion="HEAD_SHAKE", duration=0.5, cycles=1, append=False) == {"FINISHED"}
-    head = {kp.co[0] for fc in mm.action_fcurves(arm) if fc.data_path == 'pose.bones["head"].rotation_quaternion'
-            for kp in fc.keyframe_points}
+    head = {kp.co[0] for fc in common_keys().action_fcurves(arm)
+            if fc.data_path == 'pose.bones["head"].rotation_quaternion' for kp in fc.keyframe_points}
     shake_end = 300 + round(0.5 * scene.render.fps)
     assert {300, shake_end} <= head and max(head) == shake_end == scene.frame_end
     # keys are in the action the Dope Sheet / Graph Editor show, grouped by bone
     action = arm.animation_data.action
     assert action is not None and action.users >= 1
-    groups = {fc.group.name for fc in mm.action_fcurves(arm) if fc.group}
+    groups = {fc.group.name for fc in common_keys().action_fcurves(arm) if fc.group}
     assert {"head", "foot.L", "thigh.R"} <= groups
 
 
@@ -674,7 +686,7 @@ def test_add_motion_with_a_mesh_active_keys_the_armature_it_is_parented_to():
     assert not any(m.type == "ARMATURE" for m in body.modifiers)
     B.set_active(body)
     assert bpy.ops.pose.miniskeleton_add_motion(motion="HEAD_SHAKE") == {"FINISHED"}
-    assert any('"head"' in fc.data_path for fc in motion_module().action_fcurves(arm))
+    assert any('"head"' in fc.data_path for fc in common_keys().action_fcurves(arm))
     assert body.animation_data is None
 
 
@@ -695,7 +707,7 @@ def test_appending_leaves_the_earlier_keys_as_they_were():
     # The legs, mid-stride where the walk ends, are back at rest through the shake.
     walk_end = max(co[-1, 0] for co in before.values())
     legs = ("thigh.L", "upper_arm.R")
-    for frame, at_rest in ((walk_end, False), (motion_module().last_key_frame(arm), True)):
+    for frame, at_rest in ((walk_end, False), (keying().last_key_frame(arm), True)):
         scene.frame_set(int(frame))
         turned = [arm.pose.bones[n].matrix_basis.to_quaternion().angle > 1e-3 for n in legs]
         assert turned == [not at_rest] * len(legs), (frame, turned)
@@ -704,7 +716,7 @@ def test_appending_leaves_the_earlier_keys_as_they_were():
 def action_keys(arm):
     """{(data path, index): (keys, 2) array of (frame, value)} of the armature's action."""
     out = {}
-    for fc in motion_module().action_fcurves(arm):
+    for fc in common_keys().action_fcurves(arm):
         co = np.empty(2 * len(fc.keyframe_points))
         fc.keyframe_points.foreach_get("co", co)
         out[fc.data_path, fc.array_index] = co.reshape(-1, 2)
@@ -738,7 +750,7 @@ def test_in_nla_tweak_mode_a_motion_goes_after_the_strips_keys_where_the_strip_s
     assert got.keys() == want.keys()
     for path, keys in want.items():
         np.testing.assert_allclose(got[path], keys, atol=1e-6, err_msg=str(path))
-    assert motion_module().last_key_frame(arm) == twin_end + 100
+    assert keying().last_key_frame(arm) == twin_end + 100
     assert scene.frame_end == twin_end + 100
     # the strip shows the shake 100 frames after the twin does, in tweak mode and after it
     names = ["head", "jaw", "hand.L"]
@@ -753,12 +765,11 @@ def test_in_nla_tweak_mode_a_motion_goes_after_the_strips_keys_where_the_strip_s
 
 def test_run_is_faster_and_keeps_going_after_walk():
     arm = biped_rig()
-    mm = motion_module()
     assert add_motion(arm, motion="WALK", cycles=1) == {"FINISHED"}
-    walk_end = mm.last_key_frame(arm)
+    walk_end = keying().last_key_frame(arm)
     assert add_motion(arm, motion="RUN", cycles=2) == {"FINISHED"}
-    assert mm.last_key_frame(arm) > walk_end
-    hips = tails_over_frames(arm, ["hips"], [int(walk_end), int(mm.last_key_frame(arm))])["hips"]
+    assert keying().last_key_frame(arm) > walk_end
+    hips = tails_over_frames(arm, ["hips"], [int(walk_end), int(keying().last_key_frame(arm))])["hips"]
     assert hips[1][1] < hips[0][1] - 0.5   # continued forward from where the walk ended
 
 

@@ -1,6 +1,7 @@
 """Filming a character for Make Video: which objects to frame, a camera that frames (or
 follows) their motion over the frame range, a light, the render engine and H.264 MP4 output,
-and the scene's render settings put back afterwards. Rendering itself is Blender's."""
+the frame range rendered with progress, and the scene's render settings put back afterwards.
+Rendering itself is Blender's."""
 
 from __future__ import annotations
 
@@ -184,6 +185,39 @@ def set_mp4(scene, path: Path) -> None:
     ff.audio_codec = "NONE"
     scene.render.use_file_extension = True
     scene.render.filepath = str(path)
+
+
+def render_video(context, path: Path, size: tuple[int, int], fps: int, engine: str) -> int:
+    """Set the scene up for the MP4 (``size`` (even width, height); ``fps`` 0: the scene's; the
+    ``engine`` of ``set_engine``) and render its frame range with progress; frames rendered."""
+    scene = context.scene
+    render = scene.render
+    render.resolution_x, render.resolution_y = size
+    render.resolution_percentage = 100
+    if fps:
+        render.fps, render.fps_base = fps, 1.0
+    set_engine(scene, engine)
+    set_mp4(scene, path)
+    path.unlink(missing_ok=True)   # so a failed render cannot pass for this one
+
+    total = len(range(scene.frame_start, scene.frame_end + 1, scene.frame_step))  # as Blender renders
+    wm = context.window_manager
+    done = [0]
+
+    def progress(_scene, _depsgraph=None):
+        done[0] += 1
+        wm.progress_update(done[0])
+        if done[0] == total or done[0] % 10 == 0:
+            print(f"[MiniSkeleton] video: frame {done[0]}/{total}", flush=True)
+
+    wm.progress_begin(0, total)
+    bpy.app.handlers.render_post.append(progress)
+    try:
+        bpy.ops.render.render(animation=True)
+    finally:
+        bpy.app.handlers.render_post.remove(progress)
+        wm.progress_end()
+    return total
 
 
 # What Make Video sets on the scene for its render, put back afterwards (in this order: 5.0's

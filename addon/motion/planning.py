@@ -1,0 +1,122 @@
+"""The motion the core plans for an armature: which armature Add Motion acts on, its skeleton as
+the core reads it (world axes from the armature's origin, metres, rest orientations), the
+core's ``make_motion`` call at a size it handles in single precision, and the bone roles it
+found, described for the console."""
+
+from __future__ import annotations
+
+import math
+
+import bpy
+import numpy as np
+
+from ..common.reports import name_list
+
+
+def motion_armature(context: bpy.types.Context) -> bpy.types.Object | None:
+    """The active armature, or the armature deforming / parenting the active mesh."""
+    ob = context.active_object
+    if ob is None:
+        return None
+    if ob.type == "ARMATURE":
+        return ob
+    if ob.type == "MESH":
+        for mod in ob.modifiers:
+            if mod.type == "ARMATURE" and mod.object is not None:
+                return mod.object
+        if ob.parent is not None and ob.parent.type == "ARMATURE":
+            return ob.parent
+    return None
+
+
+def rest_matrices(arm: bpy.types.Object, names: list[str]) -> np.ndarray:
+    """(b, 3, 3) rest orientation of each bone in world space (columns = bone X, Y, Z, of unit
+    length: the armature's scale taken out in double precision, as the core's single-precision
+    thresholds would take a rig scaled by 1e-15 or 1e25 for one with no axes)."""
+    world = np.array(arm.matrix_world.to_3x3(), dtype=np.float64)
+    local = np.array([np.array(arm.data.bones[n].matrix_local.to_3x3()) for n in names],
+                     dtype=np.float64).reshape(-1, 3, 3)
+    m = world @ local
+    norms = np.linalg.norm(m, axis=1, keepdims=True)   # of each column
+    return (m / np.where(norms > 0, norms, 1.0)).astype(np.float32)
+
+
+def motion_skeleton(arm: bpy.types.Object, bones) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Heads and tails of ``bones`` along world axes from the armature's origin, and their world
+    rest orientations (``rest_matrices``), for the core. The origin is taken off in double
+    precision: the motion does not depend on where the rig stands, and 1e5 m from the world
+    origin single-precision points are 8 mm apart. An armature mirrored by a negative scale is
+    given as its mirror image across x = 0: there its rest frames are rotations again, and the
+    local rotations that make that image walk make the armature itself walk (its mirror image's
+    motion, mirrored back)."""
+    origin = np.array(arm.matrix_world.translation, dtype=np.float64)
+    heads, tails = bones.heads - origin, bones.tails - origin
+    rest = rest_matrices(arm, bones.names)
+    # in double precision: mathutils' single-precision determinant of a mirror scaled by 1e-15
+    # underflows to 0, and the mirror would go unseen
+    if np.linalg.det(np.array(arm.matrix_world.to_3x3(), dtype=np.float64)) < 0:
+        heads[:, 0] *= -1
+        tails[:, 0] *= -1
+        rest[:, 0, :] *= -1
+    return heads, tails, rest
+
+
+def scene_metres(scene: bpy.types.Scene) -> float:
+    """Metres per Blender unit: the scene's Unit Scale (1 when unset or unusable)."""
+    m = float(scene.unit_settings.scale_length)
+    return m if math.isfinite(m) and m > 0.0 else 1.0
+
+
+def make_motion(arm, bones, scene, fps: float, motion: str, cycles: float, duration: float, amplitude: float,
+                stride: float, speed: float, root_motion: bool) -> dict:
+    """The core's ``motion`` (``make_motion``: "HEAD_SHAKE", "WALK" or "RUN", with the Add Motion
+    options) for ``arm``'s deform ``bones`` (``armature_bones``) at ``fps``, its offsets in the
+    armature's world units; ValueError when the core finds no legs or no head."""
+    import miniskeleton_core as core
+
+    heads, tails, rest = motion_skeleton(arm, bones)
+    # The cadence follows the leg length in metres: the core gets the skeleton in metres,
+    # by the scene's Unit Scale (in a centimetre scene, 0.01, a creature would otherwise walk
+    # at the slowest cadence, as if its legs were metres long).
+    metres = scene_metres(scene)
+    heads, tails = heads * metres, tails * metres
+    # The core works in single precision and squares lengths: a skeleton over about 1e19
+    # units overflows ("the skeleton is flat"). One larger than 1e6 m or smaller than
+    # 1e-3 m is given at that size, by a power of two (exact), and the offsets scaled back;
+    # the cadence is clamped there all the same.
+    size = float(np.linalg.norm(np.ptp(np.concatenate([heads, tails]).astype(np.float64), axis=0)))
+    unit_size = 1.0
+    if size > 1e6:
+        unit_size = 2.0 ** math.floor(math.log2(size / 1e6))
+    elif 0.0 < size < 1e-3:
+        unit_size = 2.0 ** math.ceil(math.log2(size / 1e-3))
+    out = core.make_motion(
+        heads / unit_size, tails / unit_size, bones.parents, rest, motion,
+        names=bones.names, fps=fps, cycles=cycles, duration=duration,
+        amplitude=amplitude, stride=stride, speed=speed,
+        root_motion=root_motion)
+    for key in ("root_offset", "locations"):   # back in world units
+        out[key] = np.asarray(out[key], dtype=np.float64) * (unit_size / metres)
+    return out
+
+
+def describe_roles(roles: dict, names: list[str]) -> list[str]:
+    """One line per role: 'head: head (+ jaw, ear.L, ear.R)'."""
+    def n(ids):  # a rig with hundreds of hair bones gets a dozen names and the count
+        listed = name_list([names[i] for i in ids], 12)
+        return (f"{listed} ({len(ids)} in all)" if len(ids) > 12 else listed) or "-"
+
+    lines = [f"body: {roles['plan']}", f"root: {names[roles['root']]}", f"spine: {n(roles['spine'])}",
+             f"neck: {n(roles['neck'])}", f"head: {names[roles['head']]}"
+             + (f" (+ {n(roles['head_extras'])})" if roles["head_extras"] else "")]
+    if roles["tail"]:
+        lines.append(f"tail: {n(roles['tail'])}")
+    groups = max(leg["group"] for leg in roles["legs"]) + 1
+    for leg in roles["legs"]:
+        where = ("front " if leg["group"] == 0 else "back " if leg["group"] == groups - 1 else
+                 f"middle {leg['group']} ") if groups > 1 else ""
+        lines.append(f"leg {where}{leg['side']}: {n(leg['bones'])}")
+    for arm in roles["arms"]:
+        lines.append(f"arm {arm['side']}: {n(arm['bones'])}")
+    lines += [f"note: {note}" for note in roles["notes"]]
+    return lines
