@@ -5,8 +5,10 @@ common/ (Blender data to arrays and back, keyframes in bulk) and puppet_live.py 
 that solve shadow puppets live).
 """
 
-from . import operators_puppet, puppet_live, ui
+from . import ui
 from .motion import operators as operators_motion
+from .puppet import live as puppet_live
+from .puppet import operators as operators_puppet
 from .skeleton import operators as operators_skeleton
 from .weights import operators as operators_weights
 

@@ -52,7 +52,7 @@ class MINISKELETON_PT_puppet(SidebarPanel, bpy.types.Panel):
     bl_idname = "MINISKELETON_PT_puppet"
 
     def draw(self, context):
-        from .puppet_rig import LIVE_KEY, puppet_rig
+        from .puppet.rig import LIVE_KEY, puppet_rig
 
         layout = self.layout
         col = layout.column(align=True)

@@ -14,9 +14,9 @@ from mathutils import Vector
 import blender_session
 import builders as B
 
-R = importlib.import_module("bl_ext.user_default.miniskeleton.puppet_rig")
-L = importlib.import_module("bl_ext.user_default.miniskeleton.puppet_live")
-T = importlib.import_module("bl_ext.user_default.miniskeleton.puppet")
+R = importlib.import_module("bl_ext.user_default.miniskeleton.puppet.rig")
+L = importlib.import_module("bl_ext.user_default.miniskeleton.puppet.live")
+T = importlib.import_module("bl_ext.user_default.miniskeleton.puppet.templates")
 K = importlib.import_module("bl_ext.user_default.miniskeleton.common.keys")
 
 HUMAN_BONES = {"abdomen", "chest", "neck", "head", "skirt"} | {

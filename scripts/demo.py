@@ -58,7 +58,7 @@ def import_model(path: Path):
 
 
 def addon_module(name: str):
-    """The installed add-on's module ``name`` (common.meshes, puppet_build, ...)."""
+    """The installed add-on's module ``name`` (common.meshes, puppet.build, ...)."""
     import importlib
 
     return importlib.import_module(f"{blender_session.ADDON_MODULE}.{name}")
@@ -155,7 +155,7 @@ def frame_camera(meshes):
     scene.camera = cam
     s = radius * 4
     # The add-on's one-face mesh maker gives the edges (Blender 5.0.1 mistypes computed ones).
-    ground = addon_module("puppet_build").polygon_mesh("Ground", [(-s, -s, 0), (s, -s, 0), (s, s, 0), (-s, s, 0)])
+    ground = addon_module("puppet.build").polygon_mesh("Ground", [(-s, -s, 0), (s, -s, 0), (s, s, 0), (-s, s, 0)])
     g = bpy.data.objects.new("Ground", ground)
     g.location = (centre.x, centre.y, lo.z)
     scene.collection.objects.link(g)

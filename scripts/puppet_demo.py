@@ -29,7 +29,7 @@ CYCLE = 24          # frames per step cycle / wave
 def build(kind):
     import bpy
 
-    R = importlib.import_module(f"{blender_session.ADDON_MODULE}.puppet_rig")
+    R = importlib.import_module(f"{blender_session.ADDON_MODULE}.puppet.rig")
     if bpy.ops.object.miniskeleton_add_puppet(type=kind) != {"FINISHED"}:
         raise SystemExit(f"adding the {kind} puppet failed")
     rig = R.puppet_rig(bpy.context.active_object)

@@ -1,8 +1,8 @@
-"""Building a shadow puppet from a template (``puppet.py``): armature, cut-out parts, prop and
+"""Building a shadow puppet from a template (``templates``): armature, cut-out parts, prop and
 control rods in the XZ picture plane; and a part's picture (``set_part_image``).
 
 Each bone's local Z axis points at the viewer (-Y), so its in-plane rotation is
-``rotation_euler.z``; the other axes are locked (see ``puppet_live``).
+``rotation_euler.z``; the other axes are locked (see ``live``).
 """
 
 from __future__ import annotations
@@ -13,9 +13,9 @@ import bpy
 import numpy as np
 from mathutils import Vector
 
-from . import puppet
-from .puppet_live import solve_puppet
-from .puppet_rig import KIND_KEY, LIVE_KEY, PART_KEY, RIG_KEY, RODS_KEY, ROLE_KEY, SEED_KEY
+from . import templates
+from .live import solve_puppet
+from .rig import KIND_KEY, LIVE_KEY, PART_KEY, RIG_KEY, RODS_KEY, ROLE_KEY, SEED_KEY
 
 LEATHER = (0.06, 0.035, 0.022, 1.0)
 NAMES = dict(THREE_ROD="ThreeRodPuppet", FIVE_ROD="FiveRodPuppet", PROP="PropPuppet",
@@ -94,7 +94,7 @@ def _empty(name, coll, display, size):
     return ob
 
 
-def _setup_pose_bone(pb, bdef: puppet.BoneDef):
+def _setup_pose_bone(pb, bdef: templates.BoneDef):
     pb.rotation_mode = "XYZ"
     pb.lock_location = (True, True, True)
     pb.lock_scale = (True, True, True)
@@ -111,10 +111,10 @@ def _setup_pose_bone(pb, bdef: puppet.BoneDef):
     pb[SEED_KEY] = float(bdef.seed)
 
 
-def _part(rig, bdef: puppet.BoneDef, size, coll, mat):
+def _part(rig, bdef: templates.BoneDef, size, coll, mat):
     """The bone's flat cut-out: an outline mesh in bone space, parented to the bone."""
     bone = rig.data.bones[bdef.name]
-    outline = puppet.part_outline(bdef.shape, bone.length, tuple(w * size for w in bdef.width))
+    outline = templates.part_outline(bdef.shape, bone.length, tuple(w * size for w in bdef.width))
     # bone space: x across (local X), y along the bone, z toward the viewer (layering).
     verts = [(u, v, bdef.depth * size) for u, v in outline]
     me = polygon_mesh(f"{rig.name}.part.{bdef.name}", verts, _outline_uvs(outline))
@@ -133,9 +133,9 @@ def _part(rig, bdef: puppet.BoneDef, size, coll, mat):
 
 def build_puppet(context: bpy.types.Context, kind: str, location=(0.0, 0.0, 0.0),
                  size: float = 1.0) -> bpy.types.Object:
-    """Create the puppet ``kind`` (see puppet.KINDS) with its feet at ``location``; returns
+    """Create the puppet ``kind`` (see templates.KINDS) with its feet at ``location``; returns
     the armature. Objects go into a new collection inside the active one."""
-    tpl = puppet.template(kind)
+    tpl = templates.template(kind)
     if context.mode != "OBJECT":
         bpy.ops.object.mode_set(mode="OBJECT")
     origin = Vector(location)
@@ -184,7 +184,7 @@ def build_puppet(context: bpy.types.Context, kind: str, location=(0.0, 0.0, 0.0)
     if tpl.prop is not None:
         p = tpl.prop
         centre = ((p.a[0] + p.b[0]) / 2, (p.a[1] + p.b[1]) / 2)
-        outline = puppet.bar_outline(p.a, p.b, p.width) - np.asarray(centre)
+        outline = templates.bar_outline(p.a, p.b, p.width) - np.asarray(centre)
         outline = outline * size   # in (x, z), at depth y
         verts = [(x, -p.depth * size, z) for x, z in outline]
         me = polygon_mesh(f"{base}.{p.name}", verts, _outline_uvs(outline))

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import bpy
 
-from . import puppet
+from . import templates
 
 KIND_KEY = "miniskeleton_puppet"      # on the armature object (and its data): the template kind
 LIVE_KEY = "miniskeleton_live"        # on the armature object: solve live from the rods
@@ -60,5 +60,5 @@ GAPS = "leaves these as they are (a bone renamed or deleted, a rod deleted)"
 
 
 def puppet_gaps(rig: bpy.types.Object) -> list[str]:
-    """What ``rig``'s drivers lack (``puppet.driver_gaps``): bones renamed or deleted, rods deleted."""
-    return puppet.driver_gaps(puppet.template(rig[KIND_KEY]), set(rig.pose.bones.keys()), set(puppet_rods(rig)))
+    """What ``rig``'s drivers lack (``templates.driver_gaps``): bones renamed or deleted, rods deleted."""
+    return templates.driver_gaps(templates.template(rig[KIND_KEY]), set(rig.pose.bones.keys()), set(puppet_rods(rig)))

@@ -4,7 +4,7 @@ A template lists its bones in the picture plane, the control rods, and the *driv
 say how each part of the figure follows the rods. Coordinates are ``(x, z)`` in the puppet's
 own picture plane (Blender's XZ plane, seen from the front along +Y), metres, feet on
 ``z = 0``; the human figures face +X, in profile, as traditional figures do. Angles are in
-degrees here; ``puppet_build`` and ``puppet_live`` convert them for Blender and for the Rust
+degrees here; ``build`` and ``live`` convert them for Blender and for the Rust
 solver (``miniskeleton_core.ik2d_*``).
 
 Degrees of freedom (``BoneDef.dof``):

@@ -20,11 +20,11 @@ import bpy
 from bpy.app.handlers import persistent
 from mathutils import Euler, Matrix, Vector
 
-from . import puppet
-from .common.keys import key_series, rotation_path, rotation_series
-from .common.reports import name_list
-from .common.transforms import axis_scales, inverse, placed
-from .puppet_rig import GAPS, KIND_KEY, LIVE_KEY, SEED_KEY, puppet_gaps, puppet_rods, scene_puppets
+from ..common.keys import key_series, rotation_path, rotation_series
+from ..common.reports import name_list
+from ..common.transforms import axis_scales, inverse, placed
+from . import templates
+from .rig import GAPS, KIND_KEY, LIVE_KEY, SEED_KEY, puppet_gaps, puppet_rods, scene_puppets
 
 
 # ---------------------------------------------------------------------------- solving
@@ -115,18 +115,18 @@ def _chain_setup(pose: _Pose, names):
     base = (m0.translation.x, m0.translation.z)
     base_angle = _angle(m0.col[1])
     rest = [_angle(bones[n].matrix_local.col[1]) for n in names]
-    offsets = [0.0] + [puppet.wrap(rest[i] - rest[i - 1]) for i in range(1, len(names))]
+    offsets = [0.0] + [templates.wrap(rest[i] - rest[i - 1]) for i in range(1, len(names))]
     lengths = [bones[n].length for n in names]
     lims = [_limits(pose.pbones[n]) for n in names]
-    limits = puppet.solver_limits(lims, offsets)
-    seeds = [puppet.clamp(math.radians(pose.pbones[n].get(SEED_KEY, 0.0)), *lim) + off
+    limits = templates.solver_limits(lims, offsets)
+    seeds = [templates.clamp(math.radians(pose.pbones[n].get(SEED_KEY, 0.0)), *lim) + off
              for n, lim, off in zip(names, lims, offsets)]
     return lengths, base, base_angle, offsets, limits, seeds
 
 
 def _write_chain(pose, names, angles, offsets):
     for n, a, off in zip(names, angles, offsets):
-        pose.set_z(n, puppet.wrap(float(a) - off))
+        pose.set_z(n, templates.wrap(float(a) - off))
 
 
 class PuppetError(ValueError):
@@ -167,19 +167,19 @@ def solve_puppet(rig: bpy.types.Object) -> dict:
     finite place, or the rig is scaled to zero; nothing is written then."""
     import miniskeleton_core as core
 
-    tpl = puppet.template(rig[KIND_KEY])
+    tpl = templates.template(rig[KIND_KEY])
     rods = puppet_rods(rig)
     inv = _plane_inverse(rig, rods)
     pose = _Pose(rig)
     turn = _plane_turn(rig.matrix_world)
     pbones = rig.pose.bones
     reports = {}
-    driven = set(puppet.driven_bones(tpl))
+    driven = set(templates.driven_bones(tpl))
     for pb in pbones:                                  # stored limits hold for the free bones too
         if pb.name not in driven:
             e = pose.euler(pb.name)
-            z = puppet.clamp(e[2], *_limits(pb, "z"))
-            y = puppet.clamp(e[1], *_limits(pb, "y")) if pb.use_ik_limit_y else e[1]
+            z = templates.clamp(e[2], *_limits(pb, "z"))
+            y = templates.clamp(e[1], *_limits(pb, "y")) if pb.use_ik_limit_y else e[1]
             if z != e[2] or y != e[1]:
                 e[1], e[2] = y, z
                 pose.rot[pb.name] = e
@@ -219,12 +219,12 @@ def solve_puppet(rig: bpy.types.Object) -> dict:
             name = drv[1]
             rest = _angle(pose.bones[name].matrix_local.col[1])
             zero = _angle(pose.rest_frame(name).col[1])
-            z = puppet.clamp(puppet.wrap(rest - turn - zero), *_limits(pbones[name]))
+            z = templates.clamp(templates.wrap(rest - turn - zero), *_limits(pbones[name]))
             pose.set_z(name, z)
         elif kind == "turn" and drv[1] in pbones and drv[2] in rods:
             name = drv[1]
             m = inv @ rods[drv[2]].matrix_world
-            pose.set_z(name, puppet.clamp(puppet.wrap(_angle(m.col[0])), *_limits(pbones[name])))
+            pose.set_z(name, templates.clamp(templates.wrap(_angle(m.col[0])), *_limits(pbones[name])))
 
     for name, e in pose.rot.items():                   # write back only what changed
         cur = bone_euler(pbones[name])

@@ -9,8 +9,8 @@ import bpy
 import numpy as np
 from mathutils import Vector
 
-from .puppet_build import polygon_mesh
-from .puppet_rig import THEATRE_KEY, puppet_rig, scene_puppets
+from .build import polygon_mesh
+from .rig import THEATRE_KEY, puppet_rig, scene_puppets
 
 SCREEN = (1.0, 0.62, 0.28, 1.0)
 

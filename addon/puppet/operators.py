@@ -1,6 +1,6 @@
 """Shadow-puppet operators: add a puppet template, bake, part images and the Shadow Theatre
-scene preset. They are thin: the work is in ``puppet_build``, ``puppet_live`` (rod-driven IK,
-live handlers, bake) and ``theatre``; ``puppet_rig`` finds the puppet.
+scene preset. They are thin: the work is in ``build``, ``live`` (rod-driven IK, live handlers,
+bake) and ``theatre``; ``rig`` finds the puppet, ``templates`` describes the figures.
 """
 
 from __future__ import annotations
@@ -12,12 +12,12 @@ import bpy
 from bpy.props import BoolProperty, EnumProperty, FloatProperty, StringProperty
 from bpy_extras.io_utils import ImportHelper
 
-from . import puppet
-from .common.keys import keyed_action
-from .common.reports import in_edit_mode, read_only
-from .puppet_build import build_puppet, set_part_image
-from .puppet_live import PuppetError, bake_puppet, scene_frames
-from .puppet_rig import GAPS, LIVE_KEY, PART_KEY, puppet_gaps, puppet_poll, puppet_rig, puppet_rods
+from ..common.keys import keyed_action
+from ..common.reports import in_edit_mode, read_only
+from . import templates
+from .build import build_puppet, set_part_image
+from .live import PuppetError, bake_puppet, scene_frames
+from .rig import GAPS, LIVE_KEY, PART_KEY, puppet_gaps, puppet_poll, puppet_rig, puppet_rods
 from .theatre import build_shadow_theatre
 
 
@@ -28,7 +28,7 @@ class MINISKELETON_OT_add_puppet(bpy.types.Operator):
     bl_label = "Shadow Puppet"
     bl_options = {"REGISTER", "UNDO"}
 
-    type: EnumProperty(name="Type", items=puppet.KIND_ITEMS, default="FIVE_ROD")
+    type: EnumProperty(name="Type", items=templates.KIND_ITEMS, default="FIVE_ROD")
     size: FloatProperty(name="Size", default=1.0, min=0.01, max=100.0,
                         description="Scale of the figure (1 = a 1.9 m tall human figure)")
 
