@@ -52,7 +52,7 @@ def test_installed_manifest_asks_for_the_file_access_the_rig_exchange_uses():
 def test_menus_offer_the_operator():
     for menu in ("VIEW3D_MT_object_parent", "VIEW3D_MT_paint_weight"):
         funcs = getattr(bpy.types, menu)._dyn_ui_initialize()
-        assert any(getattr(f, "__module__", "").endswith("miniskeleton.ui") for f in funcs), menu
+        assert any(getattr(f, "__module__", "").endswith("miniskeleton.weights.ui") for f in funcs), menu
     assert hasattr(bpy.types, "MINISKELETON_PT_weights")
     assert bpy.types.MINISKELETON_PT_weights.bl_category == "MiniSkeleton"
 

@@ -1054,4 +1054,4 @@ def test_menus_and_panel():
     for menu in ("VIEW3D_MT_pose", "TOPBAR_MT_render"):
         funcs = getattr(bpy.types, menu)._dyn_ui_initialize()
         assert any(getattr(f, "__name__", "").startswith("draw_") and
-                   getattr(f, "__module__", "").endswith("miniskeleton.ui") for f in funcs), menu
+                   getattr(f, "__module__", "").endswith("miniskeleton.motion.ui") for f in funcs), menu

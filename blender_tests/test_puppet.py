@@ -198,7 +198,7 @@ def test_size_scales_the_whole_figure():
 
 def test_add_menu_and_panel():
     funcs = bpy.types.VIEW3D_MT_armature_add._dyn_ui_initialize()
-    assert any(getattr(f, "__module__", "").endswith("miniskeleton.ui") for f in funcs)
+    assert any(getattr(f, "__module__", "").endswith("miniskeleton.puppet.ui") for f in funcs)
     assert bpy.types.MINISKELETON_PT_puppet.bl_category == "MiniSkeleton"
     assert L._on_depsgraph_update in bpy.app.handlers.depsgraph_update_post
     assert L._on_frame_change in bpy.app.handlers.frame_change_post

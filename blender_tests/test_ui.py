@@ -2,8 +2,8 @@
 finds a wrong one only when the panel is drawn, and then the panel stops drawing there), and
 the add-on sits in the menus where riggers look for it.
 
-Panels cannot be drawn without a window, so the names are read from the installed ``ui.py``'s
-source and looked up in this Blender's own operator and icon tables."""
+Panels cannot be drawn without a window, so the names are read from the source of each area's
+installed ``ui.py`` and looked up in this Blender's own operator and icon tables."""
 
 from __future__ import annotations
 
@@ -13,7 +13,9 @@ import inspect
 
 import bpy
 
-UI = importlib.import_module("bl_ext.user_default.miniskeleton.ui")
+AREAS = ("weights", "skeleton", "motion", "puppet")
+UIS = [importlib.import_module(f"bl_ext.user_default.miniskeleton.{area}.ui") for area in AREAS]
+UI_MODULES = {ui.__name__ for ui in UIS}
 ICONS = set(bpy.types.UILayout.bl_rna.functions["operator"].parameters["icon"].enum_items.keys())
 LAYOUT_CALLS = ("operator", "operator_menu_enum")
 
@@ -68,9 +70,19 @@ def layout_call(node: ast.AST) -> ast.Call | None:
 
 
 def ui_references() -> tuple[list[tuple], list[tuple], list[str]]:
-    """From ui.py's draw functions: (operator idname, enum property of operator_menu_enum or
-    None, line), (operator idname, property set on its button, possible values, line), icons."""
-    tree = ast.parse(inspect.getsource(UI))
+    """From the areas' ui.py draw functions: (operator idname, enum property of
+    operator_menu_enum or None, where), (operator idname, property set on its button, possible
+    values, where), icons; where is "area/ui.py:line"."""
+    calls, settings, icons = [], [], []
+    for area, ui in zip(AREAS, UIS):
+        found = area_references(area, ast.parse(inspect.getsource(ui)))
+        for total, part in zip((calls, settings, icons), found):
+            total += part
+    return calls, settings, icons
+
+
+def area_references(area: str, tree: ast.Module) -> tuple[list[tuple], list[tuple], list[str]]:
+    """``ui_references`` of one area's ui.py (parsed as ``tree``)."""
     consts = constants(tree)
     calls, settings, icons = [], [], []
     for func in (n for n in ast.walk(tree) if isinstance(n, ast.FunctionDef)):
@@ -86,13 +98,14 @@ def ui_references() -> tuple[list[tuple], list[tuple], list[str]]:
                     call = layout_call(owner) or (button_of.get(owner.id) if isinstance(owner, ast.Name) else None)
                     if call is not None:
                         for idname in values(call.args[0], env) or [None]:
-                            settings.append((idname, target.attr, values(node.value, env), node.lineno))
+                            where = f"{area}/ui.py:{node.lineno}"
+                            settings.append((idname, target.attr, values(node.value, env), where))
             call = layout_call(node)
             if call is None:
                 continue
             for idname in values(call.args[0], env) or [None]:
                 prop = call.args[1].value if call.func.attr == "operator_menu_enum" else None
-                calls.append((idname, prop, call.lineno))
+                calls.append((idname, prop, f"{area}/ui.py:{call.lineno}"))
             for kw in call.keywords:
                 if kw.arg == "icon":
                     icons += values(kw.value, env) or []
@@ -104,20 +117,20 @@ def test_panels_and_menus_name_operators_properties_and_icons_that_exist():
     # Enough found that the checks below are not vacuous: the weights, skeleton, motion and
     # puppet panels and their menus.
     assert len(calls) >= 20 and len(settings) >= 5 and len(icons) >= 12, (len(calls), len(settings), len(icons))
-    for idname, prop, line in calls:
-        assert idname is not None, f"ui.py:{line}: operator name is not a literal"
+    for idname, prop, where in calls:
+        assert idname is not None, f"{where}: operator name is not a literal"
         rna = op_rna(idname)
-        assert rna is not None, f"ui.py:{line}: no operator {idname}"
+        assert rna is not None, f"{where}: no operator {idname}"
         if prop is not None:
-            assert prop in rna.properties and rna.properties[prop].type == "ENUM", (line, idname, prop)
-    for idname, attr, vals, line in settings:
-        assert idname is not None, f"ui.py:{line}: operator name is not a literal"
+            assert prop in rna.properties and rna.properties[prop].type == "ENUM", (where, idname, prop)
+    for idname, attr, vals, where in settings:
+        assert idname is not None, f"{where}: operator name is not a literal"
         rna = op_rna(idname)
-        assert attr in rna.properties, f"ui.py:{line}: {idname} has no property {attr}"
+        assert attr in rna.properties, f"{where}: {idname} has no property {attr}"
         p = rna.properties[attr]
         if p.type == "ENUM" and vals is not None:
             items = set(p.enum_items.keys())
-            assert set(vals) <= items, f"ui.py:{line}: {idname}.{attr} = {vals}, not in {sorted(items)}"
+            assert set(vals) <= items, f"{where}: {idname}.{attr} = {vals}, not in {sorted(items)}"
     unknown = sorted(set(icons) - ICONS)
     assert not unknown, f"icons Blender does not have: {unknown}"
 
@@ -139,8 +152,8 @@ def test_each_method_and_motion_gets_its_own_button():
 def test_add_on_is_in_the_menus_riggers_use():
     """Ctrl+P (Object > Parent) and Weight Paint > Weights: weights; Add > Armature: puppets;
     Armature (Edit Mode) and Pose: fit / restore / keep and motions; File > Import / Export: the
-    rig bundle; Render: the video. Each menu draws at least one function of ui.py, and each
-    panel is registered in the MiniSkeleton sidebar tab."""
+    rig bundle; Render: the video. Each menu draws at least one function of the areas' ui.py,
+    and each panel is registered in the MiniSkeleton sidebar tab."""
     wanted = {
         "VIEW3D_MT_object_parent": {"draw_parent_menu"},
         "VIEW3D_MT_paint_weight": {"draw_parent_menu"},
@@ -153,8 +166,8 @@ def test_add_on_is_in_the_menus_riggers_use():
     }
     for menu, draws in wanted.items():
         funcs = getattr(bpy.types, menu)._dyn_ui_initialize()
-        ours = {f.__name__ for f in funcs if getattr(f, "__module__", "").endswith("miniskeleton.ui")}
+        ours = {f.__name__ for f in funcs if getattr(f, "__module__", "") in UI_MODULES}
         assert ours == draws, (menu, ours)
-    for cls in UI.classes:
+    for cls in (cls for ui in UIS for cls in ui.classes):
         registered = getattr(bpy.types, cls.__name__, None)
         assert registered is not None and registered.bl_category == "MiniSkeleton", cls.__name__
