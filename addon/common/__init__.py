@@ -1,5 +1,5 @@
-"""Blender data to numpy arrays and back, and the helpers every area shares. No UI, no
-algorithms: those live in Rust.
+"""Blender data to numpy arrays and back, and the helpers every area shares. No operators and
+no algorithms (those live in Rust).
 
 One module per kind of Blender data: ``meshes`` (vertices, faces, paint masks), ``armatures``
 (deform bones, B-Bone curves, which armature an operator acts on), ``groups`` (vertex-group
