@@ -199,12 +199,12 @@ def captured_output():
 
 
 def keyed_bones(arm) -> set[str]:
-    keys = importlib.import_module(blender_session.ADDON_MODULE + ".keys")
+    keys = importlib.import_module(blender_session.ADDON_MODULE + ".common.keys")
     return {fc.data_path.split('"')[1] for fc in keys.action_fcurves(arm) if fc.data_path.startswith("pose.bones")}
 
 
 def keyed_anything(arm) -> bool:
-    keys = importlib.import_module(blender_session.ADDON_MODULE + ".keys")
+    keys = importlib.import_module(blender_session.ADDON_MODULE + ".common.keys")
     return bool(keys.action_fcurves(arm))
 
 
