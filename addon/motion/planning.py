@@ -94,7 +94,7 @@ def make_motion(arm, bones, scene, fps: float, motion: str, cycles: float, durat
         heads / unit_size, tails / unit_size, bones.parents, rest, motion,
         names=bones.names, fps=fps, cycles=cycles, duration=duration,
         amplitude=amplitude, stride=stride, speed=speed,
-        root_motion=root_motion)
+        root_motion=root_motion, joint_tails=bones.imported)
     for key in ("root_offset", "locations"):   # back in world units
         out[key] = np.asarray(out[key], dtype=np.float64) * (unit_size / metres)
     return out

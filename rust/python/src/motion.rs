@@ -101,10 +101,12 @@ pub fn detect_roles<'py>(
 /// locations (frames, b, 3) float32 local locations in input units (Blender's
 /// `pose_bone.location` times the armature's scale; zero but for `located`), located (j,)
 /// int32 (the roles' riders), moves_root, frames, frames_per_cycle, roles (as detect_roles).
+/// joint_tails: the tails are an importer's invention; roles and motion read tails made from
+/// the joints instead (`skeleton::joint_tails`).
 #[pyfunction]
 #[pyo3(signature = (bone_heads, bone_tails, parents, rest_matrices, motion="WALK", *, names=None,
                     fps=24.0, cycles=2.0, duration=2.0, amplitude=0.5236, stride=1.0, speed=1.0,
-                    root_motion=true))]
+                    root_motion=true, joint_tails=false))]
 #[allow(clippy::too_many_arguments)]
 pub fn make_motion<'py>(
     py: Python<'py>,
@@ -121,8 +123,9 @@ pub fn make_motion<'py>(
     stride: f32,
     speed: f32,
     root_motion: bool,
+    joint_tails: bool,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let s = skeleton(&bone_heads, &bone_tails, &parents, names)?;
+    let mut s = skeleton(&bone_heads, &bone_tails, &parents, names)?;
     let motion = match motion.to_ascii_uppercase().as_str() {
         "HEAD_SHAKE" => Motion::HeadShake,
         "WALK" => Motion::Walk,
@@ -143,6 +146,10 @@ pub fn make_motion<'py>(
     let rest: Vec<[f32; 9]> = flat.chunks_exact(9).map(|c| c.try_into().unwrap()).collect();
     let params = GaitParams { motion, fps, cycles, duration, amplitude, stride, speed, root_motion };
     let (roles, clip) = guarded(py, move || {
+        if joint_tails {
+            miniskeleton_core::skeleton::validate_parents(&s.parents, s.heads.len())?;
+            s.tails = miniskeleton_core::skeleton::joint_tails(&s.heads, &s.tails, &s.parents);
+        }
         let roles = core_detect(&s.heads, &s.tails, &s.parents, &s.names)?;
         let clip = motion_clip(&s.heads, &s.tails, &s.parents, &rest, &roles, &params)?;
         Ok((roles, clip))
