@@ -182,9 +182,10 @@ def make_motion(
     cycles: float = 2.0, duration: float = 2.0, amplitude: float = 0.5236, stride: float = 1.0,
     speed: float = 1.0, root_motion: bool = True, joint_tails: bool = False,
 ) -> dict:
-    """'HEAD_SHAKE', 'WALK' or 'RUN' for a skeleton. joint_tails: the tails are an importer's
-    invention, so roles and motion read tails made from the joints (children's heads). rest_matrices (b,3,3): rest orientation per
-    bone (columns = bone X, Y, Z) in the heads' space. Returns {rotations (frames,b,4) float32
-    local quaternions w,x,y,z; root_offset (frames,3) float32; animated (k,) int32; locations
-    (frames,b,3) float32 local locations in the heads' units (zero but for located); located
-    (j,) int32 (the riders); moves_root; frames; frames_per_cycle; roles}."""
+    """'HEAD_SHAKE', 'WALK' or 'RUN' for a skeleton. rest_matrices (b,3,3): rest orientation per
+    bone (columns = bone X, Y, Z) in the heads' space. joint_tails: the tails are an importer's
+    invention, so roles and motion read tails made from the joints (children's heads).
+    Returns {rotations (frames,b,4) float32 local quaternions w,x,y,z; root_offset (frames,3)
+    float32; animated (k,) int32; locations (frames,b,3) float32 local locations in the heads'
+    units (zero but for located); located (j,) int32 (the riders); moves_root; frames;
+    frames_per_cycle; roles}."""
