@@ -26,9 +26,9 @@ const SAME_JOINT: f32 = 1e-4;
 pub fn joint_tails(heads: &[[f32; 3]], tails: &[[f32; 3]], parents: &[i32]) -> Vec<[f32; 3]> {
     let n = heads.len();
     let h = |b: usize| Vec3::from(heads[b]);
-    let (lo, hi) = heads.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), p| {
-        (lo.min(Vec3::from(*p)), hi.max(Vec3::from(*p)))
-    });
+    let (lo, hi) = heads
+        .iter()
+        .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), p| (lo.min(Vec3::from(*p)), hi.max(Vec3::from(*p))));
     let near = SAME_JOINT * (hi - lo).length().max(f32::MIN_POSITIVE);
     let mut sum = vec![Vec3::ZERO; n];
     let mut count = vec![0u32; n];
