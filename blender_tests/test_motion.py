@@ -564,21 +564,26 @@ def test_keys_in_every_rotation_mode_interpolate_the_short_way(mode):
         assert add_motion(arm, motion="WALK", cycles=1) == {"FINISHED"}
         assert add_motion(arm, motion="HEAD_SHAKE", cycles=1) == {"FINISHED"}
         end = int(keying().last_key_frame(arm))
+        keyed = {round(kp.co[0]) for fc in common_keys().action_fcurves(arm) for kp in fc.keyframe_points}
         turns = []
         for f in range(scene.frame_start, end + 1):
             for sub in (0.0, 0.5):
                 scene.frame_set(f, subframe=sub)
                 turns.append([pb.matrix_basis.to_quaternion() for pb in arm.pose.bones])
-        return turns
+        return turns, keyed
 
-    want, got = motion("QUATERNION"), motion(mode)
+    (want, keyed), (got, _) = motion("QUATERNION"), motion(mode)
     assert len(got) == len(want) > 100
+    start = bpy.context.scene.frame_start
     worst_step = 0.0
     for k in range(0, len(got) - 2, 2):
         for b in range(len(got[k])):
-            assert got[k][b].rotation_difference(want[k][b]).angle < 1e-4
             step = got[k][b].rotation_difference(got[k + 2][b]).angle
             worst_step = max(worst_step, step)
+            # on a key the same rotation; between the walk's last key and the head shake's
+            # first (the blend) the modes interpolate, as between subframes
+            on_key = got[k][b].rotation_difference(want[k][b]).angle
+            assert on_key < 1e-4 if start + k // 2 in keyed else on_key <= 0.5 * step + 1e-3
             off = got[k + 1][b].rotation_difference(want[k + 1][b]).angle
             # (the modes interpolate differently: the worst is 0.07 of a 0.28 step; jerks
             # through a zero axis were 0.16 off the short way in a 0.13 step)

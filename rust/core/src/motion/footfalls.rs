@@ -11,13 +11,14 @@
 //! that stays (walking on the spot).
 //!
 //! Body height. Each leg allows the hip to be at most its reach above its foot target at the
-//! target's horizontal distance; the body goes as high as every leg allows, never above rest.
+//! target's horizontal distance; the body goes as high as every leg allows, never above rest
+//! and never lower than a few per cent of a leg's reach.
 //! Reach is the leg's rest hip-ankle distance, or 98 % of its two bones when they are bent at
 //! rest. So stance feet stay on the ground the rest pose stands on, neither floating nor
 //! sinking, and the body dips where the feet are far apart.
 //!
-//! Legs. Each leg with two bones from its first bone pointing down (thigh and shin, or an
-//! insect's femur and tibia) is solved by two-bone IK ([`crate::posing::two_bone_ik`]) from its
+//! Legs. Each leg's two bones above its foot (thigh and shin; an upper arm and forearm; an
+//! insect's femur and tibia) are solved by two-bone IK ([`crate::posing::two_bone_ik`]) from its
 //! posed hip to its target, the knee bending in the plane and towards the side it bent at rest
 //! (turned with the pelvis). The bones below the ankle keep their rest orientation in the world
 //! in stance (toes and paws level with the ground) and pitch in swing. A leg without two such
@@ -79,12 +80,16 @@ fn plan_leg(
     right: Vec3,
 ) -> Option<PlantedLeg> {
     let bones = &limb.bones;
-    // The IK pair: the first bone pointing down and the next; a leg with one bone below its
-    // rising first bone (an insect's femur then tibia) uses that pair.
-    let (i, j) = if bones.len() >= i0 + 2 {
+    // The IK pair: the first bone pointing down and the next, with a foot below them. A leg
+    // whose first bone pointing down is its forearm or shin (the upper arm above it slopes)
+    // takes the bone above and keeps the last as its foot; a leg with one bone below its rising
+    // first bone (an insect's femur then tibia) uses that pair, footless.
+    let (i, j) = if bones.len() >= i0 + 3 {
         (i0, i0 + 1)
     } else if i0 >= 1 {
         (i0 - 1, i0)
+    } else if bones.len() == i0 + 2 {
+        (i0, i0 + 1)
     } else {
         return None;
     };
@@ -134,9 +139,15 @@ pub(crate) fn swing_progress(ph: f32, duty: f32) -> Option<f32> {
     (ph >= duty).then(|| (ph - duty) / (1.0 - duty))
 }
 
-/// How far the body may go up (negative: down) so that every leg reaches its target: `hips`
-/// are the posed hips before any offset, `targets` the ankles, `travel` the body's forward
-/// offset. Never above 0 (the rest height).
+/// A leg lowers the body by at most this fraction of its reach; a foot further out is left
+/// short of its target (it lifts off a little early or lands a little late), as a body sunk
+/// further would fold a bent leg's knee or elbow into the ground.
+const MAX_DROP: f32 = 0.06;
+
+/// How far the body may go up (negative: down) so that every leg reaches its target, each leg
+/// lowering it by at most [`MAX_DROP`] of its reach: `hips` are the posed hips before any
+/// offset, `targets` the ankles, `travel` the body's forward offset. Never above 0 (the rest
+/// height).
 pub(crate) fn body_drop(legs: &[(&PlantedLeg, Vec3, Vec3)], fwd: Vec3, travel: f32) -> f32 {
     legs.iter()
         .map(|(leg, hip, target)| {
@@ -145,7 +156,7 @@ pub(crate) fn body_drop(legs: &[(&PlantedLeg, Vec3, Vec3)], fwd: Vec3, travel: f
             flat.z = 0.0;
             let h2 = leg.reach * leg.reach - flat.length_squared();
             let allowed = if h2 > 0.0 { target.z + h2.sqrt() } else { target.z };
-            allowed - hip.z
+            (allowed - hip.z).max(-MAX_DROP * leg.reach)
         })
         .fold(0.0f32, f32::min)
 }
@@ -214,9 +225,12 @@ mod tests {
         };
         let hip = leg.hip;
         assert_eq!(body_drop(&[(&leg, hip, Vec3::ZERO)], Vec3::X, 0.0), 0.0);
+        let drop = body_drop(&[(&leg, hip, Vec3::new(0.3, 0.0, 0.0))], Vec3::X, 0.0);
+        assert!((drop - ((1.0f32 - 0.09).sqrt() - 1.0)).abs() < 1e-5, "{drop}");
+        // A foot far out lowers the body by at most MAX_DROP of the reach.
         let drop = body_drop(&[(&leg, hip, Vec3::new(0.6, 0.0, 0.0))], Vec3::X, 0.0);
-        assert!((drop - (0.8 - 1.0)).abs() < 1e-5, "{drop}");
+        assert!((drop + MAX_DROP).abs() < 1e-6, "{drop}");
         // Travel carries the hip over the foot.
-        assert!(body_drop(&[(&leg, hip, Vec3::new(0.6, 0.0, 0.0))], Vec3::X, 0.6).abs() < 1e-6);
+        assert!(body_drop(&[(&leg, hip, Vec3::new(0.3, 0.0, 0.0))], Vec3::X, 0.3).abs() < 1e-6);
     }
 }

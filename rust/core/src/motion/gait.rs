@@ -487,8 +487,8 @@ fn cadence(roles: &Roles, p: &GaitParams) -> Result<Cadence> {
     let duty = match (run, quad) {
         (false, true) => 0.65,
         (false, false) => 0.6,
-        (true, true) => 0.4,
-        (true, false) => 0.35,
+        (true, true) => 0.3,
+        (true, false) => 0.3,
     };
     let stride = if run { 2.6 } else { 1.3 } * l * p.stride;
     Ok(Cadence {
@@ -707,6 +707,10 @@ fn gait(
     let planted = planted_legs(heads, tails, roles, &swing_at, &knee_signs, right);
     let planted: Option<Vec<_>> = planted.into_iter().collect();
     let planted = planted.filter(|legs| !legs.is_empty());
+    let tail_reach = roles.tail.first().map_or(0.0, |&base| {
+        roles.tail.iter().map(|&b| (Vec3::from(tails[b]) - hv(base)).length()).fold(0.0, f32::max)
+    });
+    let tail_low = roles.tail.iter().map(|&b| heads[b][2].min(tails[b][2])).fold(f32::INFINITY, f32::min);
 
     let mut poser = new_poser(rest);
     let mut rotations = Vec::with_capacity(c.frames * n);
@@ -737,7 +741,23 @@ fn gait(
                     }
                 }
                 let ctx = Planting { heads, carried: &carried, fwd, up, right };
-                plant_legs(&mut poser, &ctx, plant, &phases, &c, phi, travel)
+                let offset = plant_legs(&mut poser, &ctx, plant, &phases, &c, phi, travel);
+                // A tail that the body's dip and the spine's flexion carry below its own rest
+                // height (a hanging tail nearly touches the ground) turns up at its base by the
+                // angle that lifts it back.
+                if let (Some(&base), true) = (roles.tail.first(), tail_reach > 0.0) {
+                    let local: Vec<[f32; 4]> = poser.q.iter().map(|&q| to_wxyz(q)).collect();
+                    let (turns, posed) = posed_frames(heads, &carried, &poser.rest, &local, &[], offset.to_array());
+                    let low = roles
+                        .tail
+                        .iter()
+                        .map(|&b| (posed[b] + turns[b] * (Vec3::from(tails[b]) - hv(b))).z.min(posed[b].z))
+                        .fold(f32::INFINITY, f32::min);
+                    if low < tail_low {
+                        poser.rotate(base, right, -((tail_low - low) / tail_reach).min(1.0).asin());
+                    }
+                }
+                offset
             }
             None => {
                 let local: Vec<[f32; 4]> = poser.q.iter().map(|&q| to_wxyz(q)).collect();
