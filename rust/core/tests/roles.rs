@@ -1,0 +1,398 @@
+//! Skeleton roles (`motion::detect_roles`) on the test rigs: bipeds, quadrupeds, six legs, rigs
+//! of separate trees and IK-exported game rigs, tails, arms and what is neither, errors.
+
+mod common;
+
+use common::rigs::{biped, biped_bones, bone, creature, ik_biped, skeleton_of, spot, BoneSpec, Skeleton};
+use glam::Vec3;
+use miniskeleton_core::motion::{detect_roles, name_side, BodyPlan, Roles, Side};
+use miniskeleton_core::Error;
+
+#[test]
+fn quadruped_made_of_separate_trees() {
+    let (names, h, t, p) = spot();
+    let r = detect_roles(&h, &t, &p, &names).unwrap();
+    assert_eq!(r.plan, BodyPlan::Quadruped);
+    assert_eq!(names[r.root], "body_root");
+    assert_eq!(named(&names, &r.spine), ["body_root", "body_spine", "body_back"]);
+    assert_eq!(named(&names, &r.neck), ["neck_root", "neck_mid"]);
+    assert_eq!(names[r.head], "head");
+    assert_eq!(named(&names, &r.tail), ["tail", "tail_leaf"]);
+    assert_eq!(leg(&names, &r, Side::Left, 0)[0], "leg_front_L_hip");
+    assert_eq!(leg(&names, &r, Side::Right, 0)[0], "leg_front_R_hip");
+    assert_eq!(leg(&names, &r, Side::Left, 1)[..3], ["leg_back_L_hip", "leg_back_L_knee", "leg_back_L_ankle"]);
+    assert!((Vec3::from(r.forward) - Vec3::Y).length() < 1e-2, "{:?}", r.forward);
+    assert!(!r.single_tree);
+    // without names the head is still found at the front end
+    let r2 = detect_roles(&h, &t, &p, &[]).unwrap();
+    assert_eq!(r2.legs.len(), 4);
+    assert!(["head", "neck_mid"].contains(&names[r2.head].as_str()), "{}", names[r2.head]);
+}
+
+fn named(names: &[String], ids: &[usize]) -> Vec<String> {
+    ids.iter().map(|&i| names[i].clone()).collect()
+}
+
+fn leg(names: &[String], r: &Roles, side: Side, group: usize) -> Vec<String> {
+    let l = r.legs.iter().find(|l| l.side == side && l.group == group).expect("leg");
+    named(names, &l.bones)
+}
+
+#[test]
+fn quadruped_roles() {
+    let (names, h, t, p) = creature();
+    let r = detect_roles(&h, &t, &p, &names).unwrap();
+    assert_eq!(r.plan, BodyPlan::Quadruped);
+    assert_eq!(named(&names, &r.spine), ["spine", "chest"]);
+    assert_eq!(named(&names, &r.neck), ["neck"]);
+    assert_eq!(names[r.head], "head");
+    assert_eq!(named(&names, &r.head_extras).len(), 3);
+    assert_eq!(named(&names, &r.tail), ["tail.001", "tail.002", "tail.003"]);
+    assert_eq!(leg(&names, &r, Side::Left, 0), ["upper_arm.L", "forearm.L", "hand.L"]);
+    assert_eq!(leg(&names, &r, Side::Right, 0), ["upper_arm.R", "forearm.R", "hand.R"]);
+    assert_eq!(leg(&names, &r, Side::Left, 1), ["thigh.L", "shin.L", "foot.L"]);
+    assert_eq!(leg(&names, &r, Side::Right, 1), ["thigh.R", "shin.R", "foot.R"]);
+    assert!(r.arms.is_empty());
+    assert!((Vec3::from(r.forward) - Vec3::NEG_Y).length() < 1e-3, "{:?}", r.forward);
+    assert!((Vec3::from(r.left) - Vec3::X).length() < 1e-3);
+    assert!(r.notes.is_empty(), "{:?}", r.notes);
+    assert!(r.single_tree);
+}
+
+/// The creature's tail dropped to the ground or curled up above its head stays its tail: a
+/// tail reaching the ground is no leg, and the head end of the body is found by the names on
+/// the way to it (a plume rising above the head, named without "tail") or by a tail's own
+/// name (head bones named without a head word).
+#[test]
+fn a_tail_on_the_ground_or_above_the_head_stays_the_tail() {
+    const TAIL: [&str; 3] = ["tail.001", "tail.002", "tail.003"];
+    // The roles' tail and head with the tail's joints (tail1, tail2, tail3) moved and bones
+    // renamed.
+    let tailed = |joints: [[f32; 3]; 3], rename: &[(&str, &str)]| {
+        let (mut names, mut h, mut t, p) = creature();
+        for (k, name) in TAIL.iter().enumerate() {
+            let b = bone(&names, name);
+            if k > 0 {
+                h[b] = joints[k - 1];
+            }
+            t[b] = joints[k];
+        }
+        for (from, to) in rename {
+            let k = bone(&names, from);
+            names[k] = to.to_string();
+        }
+        let r = detect_roles(&h, &t, &p, &names).unwrap();
+        assert_eq!(r.plan, BodyPlan::Quadruped, "{rename:?}");
+        (named(&names, &r.tail), names[r.head].clone())
+    };
+    let tail = TAIL.map(String::from).to_vec();
+    let base = [0.0, 0.85, 1.08];
+    assert_eq!(tailed([base, [0.0, 1.10, 0.6], [0.0, 1.25, 0.03]], &[]), (tail.clone(), "head".into()));
+    let up = [base, [0.0, 1.0, 1.6], [0.0, 0.9, 2.1]];
+    let plume = [("tail.001", "plume.001"), ("tail.002", "plume.002"), ("tail.003", "plume.003")];
+    let (_, head) = tailed(up, &plume);
+    assert_eq!(head, "head");
+    let unnamed = [("neck", "n1"), ("head", "n2"), ("jaw", "n3")];
+    assert_eq!(tailed(up, &unnamed), (tail, "n2".into()));
+    // Hanging straight down under the hips (2 cm back over its 0.5 m), the chain is a
+    // flap, not a tail: a tail points back by more than 5 % of the height.
+    let flap = [[0.0, 0.56, 0.8], [0.0, 0.565, 0.65], [0.0, 0.57, 0.5]];
+    assert_eq!(tailed(flap, &[]), (vec![], "head".into()));
+}
+
+/// A pair of cape panels (one long bone each, hanging off the chest like a pair of arms)
+/// are no arms: an arm is a chain of two bones or more, with a partner on the other side.
+#[test]
+fn hanging_single_bones_are_not_arms() {
+    let (mut names, mut h, mut t, mut p) = creature();
+    let chest = bone(&names, "chest") as i32;
+    for (side, x) in [("L", 0.15), ("R", -0.15)] {
+        names.push(format!("cape.{side}"));
+        h.push([x, -0.2, 1.1]);
+        t.push([x, -0.2, 0.5]);
+        p.push(chest);
+    }
+    let r = detect_roles(&h, &t, &p, &names).unwrap();
+    assert!(r.arms.is_empty(), "{:?}", r.arms);
+    assert_eq!(r.plan, BodyPlan::Quadruped);
+    // Nor is a chain on one side only (a bag's strap): arms come in pairs.
+    let (mut names, mut h, mut t, mut p) = creature();
+    for (k, (a, b)) in
+        [([0.2, -0.3, 1.05], [0.25, -0.3, 0.8]), ([0.25, -0.3, 0.8], [0.25, -0.2, 0.5])].into_iter().enumerate()
+    {
+        names.push(format!("strap.00{k}"));
+        h.push(a);
+        t.push(b);
+        p.push(if k == 0 { chest } else { names.len() as i32 - 2 });
+    }
+    let r = detect_roles(&h, &t, &p, &names).unwrap();
+    assert!(r.arms.is_empty(), "{:?}", r.arms);
+}
+
+/// The creature with each leg's bones moved by `dy` along Y (forward is -Y).
+fn creature_with_legs_moved(dy: [(&str, f32); 4]) -> Skeleton {
+    let (names, mut h, mut t, p) = creature();
+    for (leg, d) in dy {
+        let (kind, side) = leg.split_once('.').unwrap();
+        let bones = if kind == "front" { ["upper_arm", "forearm", "hand"] } else { ["thigh", "shin", "foot"] };
+        for b in bones {
+            let i = bone(&names, &format!("{b}.{side}"));
+            h[i][1] += d;
+            t[i][1] += d;
+        }
+    }
+    (names, h, t, p)
+}
+
+#[test]
+fn quadruped_in_mid_stride_keeps_a_front_and_a_back_pair() {
+    // The horse scan's rough rig: hips above the feet, each pair's tops apart by more
+    // than the 0.15 h that groups legs (h = 1.8 here), the pairs much further apart.
+    let (names, h, t, p) =
+        creature_with_legs_moved([("front.L", -0.35), ("front.R", 0.0), ("back.L", 0.0), ("back.R", 0.30)]);
+    let r = detect_roles(&h, &t, &p, &names).unwrap();
+    assert_eq!(r.plan, BodyPlan::Quadruped);
+    assert_eq!(leg(&names, &r, Side::Left, 0)[0], "upper_arm.L");
+    assert_eq!(leg(&names, &r, Side::Right, 0)[0], "upper_arm.R");
+    assert_eq!(leg(&names, &r, Side::Left, 1)[0], "thigh.L");
+    assert_eq!(leg(&names, &r, Side::Right, 1)[0], "thigh.R");
+    // Four legs evenly along the body (left, right, left, right) are no two pairs.
+    let (names, h, t, p) =
+        creature_with_legs_moved([("front.L", -0.5), ("front.R", 0.0), ("back.L", -0.5), ("back.R", 0.0)]);
+    let r = detect_roles(&h, &t, &p, &names).unwrap();
+    assert_eq!(r.plan, BodyPlan::Multiped);
+}
+
+#[test]
+fn six_legs_make_three_groups_front_to_back() {
+    // The creature with a middle pair of legs (its hind legs moved 0.5 forward, off the
+    // spine): the tops of each pair lie within 0.15 h, the pairs 0.5 apart (h ~ 1.85).
+    let (mut names, mut h, mut t, mut p) = creature();
+    let spine = bone(&names, "spine") as i32;
+    for s in ["L", "R"] {
+        let mut parent = spine;
+        for b in ["thigh", "shin", "foot"] {
+            let i = bone(&names, &format!("{b}.{s}"));
+            let (mut head, mut tail) = (h[i], t[i]);
+            head[1] -= 0.5;
+            tail[1] -= 0.5;
+            names.push(format!("mid_{b}.{s}"));
+            h.push(head);
+            t.push(tail);
+            p.push(parent);
+            parent = names.len() as i32 - 1;
+        }
+    }
+    let r = detect_roles(&h, &t, &p, &names).unwrap();
+    assert_eq!((r.plan, r.legs.len()), (BodyPlan::Multiped, 6));
+    for (group, top) in [(0, "upper_arm"), (1, "mid_thigh"), (2, "thigh")] {
+        for side in [Side::Left, Side::Right] {
+            let first = &leg(&names, &r, side, group)[0];
+            assert!(first.starts_with(top), "group {group} {side:?}: {first}");
+        }
+    }
+}
+
+#[test]
+fn quadruped_roles_without_names_and_turned() {
+    // same creature rotated 90° about Z (faces +X), names hidden
+    let (names, h, t, p) = creature();
+    let rot = |q: [f32; 3]| [-q[1], q[0], q[2]];
+    let h: Vec<_> = h.into_iter().map(rot).collect();
+    let t: Vec<_> = t.into_iter().map(rot).collect();
+    let r = detect_roles(&h, &t, &p, &[]).unwrap();
+    assert_eq!(r.plan, BodyPlan::Quadruped);
+    assert!((Vec3::from(r.forward) - Vec3::X).length() < 1e-3, "{:?}", r.forward);
+    assert_eq!(named(&names, &r.spine), ["spine", "chest"]);
+    assert_eq!(names[r.head], "head");
+    assert_eq!(leg(&names, &r, Side::Left, 0)[0], "upper_arm.L");
+    assert_eq!(leg(&names, &r, Side::Right, 1)[0], "thigh.R");
+}
+
+#[test]
+fn biped_roles() {
+    let (names, h, t, p) = biped();
+    let r = detect_roles(&h, &t, &p, &names).unwrap();
+    assert_eq!(r.plan, BodyPlan::Biped);
+    assert_eq!(named(&names, &r.spine), ["hips", "spine", "chest"]);
+    assert_eq!(named(&names, &r.neck), ["neck"]);
+    assert_eq!(names[r.head], "head");
+    assert_eq!(leg(&names, &r, Side::Left, 0), ["thigh.L", "shin.L", "foot.L", "toe.L"]);
+    assert_eq!(leg(&names, &r, Side::Right, 0)[0], "thigh.R");
+    assert_eq!(r.arms.len(), 2);
+    let la = r.arms.iter().find(|a| a.side == Side::Left).unwrap();
+    assert_eq!(named(&names, &la.bones)[..3], ["shoulder.L", "upper_arm.L", "forearm.L"]);
+    assert!((Vec3::from(r.forward) - Vec3::NEG_Y).length() < 1e-3, "{:?}", r.forward);
+    assert!((r.leg_length - 0.98).abs() < 1e-3, "{}", r.leg_length);
+    // without names too
+    let r2 = detect_roles(&h, &t, &p, &[]).unwrap();
+    assert_eq!(names[r2.head], "head");
+    assert_eq!(r2.legs.len(), 2);
+}
+
+/// Legs are long (their chain drops at least a fifth of the height) and arms reach a fifth
+/// of it: a biped's two short flaps hanging from the hips toward the ground (a tabard)
+/// and two short pouch chains on the chest are neither legs nor arms.
+#[test]
+fn short_flaps_and_pouches_are_neither_legs_nor_arms() {
+    let mut b = biped_bones();
+    for (s, x) in [("L", 1.0f32), ("R", -1.0)] {
+        let f = |n: &str| format!("{n}.{s}");
+        b.extend([
+            (f("flap"), [0.15 * x, -0.1, 0.4], [0.15 * x, -0.1, 0.28], Some("hips".into())),
+            (f("flap_end"), [0.15 * x, -0.1, 0.28], [0.15 * x, -0.1, 0.15], Some(f("flap"))),
+            (f("pouch"), [0.1 * x, -0.1, 1.35], [0.2 * x, -0.1, 1.3], Some("chest".into())),
+            (f("pouch_end"), [0.2 * x, -0.1, 1.3], [0.26 * x, -0.1, 1.25], Some(f("pouch"))),
+        ]);
+    }
+    let (names, h, t, p) = skeleton_of(&b);
+    let r = detect_roles(&h, &t, &p, &names).unwrap();
+    assert_eq!(r.plan, BodyPlan::Biped);
+    assert_eq!(r.legs.len(), 2);
+    assert_eq!(leg(&names, &r, Side::Left, 0)[0], "thigh.L");
+    assert_eq!(r.arms.len(), 2);
+    assert!(r.arms.iter().all(|a| names[a.bones[1]].starts_with("upper_arm")), "{:?}", r.arms);
+}
+
+#[test]
+fn ik_exported_biped_feet_ride_on_their_legs_and_t_posed_arms_are_arms() {
+    for invented_tails in [false, true] {
+        let (names, h, t, p) = ik_biped(invented_tails);
+        let r = detect_roles(&h, &t, &p, &names).unwrap();
+        assert_eq!(r.plan, BodyPlan::Biped);
+        assert_eq!(leg(&names, &r, Side::Left, 0), ["UpperLeg.L", "LowerLeg.L", "Foot.L"]);
+        assert_eq!(leg(&names, &r, Side::Right, 0), ["UpperLeg.R", "LowerLeg.R", "Foot.R"]);
+        let riders: Vec<[String; 2]> = r.riders.iter().map(|&[a, b]| [names[a].clone(), names[b].clone()]).collect();
+        assert_eq!(riders.len(), 2, "{riders:?}");
+        for s in ["L", "R"] {
+            assert!(riders.contains(&[format!("Foot.{s}"), format!("LowerLeg.{s}")]), "{riders:?}");
+        }
+        assert!(r.notes.iter().any(|n| n.contains("Foot.L")), "{:?}", r.notes);
+        // the arms rise 0.23 above the shoulder over a reach of 2.1: arms, so the spine
+        // reaches the torso they hang from and the neck is the neck alone (not the torso)
+        assert_eq!(r.arms.len(), 2);
+        let la = r.arms.iter().find(|a| a.side == Side::Left).unwrap();
+        assert_eq!(named(&names, &la.bones)[..3], ["Shoulder.L", "UpperArm.L", "LowerArm.L"]);
+        assert_eq!(named(&names, &r.spine), ["Root", "Body", "Hips", "Abdomen", "Torso"]);
+        assert_eq!(named(&names, &r.neck), ["Neck"]);
+        assert_eq!(names[r.head], "Head");
+        assert!(r.head_extras.iter().all(|&b| names[b].starts_with("Ear")));
+        assert!((Vec3::from(r.forward) - Vec3::NEG_Y).length() < 1e-3, "{:?}", r.forward);
+    }
+}
+
+#[test]
+fn rigs_with_feet_on_their_legs_have_no_riders() {
+    for (names, h, t, p) in [biped(), creature(), spot()] {
+        assert!(detect_roles(&h, &t, &p, &names).unwrap().riders.is_empty());
+    }
+    // a narrow biped, arms out, whose feet hang off the hips level with the shins' ends:
+    // the only leaf end above a foot is the head's, too high to be a leg's
+    let mut b: Vec<BoneSpec> = vec![
+        ("hips".into(), [0.0, 0.0, 1.0], [0.0, 0.0, 1.2], None),
+        ("spine".into(), [0.0, 0.0, 1.2], [0.0, 0.0, 1.5], Some("hips".into())),
+        ("neck".into(), [0.0, 0.0, 1.5], [0.0, 0.0, 1.6], Some("spine".into())),
+        ("head".into(), [0.0, 0.0, 1.6], [0.0, 0.0, 1.8], Some("neck".into())),
+    ];
+    for (s, x) in [("L", 1.0f32), ("R", -1.0)] {
+        let f = |n: &str| format!("{n}.{s}");
+        b.extend([
+            (f("thigh"), [0.1 * x, 0.0, 1.0], [0.1 * x, 0.0, 0.5], Some("hips".into())),
+            (f("shin"), [0.1 * x, 0.0, 0.5], [0.1 * x, 0.0, 0.0], Some(f("thigh"))),
+            (f("arm"), [0.2 * x, 0.0, 1.45], [0.5 * x, 0.0, 1.45], Some("spine".into())),
+            (f("hand"), [0.5 * x, 0.0, 1.45], [0.7 * x, 0.0, 1.45], Some(f("arm"))),
+            (f("foot"), [0.1 * x, -0.02, 0.0], [0.1 * x, -0.2, 0.0], Some("hips".into())),
+        ]);
+    }
+    let (names, h, t, p) = skeleton_of(&b);
+    let r = detect_roles(&h, &t, &p, &names).unwrap();
+    assert!(r.riders.is_empty(), "{:?}", r.riders);
+    assert_eq!(names[r.head], "head");
+}
+
+#[test]
+fn thousands_of_hair_bones_leave_the_roles_as_they_were() {
+    // 400 strands of 10 bones hanging off the head: the mirror-plane scan samples the
+    // 8000+ bone ends (it compares every pair) and still finds the body's plane
+    let (mut names, mut h, mut t, mut p) = biped();
+    let plain = detect_roles(&h, &t, &p, &names).unwrap();
+    let head = bone(&names, "head") as i32;
+    for k in 0..400 {
+        let x = 0.1 * ((k as f32 * 0.618).fract() - 0.5);
+        for j in 0..10 {
+            let z = 1.78 - 0.01 * j as f32;
+            names.push(format!("hair{k}_{j}"));
+            h.push([x, 0.05 + 0.01 * j as f32, z]);
+            t.push([x, 0.06 + 0.01 * j as f32, z - 0.01]);
+            p.push(if j == 0 { head } else { h.len() as i32 - 2 });
+        }
+    }
+    let r = detect_roles(&h, &t, &p, &names).unwrap();
+    assert_eq!(named(&names, &r.spine), named(&names, &plain.spine));
+    assert_eq!(r.legs.len(), 2);
+    assert_eq!(leg(&names, &r, Side::Left, 0), leg(&names, &plain, Side::Left, 0));
+    assert_eq!(r.arms.len(), 2);
+    assert_eq!(names[r.head], "head");
+    assert!((Vec3::from(r.forward) - Vec3::from(plain.forward)).length() < 1e-3, "{:?}", r.forward);
+}
+
+/// A small separate tree starting where the body's root starts (a skirt or a belly flap
+/// rigged on its own) joins the body, not the body it: the weaker tree is joined first, so
+/// the body's root stays the root whatever the bones' order.
+#[test]
+fn a_small_tree_at_the_roots_head_joins_the_body() {
+    let (plain_names, h, t, p) = biped();
+    let plain = detect_roles(&h, &t, &p, &plain_names).unwrap();
+    let mut b = biped_bones();
+    let hips = b[0].1; // the body's root, listed first
+    b.extend([
+        ("skirt0".into(), hips, [0.0, 0.1, 0.85], None),
+        ("skirt1".into(), [0.0, 0.1, 0.85], [0.0, 0.15, 0.7], Some("skirt0".into())),
+    ]);
+    let (names, h, t, p) = skeleton_of(&b);
+    let r = detect_roles(&h, &t, &p, &names).unwrap();
+    assert_eq!(names[r.root], "hips");
+    assert_eq!(named(&names, &r.spine), named(&plain_names, &plain.spine));
+    assert_eq!(leg(&names, &r, Side::Left, 0), leg(&plain_names, &plain, Side::Left, 0));
+    assert_eq!(names[r.head], "head");
+}
+
+#[test]
+fn no_legs_is_a_clear_error() {
+    let h = vec![[0.0, 0.0, 1.0], [0.0, 0.0, 2.0]];
+    let t = vec![[0.0, 0.0, 2.0], [0.0, 0.0, 3.0]];
+    let err = detect_roles(&h, &t, &[-1, 0], &[]).unwrap_err();
+    assert!(err.to_string().contains("no legs"), "{err}");
+}
+
+#[test]
+fn no_head_is_a_clear_error() {
+    // a hip bone with two legs and nothing else
+    let h = vec![[-0.2, 0.0, 1.0], [-0.2, 0.0, 1.0], [0.2, 0.0, 1.0]];
+    let t = vec![[0.2, 0.0, 1.0], [-0.2, 0.0, 0.0], [0.2, 0.0, 0.0]];
+    let err = detect_roles(&h, &t, &[-1, 0, 0], &[]).unwrap_err();
+    assert!(err.to_string().contains("no head"), "{err}");
+}
+
+#[test]
+fn bad_input_is_rejected() {
+    assert!(detect_roles(&[], &[], &[], &[]).is_err());
+    let h = vec![[0.0; 3], [0.0, 0.0, 1.0]];
+    let t = vec![[0.0, 0.0, 1.0], [0.0, 0.0, 2.0]];
+    assert!(matches!(detect_roles(&h, &t, &[1, 0], &[]), Err(Error::InvalidArgument(_))));
+    assert!(matches!(detect_roles(&h, &t, &[-1], &[]), Err(Error::Shape(_))));
+    let nan = vec![[f32::NAN; 3], [0.0; 3]];
+    assert!(matches!(detect_roles(&nan, &t, &[-1, 0], &[]), Err(Error::NonFinite { .. })));
+}
+
+#[test]
+fn name_sides() {
+    assert_eq!(name_side("thigh.L"), Some(Side::Left));
+    assert_eq!(name_side("R_foot"), Some(Side::Right));
+    assert_eq!(name_side("LeftUpLeg"), Some(Side::Left));
+    assert_eq!(name_side("mixamorig:RightHand"), Some(Side::Right));
+    assert_eq!(name_side("shin-r"), Some(Side::Right));
+    assert_eq!(name_side("l ear"), Some(Side::Left));
+    assert_eq!(name_side("spine"), None);
+    assert_eq!(name_side("tail.l1"), None);
+}
