@@ -5,7 +5,7 @@ mod common;
 
 use common::rigs::{biped, biped_bones, bone, creature, ik_biped, skeleton_of, spot, BoneSpec, Skeleton};
 use glam::Vec3;
-use miniskeleton_core::motion::{detect_roles, name_side, BodyPlan, Roles, Side};
+use miniskeleton_core::motion::{detect_roles, BodyPlan, Roles, Side};
 use miniskeleton_core::Error;
 
 #[test]
@@ -385,14 +385,23 @@ fn bad_input_is_rejected() {
     assert!(matches!(detect_roles(&nan, &t, &[-1, 0], &[]), Err(Error::NonFinite { .. })));
 }
 
+/// Legs' names are read by the one left/right rule (`skeleton::name_side`): a biped (its head
+/// above its hips, so forward is not known from the head) whose legs are named for the other
+/// side in the 3ds Max style, `Bip01_R_thigh` on the left, is turned round to face +Y so that
+/// its names are right. (The roles' former rule read no side in `_R_`.)
 #[test]
-fn name_sides() {
-    assert_eq!(name_side("thigh.L"), Some(Side::Left));
-    assert_eq!(name_side("R_foot"), Some(Side::Right));
-    assert_eq!(name_side("LeftUpLeg"), Some(Side::Left));
-    assert_eq!(name_side("mixamorig:RightHand"), Some(Side::Right));
-    assert_eq!(name_side("shin-r"), Some(Side::Right));
-    assert_eq!(name_side("l ear"), Some(Side::Left));
-    assert_eq!(name_side("spine"), None);
-    assert_eq!(name_side("tail.l1"), None);
+fn legs_named_with_a_side_letter_between_underscores_set_the_side() {
+    let rename = |n: &str| match n.rsplit_once('.') {
+        Some((bone, side)) if ["thigh", "shin", "foot", "toe"].contains(&bone) => {
+            format!("Bip01_{}_{bone}", if side == "L" { "R" } else { "L" })
+        }
+        _ => n.to_string(),
+    };
+    let b: Vec<BoneSpec> =
+        biped_bones().into_iter().map(|(n, h, t, p)| (rename(&n), h, t, p.as_deref().map(rename))).collect();
+    let (names, h, t, p) = skeleton_of(&b);
+    let r = detect_roles(&h, &t, &p, &names).unwrap();
+    assert!((Vec3::from(r.forward) - Vec3::Y).length() < 1e-3, "{:?}", r.forward);
+    assert!(r.notes.iter().any(|n| n.contains("taken from the .L/.R bone names")), "{:?}", r.notes);
+    assert_eq!(leg(&names, &r, Side::Left, 0), ["Bip01_L_thigh", "Bip01_L_shin", "Bip01_L_foot", "Bip01_L_toe"]);
 }

@@ -11,5 +11,7 @@ pub mod gait;
 mod hierarchy;
 pub mod roles;
 
+/// The side a bone name states; the rule lives with the other name rules in `skeleton`.
+pub use crate::skeleton::name_side;
 pub use gait::{motion_clip, posed_points, Clip, GaitParams, Motion};
-pub use roles::{detect_roles, name_side, BodyPlan, Limb, Roles, Side};
+pub use roles::{detect_roles, BodyPlan, Limb, Roles, Side};

@@ -45,15 +45,11 @@
 
 use crate::error::{Error, Result};
 use crate::motion::hierarchy::{build_tree, joined_hierarchy, subtree, Tree, GROUND_FRACTION};
-use crate::skeleton::validate_parents;
+use crate::skeleton::{name_side, validate_parents};
 use glam::Vec3;
 
-/// Which side of the body a limb is on (the character's own left/right).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Side {
-    Left,
-    Right,
-}
+/// Which side of the body a limb is on: the side of bone names (`skeleton::names`).
+pub use crate::skeleton::Side;
 
 /// A leg or arm: its bones from the top (hip / shoulder / clavicle) down to the foot or hand.
 #[derive(Debug, Clone, PartialEq)]
@@ -124,25 +120,6 @@ fn v(p: [f32; 3]) -> Vec3 {
 
 fn lower(names: &[String], b: usize) -> String {
     names.get(b).map(|s| s.to_ascii_lowercase()).unwrap_or_default()
-}
-
-/// The side a bone name states (`.L`, `_R`, `Left…`, `l_…`), if any.
-pub fn name_side(name: &str) -> Option<Side> {
-    let n = name.to_ascii_lowercase();
-    for (suffix, side) in [("l", Side::Left), ("r", Side::Right)] {
-        for sep in ['.', '_', '-', ' '] {
-            if n.ends_with(&format!("{sep}{suffix}")) || n.starts_with(&format!("{suffix}{sep}")) {
-                return Some(side);
-            }
-        }
-    }
-    if n.contains("left") {
-        return Some(Side::Left);
-    }
-    if n.contains("right") {
-        return Some(Side::Right);
-    }
-    None
 }
 
 fn validate(heads: &[[f32; 3]], tails: &[[f32; 3]], parents: &[i32], names: &[String]) -> Result<()> {
