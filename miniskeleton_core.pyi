@@ -165,6 +165,21 @@ def fit_joints(vertices: ArrayLike, triangles: ArrayLike, joints: ArrayLike, bon
 def points_inside(vertices: ArrayLike, triangles: ArrayLike, points: ArrayLike) -> npt.NDArray[np.bool_]:
     """(p,) bool: points inside the closed mesh by ray parity (majority of 7 directions)."""
 
+def mirror_name(name: str) -> str:
+    """Blender's left/right flip of a bone name: 'thigh.L' -> 'thigh.R', 'R_foot' -> 'L_foot',
+    'leg_back_L_knee' -> 'leg_back_R_knee', 'mixamorig:LeftArm' -> 'mixamorig:RightArm'; the name
+    itself when it states no side. The first token of these, in this order: a separator (. _ -
+    space) and L/l at the end, then R/r; L/l and a separator at the start, then R/r; a letter
+    between two of . _ -; the first Left, Right, left, right, LEFT or RIGHT. detect_roles reads
+    a name's side by the same rule (the side of the token flipped)."""
+
+def bone_mirror_indices(names: list[str]) -> npt.NDArray[np.int32]:
+    """(b,) mirror bone of each bone by name: the bone named mirror_name(name) (the last such with
+    duplicate names), or else the one bone whose name matches it up to a trailing number
+    (b_LeftUpperArm_09 <-> b_RightUpperArm_06); itself for a centre bone (a name the flip leaves
+    as it is); -1 for a side bone without a partner. Pairs agree both ways: the form of
+    heat_weights' bone_mirror."""
+
 # ---------------------------------------------------------------------------- motion
 
 def detect_roles(bone_heads: ArrayLike, bone_tails: ArrayLike, parents: ArrayLike,

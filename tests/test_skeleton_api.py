@@ -1,4 +1,5 @@
-"""The skeleton-fitting API of miniskeleton_core from plain Python: centring, options, errors."""
+"""The skeleton API of miniskeleton_core from plain Python: fitting (centring, options, errors) and
+left/right in bone names."""
 
 import numpy as np
 import pytest
@@ -50,3 +51,78 @@ def test_fixed_joints_stay_and_options_are_checked(tube):
         msc.fit_joints(v, t, start, np.array([[0, 7]], dtype=np.uint32))
     with pytest.raises(ValueError, match="go together"):
         msc.fit_joints(v, t, start, chain(3), symmetry_axis=0)   # no joint_mirror
+
+
+# (name, its flip, its side): read off the add-on's Python rule (mesh_io.mirror_name), pattern by
+# pattern in its order; the side is the one whose token the flip changes.
+NAMES = [
+    # a separator (. _ - space) and a letter at the end: L/l first, then R/r
+    ("thigh.L", "thigh.R", "L"),
+    ("thigh.R", "thigh.L", "R"),
+    ("hand_l", "hand_r", "L"),
+    ("Foot_R", "Foot_L", "R"),
+    ("shin-r", "shin-l", "R"),
+    ("ear l", "ear r", "L"),
+    ("DEF-thigh.L", "DEF-thigh.R", "L"),
+    ("ORG-hand.R", "ORG-hand.L", "R"),
+    ("Ärm.L", "Ärm.R", "L"),
+    # a letter and a separator at the start
+    ("L_foot", "R_foot", "L"),
+    ("r.arm", "l.arm", "R"),
+    ("l ear", "r ear", "L"),
+    # the end is looked at before the start
+    ("l_foot.R", "l_foot.L", "R"),
+    ("L_arm_right", "R_arm_right", "L"),
+    # the first letter between two of . _ - (spaces do not count)
+    ("leg_back_L_knee", "leg_back_R_knee", "L"),
+    ("leg_front_R_hip", "leg_front_L_hip", "R"),
+    ("Bip01_R_Thigh", "Bip01_L_Thigh", "R"),
+    ("hand_L.001", "hand_R.001", "L"),
+    ("a_L_b_R_c", "a_R_b_R_c", "L"),
+    # the words Left, Right, left, right, LEFT, RIGHT in that order, first occurrence only
+    ("LeftUpLeg", "RightUpLeg", "L"),
+    ("mixamorig:LeftUpLeg", "mixamorig:RightUpLeg", "L"),
+    ("mixamorig:RightHand", "mixamorig:LeftHand", "R"),
+    ("b_LeftHand_011", "b_RightHand_011", "L"),
+    ("left_arm", "right_arm", "L"),
+    ("upper_right_arm", "upper_left_arm", "R"),
+    ("LEFT_EYE", "RIGHT_EYE", "L"),
+    ("Right_left", "Left_left", "R"),
+    ("Left_Left", "Right_Left", "L"),
+    ("Cleft", "Cright", "L"),
+    # centre names: no side, no flip
+    ("spine", "spine", None),
+    ("Hips", "Hips", None),
+    ("mixamorig:Spine1", "mixamorig:Spine1", None),
+    ("tail.l1", "tail.l1", None),
+    ("Bip01 L Thigh", "Bip01 L Thigh", None),
+    ("LeFt_hand", "LeFt_hand", None),
+    ("L", "L", None),
+    ("", "", None),
+]
+
+
+@pytest.mark.parametrize("name, flipped, side", NAMES)
+def test_mirror_name_flips_as_blender_does(name, flipped, side):
+    assert msc.mirror_name(name) == flipped
+    # the side (the one detect_roles reads) is that of the letter or word the flip changes
+    changed = [a for a, b in zip(name, flipped) if a != b]
+    assert (changed[0].upper() if changed else None) == side
+
+
+def test_bone_mirror_indices_pair_by_name_and_agree_both_ways():
+    names = ["hips", "thigh.L", "thigh.R", "b_LeftUpperArm_09", "b_RightUpperArm_06", "hand.L",
+             "arm.L", "arm.R", "arm.R.001", "foot.L", "foot.R", "foot.R", "spine.001"]
+    out = msc.bone_mirror_indices(names)
+    assert out.dtype == np.int32 and out.shape == (13,)
+    # hips and spine.001 are centre bones (themselves); thigh and the numbered upper arms pair up;
+    # hand.L has no partner; arm.R.001 matches arm.L up to its number, but arm.L pairs with
+    # arm.R; foot.L's partner is the last foot.R, so the first one has none.
+    assert out.tolist() == [0, 2, 1, 4, 3, -1, 7, 6, -1, 11, -1, 9, 12]
+    # two numbered bones on one stem: neither is the partner
+    assert msc.bone_mirror_indices(("finger.L.001", "finger.L.002", "finger.R")).tolist() == [-1, -1, -1]
+    assert msc.bone_mirror_indices([]).shape == (0,)
+    with pytest.raises(TypeError):
+        msc.bone_mirror_indices("thigh.L")   # a string is not a list of names
+    with pytest.raises(TypeError):
+        msc.mirror_name(None)

@@ -1,4 +1,5 @@
-//! Bindings for skeleton tools: joint fitting and the inside test (`fit.rs`).
+//! Bindings for skeleton tools: joint fitting and the inside test (`fit.rs`), and left/right in
+//! bone names (`names.rs`).
 
 use crate::convert::{from_rows, index_rows, indices, rows, vector, IndexRows, Indices};
 use crate::error::guarded;
@@ -82,9 +83,31 @@ pub fn points_inside<'py>(
     Ok(PyArray1::from_vec(py, out))
 }
 
+/// Blender's left/right flip of a bone name: `thigh.L` -> `thigh.R`, `R_foot` -> `L_foot`,
+/// `leg_back_L_knee` -> `leg_back_R_knee`, `mixamorig:LeftArm` -> `mixamorig:RightArm`; the name
+/// itself when it states no side. The first token of these, in this order: a separator (. _ -
+/// space) and L/l at the end, then R/r; L/l and a separator at the start, then R/r; a letter
+/// between two of . _ -; the first Left, Right, left, right, LEFT or RIGHT.
+#[pyfunction]
+pub fn mirror_name(name: &str) -> String {
+    skeleton::mirror_name(name)
+}
+
+/// Each bone's mirror bone by name, (b,) int32: the index of the bone named `mirror_name(name)`
+/// (the last such with duplicate names), or else of the one bone whose name matches it up to a
+/// trailing number (b_LeftUpperArm_09 <-> b_RightUpperArm_06); the bone itself for a centre bone
+/// (a name the flip leaves as it is); -1 for a side bone without a partner. Pairs agree both
+/// ways.
+#[pyfunction]
+pub fn bone_mirror_indices<'py>(py: Python<'py>, names: Vec<String>) -> Bound<'py, PyArray1<i32>> {
+    PyArray1::from_vec(py, skeleton::bone_mirror_indices(&names))
+}
+
 /// Add this area's functions to the module.
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(fit_joints, m)?)?;
     m.add_function(wrap_pyfunction!(points_inside, m)?)?;
+    m.add_function(wrap_pyfunction!(mirror_name, m)?)?;
+    m.add_function(wrap_pyfunction!(bone_mirror_indices, m)?)?;
     Ok(())
 }
