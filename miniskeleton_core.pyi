@@ -87,6 +87,18 @@ def heat_weights_many(
     solve). One entry per mesh: its (indices, weights, report), or the exception it raised
     (ValueError for bad input, ...), returned so that the others' results stand."""
 
+def weld_points(points: ArrayLike, tolerance: float
+                ) -> Tuple[npt.NDArray[np.int32], npt.NDArray[np.float64]]:
+    """Weld points (n,3) (float64 or float32) closer than tolerance, an absolute distance in the
+    points' own units: (map (n,) int32, each point's welded point; welded (k,3) float64). Greedy
+    in input order: a point joins a welded point within tolerance of it, else it becomes a new
+    one; a welded point is the first point of its cluster, unchanged (not a mean), and clusters
+    do not chain (a point near another member but farther than tolerance from the first starts a
+    new one). Welded points lie more than tolerance apart; a point within tolerance of two of
+    them joins one fixed by the grid, not always the first. tolerance <= 0 or not finite: exact
+    duplicates only. Non-finite points never weld. (The weld heat_weights and touching_meshes
+    use, there with a tolerance relative to the mesh's size.)"""
+
 def touching_meshes(vertices: ArrayLike, mesh_of: ArrayLike, meshes: int, *,
                     triangles: Optional[ArrayLike] = None, tolerance: float = 1e-5,
                     min_shared: int = 3) -> npt.NDArray[np.int32]:

@@ -1,12 +1,37 @@
-//! Bindings for `miniskeleton_core::mesh`: which meshes meet along a seam, and Catmull-Clark
-//! limit positions.
+//! Bindings for `miniskeleton_core::mesh`: welding points, which meshes meet along a seam, and
+//! Catmull-Clark limit positions.
 
-use crate::convert::{index_rows, indices, rows, IndexRows, Indices};
+use crate::convert::{from_rows, index_rows, indices, rows, IndexRows, Indices};
 use crate::error::guarded;
-use numpy::{AllowTypeChange, PyArray2, PyArrayLike2};
+use numpy::{AllowTypeChange, PyArray1, PyArray2, PyArrayLike2};
+use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 
 type F32Rows<'py> = PyArrayLike2<'py, f32, AllowTypeChange>;
+/// Welded points for Python: map int32 (n,), welded float64 (k,3).
+type Welded<'py> = (Bound<'py, PyArray1<i32>>, Bound<'py, PyArray2<f64>>);
+
+/// Weld points (n,3) (float64, or anything cast to it) closer than `tolerance`: an absolute
+/// distance in the points' own units. Returns (map (n,) int32, the welded point of each point;
+/// welded (k,3) float64). Greedy in input order: a point joins a welded point within `tolerance`
+/// of it, else it becomes a new one; a welded point is the first point of its cluster, unchanged
+/// (not a mean), and clusters do not chain (a point near another member but farther than
+/// `tolerance` from the first starts a new one). Welded points lie more than `tolerance` apart;
+/// a point within `tolerance` of two of them joins one fixed by the grid, not always the first.
+/// `tolerance` <= 0 or not finite: exact duplicates only. Non-finite points never weld.
+#[pyfunction]
+pub fn weld_points<'py>(
+    py: Python<'py>,
+    points: PyArrayLike2<'py, f64, AllowTypeChange>,
+    tolerance: f64,
+) -> PyResult<Welded<'py>> {
+    let p = rows::<f64, 3>(&points, "points")?;
+    if p.len() > i32::MAX as usize {
+        return Err(PyValueError::new_err(format!("{} points: at most 2^31 - 1", p.len())));
+    }
+    let (map, welded) = guarded(py, move || Ok(miniskeleton_core::mesh::weld::weld_points(&p, tolerance)))?;
+    Ok((PyArray1::from_vec(py, map.into_iter().map(|w| w as i32).collect()), from_rows(py, &welded)?))
+}
 
 /// Which meshes meet along a seam: `vertices` (n,3) of all meshes stacked, `mesh_of` (n,) the
 /// mesh of each vertex, `triangles` (m,3) of all meshes stacked (optional: the bbox of the
@@ -53,10 +78,11 @@ pub fn catmull_clark_limit<'py>(
     let v = rows::<f32, 3>(&vertices, "vertices")?;
     let (sizes, corners) = (indices(&face_sizes, "face_sizes")?, indices(&face_vertices, "face_vertices")?);
     let limit = guarded(py, move || miniskeleton_core::mesh::limit_positions(&v, &sizes, &corners, keep_corners))?;
-    crate::convert::from_rows(py, &limit)
+    from_rows(py, &limit)
 }
 
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_function(wrap_pyfunction!(weld_points, m)?)?;
     m.add_function(wrap_pyfunction!(touching_meshes, m)?)?;
     m.add_function(wrap_pyfunction!(catmull_clark_limit, m)?)?;
     Ok(())

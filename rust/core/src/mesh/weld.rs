@@ -14,6 +14,11 @@ use glam::DVec3;
 /// position* (its first input vertex, kept unchanged) lies within `tolerance`, otherwise it
 /// starts a new one. Uniform grid with cell size `4 * tolerance` hashed into an open table, so
 /// the cost is O(n) expected.
+///
+/// No chaining: a vertex within `tolerance` of a welded vertex's other members but not of its
+/// representative starts a new one. Representatives lie more than `tolerance` apart, so a vertex
+/// can lie within `tolerance` of two; which one it joins is then fixed by the grid, not always
+/// the first. A non-finite position never welds (it starts a welded vertex of its own).
 pub fn weld(positions: &[DVec3], tolerance: f64) -> (Vec<u32>, Vec<DVec3>) {
     let n = positions.len();
     let tol = if tolerance.is_finite() && tolerance > 0.0 { tolerance } else { 0.0 };
@@ -69,6 +74,14 @@ pub fn weld(positions: &[DVec3], tolerance: f64) -> (Vec<u32>, Vec<DVec3>) {
         map.push(found);
     }
     (map, welded)
+}
+
+/// [`weld`] of plain `[x, y, z]` points (the Python binding's `weld_points`): the same `map`,
+/// and the welded points as arrays.
+pub fn weld_points(points: &[[f64; 3]], tolerance: f64) -> (Vec<u32>, Vec<[f64; 3]>) {
+    let positions: Vec<DVec3> = points.iter().map(|&p| DVec3::from_array(p)).collect();
+    let (map, welded) = weld(&positions, tolerance);
+    (map, welded.iter().map(|w| w.to_array()).collect())
 }
 
 #[cfg(test)]
