@@ -111,7 +111,7 @@ def describe_roles(roles: dict, names: list[str]) -> list[str]:
              + (f" (+ {n(roles['head_extras'])})" if roles["head_extras"] else "")]
     if roles["tail"]:
         lines.append(f"tail: {n(roles['tail'])}")
-    groups = max(leg["group"] for leg in roles["legs"]) + 1
+    groups = max((leg["group"] for leg in roles["legs"]), default=0) + 1
     for leg in roles["legs"]:
         where = ("front " if leg["group"] == 0 else "back " if leg["group"] == groups - 1 else
                  f"middle {leg['group']} ") if groups > 1 else ""

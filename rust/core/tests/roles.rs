@@ -3,9 +3,9 @@
 
 mod common;
 
-use common::rigs::{biped, biped_bones, bone, creature, ik_biped, skeleton_of, spot, BoneSpec, Skeleton};
+use common::rigs::{biped, biped_bones, bone, creature, ik_biped, rest_of, skeleton_of, spot, BoneSpec, Skeleton};
 use glam::Vec3;
-use miniskeleton_core::motion::{detect_roles, BodyPlan, Roles, Side};
+use miniskeleton_core::motion::{detect_roles, motion_clip, BodyPlan, GaitParams, Motion, Roles, Side};
 use miniskeleton_core::Error;
 
 #[test]
@@ -357,12 +357,29 @@ fn a_small_tree_at_the_roots_head_joins_the_body() {
     assert_eq!(names[r.head], "head");
 }
 
+/// A body with a neck and a head and no legs (a blob, a bust): legless roles; a walk or run is
+/// refused with "no legs", a head shake turns the head.
 #[test]
-fn no_legs_is_a_clear_error() {
-    let h = vec![[0.0, 0.0, 1.0], [0.0, 0.0, 2.0]];
-    let t = vec![[0.0, 0.0, 2.0], [0.0, 0.0, 3.0]];
-    let err = detect_roles(&h, &t, &[-1, 0], &[]).unwrap_err();
-    assert!(err.to_string().contains("no legs"), "{err}");
+fn a_legless_body_shakes_its_head_but_does_not_walk() {
+    let h = vec![[0.0, 0.0, 1.0], [0.0, 0.0, 2.0], [0.0, 0.0, 2.5]];
+    let t = vec![[0.0, 0.0, 2.0], [0.0, 0.0, 2.5], [0.0, 0.0, 3.0]];
+    let names: Vec<String> = ["body", "neck", "head"].map(String::from).to_vec();
+    let parents = [-1, 0, 1];
+    let r = detect_roles(&h, &t, &parents, &names).unwrap();
+    assert_eq!(r.plan, BodyPlan::Legless);
+    assert!(r.legs.is_empty());
+    assert_eq!(names[r.head], "head");
+    let rest = rest_of(&h, &t);
+    for motion in [Motion::Walk, Motion::Run] {
+        let params = GaitParams { motion, ..GaitParams::default() };
+        let err = motion_clip(&h, &t, &parents, &rest, &r, &params).unwrap_err();
+        assert!(err.to_string().contains("no legs"), "{err}");
+    }
+    let params = GaitParams { motion: Motion::HeadShake, ..GaitParams::default() };
+    let clip = motion_clip(&h, &t, &parents, &rest, &r, &params).unwrap();
+    assert!(clip.animated.contains(&r.head));
+    let turn = (0..clip.frames).map(|f| clip.rotation(f, r.head)[0].abs()).fold(1.0f32, f32::min);
+    assert!(turn < 0.995, "the head turns (half of 30 degrees): min |w| {turn}");
 }
 
 #[test]

@@ -39,6 +39,7 @@ fn roles_dict<'py>(py: Python<'py>, r: &Roles) -> PyResult<Bound<'py, PyDict>> {
         BodyPlan::Biped => "biped",
         BodyPlan::Quadruped => "quadruped",
         BodyPlan::Multiped => "multiped",
+        BodyPlan::Legless => "legless",
     };
     d.set_item("plan", plan)?;
     d.set_item("up", r.up)?;

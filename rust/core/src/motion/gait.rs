@@ -48,7 +48,7 @@
 
 use crate::error::{Error, Result};
 use crate::motion::footfalls::{body_drop, foot_offset, foot_turn, leg_turns, planted_legs, swing_progress};
-use crate::motion::roles::{BodyPlan, Limb, Roles, Side};
+use crate::motion::roles::{no_legs_message, BodyPlan, Limb, Roles, Side};
 use crate::skeleton::validate_parents;
 use glam::{Mat3, Quat, Vec3};
 use std::f32::consts::{PI, TAU};
@@ -383,6 +383,7 @@ pub fn motion_clip(
     check(heads, tails, parents, rest, roles, params)?;
     match params.motion {
         Motion::HeadShake => head_shake(heads, tails, rest, roles, params),
+        Motion::Walk | Motion::Run if roles.legs.is_empty() => Err(Error::NoBones(no_legs_message())),
         Motion::Walk | Motion::Run => gait(heads, tails, parents, rest, roles, params),
     }
 }

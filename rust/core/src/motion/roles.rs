@@ -70,6 +70,8 @@ pub enum BodyPlan {
     Quadruped,
     /// Anything else with legs (three, six …).
     Multiped,
+    /// No legs (a blob, a flyer, a bust): a head shake works, a walk or run does not.
+    Legless,
 }
 
 /// Bone indices per role. Every index refers to the input arrays.
@@ -120,6 +122,42 @@ fn v(p: [f32; 3]) -> Vec3 {
 
 fn lower(names: &[String], b: usize) -> String {
     names.get(b).map(|s| s.to_ascii_lowercase()).unwrap_or_default()
+}
+
+/// The words of bone `b`'s name, lower case: split at anything not a letter or digit, between
+/// letters and digits, and before a capital that follows a small letter (`b_Head_05`, `Head2`,
+/// `HeadTop_End` and `DEF-forehead.R` have the words head; head; head, top, end; def,
+/// forehead, r).
+fn words(names: &[String], b: usize) -> Vec<String> {
+    let mut out: Vec<String> = Vec::new();
+    let mut prev: Option<char> = None;
+    for c in names.get(b).map_or("", |s| s.as_str()).chars() {
+        if !c.is_alphanumeric() {
+            prev = None;
+            continue;
+        }
+        let split = match prev {
+            None => true,
+            Some(p) => p.is_ascii_digit() != c.is_ascii_digit() || (p.is_lowercase() && c.is_uppercase()),
+        };
+        if split {
+            out.push(String::new());
+        }
+        if let Some(w) = out.last_mut() {
+            w.extend(c.to_lowercase());
+        }
+        prev = Some(c);
+    }
+    out
+}
+
+/// The message of a rig without legs, for a walk or run.
+pub(crate) fn no_legs_message() -> String {
+    format!(
+        "no legs: no two bone chains branch off the body and reach down to the lowest point \
+         (within {:.0}% of the skeleton's height)",
+        GROUND_FRACTION * 100.0
+    )
 }
 
 fn validate(heads: &[[f32; 3]], tails: &[[f32; 3]], parents: &[i32], names: &[String]) -> Result<()> {
@@ -187,12 +225,13 @@ fn mirror_normal(points: &[Vec3], centre: Vec3) -> Vec3 {
 }
 
 /// Find the roles of a skeleton's bones (see the module doc). Fails with
-/// [`Error::NoBones`] naming what is missing when no legs or no head can be found.
+/// [`Error::NoBones`] naming what is missing when no head can be found; a rig without legs
+/// gets [`BodyPlan::Legless`] and no legs (a walk or run refuses it, a head shake works).
 pub fn detect_roles(heads: &[[f32; 3]], tails: &[[f32; 3]], parents: &[i32], names: &[String]) -> Result<Roles> {
     validate(heads, tails, parents, names)?;
     let (joined, riders) = joined_hierarchy(heads, tails, parents);
     let rig = Rig::new(heads, tails, names, &joined)?;
-    let legs = find_legs(&rig)?;
+    let legs = find_legs(&rig);
     let mid = Midplane::of(&rig);
     let head_leaf = head_leaf(&rig, &legs, &mid)?;
     let axis = rig.ancestors(head_leaf);
@@ -240,8 +279,8 @@ pub fn detect_roles(heads: &[[f32; 3]], tails: &[[f32; 3]], parents: &[i32], nam
         .chain([&trunk.head])
         .chain(leg_limbs.iter().flat_map(|l| &l.bones))
         .all(|&b| real_root(b) == root);
-    let leg_length =
-        leg_limbs.iter().map(|l| rig.h(l.bones[0]).z - legs.low[l.bones[0]]).sum::<f32>() / leg_limbs.len() as f32;
+    let leg_length = leg_limbs.iter().map(|l| rig.h(l.bones[0]).z - legs.low[l.bones[0]]).sum::<f32>()
+        / leg_limbs.len().max(1) as f32;
     Ok(Roles {
         root,
         spine: trunk.spine,
@@ -368,7 +407,7 @@ struct Legs {
 }
 
 /// Step 3: bottom-up foot counts over the main tree; an error when no two chains reach the ground.
-fn find_legs(rig: &Rig) -> Result<Legs> {
+fn find_legs(rig: &Rig) -> Legs {
     let (n, ground, height) = (rig.n(), rig.ground, rig.height);
     let order = &rig.tree.order;
     let mut low = vec![f32::INFINITY; n];
@@ -403,13 +442,6 @@ fn find_legs(rig: &Rig) -> Result<Legs> {
             tops.extend(long_kids[b].iter().copied().filter(|&c| feet[c] == 1));
         }
     }
-    if tops.is_empty() {
-        return Err(Error::NoBones(format!(
-            "no legs: no two bone chains branch off the body and reach down to the lowest point \
-             (within {:.0}% of the skeleton's height)",
-            GROUND_FRACTION * 100.0
-        )));
-    }
     let leg_chain = |top: usize| {
         let mut chain = vec![top];
         let mut cur = top;
@@ -436,7 +468,7 @@ fn find_legs(rig: &Rig) -> Result<Legs> {
             member[b] = true;
         }
     }
-    Ok(Legs { low, tops, chains, member })
+    Legs { low, tops, chains, member }
 }
 
 /// Step 2: the sagittal plane (through `centre`, horizontal unit `normal`) and the midline
@@ -481,7 +513,8 @@ fn head_leaf(rig: &Rig, legs: &Legs, mid: &Midplane) -> Result<usize> {
         .map(|b| {
             let mut score = (rig.h(b).z.max(rig.t(b).z) - rig.ground) / rig.height;
             let path = rig.ancestors(b);
-            if path.iter().rev().take(4).any(|&a| HEAD_WORDS.iter().any(|w| lower(rig.names, a).contains(w))) {
+            if path.iter().rev().take(4).any(|&a| words(rig.names, a).iter().any(|w| HEAD_WORDS.contains(&w.as_str())))
+            {
                 score += 1.0;
             }
             if lower(rig.names, b).contains("tail") {
@@ -549,8 +582,8 @@ fn split_axis(
     let (kids, parents) = (&rig.tree.children, rig.parents);
     let is_arm_top = |b: usize| arm_chains.iter().any(|(_, c)| c[0] == b);
     let named_head = axis.iter().position(|&b| {
-        let s = lower(rig.names, b);
-        s.contains("head") && !s.ends_with("end") && !s.contains("top")
+        let w = words(rig.names, b);
+        w.iter().any(|x| x == "head") && !w.iter().any(|x| x == "end" || x == "top")
     });
     let leaf_parent = parents[head_leaf];
     let mut hi_idx = match named_head {
@@ -614,7 +647,11 @@ fn split_axis(
 fn body_axes(rig: &Rig, legs: &Legs, mid: &Midplane, head: usize, notes: &mut Vec<String>) -> (Vec3, Vec3) {
     let (up, height) = (Vec3::Z, rig.height);
     let along = up.cross(mid.normal).normalize();
-    let leg_top_mean = legs.tops.iter().map(|&b| rig.h(b)).sum::<Vec3>() / legs.tops.len() as f32;
+    // from the legs to the head; without legs, from the root
+    let leg_top_mean = match legs.tops.len() {
+        0 => rig.h(rig.tree.root),
+        k => legs.tops.iter().map(|&b| rig.h(b)).sum::<Vec3>() / k as f32,
+    };
     let mut to_head = rig.h(head) - leg_top_mean;
     to_head.z = 0.0;
     let mut forward = if to_head.dot(along).abs() >= 0.1 * height {
@@ -697,6 +734,7 @@ fn leg_limbs(rig: &Rig, legs: &Legs, centre: Vec3, forward: Vec3, left: Vec3) ->
         order.iter().map(|&i| Limb { bones: legs.chains[i].clone(), side: sides[i], group: group_of[i] }).collect();
     limbs.sort_by_key(|l| (l.group, l.side == Side::Right));
     let plan = match (limbs.len(), groups) {
+        (0, _) => BodyPlan::Legless,
         (2, _) => BodyPlan::Biped,
         (4, 2) if limbs.iter().filter(|l| l.group == 0).count() == 2 => BodyPlan::Quadruped,
         _ => BodyPlan::Multiped,
