@@ -8,11 +8,9 @@
 //!   parents  #B parent index, -1 for roots (validated: a forest)
 //! Output
 //!   #B by 3 tails: a bone with children ends at the mean of its children's heads that lie
-//!   away from its own. A bone without (a leaf, or one whose children all start at its head)
-//!   keeps its imported direction (an importer points a leaf along its node's axis, or along
-//!   its parent) and its imported length when that is within [`LEAF_SPAN`] times its parent's
-//!   span (parent head to its head), else half that span; with no imported direction it
-//!   continues its parent's line. A root with no such joint keeps its imported tail.
+//!   away from its own; a bone without (a leaf, or one whose children all start at its head)
+//!   continues its parent's line from its head for half its parent's span; a root with no
+//!   such joint keeps its imported tail.
 //!
 //! See also: `weights/heat/reach.rs`, which represents the same bones for bone heat by the
 //! spans to their children's heads.
@@ -22,11 +20,6 @@ use glam::Vec3;
 /// Children heads closer than this fraction of the skeleton's size to a bone's head start at
 /// the head (a twist bone, a socket) and say nothing of where the bone points.
 const SAME_JOINT: f32 = 1e-4;
-
-/// A leaf's imported length is kept when it lies within these multiples of its parent's span
-/// (a hand-made leg below a hip, a toe below a foot); outside, the importer made it up (glTF's
-/// tails on a rig scaled 0.01 are 100 times the joints' spans).
-pub const LEAF_SPAN: [f32; 2] = [0.1, 2.0];
 
 /// Tails from the joints (see the module doc). `parents` must be valid
 /// ([`crate::skeleton::validate_parents`]).
@@ -50,15 +43,10 @@ pub fn joint_tails(heads: &[[f32; 3]], tails: &[[f32; 3]], parents: &[i32]) -> V
             if count[b] > 0 {
                 return (sum[b] / count[b] as f32).to_array();
             }
-            let span = match usize::try_from(parents[b]) {
-                Ok(p) if (h(b) - h(p)).length() > near => h(b) - h(p),
-                _ => return tails[b],
-            };
-            let own = Vec3::from(tails[b]) - h(b);
-            let len = own.length();
-            let dir = if len > near && len.is_finite() { own / len } else { span.normalize() };
-            let keep = (LEAF_SPAN[0] * span.length()..=LEAF_SPAN[1] * span.length()).contains(&len);
-            (h(b) + dir * if keep { len } else { 0.5 * span.length() }).to_array()
+            match usize::try_from(parents[b]) {
+                Ok(p) if (h(b) - h(p)).length() > near => (h(b) + (h(b) - h(p)) * 0.5).to_array(),
+                _ => tails[b],
+            }
         })
         .collect()
 }
@@ -77,19 +65,13 @@ mod tests {
         let t = joint_tails(&heads, &tails, &parents);
         // hips: mean of spine and thigh heads (the thigh's head is away from the hips' head)
         assert_eq!(t[0], [0.05, 0.0, 1.1]);
-        // spine: a leaf with an imported tail 40 long (200 spans): its direction, half its span
-        let spine = (Vec3::new(0.0, 40.0, 1.0) - Vec3::new(0.0, 0.0, 1.2)).normalize() * 0.1;
-        assert!((Vec3::from(t[1]) - (Vec3::new(0.0, 0.0, 1.2) + spine)).length() < 1e-6);
+        // spine: a leaf continuing hips -> spine for half that span
+        assert!((Vec3::from(t[1]) - Vec3::new(0.0, 0.0, 1.3)).length() < 1e-6);
         // thigh: its one child away from it, the twist bone at its head says nothing
         assert_eq!(t[2], [0.1, 0.0, 0.5]);
-        // the twist bone starts at its parent's head: no span, imported tail kept
+        // shin: continues thigh -> shin
+        assert!((Vec3::from(t[3]) - Vec3::new(0.1, 0.0, 0.25)).length() < 1e-6);
+        // the twist bone starts at its parent's head: no line to continue, imported tail kept
         assert_eq!(t[4], tails[4]);
-        // a leaf with a plausible imported tail (a hand-made leg 1 long below a 0.6 hip) keeps it
-        let heads = [[-0.3, 0.0, 1.0], [0.3, 0.0, 1.0]];
-        let tails = [[0.3, 0.0, 1.0], [0.3, 0.0, 0.0]];
-        assert_eq!(joint_tails(&heads, &tails, &[-1, 0])[1], [0.3, 0.0, 0.0]);
-        // a leaf with no imported direction continues its parent's line for half its span
-        let tails = [[0.3, 0.0, 1.0], [0.3, 0.0, 1.0]];
-        assert!((Vec3::from(joint_tails(&heads, &tails, &[-1, 0])[1]) - Vec3::new(0.6, 0.0, 1.0)).length() < 1e-6);
     }
 }
