@@ -73,5 +73,11 @@ def test_detect_roles_of_a_biped_and_a_rig_without_legs():
     assert roles["riders"] == [] and roles["single_tree"]
     # the same roles without names: they only confirm the geometry
     assert msc.detect_roles(h, t, p)["legs"] == roles["legs"]
+    # without its legs the body is legless: roles for a head shake, a walk refused
+    legless = msc.detect_roles(h[:4], t[:4], p[:4], names[:4])
+    assert legless["plan"] == "legless" and legless["legs"] == [] and legless["head"] == 3
+    rest = np.tile(np.eye(3, dtype=np.float32), (4, 1, 1))
     with pytest.raises(ValueError, match="no legs"):
-        msc.detect_roles(h[:4], t[:4], p[:4], names[:4])
+        msc.make_motion(h[:4], t[:4], p[:4], rest, "WALK", names=names[:4])
+    shake = msc.make_motion(h[:4], t[:4], p[:4], rest, "HEAD_SHAKE", names=names[:4])
+    assert 3 in shake["animated"].tolist()
