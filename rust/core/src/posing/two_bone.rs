@@ -20,7 +20,7 @@
 //!
 //! See also: `ik2d.rs` (iterative planar chains of any length for puppets).
 
-use glam::{Mat3, Quat, Vec3};
+use glam::{DMat3, DQuat, DVec3, Quat, Vec3};
 
 /// A solved two-bone chain.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -34,44 +34,49 @@ pub struct TwoBone {
 /// Solve a two-bone chain (see the module doc). Degenerate lengths (not finite or not positive)
 /// leave the chain straight towards the target.
 pub fn two_bone_ik(root: Vec3, target: Vec3, l1: f32, l2: f32, pole: Vec3) -> TwoBone {
+    // In double precision: a leg nearly straight takes the square root of a small difference.
+    let (root, target, pole) = (root.as_dvec3(), target.as_dvec3(), pole.as_dvec3());
+    let (l1, l2) = (l1 as f64, l2 as f64);
     let to = target - root;
     let dist = to.length();
     let dir = if dist > 1e-12 { to / dist } else { perpendicular(pole) };
     if !(l1 > 0.0 && l2 > 0.0 && l1.is_finite() && l2.is_finite()) {
-        return TwoBone { middle: root + dir * l1.max(0.0), end: target };
+        return TwoBone { middle: (root + dir * l1.max(0.0)).as_vec3(), end: target.as_vec3() };
     }
-    let lo = (l1 - l2).abs() * (1.0 + 1e-6);
-    let hi = (l1 + l2) * (1.0 - 1e-6);
+    let lo = (l1 - l2).abs() * (1.0 + 1e-9);
+    let hi = (l1 + l2) * (1.0 - 1e-9);
     let d = dist.clamp(lo.min(hi), hi);
     let along = (l1 * l1 - l2 * l2 + d * d) / (2.0 * d);
     let off = (l1 * l1 - along * along).max(0.0).sqrt();
     let side = pole - dir * pole.dot(dir);
-    let side = if side.length_squared() > 1e-12 * pole.length_squared().max(1e-30) {
+    let side = if side.length_squared() > 1e-12 * pole.length_squared().max(1e-300) {
         side.normalize()
     } else {
         perpendicular(dir)
     };
-    TwoBone { middle: root + dir * along + side * off, end: root + dir * d }
+    TwoBone { middle: (root + dir * along + side * off).as_vec3(), end: (root + dir * d).as_vec3() }
 }
 
 /// A unit vector perpendicular to `v` (any, when `v` is zero).
-fn perpendicular(v: Vec3) -> Vec3 {
-    v.normalize_or(Vec3::Z).any_orthonormal_vector()
+fn perpendicular(v: DVec3) -> DVec3 {
+    v.normalize_or(DVec3::Z).any_orthonormal_vector()
 }
 
 /// The rotation that turns direction `from` into `to` and the bend direction `from_side` (its
 /// part perpendicular to `from`) into `to_side` (likewise): the turn of a bone whose bend plane
 /// goes with it. Falls back to the shortest arc when a side is along its direction.
 pub fn frame_turn(from: Vec3, from_side: Vec3, to: Vec3, to_side: Vec3) -> Quat {
-    let frame = |u: Vec3, s: Vec3| -> Option<Mat3> {
+    let frame = |u: DVec3, s: DVec3| -> Option<DMat3> {
         let u = u.try_normalize()?;
         let w = (s - u * s.dot(u)).try_normalize()?;
-        Some(Mat3::from_cols(u, w, u.cross(w)))
+        Some(DMat3::from_cols(u, w, u.cross(w)))
     };
-    match (frame(from, from_side), frame(to, to_side)) {
-        (Some(a), Some(b)) => Quat::from_mat3(&(b * a.transpose())).normalize(),
-        _ => Quat::from_rotation_arc(from.normalize_or(Vec3::Y), to.normalize_or(Vec3::Y)),
-    }
+    let (from, from_side, to, to_side) = (from.as_dvec3(), from_side.as_dvec3(), to.as_dvec3(), to_side.as_dvec3());
+    let turn = match (frame(from, from_side), frame(to, to_side)) {
+        (Some(a), Some(b)) => DQuat::from_mat3(&(b * a.transpose())).normalize(),
+        _ => DQuat::from_rotation_arc(from.normalize_or(DVec3::Y), to.normalize_or(DVec3::Y)),
+    };
+    turn.as_quat()
 }
 
 #[cfg(test)]
