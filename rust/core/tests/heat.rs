@@ -404,8 +404,8 @@ fn points_without_faces_take_the_nearest_bone() {
 #[test]
 fn points_on_the_mirror_plane_of_two_bones_share_them() {
     // Two upright bones mirrored across x = 0. A point without faces on that plane is as near
-    // to one as to the other: it shares them (it took the first at 1.0, as Blender's bone
-    // heat shares a tie); points beside the plane take their own side's bone.
+    // to one as to the other: it shares them, as Blender's bone heat shares a tie (rather than
+    // the first at 1.0); points beside the plane take their own side's bone.
     let heads = vec![[-0.5, 0.0, 0.0], [0.5, 0.0, 0.0]];
     let tails = vec![[-0.5, 0.0, 1.0], [0.5, 0.0, 1.0]];
     let pts = vec![[0.0, 0.0, 0.5], [0.0, 0.3, 2.0], [0.01, 0.0, 0.5], [-0.01, 0.0, 0.5]];
@@ -755,7 +755,7 @@ fn bent_bones_are_their_polylines() {
 /// A coat over the body in the same mesh (a second, larger closed shell around the first, as
 /// clothes joined into a character are) is weighted as it would be alone: the body beneath
 /// hides every bone from it except the chain's two ends, which poke out of the body, and heat
-/// from those few coat vertices used to spread over the whole coat. The body is unchanged.
+/// from those few coat vertices alone would spread over the whole coat. The body is unchanged.
 #[test]
 fn a_coat_over_the_body_is_weighted_as_it_would_be_alone() {
     let body = capped_cylinder(0.15, 2.0, 41, 16);

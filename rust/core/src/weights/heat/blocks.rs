@@ -20,7 +20,7 @@ use std::time::Instant;
 /// Bytes of dense weights (`f64`, vertices x bones) solved at once: the bones go in blocks of
 /// at most this much (but at least one column per thread), so memory stays bounded on a mesh
 /// of millions of vertices with hundreds of bones (1M x 300 would take 2.4 GB at once). Meshes
-/// up to 206k vertices and 300 bones (or 1M and 60) are one block, as fast as before.
+/// up to 206k vertices and 300 bones (or 1M and 60) are one block.
 pub const BLOCK_BYTES: usize = 512 << 20;
 
 /// The bones in blocks of at most `cap` bones (0: as many `nw`-vertex columns as fit in
@@ -112,9 +112,7 @@ pub(crate) fn block_weights(
         // One block of columns per worker, all solved at once: faer's supernodal solve is
         // BLAS-3 in the right-hand sides (a triangular solve and a matmul per supernode on the
         // whole block), so wider blocks stream the factor fewer times and run the dense kernels
-        // more efficiently (measured at 206k vertices / 40 bones on 2 threads: 2 rounds of 10
-        // columns per worker 0.32-0.34 s, 1 round of 20 0.27 s, 40 columns in one call with
-        // faer's own parallelism 0.59 s).
+        // more efficiently than narrower rounds or one call with faer's own parallelism.
         Some(llt) => {
             solve_live_columns(llt, &mut x, nw);
             // Clip; non-finite (should not happen) counts as 0.

@@ -188,8 +188,8 @@ pub struct HeatReport {
 /// Factor of the heat term that reproduces Blender's discretization with its `C_WEIGHT = 1`:
 /// Blender scales the cotangent Laplacian rows by `0.5 / (2 A_i)` (its vertex area sums twice
 /// the mixed Voronoi area `A_i`), i.e. it solves `(L + 4 A H) w = 4 A H p` where we write
-/// `(L + M H) w = M H p`. Less diffusion than Pinocchio's `c = 1`; measured closer to the
-/// artists' weights on the real models of `bench/eval_weights.py`.
+/// `(L + M H) w = M H p`. Less diffusion than Pinocchio's `c = 1`, and closer to the artists'
+/// weights on the real models of `bench/eval_weights.py`.
 pub const HEAT_SCALE: f64 = 4.0;
 pub use sources::{MAX_VISIBILITY_TESTS, TIE_RATIO};
 /// Default [`HeatOptions::weight_limit_start`] (Blender's `WEIGHT_LIMIT_START`).

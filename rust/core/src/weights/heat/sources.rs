@@ -310,12 +310,12 @@ fn is_visible(x: DVec3, bone: Segment, d: f64, sight: Option<Sight>) -> bool {
 /// A vertex of a mesh in several pieces that sees no bone through the whole mesh looks again
 /// through its own piece: a coat or an armour layer in the same object as the body sees no
 /// bone through the body beneath it, bar a few vertices where a bone's end pokes out, and heat
-/// from those few spread over the whole layer (a creature's coat bound to its hands, feet and
-/// tail tip, as by Blender's Ctrl+P). Vertices that see a bone keep it, so parts pushed into
-/// each other still hide bones from each other as before. Only pieces that hold a bone (as
-/// for rigid accessories) look again, so a piece beside the body with no bone in it still sees
-/// none, and through its own piece a vertex sees only bones behind its surface (against its
-/// outward `normal`, unless that is zero).
+/// from those few alone would spread over the whole layer (a creature's coat bound to its
+/// hands, feet and tail tip, as by Blender's Ctrl+P). Vertices that see a bone keep it, so
+/// parts pushed into each other still hide bones from each other. Only pieces that hold a bone
+/// (as for rigid accessories) look again, so a piece beside the body with no bone in it still
+/// sees none, and through its own piece a vertex sees only bones behind its surface (against
+/// its outward `normal`, unless that is zero).
 #[derive(Clone, Copy)]
 struct Sight<'a> {
     rays: &'a RayMesh,
