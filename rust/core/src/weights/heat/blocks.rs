@@ -1,7 +1,7 @@
-//! The bones of the heat system solved in blocks of columns (`heat.rs`, steps 9-11): each
-//! block's right-hand sides, solved against the one factor (or the nearest-bone sources when
-//! the factorization failed), clipped, rigid pieces and isolated vertices set, mirrored
-//! columns averaged, then merged into each vertex's running top k.
+//! The bones of the heat system solved in blocks of columns (the solve stage of
+//! [`crate::weights::heat`]): each block's right-hand sides, solved against the one factor (or
+//! the nearest-bone sources when the factorization failed), clipped, rigid pieces and isolated
+//! vertices set, mirrored columns averaged, then merged into each vertex's running top k.
 //!
 //! The weights of all bones at once are dense (vertices x bones, `f64`): on a mesh of millions
 //! of vertices with hundreds of bones that is more than the factor. Blocks bound it

@@ -1,14 +1,36 @@
 //! Connected pieces of the welded mesh, for the robustness rules of [`crate::weights::heat`]: each
 //! piece's geometry (bounding box, area, enclosed volume, closed or not), whether a bone lies
-//! inside it (ray parity), and which pieces are bound rigidly to one bone: accessories with no
-//! bone inside (an eye, a button, a held prop) and small pieces that see no bone.
+//! inside it (ray parity), and which pieces are bound rigidly to one bone.
+//!
+//! Inside test ([`piece_contains_bone`]): a bone is inside a piece when at least 3 of 5 points
+//! along it (head, quarters, tail) are, so a fingertip poking into a held prop does not count;
+//! a point is inside when rays along a majority of fixed generic directions cross the piece's
+//! own triangles an odd number of times: 2 of 3 directions for a closed piece (every edge used
+//! an even number of times), 4 of 7 for an open one, for which parity is unreliable: a hole
+//! spoils only the rays that leave through it, so a sleeve or a hand open at the wrist still
+//! holds its bones, while a shell or a sheet (armour plate, eyelid) holds none.
+//!
+//! Rigid accessories ([`rigid_pieces`], [`HeatOptions::rigid_accessories`]): among the pieces
+//! no larger than half the skeleton's bbox diagonal,
+//! - if no piece holds a bone (the mesh is a prop, e.g. a held carrot), all pieces move as one
+//!   rigid body on the bone nearest to their common centre of mass;
+//! - otherwise every piece that holds no bone, except the largest one (by area), is rigid on
+//!   the bone nearest to its own centre of mass (an eye, a button).
+//!
+//! The centre of mass is that of the enclosed volume for closed pieces, else of the area.
+//! Exact ties (a piece on the mirror plane between a left and a right bone) share equally.
+//! With or without accessories, a piece that sees no bone and is no larger than its nearest
+//! bone is rigid on that bone; a larger one takes every vertex's nearest bone by distance as
+//! its heat source.
+//!
+//! [`HeatOptions::rigid_accessories`]: crate::weights::heat::HeatOptions::rigid_accessories
 
 use super::sources::{nearest_bones, Source, Ties};
 use crate::mesh::visibility::RayMesh;
 use glam::{DVec3, Vec3};
 
 /// Fixed generic directions of the ray-parity inside test: the first 3 for closed pieces
-/// (majority 2 of 3), all 7 for open ones (majority 4 of 7, see [`crate::weights::heat::heat_weights`]).
+/// (majority 2 of 3), all 7 for open ones (majority 4 of 7, see the module doc).
 const PARITY_DIRS: [[f32; 3]; 7] = [
     [0.48, 0.62, 0.62],
     [-0.70, 0.31, 0.64],
@@ -165,7 +187,7 @@ pub(crate) struct PieceCounts {
 }
 
 /// The bone(s) each piece is bound to rigidly, `None` for pieces solved by heat (the rules
-/// are in the doc of [`crate::weights::heat::heat_weights`]). `accessories`: apply the accessory rules
+/// are in the module doc). `accessories`: apply the accessory rules
 /// (`inside[i]`: piece `i` holds a bone); with or without them, a piece that sees no bone and
 /// is no larger than its nearest bone (`bone_len`, per bone) is rigid on that bone.
 pub(crate) fn rigid_pieces(

@@ -40,7 +40,7 @@ pub(crate) struct Source {
 /// own piece holds a bone (`inside`), looks again through its own piece only (see [`Sight`]).
 /// Returned in bones, not segments.
 #[allow(clippy::too_many_arguments)]
-pub(crate) fn heat_sources(
+pub(crate) fn vertex_sources(
     wpos: &[DVec3],
     normals: &[DVec3],
     labels: &[u32],
