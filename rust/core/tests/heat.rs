@@ -3,7 +3,8 @@
 use miniskeleton_core::mesh::Symmetry;
 use miniskeleton_core::primitives::{bone_chain, capped_cylinder, split_flat};
 use miniskeleton_core::weights::Influences;
-use miniskeleton_core::weights::{heat_weights, heat_weights_many, BoneCurves, HeatOptions, HeatReport, MeshRef};
+use miniskeleton_core::weights::{heat_sources, heat_weights, heat_weights_many, heat_weights_with_sources};
+use miniskeleton_core::weights::{BoneCurves, HeatOptions, HeatReport, MeshRef};
 use miniskeleton_core::Error;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
@@ -865,4 +866,88 @@ fn many_meshes_in_one_call_get_what_one_call_each_gives_and_fail_alone() {
     for k in [0, 2, 3] {
         assert_eq!(out[k].as_ref().unwrap().0.weights, many[k].as_ref().unwrap().0.weights);
     }
+}
+
+/// The report without its timings, to compare two runs.
+fn untimed(r: &HeatReport) -> HeatReport {
+    HeatReport { timings: Vec::new(), ..r.clone() }
+}
+
+/// Heat with the caller's sources, given the sources heat finds itself, is heat itself, bit
+/// for bit: on split seams (welded copies add up), with pieces that fall back, a rigid button
+/// and an isolated vertex, with symmetry, imported bones, no visibility test, and vertices
+/// tied between three bones (heat / 3 each).
+#[test]
+fn the_sources_heat_finds_given_back_give_the_same_weights() {
+    let (m, b) = cylinder();
+    let split = split_flat(&m.0, &m.1);
+    let mut pieces = m.clone();
+    let (v2, t2) = capped_cylinder(0.15, 2.0, 41, 16);
+    let base = pieces.0.len() as u32;
+    pieces.0.extend(v2.iter().map(|p| [p[0] + 1.0, p[1], p[2]]));
+    pieces.1.extend(t2.iter().map(|t| t.map(|i| i + base)));
+    add_box(&mut pieces, [-0.6, 0.0, 1.2], [0.02, 0.02, 0.02], false);
+    pieces.0.push([0.0, 3.0, 0.1]);
+    let (hm, hb) = horizontal();
+    let sym = HeatOptions {
+        symmetry: Some(Symmetry { axis: 0, plane: 0.0, mirror: vec![3, 2, 1, 0] }),
+        ..Default::default()
+    };
+    let (im, ib, parents) = imported_rig();
+    let imported = HeatOptions { parents: Some(parents), ..Default::default() };
+    // Bone 1 three times: its vertices tie between the three copies.
+    let triple =
+        (vec![b.0[0], b.0[1], b.0[1], b.0[1], b.0[2], b.0[3]], vec![b.1[0], b.1[1], b.1[1], b.1[1], b.1[2], b.1[3]]);
+    let unseen = HeatOptions { visibility: false, max_influences: 2, ..Default::default() };
+    let cases: [(&str, &Mesh, &Bones, HeatOptions); 7] = [
+        ("cylinder", &m, &b, HeatOptions::default()),
+        ("split", &split, &b, HeatOptions::default()),
+        ("pieces", &pieces, &b, HeatOptions::default()),
+        ("symmetry", &hm, &hb, sym),
+        ("imported", &im, &ib, imported),
+        ("no visibility", &m, &b, unseen),
+        ("three ties", &m, &triple, HeatOptions::default()),
+    ];
+    for (name, m, b, opts) in cases {
+        let (want, want_report) = heat(m, b, &opts);
+        let sources = heat_sources(&m.0, &m.1, &b.0, &b.1, &opts).unwrap();
+        assert_eq!((sources.n(), sources.k), (m.0.len(), 4), "{name}");
+        let (got, report) = heat_weights_with_sources(&m.0, &m.1, &b.0, &b.1, &sources, &opts, None).unwrap();
+        assert_eq!((&got.indices, &got.weights), (&want.indices, &want.weights), "{name}");
+        assert_eq!(untimed(&report), untimed(&want_report), "{name}");
+        let names: Vec<&str> = report.timings.iter().map(|t| t.0).collect();
+        assert_eq!(names, want_report.timings.iter().map(|t| t.0).collect::<Vec<_>>(), "{name}");
+        if name == "three ties" {
+            let tied = (0..sources.n()).filter(|&v| sources.row(v).0[..3] == [1, 2, 3]).count();
+            assert!(tied > 100, "{tied} vertices tied between the copies of bone 1");
+        }
+        if name == "pieces" {
+            assert_eq!((report.fallback_pieces, report.rigid_pieces, report.isolated_vertices), (2, 1, 1));
+        }
+    }
+}
+
+/// The caller's sources set the heat: every vertex a source of bone 0 alone gives bone 0
+/// everywhere; every vertex half bone 0 and half bone 2 gives those two halves everywhere
+/// (`L 1 = 0`). Bad sources are errors.
+#[test]
+fn given_sources_set_where_the_heat_comes_from() {
+    let (m, b) = cylinder();
+    let n = m.0.len();
+    let opts = HeatOptions::default();
+    let one = Influences { k: 1, indices: vec![0; n], weights: vec![1.0; n] };
+    let (inf, _) = heat_weights_with_sources(&m.0, &m.1, &b.0, &b.1, &one, &opts, None).unwrap();
+    assert!((0..n).all(|v| inf.row(v) == (&[0, -1, -1, -1][..], &[1.0, 0.0, 0.0, 0.0][..])));
+    let halves = Influences { k: 2, indices: [0, 2].repeat(n), weights: vec![0.5; 2 * n] };
+    let (inf, _) = heat_weights_with_sources(&m.0, &m.1, &b.0, &b.1, &halves, &opts, None).unwrap();
+    let dense = inf.to_dense(4);
+    assert!(dense.chunks(4).all(|r| (r[0] - 0.5).abs() < 1e-5 && (r[2] - 0.5).abs() < 1e-5), "{:?}", &dense[..8]);
+    let bad = |indices: Vec<i32>, weights: Vec<f32>| {
+        let k = indices.len() / n.max(1);
+        heat_weights_with_sources(&m.0, &m.1, &b.0, &b.1, &Influences { k: k.max(1), indices, weights }, &opts, None)
+    };
+    assert!(matches!(bad(vec![0; n - 1], vec![1.0; n - 1]), Err(Error::Shape(_))));
+    assert!(matches!(bad(vec![4; n], vec![1.0; n]), Err(Error::InvalidArgument(_))));
+    assert!(matches!(bad(vec![0; n], vec![-1.0; n]), Err(Error::InvalidArgument(_))));
+    assert!(matches!(bad(vec![0; n], vec![f32::NAN; n]), Err(Error::InvalidArgument(_))));
 }

@@ -13,6 +13,7 @@ pub mod influence;
 pub mod symmetry;
 
 pub use bilinear::{bilinear_weights, BilinearOptions, Falloff};
-pub use heat::{heat_weights, heat_weights_many, BoneCurves, HeatOptions, HeatReport, MeshRef};
+pub use heat::{heat_sources, heat_weights, heat_weights_many, heat_weights_with_sources};
+pub use heat::{BoneCurves, HeatOptions, HeatReport, MeshRef};
 pub use idw::{idw_weights, IdwOptions};
 pub use influence::{top_k_normalized, weight_limit, Influences};

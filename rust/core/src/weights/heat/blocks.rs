@@ -1,6 +1,6 @@
 //! The bones of the heat system solved in blocks of columns (the solve stage of
 //! [`crate::weights::heat`]): each block's right-hand sides, solved against the one factor (or
-//! the nearest-bone sources when the factorization failed), clipped, rigid pieces and isolated
+//! the sources themselves when the factorization failed), clipped, rigid pieces and isolated
 //! vertices set, mirrored columns averaged, then merged into each vertex's running top k.
 //!
 //! The weights of all bones at once are dense (vertices x bones, `f64`): on a mesh of millions
@@ -9,7 +9,7 @@
 //! the blocks.
 
 use super::cholesky::Factor;
-use super::sources::{Source, Ties};
+use super::sources::{Shares, Source, Ties};
 use crate::mesh::mirror::Symmetry;
 use crate::weights::influence::weight_limit;
 use crate::weights::influence::{insert_ranked, normalize_pruned, Influences};
@@ -51,17 +51,16 @@ pub(crate) fn bone_blocks(b: usize, nw: usize, cap: usize, threads: usize, mirro
 }
 
 /// The right-hand sides `M H P` of the bones in `block`, column-major `(n, block.len())`:
-/// each vertex's heat `heat[v]` (`M_ii H_ii`) shared equally among its source bones.
-fn source_columns(sources: &[Source], heat: &[f64], block: &[usize]) -> Vec<f64> {
-    let nw = sources.len();
+/// each vertex's heat `heat[v]` (`M_ii H_ii`) shared among its source bones (`shares`).
+fn source_columns(shares: &Shares, heat: &[f64], block: &[usize]) -> Vec<f64> {
+    let nw = heat.len();
     let col = block_columns(block);
     let mut x = vec![0.0f64; nw * block.len()];
-    for (v, s) in sources.iter().enumerate() {
-        if heat[v] > 0.0 {
-            let share = heat[v] / s.count as f64;
-            for &j in &s.bones[..s.count as usize] {
+    for (v, &h) in heat.iter().enumerate() {
+        if h > 0.0 {
+            for (j, divisor) in shares.row(v) {
                 if let Some(c) = col(j) {
-                    x[c * nw + v] += share;
+                    x[c * nw + v] += h / divisor;
                 }
             }
         }
@@ -69,25 +68,27 @@ fn source_columns(sources: &[Source], heat: &[f64], block: &[usize]) -> Vec<f64>
     x
 }
 
-/// Where the factorization failed: each vertex's heat source bones share it equally (the
-/// nearest-bone weights), for the bones of `block`.
-fn nearest_columns(x: &mut [f64], sources: &[Source], block: &[usize]) {
-    let nw = sources.len();
+/// Where the factorization failed: each vertex's source bones take their shares of it as
+/// weights (with the sources found here, the nearest-bone weights), for the bones of `block`.
+fn source_weights(x: &mut [f64], shares: &Shares, block: &[usize]) {
+    let nw = x.len() / block.len().max(1);
     let col = block_columns(block);
     x.par_iter_mut().for_each(|w| *w = 0.0);
-    for (v, s) in sources.iter().enumerate() {
-        for &j in &s.bones[..s.count as usize] {
+    for v in 0..nw {
+        for (j, divisor) in shares.row(v) {
             if let Some(c) = col(j) {
-                x[c * nw + v] = 1.0 / s.count as f64;
+                x[c * nw + v] = 1.0 / divisor;
             }
         }
     }
 }
 
-/// Per welded vertex, what [`block_weights`] needs: its heat source, its heat `M_ii H_ii`,
-/// its mass (0: in no usable triangle, isolated), its piece, and each piece's rigid bone(s).
+/// Per welded vertex, what [`block_weights`] needs: its source (for its nearest bone), the
+/// bones that share its heat, its heat `M_ii H_ii`, its mass (0: in no usable triangle,
+/// isolated), its piece, and each piece's rigid bone(s).
 pub(crate) struct Rows<'a> {
     pub sources: &'a [Source],
+    pub shares: &'a Shares,
     pub heat: &'a [f64],
     pub mass: &'a [f64],
     pub labels: &'a [u32],
@@ -96,7 +97,7 @@ pub(crate) struct Rows<'a> {
 
 /// The weights of the bones of `block`, column-major `(n, block.len())`, and the seconds spent
 /// solving: solved against the factor `llt` and clipped to `[0, 1]` (without a factor, the
-/// nearest-bone sources), then rigid pieces and isolated vertices at 100% on their bone(s),
+/// sources' shares), then rigid pieces and isolated vertices at 100% on their bone(s),
 /// then averaged with the mirror images (`sym`: the symmetry and the vertex mirror map; a
 /// block holds every bone's mirror partner).
 pub(crate) fn block_weights(
@@ -106,7 +107,7 @@ pub(crate) fn block_weights(
     sym: Option<(&Symmetry, &[i32])>,
 ) -> (Vec<f64>, f64) {
     let nw = rows.sources.len();
-    let mut x = source_columns(rows.sources, rows.heat, block);
+    let mut x = source_columns(rows.shares, rows.heat, block);
     let s = Instant::now();
     match llt {
         // One block of columns per worker, all solved at once: faer's supernodal solve is
@@ -120,7 +121,7 @@ pub(crate) fn block_weights(
                 *w = if w.is_finite() { w.clamp(0.0, 1.0) } else { 0.0 };
             });
         }
-        None => nearest_columns(&mut x, rows.sources, block),
+        None => source_weights(&mut x, rows.shares, block),
     }
     let secs = s.elapsed().as_secs_f64();
     // Rigid pieces and isolated vertices: 100% to one bone (or shared by exact ties).
@@ -256,6 +257,7 @@ mod tests {
     #[test]
     fn tied_bones_share_a_vertex_heat() {
         let sources = [source(&[0]), source(&[0, 2]), source(&[1, 2, 3]), source(&[3])];
+        let sources = Shares::of_sources(&sources);
         let heat = [2.0, 3.0, 1.5, 0.0];
         for blocks in [vec![vec![0, 1, 2, 3]], vec![vec![0, 2], vec![1, 3]]] {
             let mut sum = [0.0; 4];

@@ -24,7 +24,7 @@ use crate::weights::symmetry::validate_bone_mirror;
 use crate::{Error, Result};
 pub use blocks::BLOCK_BYTES;
 use rayon::prelude::*;
-use stages::{run, Inputs};
+use stages::{run, sources_found, Inputs};
 
 /// Options of [`heat_weights`].
 #[derive(Debug, Clone, PartialEq)]
@@ -209,7 +209,44 @@ pub fn heat_weights(
     opts: &HeatOptions,
     progress: Option<&(dyn Fn(f32) -> bool + Sync)>,
 ) -> Result<(Influences, HeatReport)> {
-    run(&Inputs { vertices, triangles, heads, tails }, opts, progress)
+    run(&Inputs { vertices, triangles, heads, tails }, None, opts, progress)
+}
+
+/// [`heat_weights`] with the heat sources given by the caller: a debug and evaluation entry
+/// point, to measure the method apart from its choice of sources.
+///
+/// `sources` `(n, k)`: per input vertex, the bones that share its heat and their amounts
+/// (`-1` / 0 unused), as fractions of the row's sum; the rows of input vertices welded into
+/// one add up; an empty row holds no heat. All else is as in [`heat_weights`], the distance in
+/// `H_ii` included (the vertex's own: to its nearest visible bone, else its nearest bone).
+/// With the sources of [`heat_sources`] the weights are those of [`heat_weights`], bit for bit.
+///
+/// Errors: those of [`heat_weights`]; [`Error::Shape`] for `sources` of another row count,
+/// [`Error::InvalidArgument`] for a bone out of range or an amount negative or not finite.
+pub fn heat_weights_with_sources(
+    vertices: &[[f32; 3]],
+    triangles: &[[u32; 3]],
+    heads: &[[f32; 3]],
+    tails: &[[f32; 3]],
+    sources: &Influences,
+    opts: &HeatOptions,
+    progress: Option<&(dyn Fn(f32) -> bool + Sync)>,
+) -> Result<(Influences, HeatReport)> {
+    run(&Inputs { vertices, triangles, heads, tails }, Some(sources), opts, progress)
+}
+
+/// The heat sources [`heat_weights`] finds, for [`heat_weights_with_sources`] (debug and
+/// evaluation): per input vertex, its nearest visible bone and near-ties (in a piece that sees
+/// no bone, its nearest bones by distance), sharing equally, as top-k rows `(n, 4)`; an empty
+/// row where the vertex sees no bone but its piece does. Errors: as [`heat_weights`].
+pub fn heat_sources(
+    vertices: &[[f32; 3]],
+    triangles: &[[u32; 3]],
+    heads: &[[f32; 3]],
+    tails: &[[f32; 3]],
+    opts: &HeatOptions,
+) -> Result<Influences> {
+    sources_found(&Inputs { vertices, triangles, heads, tails }, opts)
 }
 
 /// A mesh by reference: (vertices, triangles).
@@ -283,6 +320,21 @@ fn validate(
     }
     if u32::try_from(b).is_err() || u32::try_from(vertices.len()).is_err() {
         return Err(Error::InvalidArgument("too many bones or vertices (limit 2^32 - 1)".into()));
+    }
+    Ok(())
+}
+
+/// Check the caller's heat sources of [`heat_weights_with_sources`]: `n` rows, bone indices
+/// in `-1..b`, amounts finite and not negative.
+fn validate_sources(sources: &Influences, n: usize, b: usize) -> Result<()> {
+    if sources.n() != n || sources.weights.len() != sources.indices.len() {
+        return Err(Error::Shape(format!("sources for {} vertices, but the mesh has {n}", sources.n())));
+    }
+    if let Some(&j) = sources.indices.iter().find(|&&j| j < -1 || j as i64 >= b as i64) {
+        return Err(Error::InvalidArgument(format!("source bone {j}, but there are {b} bones")));
+    }
+    if let Some(&a) = sources.weights.iter().find(|&&a| !(a.is_finite() && a >= 0.0)) {
+        return Err(Error::InvalidArgument(format!("source amounts must be finite and >= 0, got {a}")));
     }
     Ok(())
 }

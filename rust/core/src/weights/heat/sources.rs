@@ -6,6 +6,7 @@
 
 use crate::mesh::segment::{closest_point_on_segment, Segment};
 use crate::mesh::visibility::RayMesh;
+use crate::weights::influence::Influences;
 use glam::DVec3;
 use rayon::prelude::*;
 
@@ -71,6 +72,74 @@ pub(crate) fn vertex_sources(
         )
         .collect_into_vec(&mut sources);
     sources
+}
+
+/// Every welded vertex's heat source as the solve takes it: the bones that share the vertex's
+/// heat `M_ii H_ii`, bone `bone[e]` taking `heat / divisor[e]` of it for `e` in
+/// `start[v]..start[v + 1]` (no entry: the vertex is no heat source). A divisor is the row's
+/// total amount over the bone's, so `k` tied bones of amount 1 each take exactly `heat / k`,
+/// and rows given as shares summing to 1 take those shares.
+pub(crate) struct Shares {
+    start: Vec<usize>,
+    bone: Vec<u32>,
+    divisor: Vec<f64>,
+}
+
+impl Shares {
+    /// The sources found here: each vertex's tied bones share its heat equally.
+    pub(crate) fn of_sources(sources: &[Source]) -> Shares {
+        Shares::from_rows(sources.iter().map(|s| s.bones[..s.count as usize].iter().map(|&j| (j, 1.0))))
+    }
+
+    /// Sources given by the caller: `given` holds `(bone, amount)` rows of input vertices
+    /// (`-1` and amounts that are not positive skipped), `map` sends each input vertex to its
+    /// welded vertex (of `nw`); the rows of the input vertices welded into one add up per bone.
+    pub(crate) fn given(given: &Influences, map: &[u32], nw: usize) -> Shares {
+        let mut rows: Vec<Vec<(u32, f64)>> = vec![Vec::new(); nw];
+        for (i, &w) in map.iter().enumerate() {
+            let (idx, amount) = given.row(i);
+            for (&j, &a) in idx.iter().zip(amount) {
+                if j >= 0 && a > 0.0 {
+                    rows[w as usize].push((j as u32, a as f64));
+                }
+            }
+        }
+        for row in &mut rows {
+            row.sort_by_key(|e| e.0);
+            row.dedup_by(|later, kept| {
+                let same = later.0 == kept.0;
+                if same {
+                    kept.1 += later.1;
+                }
+                same
+            });
+        }
+        Shares::from_rows(rows.iter().map(|row| row.iter().copied()))
+    }
+
+    fn from_rows<R: Iterator<Item = (u32, f64)> + Clone>(rows: impl Iterator<Item = R>) -> Shares {
+        let mut out = Shares { start: vec![0], bone: Vec::new(), divisor: Vec::new() };
+        for row in rows {
+            let total: f64 = row.clone().map(|(_, a)| a).sum();
+            for (j, a) in row {
+                out.bone.push(j);
+                out.divisor.push(total / a);
+            }
+            out.start.push(out.bone.len());
+        }
+        out
+    }
+
+    /// Vertex `v`'s `(bone, divisor)` pairs.
+    pub(crate) fn row(&self, v: usize) -> impl Iterator<Item = (u32, f64)> + '_ {
+        let r = self.start[v]..self.start[v + 1];
+        self.bone[r.clone()].iter().copied().zip(self.divisor[r].iter().copied())
+    }
+
+    /// Is vertex `v` a heat source (does some bone take part of its heat)?
+    pub(crate) fn is_source(&self, v: usize) -> bool {
+        self.start[v + 1] > self.start[v]
+    }
 }
 
 /// Up to [`MAX_TIES`] bones sharing one role equally.
@@ -336,6 +405,30 @@ mod tests {
     fn unit_cube() -> RayMesh {
         let (v, t) = crate::mesh::visibility::tests::unit_cube();
         RayMesh::new(&v, &t)
+    }
+
+    /// Given sources: the rows of input vertices welded into one add up per bone (unused slots
+    /// and zero amounts skipped), and each bone takes its amount over the row's total; tied
+    /// bones found here take exactly `1 / k` each.
+    #[test]
+    fn given_shares_add_up_over_welded_copies() {
+        let given = Influences {
+            k: 2,
+            indices: vec![0, 2, 2, -1, 1, 0, 3, 1],
+            weights: vec![0.5, 0.5, 1.0, 0.0, 1.0, 0.0, 0.25, 0.75],
+        };
+        // input vertices 0 and 1 weld into 0; 2 and 3 stay apart.
+        let shares = Shares::given(&given, &[0, 0, 1, 2], 3);
+        let rows: Vec<Vec<(u32, f64)>> = (0..3).map(|v| shares.row(v).collect()).collect();
+        assert_eq!(rows, vec![vec![(0, 4.0), (2, 4.0 / 3.0)], vec![(1, 1.0)], vec![(1, 4.0 / 3.0), (3, 4.0)]]);
+        let mut tied = Ties { bones: [u32::MAX; MAX_TIES], count: 3 };
+        tied.bones[..3].copy_from_slice(&[4, 1, 2]);
+        let none =
+            Source { bones: [u32::MAX; MAX_TIES], count: 0, dist: 0.0, nearest: Ties::one(0), nearest_dist: 1.0 };
+        let three = Source { bones: tied.bones, count: 3, ..none };
+        let shares = Shares::of_sources(&[three, none]);
+        assert_eq!(shares.row(0).collect::<Vec<_>>(), vec![(4, 3.0), (1, 3.0), (2, 3.0)]);
+        assert!(shares.is_source(0) && !shares.is_source(1));
     }
 
     /// A bone outside the mesh that is nearer than the inner bone but hidden behind a wall

@@ -16,7 +16,8 @@
 //!      pattern, and its symbolic Cholesky analysis (AMD ordering, supernodes).
 //! 4. [`bind_pieces`]: pieces where no vertex sees a bone take the nearest bone by distance;
 //!    rigid pieces (see `pieces`).
-//! 5. [`assemble`]: the heat `M H` of every vertex.
+//! 5. [`assemble`]: the bones that share each vertex's heat (found here, or given), and the
+//!    heat `M H` of every vertex.
 //! 6. [`factor`]: `L + M H` factored once, retried with more regularization.
 //! 7. [`solve`]: every bone solved against the one factor, in blocks of columns
 //!    ([`HeatOptions::block_bones`]), clipped to `[0, 1]`; rigid pieces and isolated vertices
@@ -27,7 +28,7 @@ use super::blocks::{block_weights, bone_blocks, Rows, RunningTopK};
 use super::cholesky::{factor_first, symbolic_factor, Factor};
 use super::pieces::{mark_sources, piece_contains_bone, piece_stats, rigid_pieces, PieceStats};
 use super::reach::reach_segments;
-use super::sources::{vertex_sources, Source, Ties};
+use super::sources::{vertex_sources, Shares, Source, Ties, MAX_TIES};
 use super::{BoneCurves, HeatOptions, HeatReport, HEAT_SCALE, MIN_DISTANCE, REGULARIZATION};
 use crate::mesh::bones_in_frame;
 use crate::mesh::cotan::{cotan_laplacian, stiffness_lower_csc, triangle_cotangents, LowerCsc};
@@ -58,11 +59,17 @@ pub(super) struct Inputs<'a> {
 /// Progress callback: called with the fraction done, `false` cancels.
 pub(super) type Progress<'a> = Option<&'a (dyn Fn(f32) -> bool + Sync)>;
 
-/// Bone heat weights of `inputs`.
-pub(super) fn run(inputs: &Inputs, opts: &HeatOptions, progress: Progress) -> Result<(Influences, HeatReport)> {
+/// Bone heat weights of `inputs`, with each vertex's heat sources found here or, when `given`,
+/// taken from the caller (see [`super::heat_weights_with_sources`]).
+pub(super) fn run(
+    inputs: &Inputs,
+    given: Option<&Influences>,
+    opts: &HeatOptions,
+    progress: Progress,
+) -> Result<(Influences, HeatReport)> {
     let mut clock = Clock::start(progress);
     let mut report = HeatReport::default();
-    let opts = resolve(inputs, opts, &mut report)?;
+    let opts = resolve(inputs, given, opts, &mut report)?;
     clock.tick(0.0)?;
     let prep = prepare(inputs, &opts, &mut report);
     clock.lap(&mut report, "prepare");
@@ -74,14 +81,21 @@ pub(super) fn run(inputs: &Inputs, opts: &HeatOptions, progress: Progress) -> Re
     report.flipped_faces = vis.flipped;
     clock.tick(0.2)?;
     let rigid = bind_pieces(&mut vis, inputs.heads.len(), &opts, &mut report);
-    let heat = assemble(&prep, &vis, &matrix.mass, &opts, &mut report);
+    let heat = assemble(&prep, &vis, &matrix.mass, given, &opts, &mut report);
     clock.lap(&mut report, "assemble");
     clock.tick(0.3)?;
     let Matrix { mass, csc, symbolic, .. } = matrix;
-    let llt = factor(symbolic, csc, &mass, &heat, &mut report);
+    let llt = factor(symbolic, csc, &mass, &heat.heat, &mut report);
     clock.lap(&mut report, "factor");
     clock.tick(0.6)?;
-    let rows = Rows { sources: &vis.sources, heat: &heat, mass: &mass, labels: &vis.labels, rigid: &rigid };
+    let rows = Rows {
+        sources: &vis.sources,
+        shares: &heat.shares,
+        heat: &heat.heat,
+        mass: &mass,
+        labels: &vis.labels,
+        rigid: &rigid,
+    };
     let solved = solve(&prep, &rows, llt, &opts, &clock, &mut report)?;
     // "solve" is the solves and the clip alone; the blocks' other work counts in "finish".
     let bookkeeping = clock.lap_as(&mut report, "solve", solved.secs);
@@ -90,6 +104,24 @@ pub(super) fn run(inputs: &Inputs, opts: &HeatOptions, progress: Progress) -> Re
     report.timings.push(("total", clock.total()));
     clock.tick(1.0)?;
     Ok((out, report))
+}
+
+/// The heat sources that [`run`] finds, per input vertex: after [`prepare`], [`visibility`]
+/// and [`bind_pieces`], each vertex's source bones (up to [`MAX_TIES`], sharing equally) as
+/// top-k rows; a vertex that is no heat source has an empty row.
+pub(super) fn sources_found(inputs: &Inputs, opts: &HeatOptions) -> Result<Influences> {
+    let mut report = HeatReport::default();
+    let opts = resolve(inputs, None, opts, &mut report)?;
+    let prep = prepare(inputs, &opts, &mut report);
+    let mut vis = visibility(&prep, &opts);
+    bind_pieces(&mut vis, inputs.heads.len(), &opts, &mut report);
+    let mut welded = Influences::empty(vis.sources.len(), MAX_TIES);
+    for (v, s) in vis.sources.iter().enumerate() {
+        let n = s.count as usize;
+        welded.indices[v * MAX_TIES..v * MAX_TIES + n].iter_mut().zip(&s.bones).for_each(|(i, &j)| *i = j as i32);
+        welded.weights[v * MAX_TIES..v * MAX_TIES + n].fill(1.0 / n as f32);
+    }
+    Ok(unweld(&welded, &prep.map))
 }
 
 /// Wall-clock timings of the stages and the progress callback.
@@ -140,12 +172,20 @@ impl<'a> Clock<'a> {
     }
 }
 
-/// Check the inputs and options; with symmetry, the options with the bones given as centre
-/// bones that lie off the plane paired with their mirror image by place (counted in the
-/// report).
-fn resolve<'o>(inputs: &Inputs, opts: &'o HeatOptions, report: &mut HeatReport) -> Result<Cow<'o, HeatOptions>> {
+/// Check the inputs, options and `given` sources; with symmetry, the options with the bones
+/// given as centre bones that lie off the plane paired with their mirror image by place
+/// (counted in the report).
+fn resolve<'o>(
+    inputs: &Inputs,
+    given: Option<&Influences>,
+    opts: &'o HeatOptions,
+    report: &mut HeatReport,
+) -> Result<Cow<'o, HeatOptions>> {
     let Inputs { vertices, triangles, heads, tails } = *inputs;
     super::validate(vertices, triangles, heads, tails, opts)?;
+    if let Some(g) = given {
+        super::validate_sources(g, vertices.len(), heads.len())?;
+    }
     let Some(s) = &opts.symmetry else { return Ok(Cow::Borrowed(opts)) };
     let (bone_mirror, paired, alone) = pair_side_bones_by_place(heads, tails, &s.mirror, s.axis, s.plane)?;
     report.side_bones_paired = paired;
@@ -304,17 +344,44 @@ fn bind_pieces(vis: &mut Visibility, nb: usize, opts: &HeatOptions, report: &mut
     rigid
 }
 
-/// Each vertex's heat `M_ii H_ii = M_ii HEAT_SCALE c / d_i^2`, `d_i` the distance to its heat
-/// source (0 for a vertex with no mass or no source), and the count of isolated vertices.
-fn assemble(prep: &Prepared, vis: &Visibility, mass: &[f64], opts: &HeatOptions, report: &mut HeatReport) -> Vec<f64> {
+/// The right-hand side's ingredients: which bones share each welded vertex's heat, and that
+/// heat `M_ii H_ii`.
+struct Heat {
+    shares: Shares,
+    heat: Vec<f64>,
+}
+
+/// Each vertex's heat `M_ii H_ii = M_ii HEAT_SCALE c / d_i^2` and the bones that share it:
+/// its own sources, or the `given` ones summed over the input vertices welded together. `d_i`
+/// is the distance to the vertex's own source (to its nearest bone when it has none); a vertex
+/// with no mass or no source bone has no heat. Counts the isolated vertices.
+fn assemble(
+    prep: &Prepared,
+    vis: &Visibility,
+    mass: &[f64],
+    given: Option<&Influences>,
+    opts: &HeatOptions,
+    report: &mut HeatReport,
+) -> Heat {
     report.isolated_vertices = prep.map.iter().filter(|&&w| mass[w as usize] <= 0.0).count();
+    let shares = match given {
+        Some(g) => Shares::given(g, &prep.map, prep.wpos.len()),
+        None => Shares::of_sources(&vis.sources),
+    };
     let c = HEAT_SCALE * opts.heat_constant as f64;
-    vis.sources
-        .par_iter()
+    let heat: Vec<f64> = (vis.sources.par_iter().enumerate())
         .zip(mass.par_iter())
         .with_min_len(4096)
-        .map(|(s, &m)| if m > 0.0 && s.count > 0 { m * c / s.dist.max(MIN_DISTANCE).powi(2) } else { 0.0 })
-        .collect()
+        .map(|((v, s), &m)| {
+            let d = if s.count > 0 { s.dist } else { s.nearest_dist };
+            if m > 0.0 && shares.is_source(v) {
+                m * c / d.max(MIN_DISTANCE).powi(2)
+            } else {
+                0.0
+            }
+        })
+        .collect();
+    Heat { shares, heat }
 }
 
 /// Factor `A = L + M H` (`+ r (L_ii + M_ii)` on the diagonal for the regularizations `r` tried
