@@ -8,7 +8,7 @@ float32 (n, k), rows summing to 1, with k = min(max_influences, number of bones)
 numbers in range, or ValueError.
 """
 
-from typing import Callable, List, Optional, Sequence, Tuple, Union
+from typing import Callable, List, Optional, Sequence, Tuple, TypedDict, Union, Unpack
 
 import numpy as np
 import numpy.typing as npt
@@ -35,52 +35,65 @@ def bilinear_weights(
     """K = nearest (>= 1) nearest bones with radial falloff, each share split with the neighbour across the
     nearer joint. nearest or max_influences of 0 is a ValueError."""
 
+class HeatOptions(TypedDict, total=False):
+    """The keywords of the heat functions (heat_weights, heat_weights_report, heat_weights_many);
+    each one left out takes its default.
+
+    max_influences (4): bones kept per vertex (>= 1). min_weight (1e-3): weights below it,
+    relative to the vertex's total, are dropped. visibility (True): ray test (a vertex takes
+    the nearest bone it sees through the mesh); False: the nearest bone. weld_tolerance (1e-5)
+    and every other length are relative to the bounding box of the vertices that faces use (a
+    stray loose vertex does not change them). heat_constant (1.0): c in H = 4 c / d^2.
+    bone_mirror (None), (b,): mirror bone of each bone (itself for centre bones, -1 for a side
+    bone with no partner); with it, mirrored vertices get mirrored weights across the plane
+    x[symmetry_axis] = 0 (symmetry_axis 0, 1 or 2, default 0), vertices matched within
+    symmetry_tolerance (1e-3). A bone given as its own mirror with an end more than 1 % of the
+    skeleton's size off the plane is a side bone whose name carries no side: paired with the
+    bone at its mirror image, or left unaveraged (report: side_bones_paired,
+    side_bones_unpaired).
+    parents (None), (b,): parent bone of each bone (-1 for roots), for imported (glTF/FBX) rigs
+    whose tails the importer invented: a bone whose children start away from its tail is then
+    the segments from its head to their heads that lie inside the mesh (plus head -> tail when a
+    child starts there; head -> tail alone when no such segment is inside, e.g. a root on the
+    ground); a bone with no children also continues its parent's line into the mesh, as long
+    as itself.
+    curve_points (None), (p,3) with curve_bones (None), (p,): interior points of bent bones
+    (Blender's B-Bones in their rest curve), each bone's in order from head to tail; such a bone
+    is the polyline head -> points -> tail, as Blender's bone heat splits a B-Bone into its
+    segments.
+    A keyword that is not one of these is a TypeError."""
+    max_influences: int
+    min_weight: float
+    visibility: bool
+    weld_tolerance: float
+    heat_constant: float
+    bone_mirror: Optional[ArrayLike]
+    symmetry_axis: int
+    symmetry_tolerance: float
+    parents: Optional[ArrayLike]
+    curve_points: Optional[ArrayLike]
+    curve_bones: Optional[ArrayLike]
+
 def heat_weights(
     vertices: ArrayLike, triangles: ArrayLike, bone_heads: ArrayLike, bone_tails: ArrayLike, *,
-    max_influences: int = 4, min_weight: float = 1e-3, visibility: bool = True,
-    weld_tolerance: float = 1e-5, heat_constant: float = 1.0, bone_mirror: Optional[ArrayLike] = None,
-    symmetry_axis: int = 0, symmetry_tolerance: float = 1e-3, parents: Optional[ArrayLike] = None,
-    curve_points: Optional[ArrayLike] = None, curve_bones: Optional[ArrayLike] = None,
-    progress: Optional[Callable[[float], Optional[bool]]] = None,
+    progress: Optional[Callable[[float], Optional[bool]]] = None, **options: Unpack[HeatOptions],
 ) -> Influences:
     """Bone-heat weights (Baran & Popovic 2007) on the position-welded surface; never leaves a vertex unweighted.
-    progress(fraction) is called while solving: returning False cancels (Cancelled); an exception
-    it raises stops the solve and propagates as itself.
-    bone_mirror (b,): mirror bone of each bone (itself for centre bones, -1 for a side bone with no
-    partner); with it, mirrored vertices get mirrored weights (symmetry_axis, symmetry_tolerance).
-    A bone given as its own mirror with an end more than 1 % of the skeleton's size off the plane
-    is a side bone whose name carries no side: paired with the bone at its mirror image, or left
-    unaveraged (report: side_bones_paired, side_bones_unpaired).
-    parents (b,): parent bone of each bone (-1 for roots), for imported (glTF/FBX) rigs whose tails
-    the importer invented: a bone whose children start away from its tail is then the segments
-    from its head to their heads that lie inside the mesh (plus head -> tail when a child starts
-    there; head -> tail alone when no such segment is inside, e.g. a root on the ground); a bone
-    with no children also continues its parent's line into the mesh, as long as itself.
-    curve_points (p,3) with curve_bones (p,): interior points of bent bones (Blender's B-Bones in
-    their rest curve), each bone's in order from head to tail; such a bone is the polyline
-    head -> points -> tail, as Blender's bone heat splits a B-Bone into its segments."""
+    options: see HeatOptions. progress(fraction) is called while solving: returning False cancels
+    (Cancelled); an exception it raises stops the solve and propagates as itself."""
 
 def heat_weights_report(
     vertices: ArrayLike, triangles: ArrayLike, bone_heads: ArrayLike, bone_tails: ArrayLike, *,
-    max_influences: int = 4, min_weight: float = 1e-3, visibility: bool = True,
-    weld_tolerance: float = 1e-5, heat_constant: float = 1.0, bone_mirror: Optional[ArrayLike] = None,
-    symmetry_axis: int = 0, symmetry_tolerance: float = 1e-3, parents: Optional[ArrayLike] = None,
-    curve_points: Optional[ArrayLike] = None, curve_bones: Optional[ArrayLike] = None,
-    progress: Optional[Callable[[float], Optional[bool]]] = None,
+    progress: Optional[Callable[[float], Optional[bool]]] = None, **options: Unpack[HeatOptions],
 ) -> Tuple[npt.NDArray[np.int32], npt.NDArray[np.float32], dict]:
     """As heat_weights, plus a report: pieces, fallback_pieces (saw no bone), rigid_pieces, boneless_pieces,
     welded_vertices, flipped_faces (wound against their neighbours; turned for the normals only),
     isolated_vertices, mirrored_vertices (with bone_mirror: vertices with a mirror twin or on the plane,
-    the only ones averaged), regularized, factorization_failed, timings (stage -> seconds).
-    weld_tolerance and every other length are relative to the bounding box of the vertices that
-    faces use (a stray loose vertex does not change them)."""
+    the only ones averaged), regularized, factorization_failed, timings (stage -> seconds)."""
 
 def heat_weights_many(
-    meshes: Sequence[Tuple[ArrayLike, ArrayLike]], bone_heads: ArrayLike, bone_tails: ArrayLike, *,
-    max_influences: int = 4, min_weight: float = 1e-3, visibility: bool = True,
-    weld_tolerance: float = 1e-5, heat_constant: float = 1.0, bone_mirror: Optional[ArrayLike] = None,
-    symmetry_axis: int = 0, symmetry_tolerance: float = 1e-3, parents: Optional[ArrayLike] = None,
-    curve_points: Optional[ArrayLike] = None, curve_bones: Optional[ArrayLike] = None,
+    meshes: Sequence[Tuple[ArrayLike, ArrayLike]], bone_heads: ArrayLike, bone_tails: ArrayLike,
+    **options: Unpack[HeatOptions],
 ) -> List[Union[Tuple[npt.NDArray[np.int32], npt.NDArray[np.float32], dict], Exception]]:
     """heat_weights_report of several independent meshes [(vertices, triangles)] with the same bones
     and options, solved in parallel in one call (many small meshes: a call each costs more than its

@@ -105,6 +105,42 @@ def test_heat_many_meshes_in_one_call_match_one_call_each(cyl):
         msc.heat_weights_many(meshes, h, tl, max_influences=0)
 
 
+HEAT_DEFAULTS = dict(max_influences=4, min_weight=1e-3, visibility=True, weld_tolerance=1e-5, heat_constant=1.0,
+                     bone_mirror=None, symmetry_axis=0, symmetry_tolerance=1e-3, parents=None, curve_points=None,
+                     curve_bones=None)
+
+
+def test_heat_keywords_default_as_documented_and_unknown_ones_are_type_errors(cyl):
+    """Each heat keyword's default is what passing it explicitly gives (the core's defaults,
+    written once); a keyword the functions do not know is a TypeError naming it, as Python's."""
+    v, t, h, tl, p = cyl
+    i0, w0, r0 = msc.heat_weights_report(v, t, h, tl)
+    for key, value in HEAT_DEFAULTS.items():
+        i, w, r = msc.heat_weights_report(v, t, h, tl, **{key: value})
+        assert np.array_equal(i, i0) and np.array_equal(w, w0), key
+    i, w = msc.heat_weights(v, t, h, tl, **HEAT_DEFAULTS)
+    assert np.array_equal(i, i0) and np.array_equal(w, w0)
+    (i, w, _), = msc.heat_weights_many([(v, t)], h, tl, **HEAT_DEFAULTS)
+    assert np.array_equal(i, i0) and np.array_equal(w, w0)
+    # symmetry_tolerance is the core's mirror tolerance: on a mesh moved 0.01 off the plane (its
+    # twins 0.5 % of its size apart), the default matches none of them and 1 % matches all.
+    off = (v + np.float32([0.01, 0, 0]), t, h, tl)
+    mirror = np.arange(len(h))
+    tight = msc.heat_weights_report(*off, bone_mirror=mirror)[2]["mirrored_vertices"]
+    loose = msc.heat_weights_report(*off, bone_mirror=mirror, symmetry_tolerance=0.01)[2]["mirrored_vertices"]
+    assert (tight, loose) == (0, len(v))
+    for fn, args in ((msc.heat_weights, (v, t, h, tl)), (msc.heat_weights_report, (v, t, h, tl)),
+                     (msc.heat_weights_many, ([(v, t)], h, tl))):
+        with pytest.raises(TypeError, match=rf"{fn.__name__}\(\) got an unexpected keyword argument 'max_influence'"):
+            fn(*args, max_influence=2)
+    with pytest.raises(TypeError, match="unexpected keyword argument 'progress'"):
+        msc.heat_weights_many([(v, t)], h, tl, progress=print)
+    with pytest.raises(TypeError, match="argument 'visibility'"):
+        msc.heat_weights(v, t, h, tl, visibility="yes")
+    with pytest.raises(TypeError, match="argument 'heat_constant'"):
+        msc.heat_weights(v, t, h, tl, heat_constant=None)
+
+
 def test_heat_small_boneless_piece_is_rigid_on_nearest_bone(cyl):
     # An accessory (button, eye, held prop) with no bone inside moves as one rigid body.
     v, t, h, tl, p = cyl

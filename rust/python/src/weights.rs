@@ -6,10 +6,9 @@ use crate::error::{guarded, to_py};
 use miniskeleton_core::mesh::Symmetry;
 use miniskeleton_core::weights::Influences;
 use miniskeleton_core::weights::{bilinear_weights as core_bilinear, BilinearOptions, Falloff};
-use miniskeleton_core::weights::{
-    heat_weights as core_heat, heat_weights_many as core_heat_many, BoneCurves, HeatOptions, HeatReport, MeshRef,
-};
+use miniskeleton_core::weights::{heat_weights as core_heat, heat_weights_many as core_heat_many};
 use miniskeleton_core::weights::{idw_weights as core_idw, IdwOptions};
+use miniskeleton_core::weights::{BoneCurves, HeatOptions, HeatReport, MeshRef};
 use numpy::{AllowTypeChange, PyArray2, PyArrayLike2};
 use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
@@ -111,147 +110,137 @@ fn report_dict<'py>(py: Python<'py>, r: &HeatReport) -> PyResult<Bound<'py, PyDi
     Ok(d)
 }
 
-/// The heat options from the keyword arguments `heat_weights*` share.
-#[allow(clippy::too_many_arguments)]
-fn heat_options(
-    max_influences: usize,
-    min_weight: f32,
-    visibility: bool,
-    weld_tolerance: f32,
-    heat_constant: f32,
-    bone_mirror: Option<Indices<'_>>,
-    symmetry_axis: usize,
-    symmetry_tolerance: f32,
-    parents: Option<Indices<'_>>,
-    curve_points: Option<F32Rows<'_>>,
-    curve_bones: Option<Indices<'_>>,
-) -> PyResult<HeatOptions> {
+/// The heat keywords shared by `heat_weights*`, read into `HeatOptions`:
+/// a keyword not given keeps `HeatOptions::default()`, `None` for an optional one is as not
+/// given, and an unknown keyword is a `TypeError` naming it (as Python's own). The symmetry
+/// plane is `symmetry_axis = 0` (default axis 0).
+fn heat_options(function: &str, options: Option<&Bound<'_, PyDict>>) -> PyResult<HeatOptions> {
+    let mut opts = HeatOptions::default();
+    let (mut bone_mirror, mut symmetry_axis) = (None, 0usize);
+    let (mut curve_points, mut curve_bones) = (None, None);
+    for (key, value) in options.into_iter().flat_map(|d| d.iter()) {
+        let key: String = key.extract()?;
+        let value = &value;
+        match key.as_str() {
+            "max_influences" => opts.max_influences = positive_k(keyword(value, &key)?)?,
+            "min_weight" => opts.min_weight = keyword(value, &key)?,
+            "visibility" => opts.visibility = keyword(value, &key)?,
+            "weld_tolerance" => opts.weld_tolerance = keyword(value, &key)?,
+            "heat_constant" => opts.heat_constant = keyword(value, &key)?,
+            "bone_mirror" => bone_mirror = optional(value, &key, |m: Indices| indices(&m, "bone_mirror"))?,
+            "symmetry_axis" => symmetry_axis = keyword(value, &key)?,
+            "symmetry_tolerance" => opts.mirror_tolerance = keyword(value, &key)?,
+            "parents" => opts.parents = optional(value, &key, |p: Indices| indices(&p, "parents"))?,
+            "curve_points" => curve_points = optional(value, &key, |p: F32Rows| rows::<f32, 3>(&p, "curve_points"))?,
+            "curve_bones" => curve_bones = optional(value, &key, |j: Indices| indices(&j, "curve_bones"))?,
+            _ => return Err(PyTypeError::new_err(format!("{function}() got an unexpected keyword argument '{key}'"))),
+        }
+    }
     if symmetry_axis > 2 {
         return Err(PyValueError::new_err("symmetry_axis must be 0, 1 or 2"));
     }
-    let curves = match (curve_points, curve_bones) {
+    opts.symmetry = bone_mirror.map(|mirror| Symmetry { axis: symmetry_axis, plane: 0.0, mirror });
+    opts.curves = match (curve_points, curve_bones) {
         (None, None) => None,
-        (Some(p), Some(j)) => {
-            Some(BoneCurves { points: rows::<f32, 3>(&p, "curve_points")?, bone: indices(&j, "curve_bones")? })
-        }
+        (Some(points), Some(bone)) => Some(BoneCurves { points, bone }),
         _ => return Err(PyValueError::new_err("curve_points and curve_bones go together")),
     };
-    let symmetry = match bone_mirror {
-        Some(m) => Some(Symmetry { axis: symmetry_axis, plane: 0.0, mirror: indices(&m, "bone_mirror")? }),
-        None => None,
-    };
-    Ok(HeatOptions {
-        max_influences: positive_k(max_influences)?,
-        min_weight,
-        visibility,
-        weld_tolerance,
-        heat_constant,
-        symmetry,
-        mirror_tolerance: symmetry_tolerance,
-        parents: parents.map(|p| indices(&p, "parents")).transpose()?,
-        curves,
-        ..HeatOptions::default()
+    Ok(opts)
+}
+
+/// The keyword argument `value` of `key` as a `T`; a `TypeError` names the keyword, as pyo3
+/// names the arguments of a signature.
+fn keyword<'a, 'py, T: FromPyObject<'a, 'py>>(value: &'a Bound<'py, PyAny>, key: &str) -> PyResult<T> {
+    value.extract::<T>().map_err(|e| {
+        let e: PyErr = e.into();
+        if e.is_instance_of::<PyTypeError>(value.py()) {
+            PyTypeError::new_err(format!("argument '{key}': {}", e.value(value.py())))
+        } else {
+            e
+        }
     })
 }
 
+/// An optional keyword argument: `None` (as not given), or `value` read as a `T` and converted.
+fn optional<'a, 'py, T: FromPyObject<'a, 'py>, U>(
+    value: &'a Bound<'py, PyAny>,
+    key: &str,
+    convert: impl FnOnce(T) -> PyResult<U>,
+) -> PyResult<Option<U>> {
+    if value.is_none() {
+        return Ok(None);
+    }
+    keyword(value, key).and_then(convert).map(Some)
+}
+
+/// The four positional arrays of the single-mesh heat functions.
+type MeshAndBones = (Vec<[f32; 3]>, Vec<[u32; 3]>, Vec<[f32; 3]>, Vec<[f32; 3]>);
+
+fn mesh_and_bones(
+    vertices: &F32Rows<'_>,
+    triangles: &IndexRows<'_>,
+    bone_heads: &F32Rows<'_>,
+    bone_tails: &F32Rows<'_>,
+) -> PyResult<MeshAndBones> {
+    Ok((
+        rows::<f32, 3>(vertices, "vertices")?,
+        index_rows::<u32, 3>(triangles, "triangles")?,
+        rows::<f32, 3>(bone_heads, "bone_heads")?,
+        rows::<f32, 3>(bone_tails, "bone_tails")?,
+    ))
+}
+
 /// Bone-heat weights (Baran & Popovic 2007) on the welded surface; returns (indices, weights).
+/// The keywords are those of `heat_weights_report`.
 #[pyfunction]
-#[pyo3(signature = (vertices, triangles, bone_heads, bone_tails, *, max_influences=4, min_weight=1e-3,
-                    visibility=true, weld_tolerance=1e-5, heat_constant=1.0, bone_mirror=None,
-                    symmetry_axis=0, symmetry_tolerance=1e-3, parents=None, curve_points=None,
-                    curve_bones=None, progress=None))]
-#[allow(clippy::too_many_arguments)]
+#[pyo3(signature = (vertices, triangles, bone_heads, bone_tails, *, progress=None, **options))]
 pub fn heat_weights<'py>(
     py: Python<'py>,
     vertices: F32Rows<'py>,
     triangles: IndexRows<'py>,
     bone_heads: F32Rows<'py>,
     bone_tails: F32Rows<'py>,
-    max_influences: usize,
-    min_weight: f32,
-    visibility: bool,
-    weld_tolerance: f32,
-    heat_constant: f32,
-    bone_mirror: Option<Indices<'py>>,
-    symmetry_axis: usize,
-    symmetry_tolerance: f32,
-    parents: Option<Indices<'py>>,
-    curve_points: Option<F32Rows<'py>>,
-    curve_bones: Option<Indices<'py>>,
     progress: Option<Py<PyAny>>,
+    options: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<Pair<'py>> {
-    let (i, w, _) = heat_weights_report(
-        py,
-        vertices,
-        triangles,
-        bone_heads,
-        bone_tails,
-        max_influences,
-        min_weight,
-        visibility,
-        weld_tolerance,
-        heat_constant,
-        bone_mirror,
-        symmetry_axis,
-        symmetry_tolerance,
-        parents,
-        curve_points,
-        curve_bones,
-        progress,
-    )?;
-    Ok((i, w))
+    let opts = heat_options("heat_weights", options)?;
+    let (inf, _) = solve_heat(py, &mesh_and_bones(&vertices, &triangles, &bone_heads, &bone_tails)?, &opts, progress)?;
+    to_pair(py, inf)
 }
 
 /// As `heat_weights`, plus a report dict (pieces, fallback_pieces, rigid_pieces, timings, ...).
 #[pyfunction]
-#[pyo3(signature = (vertices, triangles, bone_heads, bone_tails, *, max_influences=4, min_weight=1e-3,
-                    visibility=true, weld_tolerance=1e-5, heat_constant=1.0, bone_mirror=None,
-                    symmetry_axis=0, symmetry_tolerance=1e-3, parents=None, curve_points=None,
-                    curve_bones=None, progress=None))]
-#[allow(clippy::too_many_arguments)]
+#[pyo3(signature = (vertices, triangles, bone_heads, bone_tails, *, progress=None, **options))]
 pub fn heat_weights_report<'py>(
     py: Python<'py>,
     vertices: F32Rows<'py>,
     triangles: IndexRows<'py>,
     bone_heads: F32Rows<'py>,
     bone_tails: F32Rows<'py>,
-    max_influences: usize,
-    min_weight: f32,
-    visibility: bool,
-    weld_tolerance: f32,
-    heat_constant: f32,
-    bone_mirror: Option<Indices<'py>>,
-    symmetry_axis: usize,
-    symmetry_tolerance: f32,
-    parents: Option<Indices<'py>>,
-    curve_points: Option<F32Rows<'py>>,
-    curve_bones: Option<Indices<'py>>,
     progress: Option<Py<PyAny>>,
+    options: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<PairAndReport<'py>> {
-    let v = rows::<f32, 3>(&vertices, "vertices")?;
-    let tri = index_rows::<u32, 3>(&triangles, "triangles")?;
-    let h = rows::<f32, 3>(&bone_heads, "bone_heads")?;
-    let t = rows::<f32, 3>(&bone_tails, "bone_tails")?;
-    let opts = heat_options(
-        max_influences,
-        min_weight,
-        visibility,
-        weld_tolerance,
-        heat_constant,
-        bone_mirror,
-        symmetry_axis,
-        symmetry_tolerance,
-        parents,
-        curve_points,
-        curve_bones,
-    )?;
+    let opts = heat_options("heat_weights_report", options)?;
+    let inputs = mesh_and_bones(&vertices, &triangles, &bone_heads, &bone_tails)?;
+    let (inf, report) = solve_heat(py, &inputs, &opts, progress)?;
+    let (i, w) = to_pair(py, inf)?;
+    Ok((i, w, report_dict(py, &report)?))
+}
+
+/// `heat_weights` of the core with a Python progress callable, called with the GIL
+/// re-acquired; returning False cancels. An exception it raises stops the solve too and is
+/// re-raised as itself, not as Cancelled.
+fn solve_heat(
+    py: Python<'_>,
+    (v, tri, h, t): &MeshAndBones,
+    opts: &HeatOptions,
+    progress: Option<Py<PyAny>>,
+) -> PyResult<(Influences, HeatReport)> {
     if let Some(cb) = &progress {
         if !cb.bind(py).is_callable() {
             return Err(PyTypeError::new_err("progress must be a callable taking the fraction done"));
         }
     }
-    // A Python progress callable is called with the GIL re-acquired; returning False cancels.
-    // An exception it raises stops the solve too and is re-raised as itself, not as Cancelled.
     let raised: Mutex<Option<PyErr>> = Mutex::new(None);
     let callback = progress.map(|cb| {
         let raised = &raised;
@@ -265,15 +254,12 @@ pub fn heat_weights_report<'py>(
             })
         }
     });
-    let solved = guarded(py, || {
-        core_heat(&v, &tri, &h, &t, &opts, callback.as_ref().map(|c| c as &(dyn Fn(f32) -> bool + Sync)))
-    });
+    let solved =
+        guarded(py, || core_heat(v, tri, h, t, opts, callback.as_ref().map(|c| c as &(dyn Fn(f32) -> bool + Sync))));
     if let Some(e) = raised.into_inner().unwrap_or_else(|p| p.into_inner()) {
         return Err(e);
     }
-    let (inf, report) = solved?;
-    let (i, w) = to_pair(py, inf)?;
-    Ok((i, w, report_dict(py, &report)?))
+    solved
 }
 
 /// `heat_weights_report` of several independent meshes with the same bones and options, solved
@@ -282,47 +268,21 @@ pub fn heat_weights_report<'py>(
 /// (indices, weights, report), or the exception that mesh raised (`ValueError` for bad input,
 /// `RuntimeError` ...), returned rather than raised so that the other meshes' results stand.
 #[pyfunction]
-#[pyo3(signature = (meshes, bone_heads, bone_tails, *, max_influences=4, min_weight=1e-3,
-                    visibility=true, weld_tolerance=1e-5, heat_constant=1.0, bone_mirror=None,
-                    symmetry_axis=0, symmetry_tolerance=1e-3, parents=None, curve_points=None,
-                    curve_bones=None))]
-#[allow(clippy::too_many_arguments)]
+#[pyo3(signature = (meshes, bone_heads, bone_tails, **options))]
 pub fn heat_weights_many<'py>(
     py: Python<'py>,
     meshes: Vec<(F32Rows<'py>, IndexRows<'py>)>,
     bone_heads: F32Rows<'py>,
     bone_tails: F32Rows<'py>,
-    max_influences: usize,
-    min_weight: f32,
-    visibility: bool,
-    weld_tolerance: f32,
-    heat_constant: f32,
-    bone_mirror: Option<Indices<'py>>,
-    symmetry_axis: usize,
-    symmetry_tolerance: f32,
-    parents: Option<Indices<'py>>,
-    curve_points: Option<F32Rows<'py>>,
-    curve_bones: Option<Indices<'py>>,
+    options: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<Vec<Bound<'py, PyAny>>> {
+    let opts = heat_options("heat_weights_many", options)?;
     let parsed = meshes
         .iter()
         .map(|(v, t)| Ok((rows::<f32, 3>(v, "vertices")?, index_rows::<u32, 3>(t, "triangles")?)))
         .collect::<PyResult<Vec<_>>>()?;
     let h = rows::<f32, 3>(&bone_heads, "bone_heads")?;
     let t = rows::<f32, 3>(&bone_tails, "bone_tails")?;
-    let opts = heat_options(
-        max_influences,
-        min_weight,
-        visibility,
-        weld_tolerance,
-        heat_constant,
-        bone_mirror,
-        symmetry_axis,
-        symmetry_tolerance,
-        parents,
-        curve_points,
-        curve_bones,
-    )?;
     let views: Vec<MeshRef> = parsed.iter().map(|(v, t)| (&v[..], &t[..])).collect();
     let solved = guarded(py, || Ok(core_heat_many(&views, &h, &t, &opts)))?;
     solved
