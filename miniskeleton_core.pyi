@@ -36,8 +36,8 @@ def bilinear_weights(
     nearer joint. nearest or max_influences of 0 is a ValueError."""
 
 class HeatOptions(TypedDict, total=False):
-    """The keywords of the heat functions (heat_weights, heat_weights_report, heat_weights_many);
-    each one left out takes its default.
+    """The keywords of the heat functions (heat_weights, heat_weights_report, heat_weights_many,
+    heat_sources, heat_weights_from_sources); each one left out takes its default.
 
     max_influences (4): bones kept per vertex (>= 1). min_weight (1e-3): weights below it,
     relative to the vertex's total, are dropped. visibility (True): ray test (a vertex takes
@@ -111,6 +111,27 @@ def weld_points(points: ArrayLike, tolerance: float
     them joins one fixed by the grid, not always the first. tolerance <= 0 or not finite: exact
     duplicates only. Non-finite points never weld. (The weld heat_weights and touching_meshes
     use, there with a tolerance relative to the mesh's size.)"""
+
+def heat_sources(
+    vertices: ArrayLike, triangles: ArrayLike, bone_heads: ArrayLike, bone_tails: ArrayLike,
+    **options: Unpack[HeatOptions],
+) -> Influences:
+    """Debug and evaluation: the heat sources heat_weights finds, as (indices (n,4), weights (n,4)):
+    per vertex its nearest visible bone (near-ties share equally; in a piece that sees no bone,
+    its nearest bone by distance), an empty row where the vertex holds no heat."""
+
+def heat_weights_from_sources(
+    vertices: ArrayLike, triangles: ArrayLike, bone_heads: ArrayLike, bone_tails: ArrayLike,
+    source_indices: ArrayLike, source_weights: ArrayLike, **options: Unpack[HeatOptions],
+) -> Tuple[npt.NDArray[np.int32], npt.NDArray[np.float32], dict]:
+    """Debug and evaluation: heat_weights_report with the heat sources given instead of found, to
+    measure the method apart from its choice of sources. source_indices (n,k) bones (-1 unused)
+    and source_weights (n,k) their shares of each vertex's heat (fractions of the row's sum; the
+    rows of vertices welded together add up; an empty row holds no heat): e.g. one bone per
+    vertex as (bone[:, None], ones((n, 1))), or dense shares (n,b) as
+    (tile(arange(b), (n, 1)), shares). The heat H = 4 c / d^2 keeps each vertex's distance d to
+    its own source (as heat_sources finds it); rigid pieces and symmetry are as in heat_weights.
+    With the sources of heat_sources, the weights of heat_weights_report, bit for bit."""
 
 def touching_meshes(vertices: ArrayLike, mesh_of: ArrayLike, meshes: int, *,
                     triangles: Optional[ArrayLike] = None, tolerance: float = 1e-5,

@@ -130,7 +130,7 @@ def test_heat_keywords_default_as_documented_and_unknown_ones_are_type_errors(cy
     loose = msc.heat_weights_report(*off, bone_mirror=mirror, symmetry_tolerance=0.01)[2]["mirrored_vertices"]
     assert (tight, loose) == (0, len(v))
     for fn, args in ((msc.heat_weights, (v, t, h, tl)), (msc.heat_weights_report, (v, t, h, tl)),
-                     (msc.heat_weights_many, ([(v, t)], h, tl))):
+                     (msc.heat_weights_many, ([(v, t)], h, tl)), (msc.heat_sources, (v, t, h, tl))):
         with pytest.raises(TypeError, match=rf"{fn.__name__}\(\) got an unexpected keyword argument 'max_influence'"):
             fn(*args, max_influence=2)
     with pytest.raises(TypeError, match="unexpected keyword argument 'progress'"):
@@ -139,6 +139,31 @@ def test_heat_keywords_default_as_documented_and_unknown_ones_are_type_errors(cy
         msc.heat_weights(v, t, h, tl, visibility="yes")
     with pytest.raises(TypeError, match="argument 'heat_constant'"):
         msc.heat_weights(v, t, h, tl, heat_constant=None)
+
+
+def test_heat_from_its_own_sources_is_heat_itself(cyl):
+    """The debug entry points: heat with the sources heat finds, given back, is heat bit for bit
+    (split seams, symmetry and imported bones included); other sources move the weights."""
+    v, t, h, tl, p = cyl
+    sv, st = msc.split_flat(v, t)
+    for verts, tris, opts in ((v, t, {}), (sv, st, {}), (v, t, dict(bone_mirror=np.arange(len(h)), parents=p)),
+                              (v, t, dict(visibility=False, max_influences=2))):
+        si, sw = msc.heat_sources(verts, tris, h, tl, **opts)
+        assert si.shape == sw.shape == (len(verts), 4) and si.dtype == np.int32 and sw.dtype == np.float32
+        assert ((si[:, 0] >= 0) & (np.abs(sw.sum(1) - 1) < 1e-6)).all()
+        i0, w0, r0 = msc.heat_weights_report(verts, tris, h, tl, **opts)
+        i, w, r = msc.heat_weights_from_sources(verts, tris, h, tl, si, sw, **opts)
+        assert np.array_equal(i, i0) and np.array_equal(w, w0)
+        assert set(r["timings"]) == set(r0["timings"]) and r["pieces"] == r0["pieces"]
+    # Every vertex a source of bone 3: bone 3 everywhere.
+    i, w, _ = msc.heat_weights_from_sources(v, t, h, tl, np.full((len(v), 1), 3), np.ones((len(v), 1)))
+    assert (i[:, 0] == 3).all() and (w[:, 0] == 1).all()
+    with pytest.raises(ValueError, match="one shape"):
+        msc.heat_weights_from_sources(v, t, h, tl, np.zeros((len(v), 2)), np.ones((len(v), 1)))
+    with pytest.raises(ValueError, match="sources for"):
+        msc.heat_weights_from_sources(v, t, h, tl, np.zeros((3, 1)), np.ones((3, 1)))
+    with pytest.raises(ValueError, match="source bone 4"):
+        msc.heat_weights_from_sources(v, t, h, tl, np.full((len(v), 1), 4), np.ones((len(v), 1)))
 
 
 def test_heat_small_boneless_piece_is_rigid_on_nearest_bone(cyl):

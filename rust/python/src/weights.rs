@@ -1,12 +1,15 @@
 //! Bindings for `miniskeleton_core::weights` (heat, bilinear, inverse distance): skinning weights
 //! as dense top-k arrays.
 
-use crate::convert::{index_rows, indices, matrix, rows, IndexRows, Indices};
+use crate::convert::{index_matrix, index_rows, indices, matrix, rows, IndexRows, Indices};
 use crate::error::{guarded, to_py};
 use miniskeleton_core::mesh::Symmetry;
 use miniskeleton_core::weights::Influences;
 use miniskeleton_core::weights::{bilinear_weights as core_bilinear, BilinearOptions, Falloff};
-use miniskeleton_core::weights::{heat_weights as core_heat, heat_weights_many as core_heat_many};
+use miniskeleton_core::weights::{heat_sources as core_heat_sources, heat_weights as core_heat};
+use miniskeleton_core::weights::{
+    heat_weights_many as core_heat_many, heat_weights_with_sources as core_heat_from_sources,
+};
 use miniskeleton_core::weights::{idw_weights as core_idw, IdwOptions};
 use miniskeleton_core::weights::{BoneCurves, HeatOptions, HeatReport, MeshRef};
 use numpy::{AllowTypeChange, PyArray2, PyArrayLike2};
@@ -110,7 +113,7 @@ fn report_dict<'py>(py: Python<'py>, r: &HeatReport) -> PyResult<Bound<'py, PyDi
     Ok(d)
 }
 
-/// The heat keywords shared by `heat_weights*`, read into `HeatOptions`:
+/// The heat keywords shared by `heat_weights*` and `heat_sources`, read into `HeatOptions`:
 /// a keyword not given keeps `HeatOptions::default()`, `None` for an optional one is as not
 /// given, and an unknown keyword is a `TypeError` naming it (as Python's own). The symmetry
 /// plane is `symmetry_axis = 0` (default axis 0).
@@ -297,11 +300,66 @@ pub fn heat_weights_many<'py>(
         .collect()
 }
 
+/// Debug and evaluation: the heat sources `heat_weights` finds, per vertex as top-k rows
+/// (indices (n,4) int32, -1 unused; weights (n,4) float32, each bone's share of the vertex's
+/// heat). The keywords are those of `heat_weights_many`.
+#[pyfunction]
+#[pyo3(signature = (vertices, triangles, bone_heads, bone_tails, **options))]
+pub fn heat_sources<'py>(
+    py: Python<'py>,
+    vertices: F32Rows<'py>,
+    triangles: IndexRows<'py>,
+    bone_heads: F32Rows<'py>,
+    bone_tails: F32Rows<'py>,
+    options: Option<&Bound<'py, PyDict>>,
+) -> PyResult<Pair<'py>> {
+    let opts = heat_options("heat_sources", options)?;
+    let (v, tri, h, t) = mesh_and_bones(&vertices, &triangles, &bone_heads, &bone_tails)?;
+    let inf = guarded(py, || core_heat_sources(&v, &tri, &h, &t, &opts))?;
+    to_pair(py, inf)
+}
+
+/// Debug and evaluation: `heat_weights_report` with the heat sources given, per vertex, as
+/// top-k rows (`source_indices` (n,k), -1 unused; `source_weights` (n,k), each bone's share).
+/// The keywords are those of `heat_weights_many`.
+#[pyfunction]
+#[pyo3(signature = (vertices, triangles, bone_heads, bone_tails, source_indices, source_weights, **options))]
+#[allow(clippy::too_many_arguments)]
+pub fn heat_weights_from_sources<'py>(
+    py: Python<'py>,
+    vertices: F32Rows<'py>,
+    triangles: IndexRows<'py>,
+    bone_heads: F32Rows<'py>,
+    bone_tails: F32Rows<'py>,
+    source_indices: IndexRows<'py>,
+    source_weights: F32Rows<'py>,
+    options: Option<&Bound<'py, PyDict>>,
+) -> PyResult<PairAndReport<'py>> {
+    let opts = heat_options("heat_weights_from_sources", options)?;
+    let (v, tri, h, t) = mesh_and_bones(&vertices, &triangles, &bone_heads, &bone_tails)?;
+    let (shape, k) = (source_indices.as_array().dim(), source_weights.as_array().dim());
+    if shape != k {
+        return Err(PyValueError::new_err(format!(
+            "source_indices and source_weights must have one shape, got {shape:?} and {k:?}"
+        )));
+    }
+    let sources = Influences {
+        k: shape.1,
+        indices: index_matrix::<i32>(&source_indices, "source_indices")?,
+        weights: source_weights.as_array().iter().copied().collect(),
+    };
+    let (inf, report) = guarded(py, || core_heat_from_sources(&v, &tri, &h, &t, &sources, &opts, None))?;
+    let (i, w) = to_pair(py, inf)?;
+    Ok((i, w, report_dict(py, &report)?))
+}
+
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(idw_weights, m)?)?;
     m.add_function(wrap_pyfunction!(bilinear_weights, m)?)?;
     m.add_function(wrap_pyfunction!(heat_weights, m)?)?;
     m.add_function(wrap_pyfunction!(heat_weights_report, m)?)?;
     m.add_function(wrap_pyfunction!(heat_weights_many, m)?)?;
+    m.add_function(wrap_pyfunction!(heat_sources, m)?)?;
+    m.add_function(wrap_pyfunction!(heat_weights_from_sources, m)?)?;
     Ok(())
 }
