@@ -16,7 +16,6 @@ from pathlib import Path
 import bpy
 from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty, StringProperty
 
-from ..common.armatures import armature_bones
 from ..common.files import make_folder
 from ..common.keys import keyed_action
 from ..common.reports import name_list, read_only, unplaced
@@ -24,7 +23,7 @@ from ..common.transforms import axis_scales, extent
 from .filming import (ENGINES, add_camera, add_follow_camera, add_light, character_objects, default_video_path,
                       kept_render_settings, motion_boxes, render_video, union_box)
 from .keying import constrained_rotation_bones, driven_rotation_bones, last_key_frame, write_keys
-from .planning import describe_roles, make_motion, motion_armature
+from .planning import describe_roles, make_motion, motion_armature, motion_bones
 
 MOTIONS = [
     ("HEAD_SHAKE", "Head Shake", "Neck and head yaw back and forth; ears and other head children follow"),
@@ -128,7 +127,7 @@ class MINISKELETON_OT_add_motion(bpy.types.Operator):
             self.report({"ERROR"}, nowhere)
             return None
         scale = max(extent(arm), 1e-30)
-        bones = armature_bones(arm, min_length=1e-6 * scale)
+        bones = motion_bones(arm, min_length=1e-6 * scale)
         if len(bones.names) < 3:
             self.report({"ERROR"}, f"Armature '{arm.name}' has too few deform bones for a motion")
             return None

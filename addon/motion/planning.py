@@ -10,6 +10,7 @@ import math
 import bpy
 import numpy as np
 
+from ..common.armatures import armature_bones
 from ..common.reports import name_list
 
 
@@ -27,6 +28,56 @@ def motion_armature(context: bpy.types.Context) -> bpy.types.Object | None:
         if ob.parent is not None and ob.parent.type == "ARMATURE":
             return ob.parent
     return None
+
+
+def motion_bones(arm: bpy.types.Object, min_length: float = 0.0):
+    """The deform bones the motion moves (``armature_bones``), each deform bone that hangs from
+    non-deform bones only given as parent the deform bone that takes the place of one of them
+    (``twin_parents``): a control rig's deform chains (Rigify's DEF- bones under its ORG- and
+    MCH- bones) make one skeleton again. Weights read the armature's own parents."""
+    bones = armature_bones(arm, min_length=min_length)
+    bones.parents = twin_parents(arm, bones)
+    return bones
+
+
+def twin_parents(arm: bpy.types.Object, bones) -> np.ndarray:
+    """``bones.parents`` with each root (a deform bone with no deform ancestor) whose parent is a
+    non-deform bone re-parented: its non-deform ancestors are walked up, nearest first, until
+    one has a deform twin (another of ``bones`` with the same head and tail, within 1e-4 of the
+    skeleton's size, outside the root's own subtree) and that twin becomes its parent. Rigify
+    hangs DEF-thigh.L from ORG-spine, whose twin is DEF-spine; DEF-pelvis.L hangs from its own
+    twin ORG-pelvis.L, whose parent ORG-spine has the twin DEF-spine. A rig whose deform
+    bones hang from deform bones keeps its parents."""
+    parents = np.array(bones.parents, dtype=np.int32)
+    if len(bones.names) == 0:
+        return parents
+    ends = np.concatenate([bones.heads, bones.tails])
+    tol = 1e-4 * float(np.linalg.norm(np.ptp(ends, axis=0)))
+    m = np.array(arm.matrix_world, dtype=np.float64)
+
+    def world(v):
+        return m[:3, :3] @ np.array(v, dtype=np.float64) + m[:3, 3]
+
+    def inside(i, root):   # is bone i in root's subtree (as re-parented so far)?
+        while i >= 0:
+            if i == root:
+                return True
+            i = parents[i]
+        return False
+
+    for i, name in enumerate(bones.names):
+        up = arm.data.bones[name].parent
+        if parents[i] >= 0 or up is None:
+            continue
+        while up is not None:
+            near = np.flatnonzero((np.linalg.norm(bones.heads - world(up.head_local), axis=1) <= tol)
+                                  & (np.linalg.norm(bones.tails - world(up.tail_local), axis=1) <= tol))
+            twins = [int(j) for j in near if int(j) != i and not inside(int(j), i)]
+            if twins:
+                parents[i] = twins[0]
+                break
+            up = up.parent
+    return parents
 
 
 def rest_matrices(arm: bpy.types.Object, names: list[str]) -> np.ndarray:
@@ -120,3 +171,4 @@ def describe_roles(roles: dict, names: list[str]) -> list[str]:
         lines.append(f"arm {arm['side']}: {n(arm['bones'])}")
     lines += [f"note: {note}" for note in roles["notes"]]
     return lines
+
