@@ -12,6 +12,7 @@ from mathutils import Matrix, Quaternion, Vector
 
 from ..common.keys import (action_fcurves, action_frame, key_rotation, key_series, rotation_path, rotation_series,
                            value_at)
+from ..common.reports import name_list
 from ..common.transforms import axis_scales, inverse
 
 
@@ -196,3 +197,17 @@ def key_root(arm, root_pb, to_local, base, offsets, frames):
         key_series(root_pb, "location", frames, [base + to_local @ o for o in offsets], group=root_pb.name)
     else:
         key_series(arm, "location", frames, [base + o for o in offsets])
+
+
+def overridden_keys(ob: bpy.types.Object, keyed: set[str]) -> str | None:
+    """Why keying the pose bones ``keyed`` would move nothing, or None: every one of them follows
+    an active constraint that turns it (``constrained_rotation_bones``) or has a rotation driver,
+    which override its keys (Rigify's DEF bones copy its ORG bones). The reason names them."""
+    over = {name: "a rotation driver" for name in driven_rotation_bones(ob)}
+    over.update(constrained_rotation_bones(ob))
+    if not keyed or any(n not in over for n in keyed):
+        return None
+    named = [f"{n} ({over[n]})" for n in sorted(keyed)]
+    return (f"no bone the motion would key can move the mesh: each follows a constraint or driver that "
+            f"overrides its keys: {name_list(named, 6)}; nothing was keyed. Mute those constraints (or set "
+            "their influence to 0), or key the bones that drive them")

@@ -22,7 +22,7 @@ from ..common.reports import name_list, read_only, unplaced
 from ..common.transforms import axis_scales, extent
 from .filming import (ENGINES, add_camera, add_follow_camera, add_light, character_objects, default_video_path,
                       kept_render_settings, motion_boxes, render_video, union_box)
-from .keying import constrained_rotation_bones, driven_rotation_bones, last_key_frame, write_keys
+from .keying import constrained_rotation_bones, driven_rotation_bones, last_key_frame, overridden_keys, write_keys
 from .planning import describe_roles, make_motion, motion_armature, motion_bones
 
 MOTIONS = [
@@ -96,6 +96,11 @@ class MINISKELETON_OT_add_motion(bpy.types.Operator):
             start = scene.frame_start if self.append else scene.frame_current
         else:
             start = int(math.floor(last)) + max(1, round(self.blend * fps))
+        keyed = {bones.names[int(b)] for b in out["animated"]} | {bones.names[int(b)] for b in out["located"]}
+        refused = overridden_keys(arm, keyed)
+        if refused:
+            self.report({"ERROR"}, f"{arm.name}: {refused}")
+            return {"CANCELLED"}
         frames = write_keys(context, arm, bones.names, out, start)
         end = start + frames - 1
         # the timeline ends with the motion just appended (never cuts a longer one short)
@@ -106,7 +111,7 @@ class MINISKELETON_OT_add_motion(bpy.types.Operator):
         self.report({"INFO"}, f"{label} ({roles['plan']}): frames {start}-{end}; head "
                     f"{bones.names[roles['head']]}, legs {legs}; spine "
                     f"{', '.join(bones.names[i] for i in roles['spine'])} (full list in the console)")
-        self._warn(arm, {bones.names[int(b)] for b in out["animated"]})
+        self._warn(arm, keyed)
         return {"FINISHED"}
 
     def _armature(self, context):
