@@ -1,7 +1,8 @@
 """Motion: Add Motion keys a head shake, walk or run from the roles the Rust core finds in the
 bones, and Make Video renders the frame range to an MP4. ``operators`` holds the operators and
 ``ui`` their panel and menu entries; ``planning`` (the core's motion), ``keying`` (keys
-written) and ``filming`` (camera, light, render) the work they do."""
+written), ``rigify`` (the controls keyed on a Rigify rig) and ``filming`` (camera, light,
+render) the work they do."""
 
 from ..common.panels import register_area, unregister_area
 from . import operators, ui

@@ -211,3 +211,36 @@ def overridden_keys(ob: bpy.types.Object, keyed: set[str]) -> str | None:
     return (f"no bone the motion would key can move the mesh: each follows a constraint or driver that "
             f"overrides its keys: {name_list(named, 6)}; nothing was keyed. Mute those constraints (or set "
             "their influence to 0), or key the bones that drive them")
+
+
+def write_control_keys(context, arm, targets, solved: dict, start: int, returning=()) -> int:
+    """Key the Rigify controls ``targets`` (``rigify.Target``) to their solved transforms
+    (``rigify.solve``: one ``matrix_basis`` per frame) from scene frame ``start``: the rotation
+    in each control's own rotation mode, continuing from its keys before, and the location where
+    the target keys it. Controls keyed for the first time hold their pose until the motion
+    starts; ``returning`` controls (keyed by an earlier motion, left alone by this one, solved
+    the same way) get one key at ``start``. Returns the number of frames keyed."""
+    pose = arm.pose.bones
+    if arm.animation_data is None:
+        arm.animation_data_create()
+    earlier = last_key_frame(arm)
+    keyed_before = keyed_rotation_bones(arm)
+    located_before = keyed_location_bones(arm)
+    if earlier is not None:
+        for t in targets:
+            pb = pose[t.name]
+            if pb.name not in keyed_before:
+                pb.keyframe_insert(rotation_path(pb), frame=earlier, group=pb.name)
+            if t.location and pb.name not in located_before:
+                pb.keyframe_insert("location", frame=earlier, group=pb.name)
+    frames = len(targets[0].matrices) if targets else 0
+    span = range(start, start + frames)
+    for t in list(targets) + list(returning):
+        pb = pose[t.name]
+        mats = solved[t.name] if t in targets else solved[t.name][:1]
+        before = value_at(pb, rotation_path(pb), earlier) if earlier is not None else None
+        path, values = rotation_series(pb, [tuple(m.to_quaternion()) for m in mats], before)
+        key_series(pb, path, span[:len(mats)], values, group=pb.name)
+        if t.location:
+            key_series(pb, "location", span[:len(mats)], [tuple(m.translation) for m in mats], group=pb.name)
+    return frames

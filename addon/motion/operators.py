@@ -2,8 +2,9 @@
 
 The roles of the bones and the per-frame rotations come from the Rust core
 (``miniskeleton_core.make_motion``, called by ``planning``); ``keying`` writes them as keyframes
-(the same calls on Blender 4.2 and on 5.0's slotted actions), and ``filming`` sets up the
-camera, light and output for Blender's renderer. The operators check, report and render.
+(the same calls on Blender 4.2 and on 5.0's slotted actions), on a Rigify rig on the controls
+that ``rigify`` finds and solves, and ``filming`` sets up the camera, light and output for
+Blender's renderer. The operators check, report and render.
 """
 
 from __future__ import annotations
@@ -24,6 +25,7 @@ from .filming import (ENGINES, add_camera, add_follow_camera, add_light, charact
                       kept_render_settings, motion_boxes, render_video, union_box)
 from .keying import constrained_rotation_bones, driven_rotation_bones, last_key_frame, overridden_keys, write_keys
 from .planning import describe_roles, make_motion, motion_armature, motion_bones
+from .rigify import is_rigify, key_controls, merged_segments, plan_controls
 
 MOTIONS = [
     ("HEAD_SHAKE", "Head Shake", "Neck and head yaw back and forth; ears and other head children follow"),
@@ -96,21 +98,36 @@ class MINISKELETON_OT_add_motion(bpy.types.Operator):
             start = scene.frame_start if self.append else scene.frame_current
         else:
             start = int(math.floor(last)) + max(1, round(self.blend * fps))
-        keyed = {bones.names[int(b)] for b in out["animated"]} | {bones.names[int(b)] for b in out["located"]}
+        rigify = is_rigify(arm)
+        if rigify:
+            try:
+                plan = plan_controls(context, arm, bones, out)
+            except ValueError as err:
+                self.report({"ERROR"}, f"{arm.name}: {err}")
+                return {"CANCELLED"}
+            for line in plan.notes:
+                print(f"[MiniSkeleton]   rigify: {line}")
+            keyed = {t.name for t in plan.moved}
+        else:
+            keyed = {bones.names[int(b)] for b in out["animated"]} | {bones.names[int(b)] for b in out["located"]}
         refused = overridden_keys(arm, keyed)
         if refused:
             self.report({"ERROR"}, f"{arm.name}: {refused}")
             return {"CANCELLED"}
-        frames = write_keys(context, arm, bones.names, out, start)
+        if rigify:
+            frames = key_controls(context, arm, plan, start)
+        else:
+            frames = write_keys(context, arm, bones.names, out, start)
         end = start + frames - 1
         # the timeline ends with the motion just appended (never cuts a longer one short)
         scene.frame_end = max(end, int(math.ceil(last_key_frame(arm)))) if self.append else \
             max(scene.frame_end, end)
         label = dict((m[0], m[1]) for m in MOTIONS)[self.motion]
         legs = ", ".join(bones.names[leg["bones"][0]] for leg in roles["legs"])
+        controls = f"; Rigify controls keyed: {name_list(sorted(keyed), 12)}" if rigify else ""
         self.report({"INFO"}, f"{label} ({roles['plan']}): frames {start}-{end}; head "
                     f"{bones.names[roles['head']]}, legs {legs}; spine "
-                    f"{', '.join(bones.names[i] for i in roles['spine'])} (full list in the console)")
+                    f"{', '.join(bones.names[i] for i in roles['spine'])} (full list in the console){controls}")
         self._warn(arm, keyed)
         return {"FINISHED"}
 
@@ -133,6 +150,8 @@ class MINISKELETON_OT_add_motion(bpy.types.Operator):
             return None
         scale = max(extent(arm), 1e-30)
         bones = motion_bones(arm, min_length=1e-6 * scale)
+        if is_rigify(arm):
+            bones = merged_segments(arm, bones)
         if len(bones.names) < 3:
             self.report({"ERROR"}, f"Armature '{arm.name}' has too few deform bones for a motion")
             return None

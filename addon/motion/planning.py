@@ -172,3 +172,60 @@ def describe_roles(roles: dict, names: list[str]) -> list[str]:
     lines += [f"note: {note}" for note in roles["notes"]]
     return lines
 
+
+def quaternion_matrices(q: np.ndarray) -> np.ndarray:
+    """(..., 3, 3) rotation matrices of the quaternions ``q`` (..., 4) w, x, y, z (normalised)."""
+    q = np.asarray(q, dtype=np.float64)
+    q = q / np.maximum(np.linalg.norm(q, axis=-1, keepdims=True), 1e-300)
+    w, x, y, z = np.moveaxis(q, -1, 0)
+    return np.stack([
+        np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)], axis=-1),
+        np.stack([2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)], axis=-1),
+        np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], axis=-1),
+    ], axis=-2)
+
+
+class PlannedPose:
+    """Forward kinematics of the core's motion ``out`` on ``bones`` (``motion_bones``): calling it
+    with a bone index gives its (frames, 4, 4) armature-space pose matrix, what Blender's
+    ``pose_bone.matrix`` would be on each frame were the motion keyed on these bones themselves
+    (their local rotations and locations in their rest frames, parents as ``bones.parents``, and
+    every root moved by the root offset, as the root bone or the object carries the whole
+    skeleton). Bones are computed when asked for, with their ancestors, and kept."""
+
+    def __init__(self, arm: bpy.types.Object, bones, out: dict):
+        self.arm, self.bones = arm, bones
+        self.frames = int(out["frames"])
+        self.parents = [int(p) for p in bones.parents]
+        world = np.array(arm.matrix_world, dtype=np.float64)[:3, :3]
+        self.offsets = np.asarray(out["root_offset"], dtype=np.float64).reshape(self.frames, 3) \
+            @ np.linalg.inv(world).T
+        self.unit = float(np.mean(np.linalg.norm(world, axis=0)))   # as keying.write_keys divides
+        self.rot = np.asarray(out["rotations"], dtype=np.float64)
+        self.loc = np.asarray(out["locations"], dtype=np.float64)
+        self.located = {int(b) for b in out["located"]}
+        self.posed: dict[int, np.ndarray] = {}
+
+    def rest(self, b: int) -> np.ndarray:
+        """Bone ``b``'s rest matrix in armature space (``matrix_local``), 4x4 float64."""
+        return np.array(self.arm.data.bones[self.bones.names[b]].matrix_local, dtype=np.float64)
+
+    def __call__(self, b: int) -> np.ndarray:
+        chain = []
+        while b >= 0 and b not in self.posed:
+            chain.append(b)
+            b = self.parents[b]
+        for b in reversed(chain):   # parents first
+            local = np.zeros((self.frames, 4, 4))
+            local[:, :3, :3] = quaternion_matrices(self.rot[:, b])
+            local[:, 3, 3] = 1.0
+            if b in self.located:
+                local[:, :3, 3] = self.loc[:, b] / self.unit
+            p = self.parents[b]
+            if p >= 0:
+                m = self.posed[p] @ (np.linalg.inv(self.rest(p)) @ self.rest(b)) @ local
+            else:
+                m = self.rest(b) @ local
+                m[:, :3, 3] += self.offsets
+            self.posed[b] = m
+        return self.posed[chain[0] if chain else b]
