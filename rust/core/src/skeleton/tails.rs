@@ -7,9 +7,7 @@
 //!   tails    #B by 3 the tails as imported (used only where the joints say nothing)
 //!   parents  #B parent index, -1 for roots (validated: a forest)
 //! Output
-//!   #B by 3 tails, the input's unchanged when at least half the bones with children away from
-//!   their head already end on one of those children's heads (a rig built by hand, or whose
-//!   importer pointed each bone at its child). Otherwise: a bone with children ends at the mean of its children's heads that lie
+//!   #B by 3 tails: a bone with children ends at the mean of its children's heads that lie
 //!   away from its own; a bone without (a leaf, or one whose children all start at its head)
 //!   continues its parent's line from its head for half its parent's span; a root with no
 //!   such joint keeps its imported tail.
@@ -40,17 +38,6 @@ pub fn joint_tails(heads: &[[f32; 3]], tails: &[[f32; 3]], parents: &[i32]) -> V
             count[p as usize] += 1;
         }
     }
-    // Tails that already meet a child's head are the joints' own.
-    let meets = (0..n)
-        .filter(|&b| count[b] > 0)
-        .filter(|&b| {
-            let t = Vec3::from(tails[b]);
-            parents.iter().enumerate().any(|(c, &p)| p == b as i32 && (h(c) - t).length() <= near)
-        })
-        .count();
-    if 2 * meets >= count.iter().filter(|&&k| k > 0).count() {
-        return tails.to_vec();
-    }
     (0..n)
         .map(|b| {
             if count[b] > 0 {
@@ -75,9 +62,6 @@ mod tests {
         let heads = [[0.0, 0.0, 1.0], [0.0, 0.0, 1.2], [0.1, 0.0, 1.0], [0.1, 0.0, 0.5], [0.1, 0.0, 1.0]];
         let tails = [[0.0, 40.0, 1.0]; 5];
         let parents = [-1, 0, 0, 2, 2];
-        // tails on their children's heads are kept as they are
-        let made = [[0.0, 0.0, 1.2], [0.0, 0.0, 1.4], [0.1, 0.0, 0.5], [0.1, 0.0, 0.0], [0.1, 0.0, 1.1]];
-        assert_eq!(joint_tails(&heads, &made, &parents), made.to_vec());
         let t = joint_tails(&heads, &tails, &parents);
         // hips: mean of spine and thigh heads (the thigh's head is away from the hips' head)
         assert_eq!(t[0], [0.05, 0.0, 1.1]);
