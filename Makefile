@@ -84,6 +84,7 @@ bench: $(EXT_ZIP)
 	$(VPY) bench/heat_ceiling.py
 	$(VPY) bench/bench_fit.py
 	$(VPY) bench/bench_keys.py
+	$(VPY) bench/motion_corpus.py
 
 clean:
 	rm -rf dist addon/wheels out .build

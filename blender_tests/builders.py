@@ -6,6 +6,8 @@ import math
 
 import bpy
 import numpy as np
+import rig_corpus
+from rig_corpus import set_active
 
 
 def cylinder_arrays(radius=0.5, height=4.0, rings=40, segments=24):
@@ -45,22 +47,10 @@ def cylinder(name="Cylinder", **kw):
 
 
 def armature(name="Armature", bones=(), location=(0, 0, 0), rotation=(0, 0, 0), scale=(1, 1, 1)):
-    """bones: [(name, head, tail, parent_name_or_None, connected)] in armature space."""
-    arm = bpy.data.armatures.new(name)
-    ob = bpy.data.objects.new(name, arm)
-    bpy.context.scene.collection.objects.link(ob)
+    """bones: [(name, head, tail, parent_name_or_None, connected)] in armature space
+    (``rig_corpus.new_armature``), the object placed at ``location``, ``rotation``, ``scale``."""
+    ob = rig_corpus.new_armature(name, bones)
     ob.location, ob.rotation_euler, ob.scale = location, rotation, scale
-    set_active(ob)
-    bpy.ops.object.mode_set(mode="EDIT")
-    made = {}
-    for bname, head, tail, parent, connected in bones:
-        eb = arm.edit_bones.new(bname)
-        eb.head, eb.tail = head, tail
-        if parent:
-            eb.parent = made[parent]
-            eb.use_connect = connected
-        made[bname] = eb
-    bpy.ops.object.mode_set(mode="OBJECT")
     return ob
 
 
@@ -87,15 +77,6 @@ def chain(name="Armature", count=4, height=4.0, margin=0.2, **kw):
     bones = [(f"Bone{i}", (0, 0, zs[i]), (0, 0, zs[i + 1]), f"Bone{i-1}" if i else None, True)
              for i in range(count)]
     return armature(name, bones, **kw)
-
-
-def set_active(ob, selected=()):
-    for o in bpy.context.view_layer.objects:
-        o.select_set(False)
-    for o in selected:
-        o.select_set(True)
-    ob.select_set(True)
-    bpy.context.view_layer.objects.active = ob
 
 
 def pose_select(arm, selected=(), hidden=()):
