@@ -20,13 +20,13 @@
 //!
 //! Method. Every rotation is "angle about a body axis" (up, forward or right = forward × up),
 //! expressed in the bone's rest frame, so a chain rotated about one axis bends in one plane.
-//! - Legs (per leg phase φ, duty factor d): the hip swings from +A to -A linearly during
-//!   stance (foot moving back at constant speed) and back with a cosine during swing; the knee
-//!   flexes by K sin(π s) in swing (s = swing progress), a little in stance; the ankle keeps the
-//!   foot level and lifts its toe in swing. The flexing direction of each joint is the one that
-//!   brings the limb's end closer to the joint above (read from the rest pose), so knees and
-//!   hocks bend their own way. A = asin(stride · d / 2L) for leg length L. An insect's femur,
-//!   rising from the body before the tibia turns down, lifts the leg by F sin(π s) in swing.
+//! - Legs: planted by `footfalls` (each stance foot fixed in the world, the gait phase the
+//!   distance travelled over the stride, two-bone IK from the posed hip, the body as high as
+//!   every leg reaches). A leg without two bones above a foot swings instead (per leg phase φ,
+//!   duty factor d): the hip from +A to -A linearly during stance and back with a cosine in
+//!   swing, the knee flexing by K sin(π s) in swing, the ankle keeping the foot level, each
+//!   joint flexing the way that brings the limb's end closer to the joint above; A =
+//!   asin(stride · d / 2L) for leg length L. An insect's rising femur lifts the leg in swing.
 //! - Phases: biped L 0 / R ½; quadruped walk in diagonal pairs (front L 0, front R ½, back R
 //!   0.15, back L 0.65: back legs offset); quadruped run as a rotary gallop (back L 0, back R
 //!   0.1, front R 0.45, front L 0.55); more legs alternate by group (tripod-like).
@@ -36,14 +36,15 @@
 //! - Body: spine yaw/roll sway (walk), pitch flexion (quadruped run) or twist and lean (biped
 //!   run); neck/head bob at the step rate with the head steadied; tail sway with a lag; biped
 //!   arms swing against the legs.
-//! - Root: forward travel (optional) and a vertical offset that keeps every foot at or above
-//!   its own rest height and the lowest one on it (forward kinematics each frame), which gives
-//!   the body its natural bob.
+//! - Root: forward travel (optional) and the body's height from the planted legs' reach (with
+//!   swinging legs only: the offset that keeps every foot at or above its own rest height and
+//!   the lowest one on it); a tail carried below its rest height turns up at its base.
 //! - Head shake: neck and head yaw A · env(u) · sin(2π c u) over the duration, with a smooth
 //!   fade in and out (starts and ends at rest), the head taking half; ears and other head
 //!   children swing after it with 35 % of the amplitude and a lag.
 //!
-//! Known limitations: no foot IK, so feet slide a little on uneven rigs; rotations are about
+//! Known limitations: feet are planted by their bones, not the mesh (a boot reaching below its
+//! foot bone can dip into the ground as the foot pitches in swing); rotations are about
 //! world-up-based axes, so a character lying down is animated as if standing.
 
 use crate::error::{Error, Result};
