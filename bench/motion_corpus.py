@@ -26,7 +26,7 @@ keyed (``evaluated_get``, world space). ``diag`` is the rest meshes' bounding-bo
 Targets (✓ / ✗ per cell): WALK and RUN finish, moves >= 2, skate <= 0.15, pen. <= 1,
 |float| <= 1; legless rigs refused with "no legs" and nothing keyed; never FINISHED when the
 meshes do not deform (deform < 0.1: no keyed bone moves them); HEAD_SHAKE finishes, keeps the
-feet still (< 0.5) and turns the head (>= 5 degrees). The operator's INFO report names the
+feet still (< 0.5; legged rigs) and turns the head (>= 5 degrees). The operator's INFO report names the
 roles (head, legs, spine); its full role list and warnings are written below the table.
 
 Rigs whose files are absent (no ../shared) are skipped with a line saying so. Writes the table
@@ -286,7 +286,9 @@ def cells(row: dict, legless: bool) -> dict:
         checks = dict(moves=moves >= TARGET["moves"], skate=row["skate"] <= TARGET["skate"],
                       pen=row["pen"] <= TARGET["pen"], float=abs(row["float"]) <= TARGET["float"])
     elif done and motion == "HEAD_SHAKE":
-        checks = dict(feet=row["feet"] < TARGET["feet"], head=row.get("head", 0.0) >= TARGET["head"])
+        checks = dict(head=row.get("head", 0.0) >= TARGET["head"])
+        if not legless:   # a legless rig's lowest points are a tail or a chin, not feet
+            checks["feet"] = row["feet"] < TARGET["feet"]
     for key in ("moves", "deform", "skate", "pen", "float", "feet", "head"):
         if not done or (key == "feet" and motion != "HEAD_SHAKE") or (key == "head" and motion != "HEAD_SHAKE"):
             out[key] = "–"

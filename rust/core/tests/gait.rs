@@ -188,6 +188,29 @@ fn a_foot_rising_from_the_ground_keeps_its_heel_on_it() {
 }
 
 #[test]
+fn feet_and_toes_stay_level_in_stance_and_in_swing() {
+    // the bones below each planted ankle keep their rest direction in the world on every frame:
+    // a foot pitched about its ankle in swing dipped its heel below the ground (RobotExpressive)
+    for (skel, motion) in [(biped(), Motion::Walk), (biped(), Motion::Run), (creature(), Motion::Run)] {
+        let a = run(skel, motion);
+        let (names, h, t, roles) = (&a.0, &a.1, &a.2, &a.5);
+        for (f, (ph, pt)) in posed_clip(&a).iter().enumerate() {
+            for l in &roles.legs {
+                let last = *l.bones.last().unwrap();
+                let rest = (Vec3::from(t[last]) - Vec3::from(h[last])).normalize();
+                let now = (Vec3::from(pt[last]) - Vec3::from(ph[last])).normalize();
+                assert!(
+                    rest.angle_between(now) < 1e-3,
+                    "frame {f}: {} turned {}",
+                    names[last],
+                    rest.angle_between(now)
+                );
+            }
+        }
+    }
+}
+
+#[test]
 fn quadruped_of_separate_trees_walks() {
     check_walk(spot(), Motion::Walk);
     check_walk(spot(), Motion::Run);

@@ -20,9 +20,11 @@
 //! Legs. Each leg's two bones above its foot (thigh and shin; an upper arm and forearm; an
 //! insect's femur and tibia) are solved by two-bone IK ([`crate::posing::two_bone_ik`]) from its
 //! posed hip to its target, the knee bending in the plane and towards the side it bent at rest
-//! (turned with the pelvis). The bones below the ankle keep their rest orientation in the world
-//! in stance (toes and paws level with the ground) and pitch in swing. A leg without two such
-//! bones is left to the swing-based posing of `gait.rs`.
+//! (turned with the pelvis). The bones below the ankle keep their rest orientation in the world,
+//! in stance and in swing: toes and paws stay level with the ground, and a lifted foot is all
+//! above the ground (a foot pitched about its ankle in swing dips its heel or its toe below the
+//! ground when the ankle is lifted less than the foot is long). A leg without two such bones is
+//! left to the swing-based posing of `gait.rs`.
 
 use crate::motion::roles::{Limb, Roles};
 use crate::posing::{frame_turn, two_bone_ik};
@@ -134,11 +136,6 @@ pub(crate) fn foot_offset(ph: f32, duty: f32, stride: f32, lift: f32, travel: f3
     (stride * (0.5 * duty - ph + eased) + travel, lift * up)
 }
 
-/// Swing progress in `[0, 1]` of leg phase `ph`, or `None` in stance.
-pub(crate) fn swing_progress(ph: f32, duty: f32) -> Option<f32> {
-    (ph >= duty).then(|| (ph - duty) / (1.0 - duty))
-}
-
 /// A leg lowers the body by at most this fraction of its reach; a foot further out is left
 /// short of its target (it lifts off a little early or lands a little late), as a body sunk
 /// further would fold a bent leg's knee or elbow into the ground.
@@ -169,16 +166,6 @@ pub(crate) fn leg_turns(leg: &PlantedLeg, hip: Vec3, target: Vec3, pelvis: Quat)
     let upper = frame_turn(leg.knee - leg.hip, leg.pole, s.middle - hip, pole);
     let lower = frame_turn(leg.ankle - leg.knee, leg.pole, s.end - s.middle, pole);
     (upper, lower)
-}
-
-/// The world turn of the bones below the ankle: none in stance (level with the ground), a pitch
-/// about `right` in swing that lifts the toe by up to half of `amp` (a toe pointing down in
-/// swing would reach below the foot it lifts).
-pub(crate) fn foot_turn(swing: Option<f32>, amp: f32, right: Vec3) -> Quat {
-    match swing {
-        None => Quat::IDENTITY,
-        Some(s) => Quat::from_axis_angle(right, 0.5 * amp * (PI * s).sin()),
-    }
 }
 
 #[cfg(test)]

@@ -43,12 +43,14 @@
 //!   fade in and out (starts and ends at rest), the head taking half; ears and other head
 //!   children swing after it with 35 % of the amplitude and a lag.
 //!
-//! Known limitations: feet are planted by their bones, not the mesh (a boot reaching below its
-//! foot bone can dip into the ground as the foot pitches in swing); rotations are about
-//! world-up-based axes, so a character lying down is animated as if standing.
+//! Known limitations: feet are planted by their bones, not the mesh, each at its own rest height:
+//! a rig whose feet do not rest on one ground keeps them apart (spot_rig's hind hooves rest 7 %
+//! of its size above its front ones, so in a gallop's hind-only stance nothing touches the
+//! ground the front hooves stood on); rotations are about world-up-based axes, so a character
+//! lying down is animated as if standing.
 
 use crate::error::{Error, Result};
-use crate::motion::footfalls::{body_drop, foot_offset, foot_turn, leg_turns, planted_legs, swing_progress};
+use crate::motion::footfalls::{body_drop, foot_offset, leg_turns, planted_legs};
 use crate::motion::roles::{no_legs_message, BodyPlan, Limb, Roles, Side};
 use crate::skeleton::validate_parents;
 use glam::{Mat3, Quat, Vec3};
@@ -742,7 +744,7 @@ fn gait(
                         poser.q[b] = Quat::IDENTITY;
                     }
                 }
-                let ctx = Planting { heads, carried: &carried, fwd, up, right };
+                let ctx = Planting { heads, carried: &carried, fwd, up };
                 let offset = plant_legs(&mut poser, &ctx, plant, &phases, &c, phi, travel);
                 // A tail that the body's dip and the spine's flexion carry below its own rest
                 // height (a hanging tail nearly touches the ground) turns up at its base by the
@@ -812,7 +814,6 @@ struct Planting<'a> {
     carried: &'a [i32],
     fwd: Vec3,
     up: Vec3,
-    right: Vec3,
 }
 
 /// Plant the legs at cycle fraction `phi` (see `footfalls`): each ankle's target, the body's
@@ -852,7 +853,7 @@ fn plant_legs(
         p if p >= 0 => turns[p as usize],
         _ => Quat::IDENTITY,
     };
-    for ((leg, &target), &ph) in legs.iter().zip(&targets).zip(&phs) {
+    for (leg, &target) in legs.iter().zip(&targets) {
         let (turns, posed) = fk(poser, offset);
         let pelvis = parent_turn(&turns, leg.upper);
         let (upper, lower) = leg_turns(leg, posed[leg.upper], target, pelvis);
@@ -861,8 +862,7 @@ fn plant_legs(
         turn_to(poser, leg.lower, lower, parent_turn(&turns, leg.lower));
         if let Some(foot) = leg.foot {
             let (turns, _) = fk(poser, offset);
-            let world = foot_turn(swing_progress(ph, c.duty), c.ankle_amp, ctx.right);
-            turn_to(poser, foot, world, parent_turn(&turns, foot));
+            turn_to(poser, foot, Quat::IDENTITY, parent_turn(&turns, foot));
         }
     }
     offset
