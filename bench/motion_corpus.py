@@ -180,16 +180,21 @@ def captured_output():
     sys.stderr.flush()
     libc.fflush(None)
     box = []
+    streams = sys.stdout, sys.stderr
     with tempfile.TemporaryFile() as tmp:
         saved = os.dup(1), os.dup(2)
         os.dup2(tmp.fileno(), 1)
         os.dup2(tmp.fileno(), 2)
+        # Python's own streams may not be file descriptors 1 and 2 (pytest replaces them)
+        sys.stdout = open(1, "w", closefd=False)
+        sys.stderr = open(2, "w", closefd=False)
         try:
             yield box
         finally:
             sys.stdout.flush()
             sys.stderr.flush()
             libc.fflush(None)
+            sys.stdout, sys.stderr = streams
             os.dup2(saved[0], 1)
             os.dup2(saved[1], 2)
             os.close(saved[0])
