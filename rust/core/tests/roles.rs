@@ -422,3 +422,42 @@ fn legs_named_with_a_side_letter_between_underscores_set_the_side() {
     assert!(r.notes.iter().any(|n| n.contains("taken from the .L/.R bone names")), "{:?}", r.notes);
     assert_eq!(leg(&names, &r, Side::Left, 0), ["Bip01_L_thigh", "Bip01_L_shin", "Bip01_L_foot", "Bip01_L_toe"]);
 }
+
+#[test]
+fn a_tail_the_hierarchy_starts_from_is_no_spine() {
+    // Rigify's quadruped and cat metarigs run the spine chain from the tail's tip: the tip is
+    // the root and the hips its descendant
+    let (names, mut h, mut t, mut p) = creature();
+    let tail: Vec<usize> = ["tail.001", "tail.002", "tail.003"].iter().map(|n| bone(&names, n)).collect();
+    let spine = bone(&names, "spine");
+    for &b in &tail {
+        std::mem::swap(&mut h[b], &mut t[b]);
+    }
+    p[tail[2]] = -1;
+    p[tail[1]] = tail[2] as i32;
+    p[tail[0]] = tail[1] as i32;
+    p[spine] = tail[0] as i32;
+    let r = detect_roles(&h, &t, &p, &names).unwrap();
+    assert_eq!(r.plan, BodyPlan::Quadruped);
+    assert!(r.spine.contains(&spine) && !tail.iter().any(|b| r.spine.contains(b)), "{:?}", named(&names, &r.spine));
+    assert_eq!((names[r.head].as_str(), r.legs.len()), ("head", 4));
+    // the walk turns no tail bone: each carries the whole body
+    let rest = rest_of(&h, &t);
+    let params = GaitParams { motion: Motion::Walk, ..Default::default() };
+    let clip = motion_clip(&h, &t, &p, &rest, &r, &params).unwrap();
+    assert!(!tail.iter().any(|b| clip.animated.contains(b)), "{:?}", named(&names, &clip.animated));
+}
+
+#[test]
+fn a_mane_reaching_above_the_head_is_not_the_head() {
+    // a neck bone's child rising higher than the head (Rigify's horse mane, a crest)
+    let (mut names, mut h, mut t, mut p) = creature();
+    let neck = bone(&names, "neck");
+    names.push("mane".into());
+    h.push([0.0, -0.6, 1.25]);
+    t.push([0.0, -0.6, 2.0]);
+    p.push(neck as i32);
+    let r = detect_roles(&h, &t, &p, &names).unwrap();
+    assert_eq!(names[r.head], "head");
+    assert_eq!(named(&names, &r.neck), ["neck"]);
+}

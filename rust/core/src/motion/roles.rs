@@ -20,11 +20,14 @@
 //!    that contain ground leaves is a split: each such child holding one foot is a leg top, and
 //!    the leg is the chain from it down to its foot. Short branches (toe and heel) merge.
 //! 4. Head: the highest midline end (a midline bone with no midline bone below it) outside the
-//!    legs (a bone named head/neck/jaw/skull on its way scores higher, one named tail lower).
+//!    legs (a bone named head/jaw/skull/face on its way scores higher, one named neck less,
+//!    one named tail lower).
 //!    The path root → that end is the body axis; the head bone is on it (by name, else the
 //!    end's parent when the end is a leaf with non-limb siblings like ears, else the end). The
 //!    spine is the axis from the root down to the deepest bone carrying a limb (leg or arm),
-//!    plus the bones carrying legs off the axis; the neck lies between spine and head.
+//!    plus the bones carrying legs off the axis, less a tail the axis starts from (midline
+//!    bones before the first leg's junction running backwards from it); the neck lies between
+//!    spine and head.
 //! 5. Forward is the horizontal axis in the sagittal plane pointing from the legs to the head
 //!    (bipeds: along the feet; if still undecided Blender's -Y); left = up × forward; legs get
 //!    their side from the plane and their front/back group from their position along forward.
@@ -254,6 +257,18 @@ pub fn detect_roles(heads: &[[f32; 3]], tails: &[[f32; 3]], parents: &[i32], nam
         ));
     }
     let (forward, left) = body_axes(&rig, &legs, &mid, trunk.head, &mut notes);
+    let mut trunk = trunk;
+    let reversed = reversed_tail(&rig, &legs, &mid, &axis, &on_axis, forward);
+    trunk.spine.retain(|b| !reversed.contains(b));
+    if reversed.iter().any(|&b| b != rig.tree.root) {
+        let named: Vec<String> =
+            reversed.iter().map(|&b| names.get(b).cloned().unwrap_or_else(|| format!("bone {b}"))).collect();
+        notes.push(format!(
+            "bones behind the hips that the hierarchy starts from (a tail whose tip is the root): {}; \
+             left at rest, carrying the body",
+            named.join(", ")
+        ));
+    }
     let (leg_limbs, plan) = leg_limbs(&rig, &legs, mid.centre, forward, left);
     let arms: Vec<Limb> = arm_chains
         .iter()
@@ -500,7 +515,7 @@ impl Midplane {
 /// with no midline bone below it: a jaw, a head whose children are all paired, a tail tip),
 /// names of the head on its way scoring higher and a tail lower.
 fn head_leaf(rig: &Rig, legs: &Legs, mid: &Midplane) -> Result<usize> {
-    const HEAD_WORDS: [&str; 5] = ["head", "neck", "jaw", "skull", "face"];
+    const HEAD_WORDS: [&str; 4] = ["head", "jaw", "skull", "face"];
     let order = &rig.tree.order;
     let mut midline_below = vec![false; rig.n()];
     for &b in order.iter().rev() {
@@ -513,9 +528,15 @@ fn head_leaf(rig: &Rig, legs: &Legs, mid: &Midplane) -> Result<usize> {
         .map(|b| {
             let mut score = (rig.h(b).z.max(rig.t(b).z) - rig.ground) / rig.height;
             let path = rig.ancestors(b);
-            if path.iter().rev().take(4).any(|&a| words(rig.names, a).iter().any(|w| HEAD_WORDS.contains(&w.as_str())))
-            {
+            // a bone named for the head on the way outranks one named neck, which also carries
+            // a mane or a crest that reaches higher than the head (Rigify's horse)
+            let named = |set: &[&str]| {
+                path.iter().rev().take(4).any(|&a| words(rig.names, a).iter().any(|w| set.contains(&w.as_str())))
+            };
+            if named(&HEAD_WORDS) {
                 score += 1.0;
+            } else if named(&["neck"]) {
+                score += 0.5;
             }
             if lower(rig.names, b).contains("tail") {
                 score -= 1.0;
@@ -556,6 +577,39 @@ fn arm_chains(
     // keep those with a partner on the other side of the plane
     let side = |chain: &Vec<usize>| mid.lateral(rig.t(*chain.last().unwrap())).signum();
     cands.iter().filter(|(_, c)| cands.iter().any(|(_, d)| side(d) == -side(c) && side(c) != 0.0)).cloned().collect()
+}
+
+/// The axis bones before the first one carrying a leg, when they run backwards from it along
+/// the midline (a tail that the hierarchy starts from, as in Rigify's quadruped and cat
+/// metarigs, whose spine chain begins at the tail's tip, or a pelvis root behind the hips):
+/// they are no spine, as turning one would swing the whole body about a point behind the
+/// hips. Empty otherwise (a root bone under or ahead of the hips).
+fn reversed_tail(
+    rig: &Rig,
+    legs: &Legs,
+    mid: &Midplane,
+    axis: &[usize],
+    on_axis: &[bool],
+    forward: Vec3,
+) -> Vec<usize> {
+    let junction = legs
+        .tops
+        .iter()
+        .filter_map(|&top| rig.ancestors(top).iter().rev().find(|&&x| on_axis[x]).copied())
+        .filter_map(|b| axis.iter().position(|&a| a == b))
+        .min();
+    let Some(j) = junction else { return Vec::new() };
+    let before = &axis[..j];
+    if before.is_empty() || !before.iter().all(|&b| mid.holds(rig, b)) {
+        return Vec::new();
+    }
+    let hips = rig.h(axis[j]);
+    let back = before.iter().flat_map(|&b| [rig.h(b), rig.t(b)]).map(|p| (hips - p).dot(forward)).fold(0.0, f32::max);
+    if back > 0.05 * rig.height {
+        before.to_vec()
+    } else {
+        Vec::new()
+    }
 }
 
 /// Step 4's split of the body axis.
