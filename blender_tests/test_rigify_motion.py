@@ -155,6 +155,57 @@ def test_head_shake_turns_the_head_and_keeps_the_feet_still(rig, capfd):
     assert corpus.head_turn(arm, bones.names[out["roles"]["head"]], frames) >= corpus.TARGET["head"]
 
 
+def _legs(front: tuple[str, str] | None, back: tuple[str, str]) -> dict:
+    """Expected legs: (first bone, foot) per side, "front"/"back" on quadrupeds (``front``)."""
+    if front is None:
+        return {s: tuple(n.format(s=s) for n in back) for s in "LR"}
+    return {f"{where} {s}": tuple(n.format(s=s) for n in pair)
+            for where, pair in (("front", front), ("back", back)) for s in "LR"}
+
+
+QUADRUPED_SPINE = dict(spine={"DEF-spine.005", "DEF-spine.008"},
+                       not_spine={"DEF-spine", "DEF-spine.001", "DEF-spine.002", "DEF-spine.003"})
+# Each metarig's anatomy read off its bones: body plan, head, some spine bones and bones that
+# must not be spine (a tail the metarig's spine chain starts from), legs (first bone, foot).
+ROLES = {
+    "rigify_human": dict(plan="biped", head="DEF-spine.006", spine={"DEF-spine", "DEF-spine.003"},
+                         legs=_legs(None, ("DEF-thigh.{s}", "DEF-foot.{s}"))),
+    "rigify_basic_human": dict(plan="biped", head="DEF-spine.006", spine={"DEF-spine", "DEF-spine.003"},
+                               legs=_legs(None, ("DEF-thigh.{s}", "DEF-foot.{s}"))),
+    "rigify_basic_quadruped": dict(plan="quadruped", head="DEF-spine.011", **QUADRUPED_SPINE,
+                                   legs=_legs(("DEF-shoulder.{s}", "DEF-front_foot.{s}"),
+                                              ("DEF-thigh.{s}", "DEF-foot.{s}"))),
+    "rigify_wolf": dict(plan="quadruped", head="DEF-spine.011", **QUADRUPED_SPINE,
+                        legs=_legs(("DEF-shoulder.{s}", "DEF-front_foot.{s}"), ("DEF-thigh.{s}", "DEF-foot.{s}"))),
+    "rigify_horse": dict(plan="quadruped", head="DEF-head", spine={"DEF-spine.002", "DEF-spine.005"},
+                         tail="DEF-tail.001",
+                         legs=_legs(("DEF-shoulder.{s}", "DEF-forefoot.{s}"), ("DEF-pelvis.{s}", "DEF-hind_foot.{s}"))),
+    "rigify_cat": dict(plan="quadruped", head="DEF-spine.006", spine={"DEF-spine", "DEF-spine.003"},
+                       not_spine={"DEF-tail.001", "DEF-tail.004"},
+                       legs=_legs(("DEF-shoulder.{s}", "DEF-hand.{s}"), ("DEF-pelvis.{s}", "DEF-foot.{s}"))),
+    "rigify_bird": dict(plan="biped", head="DEF-head", spine={"DEF-spine.004"}, not_spine={"DEF-spine"},
+                        legs=_legs(None, ("DEF-thigh.{s}", "DEF-foot.{s}"))),
+}
+
+
+def test_the_roles_are_the_metarigs_anatomy(rig):
+    r = built(rig)
+    want = ROLES[rig]
+    bones, out, _ = planned(r.arm, "HEAD_SHAKE")
+    roles, names = out["roles"], bones.names
+    spine = {names[b] for b in roles["spine"]}
+    assert roles["plan"] == want["plan"] and names[roles["head"]] == want["head"], (roles["plan"], names[roles["head"]])
+    assert want["spine"] <= spine and not spine & want.get("not_spine", set()), sorted(spine)
+    if "tail" in want:
+        assert roles["tail"] and names[roles["tail"][0]] == want["tail"]
+    groups = max(leg["group"] for leg in roles["legs"]) + 1
+    found = {(("front " if leg["group"] == 0 else "back ") if groups > 1 else "") + leg["side"]:
+             [names[b] for b in leg["bones"]] for leg in roles["legs"]}
+    assert set(found) == set(want["legs"]), found
+    for label, (first, foot) in want["legs"].items():
+        assert found[label][0] == first and foot in found[label], (label, found[label])
+
+
 # ---------------------------------------------------------------------------- on one rig
 
 def test_the_motion_skeleton_joins_def_chains_at_their_twins():

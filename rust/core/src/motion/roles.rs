@@ -276,7 +276,7 @@ pub fn detect_roles(heads: &[[f32; 3]], tails: &[[f32; 3]], parents: &[i32], nam
         .map(|(_, c)| Limb { bones: c.clone(), side: limb_side(&rig, mid.centre, c, left), group: 0 })
         .collect();
     let is_arm_top = |b: usize| arm_chains.iter().any(|(_, c)| c[0] == b);
-    let tail = find_tail(&rig, &legs, &mid, &trunk, &on_axis, is_arm_top, &reach, forward);
+    let tail = find_tail(&rig, &legs, &mid, &trunk, &reversed, &on_axis, is_arm_top, &reach, forward);
 
     // does moving the root bone move every role bone (one real tree)?
     let real_root = |mut b: usize| {
@@ -796,14 +796,16 @@ fn leg_limbs(rig: &Rig, legs: &Legs, centre: Vec3, forward: Vec3, left: Vec3) ->
     (limbs, plan)
 }
 
-/// Step 6's tail: the midline chain off the spine pointing furthest backwards (more than
-/// 0.05 h), not on the axis, a leg, a leg carrier or an arm.
+/// Step 6's tail: the midline chain off the spine (or off the axis bones `behind` the hips,
+/// [`reversed_tail`]) pointing furthest backwards (more than 0.05 h), not on the axis, a leg,
+/// a leg carrier or an arm.
 #[allow(clippy::too_many_arguments)]
 fn find_tail(
     rig: &Rig,
     legs: &Legs,
     mid: &Midplane,
     trunk: &Trunk,
+    behind: &[usize],
     on_axis: &[bool],
     is_arm_top: impl Fn(usize) -> bool,
     reach: &[f32],
@@ -811,7 +813,7 @@ fn find_tail(
 ) -> Vec<usize> {
     let mut tail = Vec::new();
     let mut best = 0.0f32;
-    for &sb in &trunk.spine {
+    for &sb in trunk.spine.iter().chain(behind) {
         for &c in rig.kids(sb) {
             if on_axis[c] || legs.member[c] || trunk.leg_carrier[c] || is_arm_top(c) || !mid.holds(rig, c) {
                 continue;
