@@ -1,11 +1,12 @@
 """Input a user can hand the add-on, damaged: rig bundles (.npz) corrupted at random and made
-to lie. Every case ends in a report (an error naming the file and the reason, or a clean
-import of what the bundle really holds), never a Python traceback, and a refused input leaves
-the scene as it was."""
+to lie, and rest-pose snapshots edited by hand. Every case ends in a report (an error naming
+the file or property and the reason, or a clean import of what the bundle really holds),
+never a Python traceback, and a refused input leaves the scene as it was."""
 
 from __future__ import annotations
 
 import io
+import json
 import random
 import re
 import tracemalloc
@@ -208,3 +209,104 @@ def test_a_bundle_that_lies_is_refused_before_its_data_is_read(tmp_path, case):
     assert re.search(message, why), why
     assert _scene_state(ob, arm) == before
     assert peak < 4 << 20, peak   # far below the 12 MB (or terabytes) the header claims
+
+
+# ---------------------------------------------------------------------------- rest-pose snapshot
+
+SNAPSHOT_KEY = "miniskeleton_original_rest_pose"
+
+
+def _edited(change):
+    """The stored snapshot (its JSON text) as ``change`` leaves it: ``change`` edits the dict
+    in place, or returns what to store instead (text or another value)."""
+    def edit(raw):
+        snap = json.loads(raw)
+        out = change(snap)
+        return json.dumps(snap) if out is None else out
+    return edit
+
+
+def _bones(arm):
+    """Every bone as the mode shows it: name, head, tail, roll (matrix), parent, connection."""
+    if arm.mode == "EDIT":
+        return [(eb.name, tuple(eb.head), tuple(eb.tail), eb.roll, eb.parent.name if eb.parent else "",
+                 eb.use_connect) for eb in arm.data.edit_bones]
+    return [(b.name, tuple(b.head_local), tuple(b.tail_local), tuple(map(tuple, b.matrix_local)),
+             b.parent.name if b.parent else "", b.use_connect) for b in arm.data.bones]
+
+
+SNAPSHOT_BAD = {  # case: (edit of the stored text, reason reported)
+    "missing heads": (_edited(lambda s: s.pop("heads") and None), "it has no heads"),
+    "missing version and connect": (_edited(lambda s: [s.pop("version"), s.pop("connect")] and None),
+                                    "it has no version, connect"),
+    "tails one short": (_edited(lambda s: s["tails"].pop() and None), "it has 2 tails for 3 names"),
+    "rolls one long": (_edited(lambda s: s["rolls"].append(0.0)), "it has 4 rolls for 3 names"),
+    "heads as text": (_edited(lambda s: s.update(heads="0 0 0")), "its heads are a str, not a list"),
+    "a head of two numbers": (_edited(lambda s: s["heads"][1].pop() and None),
+                              r"the head of 'Bone1' \(\[0\.0, 0\.0\]\) is not three finite numbers"),
+    "a tail as text": (_edited(lambda s: s["tails"][0].__setitem__(2, "1.0")), "the tail of 'Bone0'"),
+    "a NaN roll": (_edited(lambda s: s["rolls"].__setitem__(0, float("nan"))), r"the roll of 'Bone0' \(nan\)"),
+    "a head past single precision": (_edited(lambda s: s["heads"][0].__setitem__(0, 1e39)), "the head of 'Bone0'"),
+    "a huge integer": (_edited(lambda s: s["tails"][2].__setitem__(0, 10 ** 400)), "the tail of 'Bone2'"),
+    "a name as a number": (_edited(lambda s: s["names"].__setitem__(1, 7)), r"name 1 \(7\) is not a bone name"),
+    "a name of 64 bytes": (_edited(lambda s: s["names"].__setitem__(1, "x" * 64)), "name 1 .* is not a bone name"),
+    "a name twice": (_edited(lambda s: s["names"].__setitem__(2, "Bone0")), "the name 'Bone0' appears twice"),
+    "a parent not in it": (_edited(lambda s: s["parents"].__setitem__(1, "Hand")),
+                           r"the parent of 'Bone1' \('Hand'\) is not a bone of it"),
+    "parents in a loop": (_edited(lambda s: s["parents"].__setitem__(0, "Bone2")),
+                          "the parents of 'Bone0' go round in a loop"),
+    "a bone of no length": (_edited(lambda s: s["tails"].__setitem__(1, s["heads"][1])), "bone 'Bone1' has no length"),
+    "connect as 1": (_edited(lambda s: s["connect"].__setitem__(1, 1)), r"the connection of 'Bone1' \(1\)"),
+    "version 2": (_edited(lambda s: s.update(version=2)), "its version is 2, not 1"),
+    "a list, not a dict": (_edited(lambda s: json.dumps([s])), "it holds a list, not a dictionary"),
+    "not JSON": (lambda raw: raw[:-1], "it is not JSON"),
+    "a number, not text": (lambda raw: 5, "it is a int, not the JSON text"),
+}
+
+
+@pytest.mark.parametrize("case, mode", [(case, "POSE") for case in SNAPSHOT_BAD]
+                         + [("missing heads", "OBJECT"), ("missing heads", "EDIT")])
+def test_a_snapshot_edited_by_hand_is_refused_before_any_bone_changes(case, mode):
+    """The stored original is a custom property anyone can edit. Restore checks all of it
+    before it enters Edit Mode: a damaged one is one error naming the property and the reason,
+    and the bones (names, heads, tails, rolls, parents, connection), the mode and the active
+    object stay as they were. Before, a missing 'heads' raised KeyError in Edit Mode after
+    bones had been removed, made and unparented. Every case in Pose Mode, one in Object and
+    Edit Mode too."""
+    arm = builders.chain("Rig", count=3)
+    builders.set_active(arm)
+    assert bpy.ops.armature.miniskeleton_snapshot_skeleton() == {"FINISHED"}
+    bpy.ops.object.mode_set(mode="EDIT")   # changes that Restore would undo
+    ebs = arm.data.edit_bones
+    ebs["Bone2"].name = "Hand"
+    ebs.new("Extra").tail = (0, 1, 0)
+    ebs["Bone1"].tail.x += 0.3
+    ebs["Bone1"].roll = 0.5
+    bpy.ops.object.mode_set(mode=mode)
+    change, reason = SNAPSHOT_BAD[case]
+    arm.data[SNAPSHOT_KEY] = change(arm.data[SNAPSHOT_KEY])
+    before = (_bones(arm), arm.mode, bpy.context.view_layer.objects.active.name, len(bpy.data.objects))
+    why = _refusal(bpy.ops.armature.miniskeleton_restore_skeleton)
+    assert why is not None and re.search(
+        f"The stored original skeleton of 'Rig' \\(custom property '{SNAPSHOT_KEY}' of armature data "
+        f"'Rig'\\) cannot be restored: {reason}.*Nothing was changed", why), why
+    assert (_bones(arm), arm.mode, bpy.context.view_layer.objects.active.name, len(bpy.data.objects)) == before
+
+
+def test_a_snapshot_edited_by_hand_into_another_valid_one_is_restored_as_it_says():
+    """The checks refuse only what cannot be restored exactly: a snapshot edited into another
+    valid rest pose (a head moved, a parent changed, given as whole numbers) is restored."""
+    arm = builders.chain("Rig", count=3)
+    builders.set_active(arm)
+    assert bpy.ops.armature.miniskeleton_snapshot_skeleton() == {"FINISHED"}
+
+    def edit(snap):
+        snap["heads"][2] = [1, 0, 2]
+        snap["connect"][2] = False
+        snap["parents"][2] = "Bone0"
+
+    arm.data[SNAPSHOT_KEY] = _edited(edit)(arm.data[SNAPSHOT_KEY])
+    assert bpy.ops.armature.miniskeleton_restore_skeleton() == {"FINISHED"}
+    bone = arm.data.bones["Bone2"]
+    assert tuple(bone.head_local) == (1, 0, 2) and bone.parent.name == "Bone0" and not bone.use_connect
+    assert arm.mode == "OBJECT"
