@@ -2,6 +2,7 @@
 generated quadruped and biped, walk phases measured on the feet, head shake, appending, MP4."""
 
 import math
+import re
 import shutil
 import subprocess
 
@@ -1033,6 +1034,70 @@ def test_video_path_that_cannot_be_written_is_an_error_and_adds_nothing(tmp_path
             bpy.ops.render.miniskeleton_make_video(filepath=str(bad))
         assert bpy.context.scene.camera is None and not any(o.type == "LIGHT" for o in bpy.data.objects)
     assert not any(folder.iterdir())
+
+
+def _video_state(folder):
+    """What a failed Make Video must leave as it was: the data-blocks it could add, the scene
+    camera, the render settings it changes, the frame, and the files in ``folder`` (bytes)."""
+    scene = bpy.context.scene
+    render = scene.render
+    blocks = {kind: sorted(b.name for b in getattr(bpy.data, kind)) for kind in ("objects", "cameras", "lights",
+                                                                                 "actions")}
+    settings = (render.engine, render.resolution_x, render.resolution_y, render.resolution_percentage, render.fps,
+                render.fps_base, render.filepath, render.image_settings.file_format, render.ffmpeg.codec,
+                render.use_border, render.use_multiview, scene.display.shading.light)
+    files = {p.name: p.read_bytes() for p in sorted(folder.iterdir())}
+    return blocks, scene.camera.name if scene.camera else None, settings, scene.frame_current, files
+
+
+def _break_the_render(scene, failure):
+    """A real render failure from the scene's own settings, which Make Video keeps: a render
+    border smaller than a pixel (Blender: "Image too small"), or stereo views written to one
+    file per view (the video's own file is never written)."""
+    if failure == "border":
+        scene.render.use_border = scene.render.use_crop_to_border = True
+        scene.render.border_min_x, scene.render.border_max_x = 0.0, 0.01
+        scene.render.border_min_y, scene.render.border_max_y = 0.0, 0.01
+    else:
+        scene.render.use_multiview = True
+        scene.render.image_settings.views_format = "INDIVIDUAL"
+
+
+@pytest.mark.parametrize("failure, message", [("border", "rendering failed: Image too small"),
+                                              ("views", "rendering wrote no file at .*clip")])
+@pytest.mark.parametrize("camera", ["IF_MISSING", "FOLLOW"])
+def test_a_video_whose_render_fails_leaves_the_scene_and_the_earlier_video_as_they_were(tmp_path, camera,
+                                                                                       failure, message):
+    """Make Video is one transaction: it renders into a hidden file beside the video and
+    replaces the earlier video only with a whole one; when the render fails, the camera (a
+    following one with its keys) and the light it added go again, the scene camera and the
+    render settings are as they were, no part file is left, and the report says why. Before,
+    the earlier video was deleted first, the camera and light stayed, and "Image too small"
+    was a traceback."""
+    scene = bpy.context.scene
+    bpy.ops.mesh.primitive_cube_add()
+    cube = bpy.context.active_object
+    cube.keyframe_insert("location", frame=1)
+    cube.location.x = 4.0
+    cube.keyframe_insert("location", frame=2)
+    scene.frame_start, scene.frame_end = 1, 2
+    out = tmp_path / "clip.mp4"
+    assert bpy.ops.render.miniskeleton_make_video(filepath=str(out), resolution_x=32, resolution_y=32,
+                                                  camera="NEW") == {"FINISHED"}
+    assert [p.name for p in tmp_path.iterdir()] == ["clip.mp4"] and out.read_bytes()[4:8] == b"ftyp"
+    if camera == "IF_MISSING":   # a scene without a camera or light: Make Video adds both
+        bpy.data.batch_remove([ob for ob in scene.objects if ob.type in ("CAMERA", "LIGHT")])
+        assert scene.camera is None
+    else:                        # the scene's own camera and light stay; a following camera is added
+        scene.camera.name = scene.camera.data.name = "MyCamera"
+    _break_the_render(scene, failure)
+    before = _video_state(tmp_path)
+    with pytest.raises(RuntimeError) as refused:
+        bpy.ops.render.miniskeleton_make_video(filepath=str(out), resolution_x=32, resolution_y=32, camera=camera)
+    why = str(refused.value)
+    assert "Traceback" not in why and re.search(
+        f"No video made: {message}.*; the scene and the earlier video are as they were", why), why
+    assert _video_state(tmp_path) == before
 
 
 def test_undo_after_a_video_takes_back_its_camera_and_light_only(tmp_path):

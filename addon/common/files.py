@@ -1,9 +1,11 @@
-"""Files the operators write and read: the folder an export or a video goes in, and NumPy
-``.npz`` archives read with every header checked before any data is trusted or allocated."""
+"""Files the operators write and read: the folder an export or a video goes in, a file that
+takes another's place only once it is whole, and NumPy ``.npz`` archives read with every
+header checked before any data is trusted or allocated."""
 
 from __future__ import annotations
 
 import math
+import os
 import struct
 import tokenize
 import warnings
@@ -73,6 +75,13 @@ def make_folder(path: Path) -> str | None:
     except OSError as err:
         return err.strerror or str(err)
     return None
+
+
+def part_path(path: Path) -> Path:
+    """A file beside ``path`` to write first and move onto it (``os.replace``, atomic in one
+    folder) once it is whole: hidden, named after ``path`` and this process, with ``path``'s
+    extension (writers such as Blender's movie output go by it)."""
+    return path.with_name(f".{path.stem}.part-{os.getpid()}{path.suffix}")
 
 
 def read_npz(path: Path, what: str = "file", arrays: dict[str, ArraySpec] | None = None,
