@@ -913,6 +913,21 @@ def test_a_following_camera_travels_level_with_the_walker_and_keeps_it_in_frame(
         assert_in_view(scene, cam, corners(stay))
 
 
+def test_a_motion_shorter_than_the_samples_is_sampled_at_every_frame():
+    """A frame range shorter than the 24 samples is sampled at each of its frames, the last
+    included. The spacing was that of 24 samples: frames 1 to 5 gave boxes at 1 and 2 only, so
+    a camera framed the start of a short motion, and 2 frames gave one box and no following."""
+    filming = __import__(ADDON + ".motion.filming", fromlist=["filming"])
+    scene = bpy.context.scene
+    cube = keyed_cube("Cube", [(1, (0.0, 0.0, 0.0)), (5, (4.0, 0.0, 0.0))])
+    for end, frames in ((5, [1, 2, 3, 4, 5]), (2, [1, 2]), (1, [1])):
+        scene.frame_start, scene.frame_end = 1, end
+        assert [b[0] for b in filming.motion_boxes(scene, [cube])] == frames
+    scene.frame_end = 5
+    boxes = filming.motion_boxes(scene, [cube])
+    assert boxes[-1][1].x == pytest.approx(3.5)   # the cube's last place is in the box
+
+
 def test_the_camera_frames_the_visible_meshes_an_armature_deforms():
     """What Make Video frames: visible meshes deformed by (or parented to) an armature, not a
     hidden proxy or an unrigged ground plane; without a rigged mesh every visible mesh; without
@@ -1092,12 +1107,28 @@ def test_a_video_whose_render_fails_leaves_the_scene_and_the_earlier_video_as_th
         scene.camera.name = scene.camera.data.name = "MyCamera"
     _break_the_render(scene, failure)
     before = _video_state(tmp_path)
-    with pytest.raises(RuntimeError) as refused:
-        bpy.ops.render.miniskeleton_make_video(filepath=str(out), resolution_x=32, resolution_y=32, camera=camera)
+    rendering = []   # what the scene held while it rendered (a border too small fails before)
+
+    def seen(_scene, _depsgraph=None):
+        rendering.append((scene.camera.name, sorted(a.name for a in bpy.data.actions),
+                          sorted(o.type for o in bpy.data.objects)))
+
+    bpy.app.handlers.render_pre.append(seen)
+    try:
+        with pytest.raises(RuntimeError) as refused:
+            bpy.ops.render.miniskeleton_make_video(filepath=str(out), resolution_x=32, resolution_y=32,
+                                                   camera=camera)
+    finally:
+        bpy.app.handlers.render_pre.remove(seen)
     why = str(refused.value)
     assert "Traceback" not in why and re.search(
         f"No video made: {message}.*; the scene and the earlier video are as they were", why), why
     assert _video_state(tmp_path) == before
+    if failure == "views":   # the render ran with what Make Video added, which is gone again
+        added = {"IF_MISSING": ("MiniSkeletonCamera", ["CubeAction"], ["CAMERA", "LIGHT", "MESH"]),
+                 "FOLLOW": ("MiniSkeletonCamera", ["CubeAction", "MiniSkeletonCameraAction"],
+                            ["CAMERA", "CAMERA", "LIGHT", "MESH"])}[camera]
+        assert rendering and all(r == added for r in rendering), rendering
 
 
 def test_undo_after_a_video_takes_back_its_camera_and_light_only(tmp_path):

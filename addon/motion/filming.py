@@ -44,8 +44,8 @@ def motion_boxes(scene, objects, samples: int = 24) -> list[tuple[int, Vector, V
     or a bone with a broken transform) are left out, and so are frames with none left."""
     current = scene.frame_current
     n = scene.frame_end - scene.frame_start + 1
-    frames = sorted({scene.frame_start + round(i * (n - 1) / max(samples - 1, 1))
-                     for i in range(min(samples, n))})
+    k = min(samples, n)
+    frames = sorted({scene.frame_start + round(i * (n - 1) / max(k - 1, 1)) for i in range(k)})
     boxes = []
     for f in frames:
         scene.frame_set(f)
