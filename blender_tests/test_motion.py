@@ -1066,10 +1066,13 @@ def _video_state(folder):
 
 
 def _break_the_render(scene, failure):
-    """A real render failure from the scene's own settings, which Make Video keeps: a render
-    border smaller than a pixel (Blender: "Image too small"), or stereo views written to one
-    file per view (the video's own file is never written)."""
-    if failure == "border":
+    """A real render failure: from the scene's own settings, which Make Video keeps, a render
+    border smaller than a pixel (Blender: "Image too small") or stereo views written to one
+    file per view (the video's own file is never written); or Cycles asked for with its
+    add-on disabled (the test enables it again)."""
+    if failure == "cycles":
+        bpy.ops.preferences.addon_disable(module="cycles")
+    elif failure == "border":
         scene.render.use_border = scene.render.use_crop_to_border = True
         scene.render.border_min_x, scene.render.border_max_x = 0.0, 0.01
         scene.render.border_min_y, scene.render.border_max_y = 0.0, 0.01
@@ -1079,7 +1082,8 @@ def _break_the_render(scene, failure):
 
 
 @pytest.mark.parametrize("failure, message", [("border", "rendering failed: Image too small"),
-                                              ("views", "rendering wrote no file at .*clip")])
+                                              ("views", "rendering wrote no file at .*clip"),
+                                              ("cycles", "the Cycles engine is not available")])
 @pytest.mark.parametrize("camera", ["IF_MISSING", "FOLLOW"])
 def test_a_video_whose_render_fails_leaves_the_scene_and_the_earlier_video_as_they_were(tmp_path, camera,
                                                                                        failure, message):
@@ -1088,7 +1092,7 @@ def test_a_video_whose_render_fails_leaves_the_scene_and_the_earlier_video_as_th
     following one with its keys) and the light it added go again, the scene camera and the
     render settings are as they were, no part file is left, and the report says why. Before,
     the earlier video was deleted first, the camera and light stayed, and "Image too small"
-    was a traceback."""
+    and a disabled Cycles were tracebacks."""
     scene = bpy.context.scene
     bpy.ops.mesh.primitive_cube_add()
     cube = bpy.context.active_object
@@ -1113,13 +1117,16 @@ def test_a_video_whose_render_fails_leaves_the_scene_and_the_earlier_video_as_th
         rendering.append((scene.camera.name, sorted(a.name for a in bpy.data.actions),
                           sorted(o.type for o in bpy.data.objects)))
 
+    engine = "CYCLES" if failure == "cycles" else "WORKBENCH"
     bpy.app.handlers.render_pre.append(seen)
     try:
         with pytest.raises(RuntimeError) as refused:
             bpy.ops.render.miniskeleton_make_video(filepath=str(out), resolution_x=32, resolution_y=32,
-                                                   camera=camera)
+                                                   camera=camera, engine=engine)
     finally:
         bpy.app.handlers.render_pre.remove(seen)
+        if failure == "cycles":
+            bpy.ops.preferences.addon_enable(module="cycles")
     why = str(refused.value)
     assert "Traceback" not in why and re.search(
         f"No video made: {message}.*; the scene and the earlier video are as they were", why), why

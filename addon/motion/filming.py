@@ -156,7 +156,8 @@ def add_light(scene) -> bpy.types.Object:
 
 
 def set_engine(scene, engine: str) -> None:
-    """Pick the render engine with settings that suit a character video; SCENE changes nothing."""
+    """Pick the render engine with settings that suit a character video; SCENE changes nothing.
+    VideoError when this Blender does not offer it (Cycles is an add-on that can be disabled)."""
     if engine == "SCENE":
         return
     if engine == "WORKBENCH":
@@ -173,8 +174,14 @@ def set_engine(scene, engine: str) -> None:
                 break
             except TypeError:
                 continue
+        else:
+            raise VideoError("this Blender offers no EEVEE engine")
     else:
-        scene.render.engine = "CYCLES"
+        try:
+            scene.render.engine = "CYCLES"
+        except TypeError as err:   # "enum 'CYCLES' not found"
+            raise VideoError("the Cycles engine is not available: enable the Cycles add-on "
+                             "(Preferences > Add-ons)") from err
         scene.cycles.device = "CPU"
         scene.cycles.samples = 32
 
