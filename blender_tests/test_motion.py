@@ -2,6 +2,7 @@
 generated quadruped and biped, walk phases measured on the feet, head shake, appending, MP4."""
 
 import math
+import re
 import shutil
 import subprocess
 
@@ -912,6 +913,21 @@ def test_a_following_camera_travels_level_with_the_walker_and_keeps_it_in_frame(
         assert_in_view(scene, cam, corners(stay))
 
 
+def test_a_motion_shorter_than_the_samples_is_sampled_at_every_frame():
+    """A frame range shorter than the 24 samples is sampled at each of its frames, the last
+    included. The spacing was that of 24 samples: frames 1 to 5 gave boxes at 1 and 2 only, so
+    a camera framed the start of a short motion, and 2 frames gave one box and no following."""
+    filming = __import__(ADDON + ".motion.filming", fromlist=["filming"])
+    scene = bpy.context.scene
+    cube = keyed_cube("Cube", [(1, (0.0, 0.0, 0.0)), (5, (4.0, 0.0, 0.0))])
+    for end, frames in ((5, [1, 2, 3, 4, 5]), (2, [1, 2]), (1, [1])):
+        scene.frame_start, scene.frame_end = 1, end
+        assert [b[0] for b in filming.motion_boxes(scene, [cube])] == frames
+    scene.frame_end = 5
+    boxes = filming.motion_boxes(scene, [cube])
+    assert boxes[-1][1].x == pytest.approx(3.5)   # the cube's last place is in the box
+
+
 def test_the_camera_frames_the_visible_meshes_an_armature_deforms():
     """What Make Video frames: visible meshes deformed by (or parented to) an armature, not a
     hidden proxy or an unrigged ground plane; without a rigged mesh every visible mesh; without
@@ -1033,6 +1049,93 @@ def test_video_path_that_cannot_be_written_is_an_error_and_adds_nothing(tmp_path
             bpy.ops.render.miniskeleton_make_video(filepath=str(bad))
         assert bpy.context.scene.camera is None and not any(o.type == "LIGHT" for o in bpy.data.objects)
     assert not any(folder.iterdir())
+
+
+def _video_state(folder):
+    """What a failed Make Video must leave as it was: the data-blocks it could add, the scene
+    camera, the render settings it changes, the frame, and the files in ``folder`` (bytes)."""
+    scene = bpy.context.scene
+    render = scene.render
+    blocks = {kind: sorted(b.name for b in getattr(bpy.data, kind)) for kind in ("objects", "cameras", "lights",
+                                                                                 "actions")}
+    settings = (render.engine, render.resolution_x, render.resolution_y, render.resolution_percentage, render.fps,
+                render.fps_base, render.filepath, render.image_settings.file_format, render.ffmpeg.codec,
+                render.use_border, render.use_multiview, scene.display.shading.light)
+    files = {p.name: p.read_bytes() for p in sorted(folder.iterdir())}
+    return blocks, scene.camera.name if scene.camera else None, settings, scene.frame_current, files
+
+
+def _break_the_render(scene, failure):
+    """A real render failure: from the scene's own settings, which Make Video keeps, a render
+    border smaller than a pixel (Blender: "Image too small") or stereo views written to one
+    file per view (the video's own file is never written); or Cycles asked for with its
+    add-on disabled (the test enables it again)."""
+    if failure == "cycles":
+        bpy.ops.preferences.addon_disable(module="cycles")
+    elif failure == "border":
+        scene.render.use_border = scene.render.use_crop_to_border = True
+        scene.render.border_min_x, scene.render.border_max_x = 0.0, 0.01
+        scene.render.border_min_y, scene.render.border_max_y = 0.0, 0.01
+    else:
+        scene.render.use_multiview = True
+        scene.render.image_settings.views_format = "INDIVIDUAL"
+
+
+@pytest.mark.parametrize("failure, message", [("border", "rendering failed: Image too small"),
+                                              ("views", "rendering wrote no file at .*clip"),
+                                              ("cycles", "the Cycles engine is not available")])
+@pytest.mark.parametrize("camera", ["IF_MISSING", "FOLLOW"])
+def test_a_video_whose_render_fails_leaves_the_scene_and_the_earlier_video_as_they_were(tmp_path, camera,
+                                                                                       failure, message):
+    """Make Video is one transaction: it renders into a hidden file beside the video and
+    replaces the earlier video only with a whole one; when the render fails, the camera (a
+    following one with its keys) and the light it added go again, the scene camera and the
+    render settings are as they were, no part file is left, and the report says why. Before,
+    the earlier video was deleted first, the camera and light stayed, and "Image too small"
+    and a disabled Cycles were tracebacks."""
+    scene = bpy.context.scene
+    bpy.ops.mesh.primitive_cube_add()
+    cube = bpy.context.active_object
+    cube.keyframe_insert("location", frame=1)
+    cube.location.x = 4.0
+    cube.keyframe_insert("location", frame=2)
+    scene.frame_start, scene.frame_end = 1, 2
+    out = tmp_path / "clip.mp4"
+    assert bpy.ops.render.miniskeleton_make_video(filepath=str(out), resolution_x=32, resolution_y=32,
+                                                  camera="NEW") == {"FINISHED"}
+    assert [p.name for p in tmp_path.iterdir()] == ["clip.mp4"] and out.read_bytes()[4:8] == b"ftyp"
+    if camera == "IF_MISSING":   # a scene without a camera or light: Make Video adds both
+        bpy.data.batch_remove([ob for ob in scene.objects if ob.type in ("CAMERA", "LIGHT")])
+        assert scene.camera is None
+    else:                        # the scene's own camera and light stay; a following camera is added
+        scene.camera.name = scene.camera.data.name = "MyCamera"
+    _break_the_render(scene, failure)
+    before = _video_state(tmp_path)
+    rendering = []   # what the scene held while it rendered (a border too small fails before)
+
+    def seen(_scene, _depsgraph=None):
+        rendering.append((scene.camera.name, sorted(a.name for a in bpy.data.actions),
+                          sorted(o.type for o in bpy.data.objects)))
+
+    engine = "CYCLES" if failure == "cycles" else "WORKBENCH"
+    bpy.app.handlers.render_pre.append(seen)
+    try:
+        with pytest.raises(RuntimeError) as refused:
+            bpy.ops.render.miniskeleton_make_video(filepath=str(out), resolution_x=32, resolution_y=32,
+                                                   camera=camera, engine=engine)
+    finally:
+        bpy.app.handlers.render_pre.remove(seen)
+        if failure == "cycles":
+            bpy.ops.preferences.addon_enable(module="cycles")
+    why = str(refused.value)
+    assert "Traceback" not in why and re.search(
+        f"No video made: {message}.*; the scene and the earlier video are as they were", why), why
+    assert _video_state(tmp_path) == before
+    if failure == "views":   # the render ran with what Make Video added, which is gone again
+        added = {"IF_MISSING": ("MiniSkeletonCamera", ["CubeAction"], ["CAMERA", "LIGHT", "MESH"]),
+                 "FOLLOW": ("MiniSkeletonCamera", ["CubeAction", "MiniSkeletonCameraAction"],
+                            ["CAMERA", "CAMERA", "LIGHT", "MESH"])}[camera]
+        assert rendering and all(r == added for r in rendering), rendering
 
 
 def test_undo_after_a_video_takes_back_its_camera_and_light_only(tmp_path):

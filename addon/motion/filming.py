@@ -1,16 +1,21 @@
 """Filming a character for Make Video: which objects to frame, a camera that frames (or
 follows) their motion over the frame range, a light, the render engine and H.264 MP4 output,
-the frame range rendered with progress, and the scene's render settings put back afterwards.
-Rendering itself is Blender's."""
+the frame range rendered with progress into a file that replaces the video only when whole,
+and the scene's render settings put back afterwards; a failed video takes back the camera and
+light it added. Rendering itself is Blender's."""
 
 from __future__ import annotations
 
+import glob
 import math
+import os
 from contextlib import contextmanager
 from pathlib import Path
 
 import bpy
 from mathutils import Quaternion, Vector
+
+from ..common.files import part_path
 
 ENGINES = [
     ("WORKBENCH", "Workbench", "Fast solid shading, any machine"),
@@ -18,6 +23,10 @@ ENGINES = [
     ("CYCLES", "Cycles", "Path tracer on the CPU (slow)"),
     ("SCENE", "Scene's Own", "Keep the scene's engine and its settings (e.g. a Shadow Theatre preset)"),
 ]
+
+
+class VideoError(Exception):
+    """A video that could not be made, with the reason (``render_video``)."""
 
 
 def character_objects(scene) -> list[bpy.types.Object]:
@@ -35,8 +44,8 @@ def motion_boxes(scene, objects, samples: int = 24) -> list[tuple[int, Vector, V
     or a bone with a broken transform) are left out, and so are frames with none left."""
     current = scene.frame_current
     n = scene.frame_end - scene.frame_start + 1
-    frames = sorted({scene.frame_start + round(i * (n - 1) / max(samples - 1, 1))
-                     for i in range(min(samples, n))})
+    k = min(samples, n)
+    frames = sorted({scene.frame_start + round(i * (n - 1) / max(k - 1, 1)) for i in range(k)})
     boxes = []
     for f in frames:
         scene.frame_set(f)
@@ -147,7 +156,8 @@ def add_light(scene) -> bpy.types.Object:
 
 
 def set_engine(scene, engine: str) -> None:
-    """Pick the render engine with settings that suit a character video; SCENE changes nothing."""
+    """Pick the render engine with settings that suit a character video; SCENE changes nothing.
+    VideoError when this Blender does not offer it (Cycles is an add-on that can be disabled)."""
     if engine == "SCENE":
         return
     if engine == "WORKBENCH":
@@ -164,8 +174,14 @@ def set_engine(scene, engine: str) -> None:
                 break
             except TypeError:
                 continue
+        else:
+            raise VideoError("this Blender offers no EEVEE engine")
     else:
-        scene.render.engine = "CYCLES"
+        try:
+            scene.render.engine = "CYCLES"
+        except TypeError as err:   # "enum 'CYCLES' not found"
+            raise VideoError("the Cycles engine is not available: enable the Cycles add-on "
+                             "(Preferences > Add-ons)") from err
         scene.cycles.device = "CPU"
         scene.cycles.samples = 32
 
@@ -189,16 +205,20 @@ def set_mp4(scene, path: Path) -> None:
 
 def render_video(context, path: Path, size: tuple[int, int], fps: int, engine: str) -> int:
     """Set the scene up for the MP4 (``size`` (even width, height); ``fps`` 0: the scene's; the
-    ``engine`` of ``set_engine``) and render its frame range with progress; frames rendered."""
+    ``engine`` of ``set_engine``) and render its frame range with progress; frames rendered.
+    The frames go to a hidden file beside ``path`` (``part_path``) that replaces ``path`` only
+    once the render has finished and written it: VideoError with the reason otherwise (Blender's
+    render error, such as "Image too small" for a render border smaller than a pixel; a render
+    that wrote no file there), with an earlier video at ``path`` as it was and no part file left."""
     scene = context.scene
     render = scene.render
+    part = part_path(path)
     render.resolution_x, render.resolution_y = size
     render.resolution_percentage = 100
     if fps:
         render.fps, render.fps_base = fps, 1.0
     set_engine(scene, engine)
-    set_mp4(scene, path)
-    path.unlink(missing_ok=True)   # so a failed render cannot pass for this one
+    set_mp4(scene, part)
 
     total = len(range(scene.frame_start, scene.frame_end + 1, scene.frame_step))  # as Blender renders
     wm = context.window_manager
@@ -213,11 +233,42 @@ def render_video(context, path: Path, size: tuple[int, int], fps: int, engine: s
     wm.progress_begin(0, total)
     bpy.app.handlers.render_post.append(progress)
     try:
-        bpy.ops.render.render(animation=True)
+        try:
+            result = bpy.ops.render.render(animation=True)
+        except RuntimeError as err:   # Blender's report, "Error: Image too small"
+            raise VideoError(f"rendering failed: {str(err).strip().removeprefix('Error: ')}") from err
+        if result != {"FINISHED"}:
+            raise VideoError("rendering was cancelled")
+        if not part.is_file() or part.stat().st_size == 0:
+            raise VideoError(f"rendering wrote no file at {part}")
+        try:
+            os.replace(part, path)
+        except OSError as err:
+            raise VideoError(f"cannot put the video at {path}: {err.strerror or err}") from err
     finally:
         bpy.app.handlers.render_post.remove(progress)
         wm.progress_end()
+        # The part file, and any a multi-view render wrote beside it (its _L / _R views).
+        for left in glob.glob(glob.escape(str(part.with_suffix(""))) + "*"):
+            Path(left).unlink(missing_ok=True)
     return total
+
+
+@contextmanager
+def taken_back_on_error(scene):
+    """Yields a list for the objects the block adds to ``scene``: if the block raises, they
+    are removed with the data and actions only they used, and the scene camera is put back."""
+    camera = scene.camera
+    added = []
+    try:
+        yield added
+    except BaseException:
+        scene.camera = camera
+        for ob in reversed(added):
+            owned = [ob.data, ob.animation_data.action if ob.animation_data else None]
+            bpy.data.objects.remove(ob)
+            bpy.data.batch_remove([block for block in owned if block is not None and block.users == 0])
+        raise
 
 
 # What Make Video sets on the scene for its render, put back afterwards (in this order: 5.0's

@@ -21,8 +21,9 @@ from ..common.files import make_folder
 from ..common.keys import keyed_action
 from ..common.reports import name_list, read_only, unplaced
 from ..common.transforms import axis_scales, extent
-from .filming import (ENGINES, add_camera, add_follow_camera, add_light, character_objects, default_video_path,
-                      kept_render_settings, motion_boxes, render_video, union_box)
+from .filming import (ENGINES, VideoError, add_camera, add_follow_camera, add_light, character_objects,
+                      default_video_path, kept_render_settings, motion_boxes, render_video, taken_back_on_error,
+                      union_box)
 from .keying import constrained_rotation_bones, driven_rotation_bones, last_key_frame, overridden_keys, write_keys
 from .planning import describe_roles, make_motion, motion_armature, motion_bones
 from .rigify import is_rigify, key_controls, merged_segments, plan_controls
@@ -217,6 +218,7 @@ class MINISKELETON_OT_make_video(bpy.types.Operator):
         if why is not None:
             self.report({"ERROR"}, f"Cannot write the video to {path}: {why}")
             return {"CANCELLED"}
+        boxes = None   # what a new camera frames; None: the scene camera films
         if scene.camera is None or self.camera in ("NEW", "FOLLOW"):
             if self.camera == "SCENE":
                 self.report({"ERROR"}, "The scene has no camera")
@@ -231,17 +233,20 @@ class MINISKELETON_OT_make_video(bpy.types.Operator):
                             f"transform or shape: {name_list([ob.name for ob in objects])} "
                             "(Object Properties > Transform)")
                 return {"CANCELLED"}
-            aspect = self.resolution_x / self.resolution_y
-            if self.camera == "FOLLOW":
-                add_follow_camera(scene, boxes, aspect)
-            else:
-                add_camera(scene, *union_box(boxes), aspect)
-            if not any(ob.type == "LIGHT" for ob in scene.objects):
-                add_light(scene)
-        with kept_render_settings(scene):
-            total = render_video(context, path, self.video_size(), self.fps, self.engine)
-        if not path.exists() or path.stat().st_size == 0:
-            self.report({"ERROR"}, f"Rendering did not write {path}")
+        # One transaction: a render that fails takes back the camera and light, the render
+        # settings are put back either way, and an earlier video is replaced only by a whole one.
+        try:
+            with taken_back_on_error(scene) as added, kept_render_settings(scene):
+                if boxes is not None:
+                    aspect = self.resolution_x / self.resolution_y
+                    added.append(add_follow_camera(scene, boxes, aspect) if self.camera == "FOLLOW"
+                                 else add_camera(scene, *union_box(boxes), aspect))
+                    if not any(ob.type == "LIGHT" for ob in scene.objects):
+                        added.append(add_light(scene))
+                total = render_video(context, path, self.video_size(), self.fps, self.engine)
+        except VideoError as err:
+            kept = "the scene and the earlier video are as they were" if path.exists() else "the scene is as it was"
+            self.report({"ERROR"}, f"No video made: {err}; {kept}")
             return {"CANCELLED"}
         secs = time.perf_counter() - start_t
         w, h = self.video_size()

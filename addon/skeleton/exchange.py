@@ -17,14 +17,13 @@ NPZ bundle (``FORMAT_VERSION`` 1), what RigNet-style learning pipelines read:
 from __future__ import annotations
 
 import json
-import zipfile
 from collections import Counter
 from pathlib import Path
 
 import bpy
 import numpy as np
 
-from ..common.files import make_folder
+from ..common.files import ArraySpec, FileReadError, make_folder, read_npz
 from ..common.groups import BoneRows, read_weights, write_vertex_groups
 from ..common.meshes import mesh_triangles, mesh_world_vertices, stack_meshes
 from ..common.reports import name_list
@@ -150,42 +149,52 @@ def save_json(path: Path, data: dict) -> None:
         raise RigError(f"cannot write '{path}': {err.strerror or err}") from err
 
 
+# What the import reads, checked on each array's header before any data is read.
+_BUNDLE_ARRAYS = {
+    "format_version": ArraySpec(0, None, "iu", "one integer"),
+    "vertices": ArraySpec(2, 3, "fiu", "numbers (n, 3)"),
+    "bone_names": ArraySpec(1, None, "US", "a 1-D array of strings"),
+    "indices": ArraySpec(2, None, "iu", "integers (n, k)"),
+    "weights": ArraySpec(2, None, "f", "floats (n, k)"),
+    "mesh_names": ArraySpec(1, None, "US", "a 1-D array of strings"),
+    "mesh_vertex_counts": ArraySpec(1, None, "iu", "a 1-D array of integers"),
+}
+_BUNDLE_REQUIRED = ("format_version", "vertices", "bone_names", "indices", "weights")
+
+
 def load_npz(filepath: str) -> dict:
-    """Read and check a bundle (shapes, types, weights finite in [0, 1], bone names usable as
-    vertex groups); raises RigError with the reason. Byte-string names are decoded as UTF-8."""
+    """Read and check a bundle; RigError naming the file and the reason. The file is read by
+    ``read_npz`` (zip, headers and sizes checked before any data, every array's shape and type
+    checked, every read error an error); then its content is checked: shapes that agree, weights
+    finite in [0, 1], indices in range, bone names usable as vertex groups. Byte-string names
+    are decoded as UTF-8."""
     if not filepath.strip():
         raise RigError("no file given")
     path = Path(bpy.path.abspath(filepath))
     try:
-        fh = open(path, "rb")
-    except OSError as err:
-        raise RigError(f"cannot read '{path}': {err.strerror or err}") from err
-    with fh:
-        if not zipfile.is_zipfile(fh):
-            raise RigError(f"'{path}' is not an .npz rig bundle (not a zip of arrays)")
-        fh.seek(0)
-        try:
-            with np.load(fh, allow_pickle=False) as f:
-                rig = {k: f[k] for k in f.files}
-        except (OSError, ValueError, EOFError, zipfile.BadZipFile) as err:
-            raise RigError(f"cannot read '{path}': {err}") from err
-    missing = [k for k in ("format_version", "vertices", "bone_names", "indices", "weights") if k not in rig]
-    if missing:
-        raise RigError(f"'{path}' is not a MiniSkeleton rig bundle (missing {', '.join(missing)})")
-    version = rig["format_version"]
-    if version.shape != () or version.dtype.kind not in "iu":
-        raise RigError(f"format_version must be one integer, got {version.dtype} {version.shape}")
-    if int(version) > FORMAT_VERSION:
-        raise RigError(f"rig bundle format {int(version)} is newer than this add-on ({FORMAT_VERSION})")
+        rig = read_npz(path, "rig bundle", _BUNDLE_ARRAYS, _BUNDLE_REQUIRED)
+    except FileReadError as err:
+        raise RigError(str(err)) from err
+    try:
+        _check_bundle(rig)
+    except RigError as err:
+        raise RigError(f"rig bundle '{path}' cannot be used: {err}") from err
+    return rig
+
+
+def _check_bundle(rig: dict) -> None:
+    """The content of a bundle whose arrays have the shapes and types of ``_BUNDLE_ARRAYS``:
+    RigError with the reason (names are decoded in place)."""
+    version = int(rig["format_version"])
+    if version > FORMAT_VERSION:
+        raise RigError(f"rig bundle format {version} is newer than this add-on ({FORMAT_VERSION})")
     for key in ("bone_names", "mesh_names"):
         if key in rig:
             rig[key] = _names(rig[key], key)
     n = len(rig["vertices"])
     idx, w = rig["indices"], rig["weights"]
-    if idx.shape != w.shape or idx.ndim != 2 or len(idx) != n:
+    if idx.shape != w.shape or len(idx) != n:
         raise RigError(f"indices {idx.shape} / weights {w.shape} do not match {n} vertices")
-    if idx.dtype.kind not in "iu" or w.dtype.kind != "f":
-        raise RigError(f"indices must be integers and weights floats, got {idx.dtype} / {w.dtype}")
     b = len(rig["bone_names"])
     if idx.size and (idx.max() >= b or idx.min() < -1):
         raise RigError(f"indices refer to bones that are not in bone_names (0..{b - 1}, -1 = unused)")
@@ -201,21 +210,21 @@ def load_npz(filepath: str) -> dict:
         raise RigError(f"bone names appear twice: {name_list(twice)}")
     if "mesh_names" in rig or "mesh_vertex_counts" in rig:
         counts = rig.get("mesh_vertex_counts", np.zeros(0, np.int32))
-        if (len(rig.get("mesh_names", ())) != len(counts) or counts.dtype.kind not in "iu"
-                or (counts < 0).any() or int(counts.sum()) != n):
+        if (len(rig.get("mesh_names", ())) != len(counts) or (counts < 0).any()
+                or sum(int(c) for c in counts) != n):
             raise RigError(f"mesh_names / mesh_vertex_counts do not split the {n} vertices")
-    return rig
 
 
 def _names(arr: np.ndarray, key: str) -> np.ndarray:
-    """A 1-D array of names as str (bytes decoded as UTF-8)."""
-    if arr.ndim != 1 or arr.dtype.kind not in "US":
-        raise RigError(f"{key} must be a 1-D array of strings, got {arr.dtype} {arr.shape}")
+    """A 1-D array of names (``_BUNDLE_ARRAYS``; ``read_npz`` has checked that str ones are
+    Unicode) as str, bytes decoded as UTF-8; none may hold a NUL (Blender's names end there)."""
     if arr.dtype.kind == "S":
         try:
-            return np.array([s.decode("utf-8") for s in arr.tolist()], dtype=str)
+            arr = np.array([s.decode("utf-8") for s in arr.tolist()], dtype=str)
         except UnicodeDecodeError as err:
             raise RigError(f"{key} are not UTF-8: {err}") from err
+    if any("\0" in s for s in arr.tolist()):
+        raise RigError(f"{key} hold a NUL character")
     return arr
 
 

@@ -22,7 +22,8 @@ from ..common.transforms import armature_frame, to_armature_frame
 from .editing import armature_edit, bone_children_stay
 from .exchange import RigError, apply_weights, collect_rig, load_npz, output_path, rig_json, save_json, save_npz
 from .fitting import FitError, fit_skeleton, movable_joints, place_fitted, read_skeleton
-from .snapshot import apply_rest_pose, load_snapshot, read_edit_rest_pose, store_snapshot
+from .snapshot import (SNAPSHOT_KEY, SnapshotError, apply_rest_pose, load_snapshot, read_edit_rest_pose,
+                       store_snapshot)
 
 
 def _selected_meshes(context, arm):
@@ -215,7 +216,13 @@ class MINISKELETON_OT_restore_skeleton(bpy.types.Operator):
         arm = find_armature(context)
         if not _editable_armature(self, arm, need_bones=False):  # all deleted: still restorable
             return {"CANCELLED"}
-        snap = load_snapshot(arm.data)
+        try:
+            snap = load_snapshot(arm.data)  # checked whole before Edit Mode: a bad one changes nothing
+        except SnapshotError as err:
+            self.report({"ERROR"}, f"The stored original skeleton of '{arm.name}' (custom property "
+                        f"'{SNAPSHOT_KEY}' of armature data '{arm.data.name}') cannot be restored: {err}. "
+                        "Nothing was changed; Keep Current as Original stores a new one")
+            return {"CANCELLED"}
         if snap is None:
             self.report({"ERROR"}, f"Armature '{arm.name}' has no stored original skeleton "
                         "(MiniSkeleton has not changed it)")
