@@ -160,7 +160,8 @@ def bone_chain(height: float = 4.0, bones: int = 4
 
 def split_flat(vertices: ArrayLike, triangles: ArrayLike
                ) -> Tuple[npt.NDArray[np.float32], npt.NDArray[np.uint32]]:
-    """Flat-shaded copy: three vertices per triangle."""
+    """Flat-shaded copy: three vertices per triangle. ValueError for a triangle with an index past
+    the vertices (or negative), naming the triangle."""
 
 def lbs(vertices: ArrayLike, indices: ArrayLike, weights: ArrayLike, bone_matrices: ArrayLike
         ) -> npt.NDArray[np.float32]:
