@@ -175,13 +175,16 @@ def ik2d_solve(lengths: ArrayLike, target: Tuple[float, float], angles: Optional
                ) -> Tuple[npt.NDArray[np.float64], dict]:
     """Planar IK on one chain (relative joint angles, radians). method: 'ccd' (improved CCD with
     collinear/unreachable handling), 'ccd_pure', 'ccd_classic3d', 'fabrik'. Tolerance defaults to
-    1e-3 of the chain length. Returns (angles, {'iterations', 'error', 'reached'})."""
+    1e-3 of the chain length. max_iterations is at most 10000 (ValueError above it): the solve
+    runs without the GIL and cannot be interrupted, so the bound keeps a call short.
+    Returns (angles, {'iterations', 'error', 'reached'})."""
 
 def ik2d_solve_multi(lengths: ArrayLike, effectors: list, angles: Optional[ArrayLike] = None, *,
                      base: Tuple[float, float] = (0.0, 0.0), base_angle: float = 0.0,
                      limits: Optional[ArrayLike] = None, max_iterations: int = 200,
                      tolerance: Optional[float] = None) -> Tuple[npt.NDArray[np.float64], dict]:
-    """Several effectors [(joint 1..b, (x, y), weight)] on one chain (strip puppets)."""
+    """Several effectors [(joint 1..b, (x, y), weight)] on one chain (strip puppets).
+    max_iterations is at most 10000, as for ik2d_solve."""
 
 def ik2d_forward(lengths: ArrayLike, angles: ArrayLike, *, base: Tuple[float, float] = (0.0, 0.0),
                  base_angle: float = 0.0) -> npt.NDArray[np.float64]:
