@@ -97,8 +97,9 @@ def heat_weights_many(
 ) -> List[Union[Tuple[npt.NDArray[np.int32], npt.NDArray[np.float32], dict], Exception]]:
     """heat_weights_report of several independent meshes [(vertices, triangles)] with the same bones
     and options, solved in parallel in one call (many small meshes: a call each costs more than its
-    solve). One entry per mesh: its (indices, weights, report), or the exception it raised
-    (ValueError for bad input, ...), returned so that the others' results stand."""
+    solve). One entry per mesh, in order: its (indices, weights, report), or the exception it
+    raised (ValueError for bad input, RuntimeError for an internal error in its solve, caught per
+    mesh), returned so that the others' results stand."""
 
 def weld_points(points: ArrayLike, tolerance: float
                 ) -> Tuple[npt.NDArray[np.int32], npt.NDArray[np.float64]]:
