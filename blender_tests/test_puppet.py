@@ -972,3 +972,93 @@ def test_vertices_of_the_meshes_puppets_are_made_of_can_be_selected_in_weight_pa
         assert bpy.ops.paint.vert_select_all(action="INVERT") == {"FINISHED"}
         bpy.ops.object.mode_set(mode="OBJECT")
         assert all(v.select for v in ob.data.vertices) and all(e.select for e in ob.data.edges)
+
+
+# ---------------------------------------------------------------------------- live handler upkeep
+
+
+def two_puppets():
+    """A five-rod puppet at the origin, then a three-rod one at x = 3 (later in the scene's
+    objects, so the live handler comes to it after the first)."""
+    scene = bpy.context.scene
+    scene.cursor.location = (0.0, 0.0, 0.0)
+    first, first_rods = add("FIVE_ROD")
+    scene.cursor.location = (3.0, 0.0, 0.0)
+    second, second_rods = add("THREE_ROD")
+    scene.cursor.location = (0.0, 0.0, 0.0)
+    order = R.scene_puppets(scene)
+    assert order.index(first) < order.index(second)
+    return first, first_rods, second, second_rods
+
+
+def break_puppet(rig, how):
+    """What a hand in Custom Properties or a script can do: an unknown type, a seed as text."""
+    if how == "type":
+        rig[R.KIND_KEY] = "DRAGON"
+    else:
+        rig.pose.bones["forearm.R"][R.SEED_KEY] = "ninety"
+    rig.update_tag()
+    settle()
+
+
+def mend_puppet(rig, how):
+    if how == "type":
+        rig[R.KIND_KEY] = "FIVE_ROD"
+    else:
+        rig.pose.bones["forearm.R"][R.SEED_KEY] = 0.0
+    rig.update_tag()
+    settle()
+
+
+def follows(rig, rods, role="hand.R", chain=ARM):
+    return (tip_world(rig, chain[-1]) - rods[role].matrix_world.translation).length < 2e-3 * reach(rig, chain)
+
+
+@pytest.mark.parametrize("how, said", [
+    ("type", "Puppet 'FiveRodPuppet' has the type 'DRAGON' in its 'miniskeleton_puppet' property, which is "
+             "none of THREE_ROD, FIVE_ROD, PROP, STRIP, QUADRUPED (Object Properties > Custom Properties)"),
+    ("seed", "Puppet 'FiveRodPuppet': bone forearm.R has miniskeleton_seed = 'ninety', not a finite angle "
+             "in degrees (Bone Properties > Custom Properties)")])
+def test_a_broken_puppet_is_said_once_and_the_others_keep_following_their_rods(how, said, capfd):
+    """An unknown type in a puppet's property (a ValueError) or a seed that is not a number (a
+    TypeError) went to the live handler's outer except on every depsgraph update and frame
+    change, with a traceback each time, and every puppet after it in the scene stopped solving.
+    Now each puppet is solved on its own: the broken one keeps its pose, is said once (console)
+    and marked for the Puppet panel, and is tried again only when it changes; the other follows
+    its rods, live and on frame changes; mended, the broken one solves again."""
+    first, first_rods, second, second_rods = two_puppets()
+    scene = bpy.context.scene
+    mended_at = random_reachable(first, ARM, np.random.default_rng(4), 1)[0]
+    capfd.readouterr()
+    break_puppet(first, how)
+    kept = pose_of(first)
+    assert L.puppet_problem(first) == said and L.puppet_problem(second) is None
+
+    targets = random_reachable(second, ARM, np.random.default_rng(5), 5)
+    for k, t in enumerate(targets[:3]):                        # live: rods moved by hand
+        p = first_rods["hand.R"].matrix_world.translation
+        move_rod(first_rods["hand.R"], p.x + 0.1, p.z - 0.05)
+        move_rod(second_rods["hand.R"], t.x, t.z)
+        assert follows(second, second_rods), k
+        assert pose_of(first) == kept
+    for f, t in ((1, targets[3]), (5, targets[4])):            # on frame changes: animated rods
+        second_rods["hand.R"].matrix_world.translation = t
+        second_rods["hand.R"].keyframe_insert("location", frame=f)
+        first_rods["hand.R"].location.x += 0.2
+        first_rods["hand.R"].keyframe_insert("location", frame=f)
+    for f in (1, 5, 3, 1, 5):
+        scene.frame_set(f)
+        settle()
+        assert follows(second, second_rods), f
+        assert pose_of(first) == kept, f
+    out = capfd.readouterr()
+    assert "Traceback" not in out.out + out.err
+    assert out.out.count("[MiniSkeleton]") == 1 and out.out.count(f"[MiniSkeleton] {said}") == 1
+    assert L.puppet_problem(first) == said
+
+    first_rods["hand.R"].animation_data_clear()
+    move_rod(first_rods["hand.R"], mended_at.x, mended_at.z)
+    assert pose_of(first) == kept
+    mend_puppet(first, how)                                        # mended: it solves again
+    assert L.puppet_problem(first) is None and follows(first, first_rods)
+    assert "[MiniSkeleton]" not in capfd.readouterr().out

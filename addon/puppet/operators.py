@@ -16,8 +16,8 @@ from ..common.keys import keyed_action
 from ..common.reports import in_edit_mode, read_only
 from . import templates
 from .build import build_puppet, set_part_image
-from .live import PuppetError, bake_puppet, scene_frames
-from .rig import GAPS, LIVE_KEY, PART_KEY, puppet_gaps, puppet_poll, puppet_rig, puppet_rods
+from .live import bake_puppet, scene_frames
+from .rig import GAPS, LIVE_KEY, PART_KEY, PuppetError, puppet_gaps, puppet_poll, puppet_rig, puppet_rods
 from .theatre import build_shadow_theatre
 
 
