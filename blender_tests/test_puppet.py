@@ -678,6 +678,47 @@ def test_a_rod_or_rig_without_a_finite_place_keeps_the_pose_and_is_not_baked(cap
     assert rig.animation_data.action is not None
 
 
+def test_a_bake_that_fails_for_another_reason_puts_the_pose_back_and_is_one_report(capfd):
+    """Bake put the bones back only on PuppetError: any other exception left the rotations the
+    frames solved before it had written. Here the core itself refuses a frame (its ValueError
+    for a chest whose location F-curve goes NaN, which no puppet check names): the bake is one
+    error naming the frame, keys nothing, and the pose, live solving and the frame are as they
+    were."""
+    rig, rods = add("FIVE_ROD")
+    scene = bpy.context.scene
+    move_rod(rods["hand.R"], -0.3, 1.2)
+    hand = rods["hand.R"]
+    hand.location += Vector((0.05, 0.0, 0.05))       # frame 1 solves to another pose
+    hand.keyframe_insert("location", frame=1)
+    chest = rig.pose.bones["chest"]
+    chest.keyframe_insert("location", frame=1)
+    chest.location.x = float("nan")
+    chest.keyframe_insert("location", frame=3)       # NaN from frame 2 on
+    scene.frame_start, scene.frame_end = 1, 5
+    scene.frame_set(5)
+    settle()
+    posed = pose_of(rig)
+    before = {name: r for name, r in posed.items() if abs(r[2]) > 1e-6}
+    assert before, "the solved pose turns some bones"
+    capfd.readouterr()
+    bpy.context.view_layer.objects.active = rig
+    with pytest.raises(RuntimeError, match=r"At frame 2: puppet 'FiveRodPuppet' cannot be solved \(ValueError: "
+                       r"\d+ IK chain\(s\) have NaN or infinite values\); nothing was baked") as err:
+        bpy.ops.object.miniskeleton_bake_puppet()
+    out = capfd.readouterr()
+    assert "Traceback" not in out.out + out.err + str(err.value)
+    assert pose_of(rig) == posed
+    assert rig.get(R.LIVE_KEY) and scene.frame_current == 5
+    assert not [fc for fc in K.action_fcurves(rig) if "rotation" in fc.data_path]
+
+    # the same through the function: the pose goes back whatever the failure, and the frame
+    # that failed is named
+    with pytest.raises(L.PuppetError, match="At frame 2: ") as failed:
+        L.bake_puppet(scene, rig)
+    assert isinstance(failed.value.__cause__, ValueError) and not isinstance(failed.value.__cause__, L.PuppetError)
+    assert pose_of(rig) == posed and scene.frame_current == 5
+
+
 def test_a_puppet_is_not_added_at_a_nan_cursor():
     """A 3D cursor a script put at NaN: Add Puppet built the objects, then stopped with a
     traceback in its first solve and left them half made. It is an error, and nothing is added."""

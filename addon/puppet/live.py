@@ -381,24 +381,31 @@ def bake_puppet(scene: bpy.types.Scene, rig: bpy.types.Object, frames: list[int]
                 progress: Callable[[int], object] | None = None) -> int:
     """Key the rotation of every movable bone on each frame (scene range by default), in the
     bone's rotation mode (``rotation_euler`` as the puppet makes them); ``progress(done)`` is
-    called with the number of frames baked after each one. PuppetError (naming the frame) when
-    a frame cannot be solved: then no key is written and the bones keep the rotations they had."""
+    called with the number of frames baked after each one.
+
+    A frame that cannot be solved is a PuppetError naming the frame, whatever the solve raised
+    (its own PuppetError, the core's ValueError, ...). On any failure, that one or one while
+    keying, the bones get back the rotations they had (the frames solved before it turned
+    them), live solving and the current frame are as they were, and the exception goes on to
+    the caller; no key is written when the solve fails."""
     frames = list(frames or scene_frames(scene))
     current = scene.frame_current
     bones = [pb for pb in rig.pose.bones if not all(pb.lock_rotation)]
     live = rig.get(LIVE_KEY, True)
-    rig[LIVE_KEY] = False          # this loop solves itself; keep the handler out of it
     angles = {pb.name: [] for pb in bones}
     before = {pb.name: tuple(getattr(pb, rotation_path(pb))) for pb in bones}
+    rig[LIVE_KEY] = False          # this loop solves itself; keep the handler out of it
+    baked = False
     try:
         for done, f in enumerate(frames):
             scene.frame_set(f)
             try:
                 solve_puppet(rig)
             except PuppetError as err:
-                for pb in bones:
-                    setattr(pb, rotation_path(pb), before[pb.name])
                 raise PuppetError(f"At frame {f}: {err}") from None
+            except Exception as err:   # the core's ValueError for a NaN bone, a bug: the same to say
+                raise PuppetError(f"At frame {f}: puppet '{rig.name}' cannot be solved "
+                                  f"({type(err).__name__}: {err})") from err
             for pb in bones:
                 angles[pb.name].append(bone_euler(pb))
             if progress is not None:
@@ -410,7 +417,11 @@ def bake_puppet(scene: bpy.types.Scene, rig: bpy.types.Object, frames: list[int]
                 path, values = rotation_series(pb, [e.to_quaternion() for e in angles[pb.name]],
                                                before[pb.name])
             key_series(pb, path, frames, values, group=pb.name)
+        baked = True
     finally:
+        if not baked:
+            for pb in bones:
+                setattr(pb, rotation_path(pb), before[pb.name])
         rig[LIVE_KEY] = live
         scene.frame_set(current)
     return len(frames)
