@@ -1103,3 +1103,41 @@ def test_a_broken_puppet_is_said_once_and_the_others_keep_following_their_rods(h
     mend_puppet(first, how)                                        # mended: it solves again
     assert L.puppet_problem(first) is None and follows(first, first_rods)
     assert "[MiniSkeleton]" not in capfd.readouterr().out
+
+
+def test_live_state_is_forgotten_when_a_file_is_loaded(tmp_path, capfd):
+    """Live solving's per-puppet state is keyed by the armature's pointer, which means nothing in
+    another file (a new object can get the same address), and it was cleared only when the
+    add-on was disabled, so it grew with each file opened and a broken puppet of the old file
+    could silence one of the new. A persistent load_post handler forgets it all on each load."""
+    on_load = [h for h in bpy.app.handlers.load_post if getattr(h, "__name__", "") == "_on_load_post"]
+    assert on_load == [L._on_load_post] and "_bpy_persistent" in vars(L._on_load_post)
+    empty = str(tmp_path / "empty.blend")
+    bpy.ops.wm.save_as_mainfile(filepath=empty)
+    first, first_rods, second, second_rods = two_puppets()
+    break_puppet(first, "type")
+    assert len(L._state["last"]) == 2 and L.puppet_problem(first)
+    puppets = str(tmp_path / "puppets.blend")
+    bpy.ops.wm.save_as_mainfile(filepath=puppets)
+    capfd.readouterr()
+
+    bpy.ops.wm.open_mainfile(filepath=empty)
+    assert L._state["last"] == {} and L._state["broken"] == {} and L._state["gaps"] == {}
+    assert L._on_load_post in bpy.app.handlers.load_post          # persistent: there for the next file
+    assert L._on_frame_change in bpy.app.handlers.frame_change_post
+
+    bpy.ops.wm.open_mainfile(filepath=puppets)                    # said again in the file it is in
+    first, second = bpy.data.objects["FiveRodPuppet"], bpy.data.objects["ThreeRodPuppet"]
+    rods = R.puppet_rods(second)
+    p = rods["hand.R"].matrix_world.translation
+    move_rod(rods["hand.R"], p.x + 0.1, p.z + 0.1)
+    assert follows(second, rods)
+    assert L.puppet_problem(first) and capfd.readouterr().out.count("[MiniSkeleton] Puppet 'FiveRodPuppet'") == 1
+
+    bpy.ops.preferences.addon_disable(module=blender_session.ADDON_MODULE)
+    try:
+        names = {getattr(h, "__name__", "") for name, _ in L._HANDLERS for h in getattr(bpy.app.handlers, name)}
+        assert not names & {fn.__name__ for _, fn in L._HANDLERS}
+        assert L._state["last"] == {}
+    finally:
+        bpy.ops.preferences.addon_enable(module=blender_session.ADDON_MODULE)

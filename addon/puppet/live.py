@@ -242,10 +242,12 @@ def solve_puppet(rig: bpy.types.Object) -> dict:
 
 # ---------------------------------------------------------------------------- live handlers
 
-# Per puppet, keyed by the armature object's pointer: "last" its signature when last solved or
-# found broken, "gaps" what its drivers lacked when last said, "broken" why it does not solve
-# (said once, shown in the Puppet panel).
+# Per puppet, keyed by the armature object's pointer (valid within one file, so all of it is
+# forgotten when a file is loaded): "last" its signature when last solved or found broken,
+# "gaps" what its drivers lacked when last said, "broken" why it does not solve (said once,
+# shown in the Puppet panel).
 _state = {"busy": False, "last": {}, "gaps": {}, "broken": {}}
+
 
 def _plain(v):
     """An ID property's value as plain Python, comparable between two reads."""
@@ -336,7 +338,7 @@ def _broken(rig: bpy.types.Object, key: int, err: Exception) -> None:
 
 
 def forget_puppets() -> None:
-    """Forget every puppet's state."""
+    """Forget every puppet's state (their pointers mean nothing in another file)."""
     for name in ("last", "gaps", "broken"):
         _state[name].clear()
 
@@ -351,7 +353,13 @@ def _on_frame_change(scene, depsgraph=None):
     update_scene_puppets(scene)
 
 
-_HANDLERS = (("depsgraph_update_post", _on_depsgraph_update), ("frame_change_post", _on_frame_change))
+@persistent
+def _on_load_post(*_args):
+    forget_puppets()
+
+
+_HANDLERS = (("depsgraph_update_post", _on_depsgraph_update), ("frame_change_post", _on_frame_change),
+             ("load_post", _on_load_post))
 
 
 def register_handlers() -> None:
