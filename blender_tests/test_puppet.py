@@ -1141,3 +1141,51 @@ def test_live_state_is_forgotten_when_a_file_is_loaded(tmp_path, capfd):
         assert L._state["last"] == {}
     finally:
         bpy.ops.preferences.addon_enable(module=blender_session.ADDON_MODULE)
+
+
+def test_live_puppets_write_no_pose_while_a_render_runs(tmp_path, capfd):
+    """Blender's handlers documentation (Note on Altering Data): while rendering, frame-change
+    handlers run in one thread and the viewport draws from another, so a handler that changes
+    data can crash Blender. Live solving wrote poses from frame_change_post during animation
+    renders. Now it writes none in a render's frame changes (their depsgraph is in RENDER mode)
+    and says so once per render (bake the puppet to render its motion); frame changes in the
+    viewport solve as before.
+
+    Around the add-on's handler, one handler before it turns the forearm (as a hand or another
+    add-on may) and one after it reads the forearm: nothing else runs between the two."""
+    rig, rods = add("FIVE_ROD")
+    scene = bpy.context.scene
+    cam = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+    scene.collection.objects.link(cam)
+    scene.camera = cam
+    scene.render.engine = "BLENDER_WORKBENCH"
+    scene.render.resolution_x = scene.render.resolution_y = 16
+    scene.render.filepath = str(tmp_path / "frame_")
+    scene.frame_start, scene.frame_end = 1, 3
+    forearm = rig.pose.bones["forearm.R"]
+    seen = []
+
+    def nudge(scene_, depsgraph=None):
+        forearm.rotation_euler.z += 0.3
+        seen.append([depsgraph.mode, scene_.frame_current, forearm.rotation_euler.z])
+
+    def look(scene_, depsgraph=None):
+        seen[-1].append(forearm.rotation_euler.z)
+
+    handlers = bpy.app.handlers.frame_change_post
+    handlers.insert(0, nudge)
+    handlers.append(look)
+    try:
+        for _ in range(2):
+            seen.clear()
+            capfd.readouterr()
+            assert bpy.ops.render.render(animation=True) == {"FINISHED"}
+            rendered = [(f, after == nudged) for mode, f, nudged, after in seen if mode == "RENDER"]
+            assert rendered == [(1, True), (2, True), (3, True)]      # the nudge stands: nothing written
+            assert capfd.readouterr().out.count(L.RENDER_SKIP) == 1     # said once per render
+            seen.clear()
+            scene.frame_set(2)                                          # the viewport: solved as before
+            assert [(mode, after == nudged) for mode, _, nudged, after in seen] == [("VIEWPORT", False)]
+    finally:
+        handlers.remove(nudge)
+        handlers.remove(look)

@@ -245,8 +245,11 @@ def solve_puppet(rig: bpy.types.Object) -> dict:
 # Per puppet, keyed by the armature object's pointer (valid within one file, so all of it is
 # forgotten when a file is loaded): "last" its signature when last solved or found broken,
 # "gaps" what its drivers lacked when last said, "broken" why it does not solve (said once,
-# shown in the Puppet panel).
-_state = {"busy": False, "last": {}, "gaps": {}, "broken": {}}
+# shown in the Puppet panel). "render_said": the current render's skipped solves have been said.
+_state = {"busy": False, "last": {}, "gaps": {}, "broken": {}, "render_said": False}
+
+RENDER_SKIP = ("Live puppets do not follow their rods in a render's frames: bake them (Bake Puppet "
+               "Animation) for their motion to show in the render")
 
 
 def _plain(v):
@@ -279,16 +282,38 @@ def puppet_problem(rig: bpy.types.Object) -> str | None:
     return _state["broken"].get(rig.as_pointer())
 
 
-def update_scene_puppets(scene: bpy.types.Scene, force: bool = False) -> int:
+def rendering(depsgraph: bpy.types.Depsgraph | None) -> bool:
+    """Whether a handler called with ``depsgraph`` is called by a render: a render evaluates
+    each frame in a depsgraph of its own, in ``RENDER`` mode (the viewport's and a viewport
+    render's are ``VIEWPORT``). Live solving writes no pose then, as Blender's handlers
+    documentation advises ("Note on Altering Data": while rendering, frame-change handlers run
+    in one thread and the viewport draws from another, so a handler that changes data the
+    viewport reads can crash Blender unless the interface is locked). Nothing is lost by it:
+    a render moves the rods to its frames in its own depsgraph, while live solving reads the
+    rods' ``matrix_world``, the viewport's, so it could not follow the render's frames anyway.
+    Asked of the depsgraph, not of a flag that render_init sets, it cannot stay on after a
+    render that stops before its render_complete (Blender then skips that handler)."""
+    return depsgraph is not None and depsgraph.mode == "RENDER"
+
+
+def update_scene_puppets(scene: bpy.types.Scene, force: bool = False,
+                         depsgraph: bpy.types.Depsgraph | None = None) -> int:
     """Solve every live puppet of ``scene`` whose rods or bones changed; returns how many.
+    ``depsgraph``: the one the calling handler was given.
 
     Each puppet is solved on its own: one that cannot be solved (PuppetError, or anything else
     its properties or the core raise) keeps its pose, is said once (the console, and the Puppet
     panel through ``puppet_problem``) and is tried again only when it changes; the others solve
-    as usual."""
+    as usual. Nothing is solved or written for a render's frames (``rendering``); that is said
+    once per render."""
     if _state["busy"]:
         return 0
     if not any(KIND_KEY in a for a in bpy.data.armatures):   # cheap exit: no puppet at all
+        return 0
+    if rendering(depsgraph):
+        if not _state["render_said"]:
+            print(f"[MiniSkeleton] {RENDER_SKIP}")
+            _state["render_said"] = True
         return 0
     _state["busy"] = True
     solved = 0
@@ -345,12 +370,12 @@ def forget_puppets() -> None:
 
 @persistent
 def _on_depsgraph_update(scene, depsgraph=None):
-    update_scene_puppets(scene)
+    update_scene_puppets(scene, depsgraph=depsgraph)
 
 
 @persistent
 def _on_frame_change(scene, depsgraph=None):
-    update_scene_puppets(scene)
+    update_scene_puppets(scene, depsgraph=depsgraph)
 
 
 @persistent
@@ -358,8 +383,13 @@ def _on_load_post(*_args):
     forget_puppets()
 
 
+@persistent
+def _on_render_init(*_args):
+    _state["render_said"] = False     # each render says it once
+
+
 _HANDLERS = (("depsgraph_update_post", _on_depsgraph_update), ("frame_change_post", _on_frame_change),
-             ("load_post", _on_load_post))
+             ("load_post", _on_load_post), ("render_init", _on_render_init))
 
 
 def register_handlers() -> None:
