@@ -97,8 +97,9 @@ def heat_weights_many(
 ) -> List[Union[Tuple[npt.NDArray[np.int32], npt.NDArray[np.float32], dict], Exception]]:
     """heat_weights_report of several independent meshes [(vertices, triangles)] with the same bones
     and options, solved in parallel in one call (many small meshes: a call each costs more than its
-    solve). One entry per mesh: its (indices, weights, report), or the exception it raised
-    (ValueError for bad input, ...), returned so that the others' results stand."""
+    solve). One entry per mesh, in order: its (indices, weights, report), or the exception it
+    raised (ValueError for bad input, RuntimeError for an internal error in its solve, caught per
+    mesh), returned so that the others' results stand."""
 
 def weld_points(points: ArrayLike, tolerance: float
                 ) -> Tuple[npt.NDArray[np.int32], npt.NDArray[np.float64]]:
@@ -160,7 +161,8 @@ def bone_chain(height: float = 4.0, bones: int = 4
 
 def split_flat(vertices: ArrayLike, triangles: ArrayLike
                ) -> Tuple[npt.NDArray[np.float32], npt.NDArray[np.uint32]]:
-    """Flat-shaded copy: three vertices per triangle."""
+    """Flat-shaded copy: three vertices per triangle. ValueError for a triangle with an index past
+    the vertices (or negative), naming the triangle."""
 
 def lbs(vertices: ArrayLike, indices: ArrayLike, weights: ArrayLike, bone_matrices: ArrayLike
         ) -> npt.NDArray[np.float32]:
@@ -174,13 +176,16 @@ def ik2d_solve(lengths: ArrayLike, target: Tuple[float, float], angles: Optional
                ) -> Tuple[npt.NDArray[np.float64], dict]:
     """Planar IK on one chain (relative joint angles, radians). method: 'ccd' (improved CCD with
     collinear/unreachable handling), 'ccd_pure', 'ccd_classic3d', 'fabrik'. Tolerance defaults to
-    1e-3 of the chain length. Returns (angles, {'iterations', 'error', 'reached'})."""
+    1e-3 of the chain length. max_iterations is at most 10000 (ValueError above it): the solve
+    runs without the GIL and cannot be interrupted, so the bound keeps a call short.
+    Returns (angles, {'iterations', 'error', 'reached'})."""
 
 def ik2d_solve_multi(lengths: ArrayLike, effectors: list, angles: Optional[ArrayLike] = None, *,
                      base: Tuple[float, float] = (0.0, 0.0), base_angle: float = 0.0,
                      limits: Optional[ArrayLike] = None, max_iterations: int = 200,
                      tolerance: Optional[float] = None) -> Tuple[npt.NDArray[np.float64], dict]:
-    """Several effectors [(joint 1..b, (x, y), weight)] on one chain (strip puppets)."""
+    """Several effectors [(joint 1..b, (x, y), weight)] on one chain (strip puppets).
+    max_iterations is at most 10000, as for ik2d_solve."""
 
 def ik2d_forward(lengths: ArrayLike, angles: ArrayLike, *, base: Tuple[float, float] = (0.0, 0.0),
                  base_angle: float = 0.0) -> npt.NDArray[np.float64]:

@@ -71,6 +71,31 @@ def test_ik2d_options_reach_the_solver():
     assert stopped["iterations"] == 3 and not stopped["reached"]
 
 
+@pytest.mark.parametrize("method", ["ccd", "ccd_pure", "ccd_classic3d", "fabrik", "multi"])
+def test_ik2d_max_iterations_is_bounded(method):
+    """The solve runs without the GIL, so a huge max_iterations (a script's 10**12) would hold
+    Blender with no way to stop it: above 10000 it is a ValueError naming the bound, before any
+    pass; at the bound a solve that never converges (tolerance 0) runs every pass, quickly."""
+    lengths, target = [0.25] * 16, (1.3, 2.1)
+
+    def solve(**kw):
+        if method == "multi":
+            return msc.ik2d_solve_multi(lengths, [(16, target, 1.0)], **kw)
+        return msc.ik2d_solve(lengths, target, method=method, **kw)
+
+    for n in (10_001, 10**12, 2**64 - 1):
+        with pytest.raises(ValueError, match=f"max_iterations must be at most 10000, got {n}"):
+            solve(max_iterations=n)
+    with pytest.raises(OverflowError):   # past usize: Python's own conversion error
+        solve(max_iterations=2**64)
+    with pytest.raises(OverflowError):
+        solve(max_iterations=-1)
+    _, rep = solve(max_iterations=10_000, tolerance=0.0)
+    assert rep["iterations"] <= 10_000
+    if method == "ccd_classic3d":   # never lands exactly: every pass runs
+        assert rep["iterations"] == 10_000
+
+
 def test_ik2d_multi_head_and_tail():
     lengths = [0.5] * 8
     eff = [(8, (2.5, 1.0), 1.0), (4, (1.5, 0.6), 1.0)]

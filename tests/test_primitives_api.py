@@ -49,11 +49,17 @@ def test_split_flat_gives_each_triangle_its_own_corners():
     assert sv.shape == (3 * len(t), 3) and st.shape == t.shape and st.dtype == np.uint32
     np.testing.assert_array_equal(st.ravel(), np.arange(3 * len(t)))
     np.testing.assert_array_equal(sv, v[t.ravel()])
-    # an index past the vertices is copied as the origin; a negative one is an error
+    # an index past the vertices is an error naming the triangle (it was copied as the origin,
+    # a corner made up without a word); so is a negative one
     far = t.copy()
-    far[0, 1] = len(v) + 7
-    sv, _ = msc.split_flat(v, far)
-    assert not sv[1].any() and (sv[3:] == v[t.ravel()[3:]]).all()
+    far[4, 1] = len(v) + 7
+    far[6, 0] = len(v)
+    with pytest.raises(ValueError, match=rf"triangle 4 refers to vertex {len(v) + 7}, but the mesh has {len(v)} "):
+        msc.split_flat(v, far)
+    with pytest.raises(ValueError, match="triangle 0 refers to vertex 0, but the mesh has 0 vertices"):
+        msc.split_flat(np.zeros((0, 3), np.float32), t[:1])
+    sv, st = msc.split_flat(np.zeros((0, 3), np.float32), np.zeros((0, 3), np.uint32))
+    assert sv.shape == (0, 3) and st.shape == (0, 3)
     with pytest.raises(ValueError, match=r"triangles\[0, 1\] is -1"):
         msc.split_flat(v, np.where(np.arange(t.size).reshape(t.shape) == 1, -1, t.astype(np.int64)))
     with pytest.raises(ValueError, match="shape"):

@@ -13,7 +13,6 @@ arrays and writes the angles back.
 from __future__ import annotations
 
 import math
-import traceback
 from typing import Callable
 
 import bpy
@@ -24,7 +23,8 @@ from ..common.keys import key_series, rotation_path, rotation_series
 from ..common.reports import name_list
 from ..common.transforms import axis_scales, inverse, placed
 from . import templates
-from .rig import GAPS, KIND_KEY, LIVE_KEY, SEED_KEY, puppet_gaps, puppet_rods, scene_puppets
+from .rig import (GAPS, KIND_KEY, LIVE_KEY, SEED_KEY, PuppetError, puppet_gaps, puppet_rods, puppet_template,
+                  scene_puppets)
 
 
 # ---------------------------------------------------------------------------- solving
@@ -119,18 +119,24 @@ def _chain_setup(pose: _Pose, names):
     lengths = [bones[n].length for n in names]
     lims = [_limits(pose.pbones[n]) for n in names]
     limits = templates.solver_limits(lims, offsets)
-    seeds = [templates.clamp(math.radians(pose.pbones[n].get(SEED_KEY, 0.0)), *lim) + off
+    seeds = [templates.clamp(math.radians(_seed(pose.pbones[n])), *lim) + off
              for n, lim, off in zip(names, lims, offsets)]
     return lengths, base, base_angle, offsets, limits, seeds
+
+
+def _seed(pb: bpy.types.PoseBone) -> float:
+    """``pb``'s IK start angle (``SEED_KEY``, degrees, 0 when it has none). PuppetError when a
+    hand or a script made it something else than a finite number."""
+    v = pb.get(SEED_KEY, 0.0)
+    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+        raise PuppetError(f"Puppet '{pb.id_data.name}': bone {pb.name} has {SEED_KEY} = {v!r}, not a finite "
+                          "angle in degrees (Bone Properties > Custom Properties)")
+    return float(v)
 
 
 def _write_chain(pose, names, angles, offsets):
     for n, a, off in zip(names, angles, offsets):
         pose.set_z(n, templates.wrap(float(a) - off))
-
-
-class PuppetError(ValueError):
-    """A puppet that cannot be solved as its scene stands (said in a line, never a traceback)."""
 
 
 def _plane_inverse(rig: bpy.types.Object, rods: dict) -> Matrix:
@@ -164,10 +170,11 @@ def solve_puppet(rig: bpy.types.Object) -> dict:
     it changes; the other bones are clamped into their stored limits. Each solve starts from
     the bones' seed angles, so the pose is a function of the rods alone (scrubbing and
     baking give the same pose as live solving). PuppetError when the rig or a rod has no
-    finite place, or the rig is scaled to zero; nothing is written then."""
+    finite place, the rig is scaled to zero, its type property names no template or a bone's
+    seed is not a number; nothing is written then."""
     import miniskeleton_core as core
 
-    tpl = templates.template(rig[KIND_KEY])
+    tpl = puppet_template(rig)
     rods = puppet_rods(rig)
     inv = _plane_inverse(rig, rods)
     pose = _Pose(rig)
@@ -235,71 +242,154 @@ def solve_puppet(rig: bpy.types.Object) -> dict:
 
 # ---------------------------------------------------------------------------- live handlers
 
-_state = {"busy": False, "last": {}, "gaps": {}}
+# Per puppet, keyed by the armature object's pointer (valid within one file, so all of it is
+# forgotten when a file is loaded): "last" its signature when last solved or found broken,
+# "gaps" what its drivers lacked when last said, "broken" why it does not solve (said once,
+# shown in the Puppet panel). "render_said": the current render's skipped solves have been said.
+_state = {"busy": False, "last": {}, "gaps": {}, "broken": {}, "render_said": False}
+
+RENDER_SKIP = ("Live puppets do not follow their rods in a render's frames: bake them (Bake Puppet "
+               "Animation) for their motion to show in the render")
+
+
+def _plain(v):
+    """An ID property's value as plain Python, comparable between two reads."""
+    if hasattr(v, "to_dict"):
+        return v.to_dict()
+    if hasattr(v, "to_list"):
+        return v.to_list()
+    return v
 
 
 def _signature(rig, rods):
-    """Everything a solve depends on, rounded: the rig's and rods' world matrices and the
-    bones' names, rotations and limits."""
+    """Everything a solve depends on, rounded: the rig's type, the rig's and rods' world
+    matrices and the bones' names, rotations, limits and seeds."""
     def r(v):   # NaN != NaN: as text, an unchanged broken rod keeps its signature
         return round(v, 7) if math.isfinite(v) else str(v)
 
-    vals = [r(v) for row in rig.matrix_world for v in row]
+    vals = [repr(_plain(rig.get(KIND_KEY)))] + [r(v) for row in rig.matrix_world for v in row]
     for role in sorted(rods):
-        vals += [r(v) for row in rods[role].matrix_world for v in row]
+        vals += [role] + [r(v) for row in rods[role].matrix_world for v in row]
     for pb in rig.pose.bones:
         vals += [pb.name, pb.rotation_mode] + [r(v) for v in getattr(pb, rotation_path(pb))]
-        vals += [pb.ik_min_z, pb.ik_max_z, pb.ik_min_y, pb.ik_max_y, pb.get(SEED_KEY, 0.0)]
+        vals += [pb.ik_min_z, pb.ik_max_z, pb.ik_min_y, pb.ik_max_y, repr(_plain(pb.get(SEED_KEY, 0.0)))]
     return tuple(vals)
 
 
-def update_scene_puppets(scene: bpy.types.Scene, force: bool = False) -> int:
-    """Solve every live puppet of ``scene`` whose rods or bones changed; returns how many."""
+def puppet_problem(rig: bpy.types.Object) -> str | None:
+    """Why live solving skips ``rig`` (said once in the console, shown in the Puppet panel), or
+    None when it solves. It is tried again when the puppet or its rods change."""
+    return _state["broken"].get(rig.as_pointer())
+
+
+def rendering(depsgraph: bpy.types.Depsgraph | None) -> bool:
+    """Whether a handler called with ``depsgraph`` is called by a render: a render evaluates
+    each frame in a depsgraph of its own, in ``RENDER`` mode (the viewport's and a viewport
+    render's are ``VIEWPORT``). Live solving writes no pose then, as Blender's handlers
+    documentation advises ("Note on Altering Data": while rendering, frame-change handlers run
+    in one thread and the viewport draws from another, so a handler that changes data the
+    viewport reads can crash Blender unless the interface is locked). Nothing is lost by it:
+    a render moves the rods to its frames in its own depsgraph, while live solving reads the
+    rods' ``matrix_world``, the viewport's, so it could not follow the render's frames anyway.
+    Asked of the depsgraph, not of a flag that render_init sets, it cannot stay on after a
+    render that stops before its render_complete (Blender then skips that handler)."""
+    return depsgraph is not None and depsgraph.mode == "RENDER"
+
+
+def update_scene_puppets(scene: bpy.types.Scene, force: bool = False,
+                         depsgraph: bpy.types.Depsgraph | None = None) -> int:
+    """Solve every live puppet of ``scene`` whose rods or bones changed; returns how many.
+    ``depsgraph``: the one the calling handler was given.
+
+    Each puppet is solved on its own: one that cannot be solved (PuppetError, or anything else
+    its properties or the core raise) keeps its pose, is said once (the console, and the Puppet
+    panel through ``puppet_problem``) and is tried again only when it changes; the others solve
+    as usual. Nothing is solved or written for a render's frames (``rendering``); that is said
+    once per render."""
     if _state["busy"]:
         return 0
     if not any(KIND_KEY in a for a in bpy.data.armatures):   # cheap exit: no puppet at all
+        return 0
+    if rendering(depsgraph):
+        if not _state["render_said"]:
+            print(f"[MiniSkeleton] {RENDER_SKIP}")
+            _state["render_said"] = True
         return 0
     _state["busy"] = True
     solved = 0
     try:
         for rig in scene_puppets(scene):
-            if not rig.get(LIVE_KEY, True) or rig.mode == "EDIT":
-                continue
-            key = rig.as_pointer()
-            sig = _signature(rig, puppet_rods(rig))
-            if not force and _state["last"].get(key) == sig:
-                continue
-            try:
-                solve_puppet(rig)
-            except PuppetError as err:   # said once, until the rods or the rig change
-                print(f"[MiniSkeleton] {err}; its pose is kept")
-                _state["last"][key] = sig
-                continue
-            _state["last"][key] = _signature(rig, puppet_rods(rig))
-            solved += 1
-            gaps = puppet_gaps(rig)
-            if gaps != _state["gaps"].get(key, []):     # said once, when they change
-                if gaps:
-                    print(f"[MiniSkeleton] Puppet '{rig.name}' {GAPS}: {'; '.join(gaps)}")
-                _state["gaps"][key] = gaps
-    except Exception:   # a handler must never break Blender's update loop
-        traceback.print_exc()
+            if rig.get(LIVE_KEY, True) and rig.mode != "EDIT":
+                solved += _update_puppet(rig, force)
+    except Exception as err:   # outside any one puppet (a bug): said once, not on every update
+        why = f"Live puppet solving stopped ({type(err).__name__}: {err})"
+        if _state["broken"].get(0) != why:
+            print(f"[MiniSkeleton] {why}")
+        _state["broken"][0] = why        # 0: no puppet's pointer
     finally:
         _state["busy"] = False
     return solved
 
 
+def _update_puppet(rig: bpy.types.Object, force: bool) -> int:
+    """Solve ``rig`` if it changed since it was last solved or found broken; 1 when solved."""
+    key = rig.as_pointer()
+    try:
+        sig = _signature(rig, puppet_rods(rig))
+        if not force and _state["last"].get(key) == sig:
+            return 0
+        _state["last"][key] = sig          # a failure below is not tried again until it changes
+        solve_puppet(rig)
+        _state["last"][key] = _signature(rig, puppet_rods(rig))
+        gaps = puppet_gaps(rig)
+    except Exception as err:   # one puppet's failure, whatever it is, is its own
+        _broken(rig, key, err)
+        return 0
+    _state["broken"].pop(key, None)
+    if gaps != _state["gaps"].get(key, []):     # said once, when they change
+        if gaps:
+            print(f"[MiniSkeleton] Puppet '{rig.name}' {GAPS}: {'; '.join(gaps)}")
+        _state["gaps"][key] = gaps
+    return 1
+
+
+def _broken(rig: bpy.types.Object, key: int, err: Exception) -> None:
+    """Remember why ``rig`` does not solve, and say it when that is news (not on every frame)."""
+    why = str(err) if isinstance(err, PuppetError) else (
+        f"Puppet '{rig.name}' cannot be solved ({type(err).__name__}: {err})")
+    if _state["broken"].get(key) != why:
+        print(f"[MiniSkeleton] {why}; its pose is kept")
+    _state["broken"][key] = why
+
+
+def forget_puppets() -> None:
+    """Forget every puppet's state (their pointers mean nothing in another file)."""
+    for name in ("last", "gaps", "broken"):
+        _state[name].clear()
+
+
 @persistent
 def _on_depsgraph_update(scene, depsgraph=None):
-    update_scene_puppets(scene)
+    update_scene_puppets(scene, depsgraph=depsgraph)
 
 
 @persistent
 def _on_frame_change(scene, depsgraph=None):
-    update_scene_puppets(scene)
+    update_scene_puppets(scene, depsgraph=depsgraph)
 
 
-_HANDLERS = (("depsgraph_update_post", _on_depsgraph_update), ("frame_change_post", _on_frame_change))
+@persistent
+def _on_load_post(*_args):
+    forget_puppets()
+
+
+@persistent
+def _on_render_init(*_args):
+    _state["render_said"] = False     # each render says it once
+
+
+_HANDLERS = (("depsgraph_update_post", _on_depsgraph_update), ("frame_change_post", _on_frame_change),
+             ("load_post", _on_load_post), ("render_init", _on_render_init))
 
 
 def register_handlers() -> None:
@@ -314,8 +404,7 @@ def unregister_handlers() -> None:
         for h in list(lst):
             if getattr(h, "__name__", "") == fn.__name__ and getattr(h, "__module__", "") == fn.__module__:
                 lst.remove(h)
-    _state["last"].clear()
-    _state["gaps"].clear()
+    forget_puppets()
 
 
 # ---------------------------------------------------------------------------- baking
@@ -330,24 +419,31 @@ def bake_puppet(scene: bpy.types.Scene, rig: bpy.types.Object, frames: list[int]
                 progress: Callable[[int], object] | None = None) -> int:
     """Key the rotation of every movable bone on each frame (scene range by default), in the
     bone's rotation mode (``rotation_euler`` as the puppet makes them); ``progress(done)`` is
-    called with the number of frames baked after each one. PuppetError (naming the frame) when
-    a frame cannot be solved: then no key is written and the bones keep the rotations they had."""
+    called with the number of frames baked after each one.
+
+    A frame that cannot be solved is a PuppetError naming the frame, whatever the solve raised
+    (its own PuppetError, the core's ValueError, ...). On any failure, that one or one while
+    keying, the bones get back the rotations they had (the frames solved before it turned
+    them), live solving and the current frame are as they were, and the exception goes on to
+    the caller; no key is written when the solve fails."""
     frames = list(frames or scene_frames(scene))
     current = scene.frame_current
     bones = [pb for pb in rig.pose.bones if not all(pb.lock_rotation)]
     live = rig.get(LIVE_KEY, True)
-    rig[LIVE_KEY] = False          # this loop solves itself; keep the handler out of it
     angles = {pb.name: [] for pb in bones}
     before = {pb.name: tuple(getattr(pb, rotation_path(pb))) for pb in bones}
+    rig[LIVE_KEY] = False          # this loop solves itself; keep the handler out of it
+    baked = False
     try:
         for done, f in enumerate(frames):
             scene.frame_set(f)
             try:
                 solve_puppet(rig)
             except PuppetError as err:
-                for pb in bones:
-                    setattr(pb, rotation_path(pb), before[pb.name])
                 raise PuppetError(f"At frame {f}: {err}") from None
+            except Exception as err:   # the core's ValueError for a NaN bone, a bug: the same to say
+                raise PuppetError(f"At frame {f}: puppet '{rig.name}' cannot be solved "
+                                  f"({type(err).__name__}: {err})") from err
             for pb in bones:
                 angles[pb.name].append(bone_euler(pb))
             if progress is not None:
@@ -359,7 +455,11 @@ def bake_puppet(scene: bpy.types.Scene, rig: bpy.types.Object, frames: list[int]
                 path, values = rotation_series(pb, [e.to_quaternion() for e in angles[pb.name]],
                                                before[pb.name])
             key_series(pb, path, frames, values, group=pb.name)
+        baked = True
     finally:
+        if not baked:
+            for pb in bones:
+                setattr(pb, rotation_path(pb), before[pb.name])
         rig[LIVE_KEY] = live
         scene.frame_set(current)
     return len(frames)

@@ -16,8 +16,8 @@ from ..common.keys import keyed_action
 from ..common.reports import in_edit_mode, read_only
 from . import templates
 from .build import build_puppet, set_part_image
-from .live import PuppetError, bake_puppet, scene_frames
-from .rig import GAPS, LIVE_KEY, PART_KEY, puppet_gaps, puppet_poll, puppet_rig, puppet_rods
+from .live import bake_puppet, scene_frames
+from .rig import GAPS, LIVE_KEY, PART_KEY, PuppetError, puppet_gaps, puppet_poll, puppet_rig, puppet_rods
 from .theatre import build_shadow_theatre
 
 
@@ -69,10 +69,14 @@ class MINISKELETON_OT_bake_puppet(bpy.types.Operator):
         wm = context.window_manager
         frames = scene_frames(scene)
         wm.progress_begin(0, len(frames))  # each frame is evaluated and solved
-        try:
+        try:   # on any failure bake_puppet has put the bones' rotations back
             n = bake_puppet(scene, rig, frames, progress=wm.progress_update)
-        except PuppetError as err:
+        except PuppetError as err:   # a frame that cannot be solved: nothing keyed
             self.report({"ERROR"}, f"{err}; nothing was baked")
+            return {"CANCELLED"}
+        except Exception as err:     # failed while keying, after every frame was solved
+            self.report({"ERROR"}, f"Baking {rig.name} stopped while keying ({type(err).__name__}: {err}); "
+                        "the bones' rotations are as they were, keys already written stay")
             return {"CANCELLED"}
         finally:
             wm.progress_end()

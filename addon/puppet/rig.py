@@ -17,6 +17,10 @@ SEED_KEY = "miniskeleton_seed"        # on a pose bone: IK start angle, degrees
 THEATRE_KEY = "miniskeleton_theatre"  # the role of the Shadow Theatre's screen, light and camera
 
 
+class PuppetError(ValueError):
+    """A puppet that cannot be solved as its scene stands (said in a line, never a traceback)."""
+
+
 # ---------------------------------------------------------------------------- finding puppets
 
 
@@ -59,6 +63,16 @@ def puppet_rods(rig: bpy.types.Object) -> dict[str, bpy.types.Object]:
 GAPS = "leaves these as they are (a bone renamed or deleted, a rod deleted)"
 
 
+def puppet_template(rig: bpy.types.Object) -> templates.Template:
+    """The template ``rig``'s ``KIND_KEY`` property names. PuppetError when it names none (a
+    property edited by hand or by a script), saying which kinds there are."""
+    kind = rig.get(KIND_KEY)
+    if not (isinstance(kind, str) and kind in templates.KINDS):
+        raise PuppetError(f"Puppet '{rig.name}' has the type {kind!r} in its '{KIND_KEY}' property, which "
+                          f"is none of {', '.join(templates.KINDS)} (Object Properties > Custom Properties)")
+    return templates.template(kind)
+
+
 def puppet_gaps(rig: bpy.types.Object) -> list[str]:
     """What ``rig``'s drivers lack (``templates.driver_gaps``): bones renamed or deleted, rods deleted."""
-    return templates.driver_gaps(templates.template(rig[KIND_KEY]), set(rig.pose.bones.keys()), set(puppet_rods(rig)))
+    return templates.driver_gaps(puppet_template(rig), set(rig.pose.bones.keys()), set(puppet_rods(rig)))

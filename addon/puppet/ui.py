@@ -3,9 +3,12 @@ entry. Layout only; the operators are in ``operators``."""
 
 from __future__ import annotations
 
+import textwrap
+
 import bpy
 
 from ..common.panels import SidebarPanel
+from .live import puppet_problem
 from .rig import LIVE_KEY, puppet_rig
 
 PUPPET_OP = "object.miniskeleton_add_puppet"
@@ -26,6 +29,12 @@ class MINISKELETON_PT_puppet(SidebarPanel, bpy.types.Panel):
             col = layout.column(align=True)
             col.label(text=rig.name, icon="ARMATURE_DATA")
             col.prop(rig, f'["{LIVE_KEY}"]', text="Live Solve (rods drive the pose)")
+            problem = puppet_problem(rig) if rig.get(LIVE_KEY, True) else None
+            if problem:   # live solving skips it until it changes
+                box = col.box()
+                box.label(text="Not solving, pose kept:", icon="ERROR")
+                for line in textwrap.wrap(problem, 44):
+                    box.label(text=line)
             bone = rig.pose.bones.get(rig.data.bones.active.name) if rig.data.bones.active else None
             if bone is not None:
                 col.label(text=f"{bone.name} limits")

@@ -2,6 +2,11 @@
 
 use std::f32::consts::TAU;
 
+use crate::{Error, Result};
+
+/// A triangle mesh by value: `(vertices (n, 3), triangles (m, 3))`.
+pub type Mesh = (Vec<[f32; 3]>, Vec<[u32; 3]>);
+
 /// Closed, watertight capped cylinder along +Z, outward-facing triangles.
 ///
 /// Inputs: `radius`, `height` (any unit; non-finite or non-positive -> 1), `rings` vertex
@@ -56,19 +61,29 @@ pub fn bone_chain(height: f32, bones: usize) -> (Vec<[f32; 3]>, Vec<[f32; 3]>, V
 }
 
 /// Flat-shaded copy: every triangle gets its own three vertices, like a glTF export of a
-/// flat-shaded mesh. Output `(vertices, triangles)` with `3 m` vertices and triangle `i` =
-/// `[3i, 3i+1, 3i+2]`. Out-of-range indices are copied as the origin.
-pub fn split_flat(vertices: &[[f32; 3]], triangles: &[[u32; 3]]) -> (Vec<[f32; 3]>, Vec<[u32; 3]>) {
-    let mut v = Vec::with_capacity(3 * triangles.len());
-    let mut t = Vec::with_capacity(triangles.len());
-    for tri in triangles {
-        let base = v.len() as u32;
-        for &i in tri {
-            v.push(vertices.get(i as usize).copied().unwrap_or([0.0; 3]));
-        }
-        t.push([base, base + 1, base + 2]);
+/// flat-shaded mesh.
+///
+/// Inputs: `vertices` `(n, 3)`, `triangles` `(m, 3)` indices into `vertices`.
+/// Output `(vertices, triangles)` with `3 m` vertices, the corners of triangle `i` at
+/// `3i, 3i+1, 3i+2`, and triangle `i = [3i, 3i+1, 3i+2]`.
+///
+/// Errors: [`Error::BadIndex`] for the first triangle with an index `>= n` (no corner is
+/// made up for it), [`Error::InvalidArgument`] when `3 m` does not fit a `u32` index.
+pub fn split_flat(vertices: &[[f32; 3]], triangles: &[[u32; 3]]) -> Result<Mesh> {
+    let n = vertices.len();
+    if triangles.len() > u32::MAX as usize / 3 {
+        return Err(Error::InvalidArgument(format!(
+            "{} triangles: their 3 vertices each do not fit u32 indices",
+            triangles.len()
+        )));
     }
-    (v, t)
+    if let Some(ti) = triangles.iter().position(|t| t.iter().any(|&i| i as usize >= n)) {
+        let index = triangles[ti].iter().copied().find(|&i| i as usize >= n).unwrap_or(0);
+        return Err(Error::BadIndex { triangle: ti, index: index as i64, vertex_count: n });
+    }
+    let v = triangles.iter().flat_map(|tri| tri.map(|i| vertices[i as usize])).collect();
+    let t = (0..triangles.len() as u32).map(|i| [3 * i, 3 * i + 1, 3 * i + 2]).collect();
+    Ok((v, t))
 }
 
 #[cfg(test)]
@@ -103,7 +118,22 @@ mod tests {
         let (h, tl, p) = bone_chain(2.0, 3);
         assert_eq!((h.len(), tl.len(), p), (3, 3, vec![-1, 0, 1]));
         assert_eq!(h[1], tl[0]);
-        let (sv, st) = split_flat(&v, &t);
+        let (sv, st) = split_flat(&v, &t).unwrap();
         assert_eq!((sv.len(), st.len()), (3 * t.len(), t.len()));
+        assert_eq!(sv[3 * 5 + 2], v[t[5][2] as usize]);
+        assert_eq!(st[5], [15, 16, 17]);
+    }
+
+    #[test]
+    fn split_flat_refuses_an_index_past_the_vertices() {
+        let (v, mut t) = capped_cylinder(1.0, 2.0, 2, 3);
+        let n = v.len();
+        t[4][1] = n as u32;
+        assert_eq!(split_flat(&v, &t), Err(Error::BadIndex { triangle: 4, index: n as i64, vertex_count: n }));
+        t[4][1] = u32::MAX;
+        t[6][0] = n as u32 + 1;
+        assert_eq!(split_flat(&v, &t), Err(Error::BadIndex { triangle: 4, index: u32::MAX as i64, vertex_count: n }));
+        assert_eq!(split_flat(&[], &[[0, 0, 0]]), Err(Error::BadIndex { triangle: 0, index: 0, vertex_count: 0 }));
+        assert_eq!(split_flat(&[], &[]), Ok((vec![], vec![])));
     }
 }

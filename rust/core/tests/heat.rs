@@ -219,7 +219,7 @@ fn a_piece_with_some_vertices_that_see_a_bone_is_no_fallback() {
 fn flat_shaded_split_mesh_matches_welded_twin() {
     let (m, b) = cylinder();
     let (inf, _) = heat(&m, &b, &HeatOptions::default());
-    let split = split_flat(&m.0, &m.1);
+    let split = split_flat(&m.0, &m.1).unwrap();
     let (sinf, rep) = heat(&split, &b, &HeatOptions::default());
     assert_eq!(rep.welded_vertices, split.0.len() - m.0.len());
     assert_eq!(rep.pieces, 1);
@@ -880,7 +880,7 @@ fn untimed(r: &HeatReport) -> HeatReport {
 #[test]
 fn the_sources_heat_finds_given_back_give_the_same_weights() {
     let (m, b) = cylinder();
-    let split = split_flat(&m.0, &m.1);
+    let split = split_flat(&m.0, &m.1).unwrap();
     let mut pieces = m.clone();
     let (v2, t2) = capped_cylinder(0.15, 2.0, 41, 16);
     let base = pieces.0.len() as u32;

@@ -4,7 +4,7 @@ use std::f64::consts::PI;
 
 use miniskeleton_core::posing::ik2d::{
     clamp_to_limits, forward, solve_ccd, solve_ccd_classic3d, solve_ccd_pure, solve_fabrik, solve_multi,
-    solve_two_arm_grip, wrap_angle, Chain2d, SolveOptions, SolveReport,
+    solve_two_arm_grip, wrap_angle, Chain2d, SolveOptions, SolveReport, MAX_ITERATIONS,
 };
 use miniskeleton_core::{Error, Result};
 
@@ -490,4 +490,49 @@ fn invalid_input_is_an_error_and_leaves_chain_untouched() {
     r.lengths.push(1.0);
     assert!(solve_two_arm_grip(&mut l, &mut r, [1.0, 1.0], [1.0, 1.0], opts).is_err());
     assert_eq!(l, good);
+}
+
+/// `max_iterations` is bounded: the solvers run without Python's GIL, so a huge count (a typo,
+/// a script's `10**12`) would hold Blender with no way to interrupt it. Above
+/// `MAX_ITERATIONS` every solver is an error naming the bound and leaves the chain as it was;
+/// at the bound a solve that never converges (tolerance 0) runs every pass, in well under a
+/// second for a 16-bone chain.
+#[test]
+fn max_iterations_above_the_bound_is_an_error_for_every_solver() {
+    assert_eq!(MAX_ITERATIONS, 10_000);
+    let good = Chain2d::straight([0.0, 0.0], 0.3, vec![0.25; 16]);
+    let target = [1.3, 2.1];
+    let over = SolveOptions { max_iterations: MAX_ITERATIONS + 1, tolerance: 1e-3 };
+    let huge = SolveOptions { max_iterations: usize::MAX, tolerance: 1e-3 };
+    let solvers: [(&str, Solver); 4] = [
+        ("ccd", solve_ccd),
+        ("ccd_pure", solve_ccd_pure),
+        ("classic3d", solve_ccd_classic3d),
+        ("fabrik", solve_fabrik),
+    ];
+    for (name, solve) in solvers {
+        for opts in [over, huge] {
+            let mut c = good.clone();
+            let err = solve(&mut c, target, opts).unwrap_err();
+            assert_eq!(
+                err,
+                Error::InvalidArgument(format!("max_iterations must be at most 10000, got {}", opts.max_iterations)),
+                "{name}"
+            );
+            assert_eq!(c, good, "{name}");
+        }
+    }
+    let mut c = good.clone();
+    assert!(matches!(solve_multi(&mut c, &[(16, target, 1.0)], over), Err(Error::InvalidArgument(_))));
+    let (mut l, mut r) = (good.clone(), good.clone());
+    assert!(matches!(solve_two_arm_grip(&mut l, &mut r, target, target, huge), Err(Error::InvalidArgument(_))));
+    assert!(c == good && l == good && r == good);
+
+    let at = SolveOptions { max_iterations: MAX_ITERATIONS, tolerance: 0.0 };
+    let mut c = good.clone(); // the O(b^2)-per-pass baseline: the slowest pass there is
+    let t0 = std::time::Instant::now();
+    let rep = solve_ccd_classic3d(&mut c, target, at).unwrap();
+    let took = t0.elapsed().as_secs_f64();
+    assert_eq!(rep.iterations, MAX_ITERATIONS, "{rep:?}");
+    assert!(took < 1.0, "{MAX_ITERATIONS} passes took {took:.3} s");
 }

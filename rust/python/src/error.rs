@@ -1,5 +1,6 @@
 //! The one place core errors become Python exceptions, and panics are stopped at the boundary.
 
+use miniskeleton_core::error::panic_message;
 use miniskeleton_core::Error;
 use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
@@ -12,13 +13,19 @@ pyo3::create_exception!(
     "Raised when a progress callback returned False."
 );
 
-/// Map a core error: bad input is `ValueError`, cancel `Cancelled` (a factorization that fails
-/// is not an error: those pieces fall back to their nearest bones, see `HeatReport`).
+/// Map a core error: bad input is `ValueError`, cancel `Cancelled`, a panic caught in the core
+/// (`Error::Internal`) `RuntimeError`, as one caught here (a factorization that fails is not an
+/// error: those pieces fall back to their nearest bones, see `HeatReport`).
 pub fn to_py(err: Error) -> PyErr {
     match err {
         Error::Cancelled => Cancelled::new_err("cancelled by the progress callback"),
+        Error::Internal(msg) => internal(&msg),
         _ => PyValueError::new_err(err.to_string()),
     }
+}
+
+fn internal(msg: &str) -> PyErr {
+    PyRuntimeError::new_err(format!("internal error in miniskeleton_core (please report): {msg}"))
 }
 
 /// Run `f` without the GIL and turn a Rust panic into `RuntimeError` instead of letting it
@@ -29,13 +36,6 @@ pub fn guarded<T: Send>(py: Python<'_>, f: impl FnOnce() -> Result<T, Error> + S
     match out {
         Ok(Ok(v)) => Ok(v),
         Ok(Err(e)) => Err(to_py(e)),
-        Err(panic) => {
-            let msg = panic
-                .downcast_ref::<&str>()
-                .map(|s| s.to_string())
-                .or_else(|| panic.downcast_ref::<String>().cloned())
-                .unwrap_or_else(|| "unknown panic".into());
-            Err(PyRuntimeError::new_err(format!("internal error in miniskeleton_core (please report): {msg}")))
-        }
+        Err(panic) => Err(internal(&panic_message(&*panic))),
     }
 }

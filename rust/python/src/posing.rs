@@ -79,6 +79,8 @@ fn options(c: &Chain2d, max_iterations: usize, tolerance: Option<f64>) -> SolveO
 
 /// Planar IK for one chain. method: "ccd" (improved CCD, default), "ccd_pure" (the paper's
 /// step only), "ccd_classic3d", "fabrik". Returns (relative angles (b,), report dict).
+/// `max_iterations` above `ik2d::MAX_ITERATIONS` (10 000) is a ValueError: the solve runs
+/// without the GIL and could not be interrupted.
 #[pyfunction]
 #[pyo3(signature = (lengths, target, angles=None, *, base=(0.0, 0.0), base_angle=0.0, limits=None,
                     max_iterations=200, tolerance=None, method="ccd"))]
@@ -112,6 +114,7 @@ pub fn ik2d_solve<'py>(
 }
 
 /// Several effectors on one chain (strip puppets): effectors = [(joint 1..=b, (x, y), weight)].
+/// `max_iterations` is bounded as in `ik2d_solve`.
 #[pyfunction]
 #[pyo3(signature = (lengths, effectors, angles=None, *, base=(0.0, 0.0), base_angle=0.0, limits=None,
                     max_iterations=200, tolerance=None))]

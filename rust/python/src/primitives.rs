@@ -43,7 +43,8 @@ pub fn bone_chain<'py>(py: Python<'py>, height: f32, bones: usize) -> PyResult<C
     Ok((from_rows(py, &h)?, from_rows(py, &t)?, PyArray1::from_vec(py, p)))
 }
 
-/// Flat-shaded copy: every triangle gets its own three vertices (like a glTF import of a flat mesh).
+/// Flat-shaded copy: every triangle gets its own three vertices (like a glTF import of a flat
+/// mesh). ValueError for an index past the vertices, naming the triangle.
 #[pyfunction]
 pub fn split_flat<'py>(
     py: Python<'py>,
@@ -52,7 +53,7 @@ pub fn split_flat<'py>(
 ) -> PyResult<MeshArrays<'py>> {
     let v = crate::convert::rows::<f32, 3>(&vertices, "vertices")?;
     let t = crate::convert::index_rows::<u32, 3>(&triangles, "triangles")?;
-    let (sv, st) = miniskeleton_core::primitives::split_flat(&v, &t);
+    let (sv, st) = miniskeleton_core::primitives::split_flat(&v, &t).map_err(crate::error::to_py)?;
     Ok((from_rows(py, &sv)?, from_rows(py, &st)?))
 }
 

@@ -267,9 +267,10 @@ fn solve_heat(
 
 /// `heat_weights_report` of several independent meshes with the same bones and options, solved
 /// in parallel in one call (for many small meshes, where a call per mesh costs more than its
-/// solve). `meshes`: [(vertices (n,3), triangles (m,3))]. Returns one entry per mesh: the tuple
-/// (indices, weights, report), or the exception that mesh raised (`ValueError` for bad input,
-/// `RuntimeError` ...), returned rather than raised so that the other meshes' results stand.
+/// solve). `meshes`: [(vertices (n,3), triangles (m,3))]. Returns one entry per mesh, in order:
+/// the tuple (indices, weights, report), or the exception that mesh raised (`ValueError` for
+/// bad input, `RuntimeError` for a panic in its solve, caught per mesh in the core), returned
+/// rather than raised so that the other meshes' results stand.
 #[pyfunction]
 #[pyo3(signature = (meshes, bone_heads, bone_tails, **options))]
 pub fn heat_weights_many<'py>(

@@ -230,7 +230,7 @@ mod tests {
         assert_eq!(h.len(), 2, "{h:?}");
         // A flat-shaded cylinder (every triangle its own vertices) welds into one piece.
         let (cv, ct) = capped_cylinder(0.5, 2.0, 8, 12);
-        let (cv, ct) = split_flat(&cv, &ct);
+        let (cv, ct) = split_flat(&cv, &ct).unwrap();
         let one = Solid::new(&cv, &ct, 1e-6, 1e-6);
         assert_eq!(one.pieces(), 1);
         let (o, d) = (Vec3::new(0.1, -0.05, -1.0), Vec3::new(0.01, 0.02, 1.0));

@@ -16,6 +16,8 @@
 //!   (values beyond `±pi` saturate, so `[-inf, inf]` or `[-pi, pi]` mean "no limit").
 //! * Lengths are in any unit (Blender metres); tolerances and errors are in the same unit.
 //! * On `Err` the chain is left untouched. Every solver leaves angles inside their limits.
+//! * Every solver runs at most [`MAX_ITERATIONS`] passes: a larger
+//!   [`SolveOptions::max_iterations`] is [`Error::InvalidArgument`], not clamped.
 //!
 //! Solvers:
 //!
@@ -66,10 +68,18 @@ impl Chain2d {
     }
 }
 
+/// The most passes a solve may be asked for ([`SolveOptions::max_iterations`]): every solver
+/// returns [`Error::InvalidArgument`] above it. The solvers run without Python's GIL and
+/// cannot be interrupted, so the bound keeps one call short: 10 000 passes of a puppet limb
+/// take milliseconds, and a solve that has not converged in a few hundred passes (200 by
+/// default) will not in millions.
+pub const MAX_ITERATIONS: usize = 10_000;
+
 /// When to stop iterating.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SolveOptions {
-    /// Largest number of passes (one CCD sweep tip-to-root, or one FABRIK forward+backward).
+    /// Largest number of passes (one CCD sweep tip-to-root, or one FABRIK forward+backward),
+    /// `0 ..= MAX_ITERATIONS`.
     pub max_iterations: usize,
     /// Absolute distance (chain units) at which an effector counts as on its target.
     /// Callers typically use `1e-3 * chain.reach()` ([`SolveOptions::for_chain`]).
@@ -176,7 +186,7 @@ pub fn forward(chain: &Chain2d) -> Result<Vec<[f64; 2]>> {
 ///   on a pivot.
 ///
 /// Input angles are first clamped to their limits. Errors: invalid chain, non-finite target,
-/// negative or NaN tolerance.
+/// negative or NaN tolerance, `max_iterations` above [`MAX_ITERATIONS`].
 pub fn solve_ccd(chain: &mut Chain2d, target: [f64; 2], opts: SolveOptions) -> Result<SolveReport> {
     ccd_single(chain, target, opts, true)
 }
@@ -229,8 +239,8 @@ fn ccd_single(chain: &mut Chain2d, target: [f64; 2], opts: SolveOptions, polish:
 /// targets end at the weighted least-squares compromise, `reached = false`.
 ///
 /// The report's `error` is the largest distance over effectors with positive weight.
-/// Errors: invalid chain/options, empty effector list, joint index 0 or `> b`, non-finite
-/// target, negative/non-finite weight, all weights zero.
+/// Errors: invalid chain/options (`max_iterations` above [`MAX_ITERATIONS`]), empty effector
+/// list, joint index 0 or `> b`, non-finite target, negative/non-finite weight, all weights zero.
 pub fn solve_multi(
     chain: &mut Chain2d,
     effectors: &[(usize, [f64; 2], f64)],
@@ -762,6 +772,12 @@ fn check_point(p: [f64; 2], what: &'static str) -> Result<()> {
 fn check_opts(opts: SolveOptions) -> Result<()> {
     if !opts.tolerance.is_finite() || opts.tolerance < 0.0 {
         return Err(Error::InvalidArgument(format!("tolerance must be finite and >= 0, got {}", opts.tolerance)));
+    }
+    if opts.max_iterations > MAX_ITERATIONS {
+        return Err(Error::InvalidArgument(format!(
+            "max_iterations must be at most {MAX_ITERATIONS}, got {}",
+            opts.max_iterations
+        )));
     }
     Ok(())
 }

@@ -15,6 +15,7 @@ pub(crate) mod reach;
 mod sources;
 mod stages;
 
+use crate::error::caught;
 pub use crate::mesh::mirror::Symmetry;
 use crate::mesh::{count_non_finite, validate_bones, validate_mesh};
 use crate::skeleton::validate_parents;
@@ -253,16 +254,31 @@ pub fn heat_sources(
 pub type MeshRef<'a> = (&'a [[f32; 3]], &'a [[u32; 3]]);
 
 /// [`heat_weights`] of several independent meshes with the same bones and options, one mesh
-/// per rayon task, one result per mesh (a bad mesh fails alone). For many small meshes (a
-/// figure kit-built of separate objects) one call per mesh spends more in set-up and in
-/// crossing into the thread pool than in solving; here both cores stay busy.
+/// per rayon task. For many small meshes (a figure kit-built of separate objects) one call per
+/// mesh spends more in set-up and in crossing into the thread pool than in solving; here both
+/// cores stay busy.
+///
+/// Inputs: `meshes` `[(vertices (n_k, 3), triangles (m_k, 3))]`; the rest as [`heat_weights`].
+/// Output: one result per mesh, in order: result `k` is mesh `k`'s. A mesh fails alone: its
+/// entry holds its error ([`heat_weights`]' errors), or [`Error::Internal`] with the message
+/// of a panic in its solve, and every other mesh still gets its weights.
 pub fn heat_weights_many(
     meshes: &[MeshRef<'_>],
     heads: &[[f32; 3]],
     tails: &[[f32; 3]],
     opts: &HeatOptions,
 ) -> Vec<Result<(Influences, HeatReport)>> {
-    meshes.par_iter().map(|(v, t)| heat_weights(v, t, heads, tails, opts, None)).collect()
+    each_mesh(meshes, |v, t| heat_weights(v, t, heads, tails, opts, None))
+}
+
+/// `solve` of each mesh, one rayon task per mesh, a panic caught as that mesh's
+/// [`Error::Internal`] (a panic in one rayon task would otherwise unwind through the whole
+/// batch and lose every mesh's result).
+fn each_mesh<T: Send>(
+    meshes: &[MeshRef<'_>],
+    solve: impl Fn(&[[f32; 3]], &[[u32; 3]]) -> Result<T> + Sync,
+) -> Vec<Result<T>> {
+    meshes.par_iter().map(|&(v, t)| caught(|| solve(v, t))).collect()
 }
 
 /// Check the inputs and options of [`heat_weights`].
@@ -379,5 +395,32 @@ mod tests {
         // Away from the joint the ramp leaves one bone, as Blender's does.
         let far = v.iter().position(|p| p[2] < 0.3 && p[0].hypot(p[1]) > 0.1).unwrap();
         assert_eq!(inf.row(far).1[0], 1.0);
+    }
+
+    /// A panic while solving one mesh of a batch fails that mesh alone: its entry is
+    /// `Error::Internal` with the panic's message, and the others have the weights they get
+    /// when solved one by one. Before, the panic unwound out of the rayon batch and every
+    /// mesh's result was lost. The panic is forced in the batch's own per-mesh runner, the
+    /// one `heat_weights_many` uses, on the third of five real meshes.
+    #[test]
+    fn a_panic_in_one_mesh_of_a_batch_fails_that_mesh_alone() {
+        let (h, tl, _) = bone_chain(2.0, 3);
+        let meshes: Vec<_> = (0..5).map(|k| capped_cylinder(0.2, 2.0, 5 + k, 8)).collect();
+        let refs: Vec<MeshRef> = meshes.iter().map(|(v, t)| (&v[..], &t[..])).collect();
+        let opts = HeatOptions::default();
+        let doomed = meshes[2].0.len();
+        let out = each_mesh(&refs, |v, t| {
+            assert!(v.len() != doomed, "a bug in mesh of {} vertices", v.len());
+            heat_weights(v, t, &h, &tl, &opts, None)
+        });
+        assert_eq!(out.len(), 5);
+        assert_eq!(out[2].as_ref().unwrap_err(), &Error::Internal(format!("a bug in mesh of {doomed} vertices")));
+        for k in [0, 1, 3, 4] {
+            let (inf, _) = out[k].as_ref().unwrap();
+            let (one, _) = heat_weights(refs[k].0, refs[k].1, &h, &tl, &opts, None).unwrap();
+            assert_eq!((&inf.indices, &inf.weights), (&one.indices, &one.weights), "mesh {k}");
+        }
+        let all = heat_weights_many(&refs, &h, &tl, &opts);
+        assert!(all.iter().all(|r| r.is_ok()));
     }
 }
