@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
+import importlib
 import math
+import sys
+from pathlib import Path
 
 import bpy
 import numpy as np
@@ -181,3 +184,47 @@ def riding(arm, rider, carrier, frames):
         offsets.append(tuple((mw @ pose[carrier].matrix).inverted() @ head))
         heights.append(head.z)
     return np.array(offsets), np.array(heights)
+
+
+# ---------------------------------------------------------------------------- corpus rigs
+
+_corpus_rigs: dict = {}
+
+
+def addon(name: str):
+    """The installed extension's module ``name`` ("motion.planning")."""
+    import blender_session
+
+    return importlib.import_module(f"{blender_session.ADDON_MODULE}.{name}")
+
+
+def motion_corpus():
+    """bench/motion_corpus.py, imported (the measures and the rig reset the motion tests use)."""
+    bench = str(Path(__file__).resolve().parents[1] / "bench")
+    if bench not in sys.path:
+        sys.path.insert(0, bench)
+    return importlib.import_module("motion_corpus")
+
+
+def corpus_rig(name: str) -> rig_corpus.Rig:
+    """Rig ``name`` of scripts/rig_corpus.py, built in a fresh scene unless it is there already
+    (another test may have reset the scene, or undone it), then reset: no action, every pose
+    bone at rest, the armature object where it was built (``rig.basis``)."""
+    import blender_session
+
+    corpus = motion_corpus()
+    rig = _corpus_rigs.get(name)
+    try:
+        alive = rig is not None and rig.arm.name in bpy.context.scene.objects and all(
+            ob.name in bpy.context.scene.objects for ob in rig.meshes)
+    except ReferenceError:
+        alive = False
+    if not alive:
+        blender_session.reset_scene()
+        _corpus_rigs.clear()
+        with corpus.captured_output():
+            rig = rig_corpus.build(name)
+        rig.basis = rig.arm.matrix_basis.copy()
+        _corpus_rigs[name] = rig
+    corpus.reset_rig(rig.arm, rig.basis)
+    return rig

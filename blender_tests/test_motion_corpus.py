@@ -12,7 +12,6 @@ Rigs whose files are absent (no ../shared) are skipped. Each rig is built once f
 
 from __future__ import annotations
 
-import importlib
 import math
 import sys
 from pathlib import Path
@@ -20,7 +19,6 @@ from pathlib import Path
 import bpy
 import pytest
 
-import blender_session
 import builders as B
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "bench"))
@@ -71,45 +69,23 @@ LEGLESS = [name for name in rig_corpus.NAMES if name.startswith("q_") and name n
 KNOWN = {("spot_rig", "RUN"): "hind hooves rest above the front hooves' ground"}
 
 
-def addon(name: str):
-    return importlib.import_module(f"{blender_session.ADDON_MODULE}.{name}")
-
-
 @pytest.fixture(autouse=True)
 def clean_scene():
     """Overrides conftest's: rigs are built once per module (``built``), not per test."""
     yield
 
 
-_built: dict = {}
-
-
 def built(name: str) -> rig_corpus.Rig:
-    """Rig ``name`` built in a fresh scene unless it is there already; skipped when its file is
-    absent."""
+    """Rig ``name`` (``builders.corpus_rig``); skipped when its file is absent."""
     why = rig_corpus.missing(name)
     if why:
         pytest.skip(why)
-    rig = _built.get(name)
-    try:
-        alive = rig is not None and rig.arm.name in bpy.context.scene.objects and all(
-            ob.name in bpy.context.scene.objects for ob in rig.meshes)
-    except ReferenceError:
-        alive = False
-    if not alive:
-        blender_session.reset_scene()
-        _built.clear()
-        with corpus.captured_output():
-            rig = rig_corpus.build(name)
-        rig.basis = rig.arm.matrix_basis.copy()
-        _built[name] = rig
-    corpus.reset_rig(rig.arm, rig.basis)
-    return rig
+    return B.corpus_rig(name)
 
 
 def roles_of(arm) -> tuple[dict, list[str]]:
     """The roles the operator plans with (the core's, on the add-on's motion skeleton)."""
-    planning = addon("motion.planning")
+    planning = B.addon("motion.planning")
     scene = bpy.context.scene
     bones = planning.motion_bones(arm)
     out = planning.make_motion(arm, bones, scene, scene.render.fps / scene.render.fps_base, "HEAD_SHAKE",

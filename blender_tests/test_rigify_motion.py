@@ -10,7 +10,6 @@ tests of one rig together): the scene is not reset before each test here."""
 
 from __future__ import annotations
 
-import importlib
 import math
 import sys
 from pathlib import Path
@@ -30,37 +29,14 @@ RIGS = list(rig_corpus.RIGIFY_METARIGS)
 PREFIXES = ("DEF-", "ORG-", "MCH-")
 
 
-def addon(name: str):
-    return importlib.import_module(f"{blender_session.ADDON_MODULE}.{name}")
-
-
 @pytest.fixture(autouse=True)
 def clean_scene():
     """Overrides conftest's: rigs are built once per module (``built``), not per test."""
     yield
 
 
-_built: dict = {}
-
-
 def built(name: str) -> rig_corpus.Rig:
-    """Rig ``name``, built in a fresh scene unless it is there already (another test may have
-    reset the scene, or undone it)."""
-    rig = _built.get(name)
-    try:
-        alive = rig is not None and rig.arm.name in bpy.context.scene.objects and all(
-            ob.name in bpy.context.scene.objects for ob in rig.meshes)
-    except ReferenceError:
-        alive = False
-    if not alive:
-        blender_session.reset_scene()
-        _built.clear()
-        with corpus.captured_output():
-            rig = rig_corpus.build(name)
-        rig.basis = rig.arm.matrix_basis.copy()
-        _built[name] = rig
-    corpus.reset_rig(rig.arm, rig.basis)
-    return rig
+    return B.corpus_rig(name)
 
 
 @pytest.fixture(scope="module", params=RIGS)
@@ -83,7 +59,7 @@ def add_motion(capfd, arm, *args, **props) -> tuple[set, str]:
 def planned(arm, motion: str = "WALK"):
     """The motion the operator plans with its default options: (bones, core output, the DEF
     bones' planned pose, ``planning.PlannedPose``)."""
-    planning, rigify = addon("motion.planning"), addon("motion.rigify")
+    planning, rigify = B.addon("motion.planning"), B.addon("motion.rigify")
     scene = bpy.context.scene
     bones = rigify.merged_segments(arm, planning.motion_bones(arm))
     out = planning.make_motion(arm, bones, scene, scene.render.fps / scene.render.fps_base, motion, cycles=2.0,
@@ -213,7 +189,7 @@ def test_the_motion_skeleton_joins_def_chains_at_their_twins():
     bone lying where its nearest non-deform ancestor with such a twin lies, so the motion sees
     one skeleton; the weights' reading of the armature keeps its own parents."""
     arm = built("rigify_basic_human").arm
-    planning = addon("motion.planning")
+    planning = B.addon("motion.planning")
     bones = planning.motion_bones(arm)
     parent = {n: (bones.names[p] if p >= 0 else None) for n, p in zip(bones.names, bones.parents)}
     assert [n for n, p in parent.items() if p is None] == ["DEF-spine"]
@@ -221,9 +197,9 @@ def test_the_motion_skeleton_joins_def_chains_at_their_twins():
     assert parent["DEF-pelvis.L"] == "DEF-spine"           # past its own twin ORG-pelvis.L
     assert parent["DEF-shoulder.L"] == "DEF-spine.003"
     assert parent["DEF-upper_arm.L"] == "DEF-shoulder.L"
-    plain = addon("common.armatures").armature_bones(arm)
+    plain = B.addon("common.armatures").armature_bones(arm)
     assert plain.parents[plain.names.index("DEF-thigh.L")] == -1
-    merged = addon("motion.rigify").merged_segments(arm, bones)
+    merged = B.addon("motion.rigify").merged_segments(arm, bones)
     assert "DEF-thigh.L.001" not in merged.names           # one bone per ORG bone
     i = merged.names.index("DEF-thigh.L")
     assert np.allclose(merged.tails[i], bones.tails[bones.names.index("DEF-thigh.L.001")])
@@ -262,7 +238,7 @@ def test_a_second_walk_carries_on_from_where_the_first_ended_and_undo_takes_it_b
     bpy.context.scene.frame_set(first_end)
     torso_end = np.array(arm.pose.bones["torso"].matrix.translation)
     bpy.ops.ed.undo_push(message="before the second walk")
-    keys_before = {fc.data_path: len(fc.keyframe_points) for fc in addon("common.keys").action_fcurves(arm)}
+    keys_before = {fc.data_path: len(fc.keyframe_points) for fc in B.addon("common.keys").action_fcurves(arm)}
     result, console = add_motion(capfd, arm, "EXEC_DEFAULT", True, motion="WALK")
     assert result == {"FINISHED"}, console
     frames = frames_of(console)
@@ -277,7 +253,7 @@ def test_a_second_walk_carries_on_from_where_the_first_ended_and_undo_takes_it_b
     assert_follows(arm, bones, out_, pose, frames, rest["diag"], shift)
     name = arm.name
     bpy.ops.ed.undo()
-    fcurves = addon("common.keys").action_fcurves(bpy.data.objects[name])
+    fcurves = B.addon("common.keys").action_fcurves(bpy.data.objects[name])
     assert {fc.data_path: len(fc.keyframe_points) for fc in fcurves} == keys_before
 
 
@@ -305,7 +281,7 @@ def test_a_rig_whose_every_keyed_bone_follows_a_constraint_is_refused(capfd):
     result, console = add_motion(capfd, arm, motion="WALK")
     assert result == {"CANCELLED"}
     assert "no bone the motion would key can move the mesh" in console and "(Copy Transforms)" in console
-    assert arm.animation_data is None or not addon("common.keys").action_fcurves(arm)
+    assert arm.animation_data is None or not B.addon("common.keys").action_fcurves(arm)
     arm.pose.bones["thigh.L"].constraints.remove(arm.pose.bones["thigh.L"].constraints[0])
     result, console = add_motion(capfd, arm, motion="WALK")
     assert result == {"FINISHED"}
