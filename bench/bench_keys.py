@@ -1,9 +1,11 @@
 """Keying long motions: Add Motion (Walk) and Bake Puppet Animation over growing frame ranges.
 
-    .venv/bin/python bench/bench_keys.py [--cycles 2,10,100] [--frames 250,1000] [--repeats 3]
+    .venv/bin/python bench/bench_keys.py [--cycles 2,10,100] [--rigify-cycles 4] [--frames 250,1000] [--repeats 3]
 
 Add Motion on the generated creature's rig (scripts/creature.py, 22 bones keyed) for each number
-of walk cycles, and Bake Puppet Animation on a five-rod shadow puppet over each scene range;
+of walk cycles, on the Rigify human control rig (scripts/rig_corpus.py, built once, reset before
+each run: the controls solved through Blender's evaluation of their MCH parents), and Bake
+Puppet Animation on a five-rod shadow puppet over each scene range;
 both write every bone's keys as one series (``addon/common/keys.py``). Prints a markdown table of the
 operator's time (median of the repeats, a fresh scene each) and frames keyed, and writes it to
 out/bench_keys.md. Nothing is asserted (a Blender test checks the series equals keyframe_insert
@@ -43,6 +45,31 @@ def walk(bpy, cycles: float) -> tuple[float, int]:
     return secs, bpy.context.scene.frame_end - bpy.context.scene.frame_start + 1
 
 
+_rigify: dict = {}
+
+
+def rigify_walk(bpy, cycles: float) -> tuple[float, int]:
+    """Seconds for Add Motion (Walk, ``cycles``) on the Rigify human rig, and frames keyed."""
+    import rig_corpus
+
+    sys.path[:0] = [str(ROOT / "bench")]
+    import motion_corpus
+
+    if "rig" not in _rigify:
+        blender_session.reset_scene()
+        with motion_corpus.captured_output():
+            rig = rig_corpus.build("rigify_human")
+        _rigify.update(rig=rig, basis=rig.arm.matrix_basis.copy())
+    arm = _rigify["rig"].arm
+    motion_corpus.reset_rig(arm, _rigify["basis"])
+    bpy.context.view_layer.objects.active = arm
+    arm.select_set(True)
+    with motion_corpus.captured_output():
+        secs, result = timed(lambda: bpy.ops.pose.miniskeleton_add_motion(motion="WALK", cycles=cycles))
+    assert result == {"FINISHED"}, result
+    return secs, bpy.context.scene.frame_end - bpy.context.scene.frame_start + 1
+
+
 def bake(bpy, frames: int) -> tuple[float, int]:
     """Seconds for Bake Puppet Animation on a fresh five-rod puppet over ``frames`` frames."""
     blender_session.reset_scene()
@@ -57,12 +84,14 @@ def bake(bpy, frames: int) -> tuple[float, int]:
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--cycles", default="2,10,100", help="walk cycles for Add Motion")
+    ap.add_argument("--rigify-cycles", default="4", help="walk cycles for Add Motion on the Rigify human")
     ap.add_argument("--frames", default="250,1000", help="scene ranges for Bake Puppet Animation")
     ap.add_argument("--repeats", type=int, default=3)
     args = ap.parse_args(argv)
     bpy = blender_session.start()
     rows = []
     for label, run, sizes in (("Add Motion (Walk), cycles", walk, args.cycles),
+                              ("Add Motion (Walk) on the Rigify human, cycles", rigify_walk, args.rigify_cycles),
                               ("Bake Puppet Animation, frames", bake, args.frames)):
         for size in [float(s) if "." in s else int(s) for s in sizes.split(",") if s]:
             runs = [run(bpy, size) for _ in range(max(args.repeats, 1))]

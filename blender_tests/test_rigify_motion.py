@@ -10,6 +10,7 @@ tests of one rig together): the scene is not reset before each test here."""
 
 from __future__ import annotations
 
+import contextlib
 import math
 import sys
 from pathlib import Path
@@ -183,6 +184,50 @@ def test_the_roles_are_the_metarigs_anatomy(rig):
 
 
 # ---------------------------------------------------------------------------- on one rig
+
+def test_solving_on_a_pruned_copy_keys_what_solving_on_the_rig_does_and_leaves_nothing(capfd, monkeypatch):
+    """The controls whose parents Blender evaluates (neck, head, toes) are solved on a copy of
+    the rig holding only the bones those parents depend on; the keys are the ones solving on
+    the rig itself gives, and the copy is gone after, the mode and selection as they were."""
+    rigify = B.addon("motion.rigify")
+    keys = B.addon("common.keys")
+    r = built("rigify_human")
+    arm = r.arm
+    B.set_active(arm)
+    bpy.ops.object.mode_set(mode="POSE")
+    before = (set(bpy.data.objects.keys()), set(bpy.data.armatures.keys()))
+
+    def walk():
+        corpus.reset_rig(arm, r.basis)
+        result, console = add_motion(capfd, arm, motion="WALK")
+        assert result == {"FINISHED"}, console
+        return {(fc.data_path, fc.array_index): [tuple(k.co) for k in fc.keyframe_points]
+                for fc in keys.action_fcurves(arm)}
+
+    copied = walk()
+    assert (set(bpy.data.objects.keys()), set(bpy.data.armatures.keys())) == before
+    assert arm.mode == "POSE" and bpy.context.view_layer.objects.active == arm and arm.select_get()
+    made = []
+    real = rigify.pruned_copy
+
+    def spy(context, rig, keep):
+        made.append(len(keep))
+        return real(context, rig, keep)
+
+    monkeypatch.setattr(rigify, "pruned_copy", spy)
+    assert walk() == copied and made and made[0] < len(arm.pose.bones) / 5, made
+
+    @contextlib.contextmanager
+    def refused(context, rig, keep):
+        yield None   # as when the copy cannot be made: the rig itself is evaluated
+
+    monkeypatch.setattr(rigify, "pruned_copy", refused)
+    on_rig = walk()
+    assert on_rig.keys() == copied.keys()
+    assert all(np.allclose(on_rig[k], copied[k], atol=1e-6) for k in copied)
+    bpy.ops.object.mode_set(mode="OBJECT")
+
+
 
 def test_the_motion_skeleton_joins_def_chains_at_their_twins():
     """Rigify's DEF chains hang from ORG and MCH bones: each DEF root takes as parent the DEF

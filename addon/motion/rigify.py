@@ -17,12 +17,15 @@ planned motion (``planning.PlannedPose``), a rigid motion of its rest place, car
 control's rest matrix to the matrix it should have (``Target``). ``solve`` turns those into
 each control's own transform through its parent's pose: computed when the parent is a control
 solved before, a bone nothing moves, or a plain child of one of those, else read from Blender
-after the controls it depends on are set (``view_layer.update``, a few times per frame at most).
+after the controls it depends on are set (``view_layer.update``, a few times per frame at most)
+on a copy of the rig pruned to the bones those parents depend on (``pruned_copy``: tens of
+bones instead of hundreds, each update a small part of the rig's).
 """
 
 from __future__ import annotations
 
 import re
+from contextlib import contextmanager, nullcontext
 from dataclasses import dataclass, replace
 
 import bpy
@@ -550,6 +553,82 @@ class _Graph:
         return [n for n in out if n in self.pose]
 
 
+def _closure(graph: _Graph, names) -> set[str]:
+    """``names`` and every bone their evaluated matrices depend on (parents, constraint targets)."""
+    out: set[str] = set()
+    todo = [n for n in names if n in graph.pose]
+    while todo:
+        n = todo.pop()
+        if n not in out:
+            out.add(n)
+            todo += [m for m in graph._links(n) if m not in out]
+    return out
+
+
+@contextmanager
+def pruned_copy(context, arm: bpy.types.Object, keep: set[str]):
+    """A temporary copy of ``arm`` holding only the bones ``keep`` (which must hold their own
+    parents and constraint targets), posed as ``arm`` is now, with ``arm``'s constraints on them
+    re-aimed at the copy and every driven influence frozen at its current value (no drivers, no
+    action); removed on exit. Yields None when the copy cannot be made (the caller then
+    evaluates ``arm`` itself). ``arm`` keeps its mode, and the selection is put back."""
+    data = arm.data.copy()
+    data.animation_data_clear()
+    proxy = bpy.data.objects.new(arm.name + " (solving)", data)
+    try:
+        try:
+            _prune(context, arm, proxy, keep)
+            made = True
+        except RuntimeError:   # a mode Blender refuses to enter here
+            made = False
+        yield proxy if made else None
+    finally:
+        bpy.data.objects.remove(proxy)
+        bpy.data.armatures.remove(data)
+
+
+def _prune(context, arm: bpy.types.Object, proxy: bpy.types.Object, keep: set[str]) -> None:
+    """``pruned_copy``'s copy made: linked, its bones outside ``keep`` deleted in Edit Mode, then
+    posed and constrained as ``arm``'s."""
+    view_layer = context.view_layer
+    active, mode = view_layer.objects.active, arm.mode
+    selected = [ob for ob in view_layer.objects if ob.select_get()]
+    context.scene.collection.objects.link(proxy)
+    proxy.matrix_world = arm.matrix_world.copy()
+    try:
+        if mode != "OBJECT":
+            bpy.ops.object.mode_set(mode="OBJECT")
+        for ob in selected:
+            ob.select_set(False)
+        proxy.select_set(True)
+        view_layer.objects.active = proxy
+        bpy.ops.object.mode_set(mode="EDIT")
+        bones = proxy.data.edit_bones
+        for eb in list(bones):
+            if eb.name not in keep:
+                bones.remove(eb)
+        bpy.ops.object.mode_set(mode="OBJECT")
+    finally:
+        proxy.select_set(False)
+        for ob in selected:
+            ob.select_set(True)
+        view_layer.objects.active = active
+        if arm.mode != mode and active == arm:
+            bpy.ops.object.mode_set(mode=mode)
+    evaluated = arm.evaluated_get(context.evaluated_depsgraph_get())
+    for pb in proxy.pose.bones:
+        src, ev = arm.pose.bones[pb.name], evaluated.pose.bones[pb.name]
+        pb.rotation_mode = src.rotation_mode
+        pb.matrix_basis = src.matrix_basis
+        for c in src.constraints:
+            copy = pb.constraints.copy(c)
+            copy.influence = ev.constraints[c.name].influence
+            for owner, attr in ((copy, "target"), (copy, "pole_target"), *((t, "target") for t in
+                                                                           getattr(copy, "targets", ()))):
+                if getattr(owner, attr, None) == arm:
+                    setattr(owner, attr, proxy)
+
+
 def solve(context, arm: bpy.types.Object, targets: list[Target]) -> dict[str, list[Matrix]]:
     """Each target control's own transform (``matrix_basis``) on each frame that gives it its
     target matrix (``Target.matrices``; only the rotation where its location is not keyed, the
@@ -608,43 +687,48 @@ def solve(context, arm: bpy.types.Object, targets: list[Target]) -> dict[str, li
     frames = len(targets[0].matrices) if targets else 0
     solved: dict[str, list[Matrix]] = {n: [] for n in by_name}
     levels = sorted(set(level.values()))
-    try:
-        for f in range(frames):
-            reached: dict[str, Matrix] = {}
-            for lv in levels:
-                if lv > 0:
+    from_blender = [parent for kind, parent, _ in how.values() if kind == "blender"]
+    keep = _closure(graph, from_blender)
+    with pruned_copy(context, arm, keep) if from_blender else nullcontext() as proxy:
+        evaluated = proxy.pose.bones if proxy is not None else pose
+        try:
+            for f in range(frames):
+                reached: dict[str, Matrix] = {}
+                for lv in levels:
+                    if lv > 0:
+                        for n in order:
+                            if level[n] < lv and n in evaluated:
+                                evaluated[n].matrix_basis = solved[n][f]
+                        context.view_layer.update()
                     for n in order:
-                        if level[n] < lv:
-                            pose[n].matrix_basis = solved[n][f]
-                    context.view_layer.update()
-                for n in order:
-                    if level[n] != lv:
-                        continue
-                    kind, parent, chain = how[n]
-                    pb = pose[n]
-                    if kind == "still":
-                        up = still.get(parent) if parent is not None else None
-                    elif kind == "control":
-                        up = reached[parent]
-                        for c in chain:   # plain bones between: their own transform as it is
-                            cb = pose[c]
-                            up = cb.bone.convert_local_to_pose(
-                                cb.matrix_basis, cb.bone.matrix_local, parent_matrix=up,
-                                parent_matrix_local=cb.parent.bone.matrix_local)
-                    else:
-                        up = pb.parent.matrix.copy()
-                    target = Matrix(by_name[n].matrices[f].tolist())
-                    kw = {} if up is None else dict(parent_matrix=up, parent_matrix_local=pb.parent.bone.matrix_local)
-                    basis = pb.bone.convert_local_to_pose(target, pb.bone.matrix_local, invert=True, **kw)
-                    loc, rot, _ = basis.decompose()
-                    k_loc, _, k_scale = kept[n].decompose()
-                    basis = Matrix.LocRotScale(loc if by_name[n].location else k_loc, rot, k_scale)
-                    solved[n].append(basis)
-                    reached[n] = pb.bone.convert_local_to_pose(basis, pb.bone.matrix_local, **kw)
-    finally:
-        for n, m in kept.items():
-            pose[n].matrix_basis = m
-        context.view_layer.update()
+                        if level[n] != lv:
+                            continue
+                        kind, parent, chain = how[n]
+                        pb = pose[n]
+                        if kind == "still":
+                            up = still.get(parent) if parent is not None else None
+                        elif kind == "control":
+                            up = reached[parent]
+                            for c in chain:   # plain bones between: their own transform as it is
+                                cb = pose[c]
+                                up = cb.bone.convert_local_to_pose(
+                                    cb.matrix_basis, cb.bone.matrix_local, parent_matrix=up,
+                                    parent_matrix_local=cb.parent.bone.matrix_local)
+                        else:
+                            up = evaluated[pb.parent.name].matrix.copy()
+                        target = Matrix(by_name[n].matrices[f].tolist())
+                        kw = {} if up is None else dict(parent_matrix=up,
+                                                        parent_matrix_local=pb.parent.bone.matrix_local)
+                        basis = pb.bone.convert_local_to_pose(target, pb.bone.matrix_local, invert=True, **kw)
+                        loc, rot, _ = basis.decompose()
+                        k_loc, _, k_scale = kept[n].decompose()
+                        basis = Matrix.LocRotScale(loc if by_name[n].location else k_loc, rot, k_scale)
+                        solved[n].append(basis)
+                        reached[n] = pb.bone.convert_local_to_pose(basis, pb.bone.matrix_local, **kw)
+        finally:
+            for n, m in kept.items():
+                pose[n].matrix_basis = m
+            context.view_layer.update()
     return solved
 
 
