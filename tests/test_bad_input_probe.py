@@ -335,7 +335,8 @@ def above(lo):
 def test_odd_options(seed):
     """Every float option of the weights, the fit and the planar IK takes each value of ODD
     (0, -1, 1e-30, 1e30, NaN, +-inf, 0.5, 2), the others at their defaults, and the whole-number
-    options their edges: a value in the option's documented range gives a checked result, any
+    options their edges (max_influences, nearest, symmetry_axis, rays, samples, the IK's
+    max_iterations up to MAX_ITERATIONS = 10 000): a value in the option's documented range gives a checked result, any
     other the option's own error."""
     rng = np.random.default_rng(seed)
     v, t = msc.capped_cylinder(0.5, 4.0, 8, 10)
@@ -418,6 +419,8 @@ def test_odd_options(seed):
             msc.heat_weights, v, t, heads, tails, bone_mirror=np.arange(4), symmetry_axis=axis)
     outcome((OverflowError, "can't convert negative int to unsigned"), msc.heat_weights, v, t, heads, tails,
             bone_mirror=np.arange(4), symmetry_axis=-1)
+    outcome((OverflowError, "can't convert negative int to unsigned"), msc.ik2d_solve, [1.0], (0.5, 0.0),
+            max_iterations=-1)
     outcome((VE, r"^falloff must be 'gaussian' or 'inverse_power', got \"cubic\"$"), msc.bilinear_weights,
             v, heads, tails, parents, falloff="cubic")
     for rays, samples in [(2, 5), (3, 5), (12, 0), (12, 1)]:
@@ -450,6 +453,7 @@ def test_odd_options(seed):
         return check
 
     tolerance_pattern = r"^invalid argument: tolerance must be finite and >= 0, got "
+    too_many = r"invalid argument: max_iterations must be at most 10000, got 10001"
     for _ in range(6):
         target = rng.normal(size=2)
         aim = tuple(target)
@@ -481,6 +485,10 @@ def test_odd_options(seed):
             run(name, "limits", "min > max", lambda x: False,
                 rf"^invalid argument: joint {j} has limits \[.*\] with min > max$",
                 solved(), msc.ik2d_solve, lengths, aim, method=method, limits=swapped)
+            # Passes: at most MAX_ITERATIONS (the solvers run without the GIL, uninterruptible).
+            for passes in (0, 1, 10_000, 10_001):
+                run(name, "max_iterations", passes, lambda x: x <= 10_000, rf"^{too_many}$", solved(),
+                    msc.ik2d_solve, lengths, aim, method=method, max_iterations=passes)
         for value in ODD:
             run("ik multi", "weight", value, finite_at_least(0),
                 r"^invalid argument: effector 0 has weight \S+; weights must be finite and >= 0$",
@@ -489,6 +497,9 @@ def test_odd_options(seed):
                 solved(), msc.ik2d_solve_multi, lengths, [(3, (value, 0.3), 1.0), (2, (0.5, 0.5), 1.0)])
             run("ik multi", "tolerance", value, finite_at_least(0), tolerance_pattern,
                 solved(), msc.ik2d_solve_multi, lengths, [(3, aim, 1.0)], tolerance=value)
+        for passes in (0, 10_000, 10_001):
+            run("ik multi", "max_iterations", passes, lambda x: x <= 10_000, rf"^{too_many}$", solved(),
+                msc.ik2d_solve_multi, lengths, [(3, aim, 1.0)], max_iterations=passes)
         for joint in (0, 1, 3, 4):
             run("ik multi", "joint", joint, lambda x: 1 <= x <= 3,
                 rf"^invalid argument: effector 0 is on joint {joint}, but a chain of 3 bones has movable joints",
