@@ -55,8 +55,9 @@ $(EXT_ZIP): $(WHEEL) $(ADDON_SRC)
 demo: $(EXT_ZIP)
 	$(VPY) scripts/demo.py --out out $(if $(MODEL),--model $(MODEL)) $(if $(PUPPET),--puppet $(PUPPET))
 
-## All tests: Rust, Python API, then Blender (installing the extension zip like a user).
-test: test-rust test-python test-blender
+## All tests: Rust, Python API, then Blender (installing the extension zip like a user) on
+## 5.0.1 and on the oldest release the manifest allows, 4.2 LTS.
+test: test-rust test-python test-blender test-blender-4.2
 
 test-rust:
 	cargo fmt --all -- --check  # rustfmt.toml: 120 columns, as the code was written
@@ -70,10 +71,25 @@ test-python: $(WHEEL)
 test-blender: $(EXT_ZIP)
 	$(VPY) -m pytest -q blender_tests
 
-## The same Blender tests on the LTS releases 4.2 and 4.5 (bpy from PyPI, own virtualenvs).
+## The same Blender tests on the LTS releases 4.2 (in `make test`) and 4.5: bpy from PyPI in
+## virtualenvs of their own, .venv-bpy42 and .venv-bpy45, made when missing or when BPY_42 /
+## BPY_45 changes (the stamp names the version). bpy 4.2 and 4.5 exist for CPython 3.11 only.
+define LTS_VENV
+.venv-bpy$(1)/.installed-bpy-$(BPY_$(1)):
+	@$(PYTHON) -c 'import sys; sys.exit(sys.version_info[:2] != (3, 11))' || { echo \
+	    "bpy $(BPY_$(1)) is built for CPython 3.11 only, and $(PYTHON) is not 3.11: make PYTHON=/path/to/python3.11" >&2; \
+	    exit 1; }
+	rm -rf .venv-bpy$(1)
+	$(PYTHON) -m venv .venv-bpy$(1)
+	.venv-bpy$(1)/bin/python -m pip install --quiet --upgrade pip
+	.venv-bpy$(1)/bin/python -m pip install --quiet "bpy==$(BPY_$(1))" "numpy<2" "pytest>=8"
+	touch $$@
+endef
+$(foreach v,42 45,$(eval $(call LTS_VENV,$(v))))
+
+test-blender-4.2: .venv-bpy42/.installed-bpy-$(BPY_42)
+test-blender-4.5: .venv-bpy45/.installed-bpy-$(BPY_45)
 test-blender-4.2 test-blender-4.5: test-blender-%: $(EXT_ZIP)
-	test -x .venv-bpy$(subst .,,$*)/bin/python || $(PYTHON) -m venv .venv-bpy$(subst .,,$*)
-	.venv-bpy$(subst .,,$*)/bin/python -m pip install --quiet "bpy==$(BPY_$(subst .,,$*))" "numpy<2" pytest
 	.venv-bpy$(subst .,,$*)/bin/python -m pytest -q blender_tests
 
 ## Benchmarks (speed is measured here, never asserted in tests).

@@ -3,6 +3,7 @@
 import importlib
 import math
 import os
+import time
 
 import bpy
 import numpy as np
@@ -1175,3 +1176,164 @@ def test_invoke_without_a_window_runs_directly():
     B.select_for_parenting([ob], arm)
     assert bpy.ops.object.miniskeleton_auto_weights("INVOKE_DEFAULT") == {"FINISHED"}
     assert B.weights_matrix(ob, NAMES).sum(axis=1) == pytest.approx(1.0, abs=1e-5)
+
+
+# ---------------------------------------------------------------- the modal loop (Esc to cancel)
+
+
+class Event:
+    """What a window's event loop hands an operator's ``modal``: only its type is read."""
+
+    def __init__(self, type):
+        self.type = type
+
+
+@pytest.fixture
+def driven(monkeypatch):
+    """Auto Weights as the UI runs it on a large mesh, with the window's part played by the
+    test: for the test, the operator's ``execute`` does what ``invoke`` does before it hands
+    the operator to the window (validate and read the inputs, start the worker thread, the
+    progress bar and the timer), then ``script(op, context)`` (set by the test) sends the events
+    ``modal`` gets and returns its answer. The operator's own ``_prepare``, ``_start_job``,
+    ``modal``, ``cancel`` and ``_write`` run; only the window's event queue is the test's."""
+    operators = importlib.import_module("bl_ext.user_default.miniskeleton.weights.operators")
+    test = {}
+
+    def execute(self, context):
+        import miniskeleton_core as core
+
+        prepared = self._prepare(context)
+        if prepared is None:
+            return {"CANCELLED"}
+        self._start_job(context, core, prepared)
+        return test["script"](self, context)
+
+    monkeypatch.setattr(operators.MINISKELETON_OT_auto_weights, "execute", execute)
+    return test
+
+
+def _large_cylinder():
+    """A mesh big enough for the UI to compute it on the worker thread (BACKGROUND_VERTICES)."""
+    compute = importlib.import_module("bl_ext.user_default.miniskeleton.weights.compute")
+    ob = B.cylinder(rings=400, segments=128)
+    assert len(ob.data.vertices) >= compute.BACKGROUND_VERTICES
+    return ob
+
+
+def _tick(op, context, seen, ob):
+    """One timer tick: ``modal``'s answer, with the job's progress and the mesh's groups then."""
+    answer = op.modal(context, Event("TIMER"))
+    seen["ticks"].append((op._job.fraction, len(ob.vertex_groups), answer))
+    return answer
+
+
+def _scene_state(ob):
+    return (_group_state(ob), [(m.type, m.name) for m in ob.modifiers], ob.parent,
+            [tuple(r) for r in ob.matrix_world], B.world_vertices(ob).tobytes())
+
+
+def test_modal_run_shows_progress_and_writes_the_weights_when_done(driven, monkeypatch, capfd):
+    """Timer ticks while the worker computes: the progress only grows, with values between 0
+    and 1; other events (a click, a key) are swallowed while the meshes must not change; and
+    nothing is written until the tick that finds the job done writes every group, the modifier
+    and the parent, as a blocking run does."""
+    ob, arm = _large_cylinder(), B.chain()
+    seen = {"ticks": [], "other": []}
+
+    def run_to_the_end(op, context):
+        while True:
+            seen["other"].append(op.modal(context, Event("LEFTMOUSE")))
+            answer = _tick(op, context, seen, ob)
+            if answer != {"RUNNING_MODAL"}:
+                return answer
+            time.sleep(0.002)
+
+    driven["script"] = run_to_the_end
+    B.select_for_parenting([ob], arm)
+    assert bpy.ops.object.miniskeleton_auto_weights() == {"FINISHED"}
+    fractions = [f for f, _, _ in seen["ticks"]]
+    assert fractions == sorted(fractions) and fractions[-1] == pytest.approx(1.0)
+    assert any(0.0 < f < 1.0 for f in fractions), fractions  # seen between start and end
+    assert len(set(fractions)) >= 3, fractions
+    assert all(answer == {"RUNNING_MODAL"} for answer in seen["other"])
+    # Groups appear on the last tick only.
+    assert all(groups == 0 for _, groups, _ in seen["ticks"][:-1]) and seen["ticks"][-1][1] == 4
+    assert "Auto Weights (Heat): 51330 vertices in 1 mesh(es), 4 bones" in capfd.readouterr().out
+    w = B.weights_matrix(ob, NAMES)
+    np.testing.assert_allclose(w.sum(1), 1.0, atol=1e-5)
+    assert [m.type for m in ob.modifiers] == ["ARMATURE"] and ob.modifiers[0].object == arm and ob.parent == arm
+    # The same weights as a blocking run (the operator's own execute again) writes.
+    monkeypatch.undo()
+    blocking = B.cylinder(name="Blocking", rings=400, segments=128)
+    B.select_for_parenting([blocking], arm)
+    assert bpy.ops.object.miniskeleton_auto_weights() == {"FINISHED"}
+    np.testing.assert_allclose(B.weights_matrix(blocking, NAMES), w, atol=1e-6)
+
+
+def _half_weighted_cylinder():
+    """The large mesh with a foreign group and an old 'Bone1' group (a run would replace it)
+    carrying weights, and a modifier of its own: a cancelled run must keep all of them."""
+    ob = _large_cylinder()
+    keep, old = ob.vertex_groups.new(name="Keep"), ob.vertex_groups.new(name="Bone1")
+    keep.add(list(range(0, 5000, 7)), 0.25, "REPLACE")
+    old.add(list(range(100, 900)), 0.5, "REPLACE")
+    ob.modifiers.new("Smooth", "SMOOTH")
+    return ob
+
+
+def test_esc_stops_the_modal_run_and_leaves_the_scene_as_it_was(driven, capfd):
+    """Esc while the worker is half way: ``modal`` tells the job to stop and keeps running
+    until the job has stopped (at its next progress tick), then cancels with a warning; the
+    mesh keeps its groups, weights, modifiers and place, and the armature gets no child."""
+    ob, arm = _half_weighted_cylinder(), B.chain()
+    B.select_for_parenting([ob], arm)
+    before = _scene_state(ob)
+    seen = {"ticks": []}
+
+    def press_esc_half_way(op, context):
+        while not 0.0 < op._job.fraction < 1.0:
+            assert _tick(op, context, seen, ob) == {"RUNNING_MODAL"}, "done before Esc could be pressed"
+            time.sleep(0.001)
+        seen["esc at"] = op._job.fraction
+        seen["esc"] = op.modal(context, Event("ESC"))
+        while True:
+            answer = _tick(op, context, seen, ob)
+            if answer != {"RUNNING_MODAL"}:
+                seen["job"] = op._job
+                return answer
+            time.sleep(0.002)
+
+    driven["script"] = press_esc_half_way
+    capfd.readouterr()
+    assert bpy.ops.object.miniskeleton_auto_weights() == {"CANCELLED"}
+    assert seen["esc"] == {"RUNNING_MODAL"} and 0.0 < seen["esc at"] < 1.0
+    job = seen["job"]
+    assert job.cancelled and job.result is None and job.error is None and job.fraction < 1.0
+    assert "Auto Weights cancelled; nothing was changed" in capfd.readouterr().out
+    assert _scene_state(ob) == before
+    assert [g.name for g in ob.vertex_groups] == ["Keep", "Bone1"] and [m.type for m in ob.modifiers] == ["SMOOTH"]
+    assert not arm.children
+
+
+def test_blender_ending_the_modal_run_stops_the_worker_and_writes_nothing(driven):
+    """Blender ends a modal operator itself when another file is opened or the window closes,
+    by calling its ``cancel``: the worker stops at its next progress tick and nothing is
+    written."""
+    ob, arm = _half_weighted_cylinder(), B.chain()
+    B.select_for_parenting([ob], arm)
+    before = _scene_state(ob)
+    seen = {"ticks": []}
+
+    def cancelled_by_blender(op, context):
+        while not 0.0 < op._job.fraction < 1.0:
+            assert _tick(op, context, seen, ob) == {"RUNNING_MODAL"}, "done before Blender could end it"
+            time.sleep(0.001)
+        op.cancel(context)
+        seen["job"] = op._job
+        return {"CANCELLED"}
+
+    driven["script"] = cancelled_by_blender
+    assert bpy.ops.object.miniskeleton_auto_weights() == {"CANCELLED"}
+    job = seen["job"]
+    assert job.wait(60) and job.cancelled and job.result is None and job.error is None
+    assert _scene_state(ob) == before and not arm.children

@@ -267,9 +267,17 @@ class MINISKELETON_OT_auto_weights(bpy.types.Operator):
         prepared = self._prepare(context)
         if prepared is None:
             return {"CANCELLED"}
-        bones, inputs = prepared.bones, prepared.inputs
-        if sum(len(v) for _, _, v, _ in inputs) < BACKGROUND_VERTICES:
+        if sum(len(v) for _, _, v, _ in prepared.inputs) < BACKGROUND_VERTICES:
             return self._run_blocking(context, core, prepared)
+        self._start_job(context, core, prepared)
+        context.window_manager.modal_handler_add(self)
+        context.workspace.status_text_set("Auto Weights: computing... Esc to cancel")
+        return {"RUNNING_MODAL"}
+
+    def _start_job(self, context, core, prepared):
+        """Start computing ``prepared`` on a worker thread, with the progress bar and the timer
+        whose ticks ``modal`` checks the job on (the window sends them; a test can too)."""
+        bones, inputs = prepared.bones, prepared.inputs
         self._prepared = prepared
         self._start = time.perf_counter()
         settings = self._settings(bones)
@@ -278,9 +286,6 @@ class MINISKELETON_OT_auto_weights(bpy.types.Operator):
         wm = context.window_manager
         wm.progress_begin(0, 1000)
         self._timer = wm.event_timer_add(0.1, window=context.window)
-        wm.modal_handler_add(self)
-        context.workspace.status_text_set("Auto Weights: computing... Esc to cancel")
-        return {"RUNNING_MODAL"}
 
     def modal(self, context, event):
         job = self._job
@@ -288,13 +293,10 @@ class MINISKELETON_OT_auto_weights(bpy.types.Operator):
             job.cancel()
         if event.type != "TIMER":
             return {"RUNNING_MODAL"}  # the meshes must not change while their weights are computed
-        wm = context.window_manager
-        wm.progress_update(int(1000 * job.fraction))
+        context.window_manager.progress_update(int(1000 * job.fraction))
         if job.running():
             return {"RUNNING_MODAL"}
-        wm.event_timer_remove(self._timer)
-        wm.progress_end()
-        context.workspace.status_text_set(None)
+        self._end_job(context)
         if job.cancelled:
             self.report({"WARNING"}, "Auto Weights cancelled; nothing was changed")
             return {"CANCELLED"}
@@ -303,6 +305,20 @@ class MINISKELETON_OT_auto_weights(bpy.types.Operator):
             return {"CANCELLED"}
         results, notes = job.result
         return self._write(self._prepared, results, notes, time.perf_counter() - self._start)
+
+    def cancel(self, context):
+        """Blender ends the modal run itself (another file is opened, the window closes): the
+        worker is told to stop at its next progress tick, nothing is written (the job never
+        touches Blender data) and the timer and the progress bar go."""
+        self._job.cancel()
+        self._end_job(context)
+
+    def _end_job(self, context):
+        wm = context.window_manager
+        wm.event_timer_remove(self._timer)
+        wm.progress_end()
+        if context.workspace is not None:
+            context.workspace.status_text_set(None)
 
 
 classes = (MINISKELETON_OT_auto_weights,)
