@@ -237,10 +237,11 @@ def detect_roles(bone_heads: ArrayLike, bone_tails: ArrayLike, parents: ArrayLik
                  names: Optional[list[str]] = None) -> dict:
     """Bone roles found from the geometry (+Z up), names as hints: {root, spine, neck, head,
     head_extras, tail, legs, arms ([{bones, side 'L'|'R', group (0 = front)}]), plan
-    ('biped'|'quadruped'|'multiped'), up, forward, left, ground, height, leg_length,
-    single_tree (moving the root bone moves every role bone), riders ([(foot, leg bone)]: feet
-    hanging off the root, as IK rigs exported to glTF have them, ride on their leg), notes}.
-    ValueError saying 'no legs' / 'no head' when those cannot be found."""
+    ('biped'|'quadruped'|'multiped'|'legless': no legs found, legs empty), up, forward, left,
+    ground, height, leg_length, single_tree (moving the root bone moves every role bone),
+    riders ([(foot, leg bone)]: feet hanging off the root, as IK rigs exported to glTF have
+    them, ride on their leg), notes}. ValueError saying 'no head' when none can be found
+    (make_motion's walk and run refuse a legless rig: 'no legs')."""
 
 def make_motion(
     bone_heads: ArrayLike, bone_tails: ArrayLike, parents: ArrayLike, rest_matrices: ArrayLike,
