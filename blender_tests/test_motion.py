@@ -1166,3 +1166,21 @@ def test_menus_and_panel():
         funcs = getattr(bpy.types, menu)._dyn_ui_initialize()
         assert any(getattr(f, "__name__", "").startswith("draw_") and
                    getattr(f, "__module__", "").endswith("miniskeleton.motion.ui") for f in funcs), menu
+
+
+def test_a_locked_f_curve_is_an_error_and_nothing_is_keyed():
+    """A rotation F-curve its user locked against editing is named in an error, and neither it
+    nor any other curve gets a key (keyframe_insert leaves a locked curve be; a key series would
+    not)."""
+    arm = creature.build_armature()
+    pb = arm.pose.bones["thigh.L"]
+    pb.keyframe_insert(common_keys().rotation_path(pb), frame=1)
+    fc = next(fc for fc in common_keys().action_fcurves(arm) if "thigh.L" in fc.data_path)
+    fc.lock = True
+    before = action_keys(arm)
+    with pytest.raises(RuntimeError, match=r'locked against editing.*pose.bones\["thigh.L"\]'):
+        add_motion(arm, motion="WALK")
+    assert action_keys(arm).keys() == before.keys()
+    assert all(np.array_equal(action_keys(arm)[k], v) for k, v in before.items())
+    fc.lock = False
+    assert add_motion(arm, motion="WALK") == {"FINISHED"}

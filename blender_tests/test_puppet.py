@@ -1189,3 +1189,19 @@ def test_live_puppets_write_no_pose_while_a_render_runs(tmp_path, capfd):
     finally:
         handlers.remove(nudge)
         handlers.remove(look)
+
+
+def test_bake_with_a_locked_f_curve_is_an_error_and_keys_nothing():
+    rig, _ = add("QUADRUPED")
+    scene = bpy.context.scene
+    scene.frame_start, scene.frame_end = 1, 3
+    head = rig.pose.bones["head"]
+    head.keyframe_insert("rotation_euler", frame=1)
+    for fc in K.action_fcurves(rig):
+        fc.lock = True
+    keys = {(fc.data_path, fc.array_index): [tuple(k.co) for k in fc.keyframe_points] for fc in K.action_fcurves(rig)}
+    bpy.context.view_layer.objects.active = rig
+    with pytest.raises(RuntimeError, match=r'locked against editing.*pose.bones\["head"\]'):
+        bpy.ops.object.miniskeleton_bake_puppet()
+    assert keys == {(fc.data_path, fc.array_index): [tuple(k.co) for k in fc.keyframe_points]
+                    for fc in K.action_fcurves(rig)}

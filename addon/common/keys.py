@@ -54,6 +54,20 @@ def _curves(owner: bpy.types.bpy_struct, path: str) -> dict:
     return {fc.array_index: fc for fc in action_fcurves(owner.id_data) if fc.data_path == full}
 
 
+def locked_curves(ob: bpy.types.Object, bones, location: bool = False) -> str | None:
+    """Why keying pose bones ``bones`` (names), and ``ob``'s location if ``location``, would
+    write into F-curves their user locked against editing (``FCurve.lock``: ``keyframe_insert``
+    leaves them be, and a series would not), or None. The reason names them."""
+    wanted = {f'pose.bones["{bpy.utils.escape_identifier(name)}"]' for name in bones}
+    locked = sorted({fc.data_path for fc in action_fcurves(ob) if fc.lock and (
+        (location and fc.data_path == "location") or fc.data_path.rsplit(".", 1)[0] in wanted)})
+    if not locked:
+        return None
+    shown = ", ".join(locked[:6]) + (f" and {len(locked) - 6} more" if len(locked) > 6 else "")
+    return (f"F-curves locked against editing would be keyed: {shown}; nothing was keyed. Unlock them "
+            "(Graph Editor, Channel > Toggle Channel Locking) to key them")
+
+
 def value_at(owner: bpy.types.bpy_struct, path: str, frame: float) -> list[float] | None:
     """``owner.<path>`` as its F-curves give it at scene ``frame``; a component without an
     F-curve keeps the property's value (nothing animates it). None when none is keyed."""

@@ -18,13 +18,14 @@ import bpy
 from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty, StringProperty
 
 from ..common.files import make_folder
-from ..common.keys import keyed_action
+from ..common.keys import keyed_action, locked_curves
 from ..common.reports import name_list, read_only, unplaced
 from ..common.transforms import axis_scales, extent
 from .filming import (ENGINES, VideoError, add_camera, add_follow_camera, add_light, character_objects,
                       default_video_path, kept_render_settings, motion_boxes, render_video, taken_back_on_error,
                       union_box)
-from .keying import constrained_rotation_bones, driven_rotation_bones, last_key_frame, overridden_keys, write_keys
+from .keying import (constrained_rotation_bones, driven_rotation_bones, last_key_frame, overridden_keys, root_axes,
+                     write_keys)
 from .planning import describe_roles, make_motion, motion_armature, motion_bones
 from .rigify import is_rigify, key_controls, merged_segments, plan_controls
 
@@ -111,7 +112,9 @@ class MINISKELETON_OT_add_motion(bpy.types.Operator):
             keyed = {t.name for t in plan.moved}
         else:
             keyed = {bones.names[int(b)] for b in out["animated"]} | {bones.names[int(b)] for b in out["located"]}
-        refused = overridden_keys(arm, keyed)
+        root = arm.pose.bones[bones.names[roles["root"]]]
+        moves_object = out["moves_root"] and not (roles["single_tree"] and root_axes(arm, root) is not None)
+        refused = overridden_keys(arm, keyed) or locked_curves(arm, keyed | {root.name}, moves_object)
         if refused:
             self.report({"ERROR"}, f"{arm.name}: {refused}")
             return {"CANCELLED"}

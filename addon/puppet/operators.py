@@ -12,7 +12,7 @@ import bpy
 from bpy.props import BoolProperty, EnumProperty, FloatProperty, StringProperty
 from bpy_extras.io_utils import ImportHelper
 
-from ..common.keys import keyed_action
+from ..common.keys import keyed_action, locked_curves
 from ..common.reports import in_edit_mode, read_only
 from . import templates
 from .build import build_puppet, set_part_image
@@ -61,7 +61,8 @@ class MINISKELETON_OT_bake_puppet(bpy.types.Operator):
 
     def execute(self, context):
         rig = puppet_rig(context.active_object)
-        locked = read_only(rig, keyed_action(rig))
+        locked = read_only(rig, keyed_action(rig)) or locked_curves(
+            rig, [pb.name for pb in rig.pose.bones if not all(pb.lock_rotation)])
         if locked:
             self.report({"ERROR"}, locked)
             return {"CANCELLED"}
