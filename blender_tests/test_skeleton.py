@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import importlib
 import json
+import os
 import re
 from pathlib import Path
 
@@ -792,7 +793,7 @@ def test_npz_round_trip_and_mismatch(tmp_path):
     assert np.array_equal(builders.weights_matrix(ob, names), before)
     other = builders.cylinder("Other", rings=10)
     builders.set_active(other)
-    with pytest.raises(RuntimeError, match="vertex count mismatch"):
+    with pytest.raises(RuntimeError, match=rf"{re.escape(os.path.basename(path))}: vertex count mismatch"):
         bpy.ops.import_scene.miniskeleton_npz(filepath=path)
     assert len(other.vertex_groups) == 0
 

@@ -10,6 +10,8 @@ in ``fitting``, ``snapshot`` (the original rest pose), ``editing`` (Edit Mode an
 
 from __future__ import annotations
 
+import os
+
 import bpy
 import numpy as np
 from bpy.props import EnumProperty, FloatProperty, IntProperty, StringProperty
@@ -331,8 +333,9 @@ class MINISKELETON_OT_import_npz(bpy.types.Operator, ImportHelper):
         try:
             rig = load_npz(self.filepath)
             n = apply_weights(rig, meshes)
-        except RigError as err:
-            self.report({"ERROR"}, str(err))
+        except RigError as err:   # named by its file, whichever check refused it
+            name, text = os.path.basename(self.filepath), str(err)
+            self.report({"ERROR"}, text if not name or name in text else f"{name}: {text}")
             return {"CANCELLED"}
         self.report({"INFO"}, f"Weights of {len(rig['bone_names'])} bones restored on {n} vertices")
         return {"FINISHED"}
