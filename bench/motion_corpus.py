@@ -191,8 +191,8 @@ def captured_output():
         try:
             yield box
         finally:
-            sys.stdout.flush()
-            sys.stderr.flush()
+            sys.stdout.close()   # flushes; the descriptors stay open (closefd=False)
+            sys.stderr.close()
             libc.fflush(None)
             sys.stdout, sys.stderr = streams
             os.dup2(saved[0], 1)

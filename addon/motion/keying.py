@@ -127,7 +127,7 @@ def write_keys(context, arm, names: list[str], out: dict, start: int) -> int:
             pose[name].location = (0.0, 0.0, 0.0)
             pose[name].keyframe_insert("location", frame=start, group=name)
 
-    axes = root_axes(arm, root_pb) if out["roles"]["single_tree"] else None
+    axes = root_bone_axes(arm, root_pb, out["roles"])
     to_local, to_world = axes if axes is not None else (None, None)
     if earlier is not None:
         scene.frame_set(int(math.floor(earlier)))
@@ -169,6 +169,12 @@ def object_base_z(arm) -> float:
         if fc.data_path == "location" and fc.array_index == 2 and len(fc.keyframe_points):
             return fc.keyframe_points[0].co[1]
     return arm.location.z
+
+
+def root_bone_axes(arm, root_pb, roles: dict) -> tuple[Matrix, Matrix] | None:
+    """``root_axes`` when the root bone carries the motion's root offset, None when the object
+    moves instead (the rig is several trees, or the root bone cannot translate)."""
+    return root_axes(arm, root_pb) if roles["single_tree"] else None
 
 
 def root_axes(arm, root_pb) -> tuple[Matrix, Matrix] | None:

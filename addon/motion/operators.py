@@ -24,7 +24,7 @@ from ..common.transforms import axis_scales, extent
 from .filming import (ENGINES, VideoError, add_camera, add_follow_camera, add_light, character_objects,
                       default_video_path, kept_render_settings, motion_boxes, render_video, taken_back_on_error,
                       union_box)
-from .keying import (constrained_rotation_bones, driven_rotation_bones, last_key_frame, overridden_keys, root_axes,
+from .keying import (constrained_rotation_bones, driven_rotation_bones, last_key_frame, overridden_keys, root_bone_axes,
                      write_keys)
 from .planning import describe_roles, make_motion, motion_armature, motion_bones
 from .rigify import is_rigify, key_controls, merged_segments, plan_controls
@@ -113,7 +113,7 @@ class MINISKELETON_OT_add_motion(bpy.types.Operator):
         else:
             keyed = {bones.names[int(b)] for b in out["animated"]} | {bones.names[int(b)] for b in out["located"]}
         root = arm.pose.bones[bones.names[roles["root"]]]
-        moves_object = out["moves_root"] and not (roles["single_tree"] and root_axes(arm, root) is not None)
+        moves_object = out["moves_root"] and root_bone_axes(arm, root, roles) is None
         refused = overridden_keys(arm, keyed) or locked_curves(arm, keyed | {root.name}, moves_object)
         if refused:
             self.report({"ERROR"}, f"{arm.name}: {refused}")

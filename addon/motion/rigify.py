@@ -537,6 +537,18 @@ class _Graph:
             self.memo[name] = frozenset(got)
         return self.memo[name]
 
+    def closure(self, names) -> set[str]:
+        """``names`` and every bone their evaluated matrices depend on (parents, constraint
+        targets)."""
+        out: set[str] = set()
+        todo = [n for n in names if n in self.pose]
+        while todo:
+            n = todo.pop()
+            if n not in out:
+                out.add(n)
+                todo += [m for m in self._links(n) if m not in out]
+        return out
+
     def _links(self, name: str) -> list[str]:
         pb = self.pose.get(name)
         if pb is None:
@@ -551,18 +563,6 @@ class _Graph:
             if getattr(c, "target", None) == self.arm:
                 out += [getattr(c, "subtarget", ""), getattr(c, "pole_subtarget", "")]
         return [n for n in out if n in self.pose]
-
-
-def _closure(graph: _Graph, names) -> set[str]:
-    """``names`` and every bone their evaluated matrices depend on (parents, constraint targets)."""
-    out: set[str] = set()
-    todo = [n for n in names if n in graph.pose]
-    while todo:
-        n = todo.pop()
-        if n not in out:
-            out.add(n)
-            todo += [m for m in graph._links(n) if m not in out]
-    return out
 
 
 @contextmanager
@@ -623,8 +623,8 @@ def _prune(context, arm: bpy.types.Object, proxy: bpy.types.Object, keep: set[st
         for c in src.constraints:
             copy = pb.constraints.copy(c)
             copy.influence = ev.constraints[c.name].influence
-            for owner, attr in ((copy, "target"), (copy, "pole_target"), *((t, "target") for t in
-                                                                           getattr(copy, "targets", ()))):
+            aims = [(copy, "target"), (copy, "pole_target")] + [(t, "target") for t in getattr(copy, "targets", ())]
+            for owner, attr in aims:
                 if getattr(owner, attr, None) == arm:
                     setattr(owner, attr, proxy)
 
@@ -688,7 +688,7 @@ def solve(context, arm: bpy.types.Object, targets: list[Target]) -> dict[str, li
     solved: dict[str, list[Matrix]] = {n: [] for n in by_name}
     levels = sorted(set(level.values()))
     from_blender = [parent for kind, parent, _ in how.values() if kind == "blender"]
-    keep = _closure(graph, from_blender)
+    keep = graph.closure(from_blender)
     with pruned_copy(context, arm, keep) if from_blender else nullcontext() as proxy:
         evaluated = proxy.pose.bones if proxy is not None else pose
         try:

@@ -244,7 +244,7 @@ pub fn detect_roles(heads: &[[f32; 3]], tails: &[[f32; 3]], parents: &[i32], nam
     }
     let reach = rig.reaches();
     let arm_chains = arm_chains(&rig, &legs, &mid, &axis, &on_axis, &reach);
-    let trunk = split_axis(&rig, &legs, &axis, &on_axis, &arm_chains, head_leaf)?;
+    let mut trunk = split_axis(&rig, &legs, &axis, &on_axis, &arm_chains, head_leaf)?;
     let mut notes = Vec::new();
     if !riders.is_empty() {
         let mut feet: Vec<String> =
@@ -257,7 +257,6 @@ pub fn detect_roles(heads: &[[f32; 3]], tails: &[[f32; 3]], parents: &[i32], nam
         ));
     }
     let (forward, left) = body_axes(&rig, &legs, &mid, trunk.head, &mut notes);
-    let mut trunk = trunk;
     let reversed = reversed_tail(&rig, &legs, &mid, &axis, &on_axis, forward);
     trunk.spine.retain(|b| !reversed.contains(b));
     if reversed.iter().any(|&b| b != rig.tree.root) {
@@ -579,6 +578,12 @@ fn arm_chains(
     cands.iter().filter(|(_, c)| cands.iter().any(|(_, d)| side(d) == -side(c) && side(c) != 0.0)).cloned().collect()
 }
 
+/// The last axis bone on the way from the root to the leg top `top`: where its leg joins the
+/// body axis.
+fn leg_junction(rig: &Rig, top: usize, on_axis: &[bool]) -> Option<usize> {
+    rig.ancestors(top).into_iter().rev().find(|&x| on_axis[x])
+}
+
 /// The axis bones before the first one carrying a leg, when they run backwards from it along
 /// the midline (a tail that the hierarchy starts from, as in Rigify's quadruped and cat
 /// metarigs, whose spine chain begins at the tail's tip, or a pelvis root behind the hips):
@@ -595,7 +600,7 @@ fn reversed_tail(
     let junction = legs
         .tops
         .iter()
-        .filter_map(|&top| rig.ancestors(top).iter().rev().find(|&&x| on_axis[x]).copied())
+        .filter_map(|&top| leg_junction(rig, top, on_axis))
         .filter_map(|b| axis.iter().position(|&a| a == b))
         .min();
     let Some(j) = junction else { return Vec::new() };
@@ -654,16 +659,11 @@ fn split_axis(
         }
     };
     // deepest axis bone carrying a limb, before the head
-    let carries_limb = |b: usize| {
-        kids[b].iter().any(|&c| legs.tops.contains(&c) || is_arm_top(c))
-            || legs.tops.iter().any(|&top| {
-                // a leg hanging off a side branch (e.g. hips beside the spine) counts at the
-                // axis bone the branch leaves from
-                let p = rig.ancestors(top);
-                let last_on_axis = p.iter().rev().find(|&&x| on_axis[x]).copied();
-                last_on_axis == Some(b)
-            })
-    };
+    // a leg hanging off a side branch (e.g. hips beside the spine) counts at the axis bone the
+    // branch leaves from
+    let junctions: Vec<usize> = legs.tops.iter().filter_map(|&top| leg_junction(rig, top, on_axis)).collect();
+    let carries_limb =
+        |b: usize| kids[b].iter().any(|&c| legs.tops.contains(&c) || is_arm_top(c)) || junctions.contains(&b);
     let mut s_idx = (0..axis.len()).filter(|&i| i < hi_idx && carries_limb(axis[i])).max().unwrap_or(0);
     if hi_idx == 0 {
         if axis.len() < 2 {
