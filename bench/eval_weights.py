@@ -47,7 +47,8 @@ sys.path.insert(0, str(ROOT / "scripts"))
 import blender_session  # noqa: E402
 
 MODELS_DIR = ROOT.parent / "shared" / "models"
-MODELS = ["Fox.glb", "CesiumMan.gltf", "RiggedSimple.gltf", "RobotExpressive.glb", "q_Bunny.glb"]
+MODELS = ["Fox.glb", "CesiumMan.gltf", "RiggedSimple.gltf", "RobotExpressive.glb", "q_Bunny.glb",
+          "q_Orc.glb", "q_Cat.glb", "q_Dragon.glb"]
 INFLUENCE = 1e-3
 
 
