@@ -6,12 +6,16 @@ speed on a 50k-vertex scan.
 For each model: import it, take every mesh of the character in its rest pose (world space;
 the armature's modifiers off, the importer's bone-shape objects left out), hand the vertices
 and triangles to ``miniskeleton_core.auto_rig`` with nothing else (no bone, no name, no facing),
-and compare the skeleton it returns with the artist's **deform** bones:
+and compare the skeleton it returns with the artist's **deform** bones: bones that deform the
+mesh, i.e. carry weight on some vertex or have a part parented to them (glTF marks every joint
+of a skin as deform, IK pole targets and helpers included; a model without weights, spot_rig,
+keeps every deform bone):
 
 - **CD-J2B** = the mean of (a) each of our joints' distance to the nearest artist bone segment
   and (b) each artist joint's distance to the nearest of our bone segments, % of the rest
   mesh's bounding-box diagonal. Joints are bone heads and tails; an artist's childless bone
-  counts by its head only (a point, not a segment), since importers invent those tails.
+  counts by its head only (a point, not a segment), since importers invent those tails; so does
+  a bone whose children deform nothing.
 - **facing**: the angle between the facing found and the one the artist's rig implies (the
   direction from the heels to the toes of its feet, or none when the rig has no named feet;
   only for the table, nothing uses names).
@@ -73,20 +77,29 @@ def character(bpy, path):
         tris.append(t.reshape(-1, 3) + base)
         base += len(me.vertices)
         ev.to_mesh_clear()
-    segs, joints = [], []
+    weighted = {ob.parent_bone for ob in meshes if ob.parent_type == "BONE" and ob.parent_bone}
+    for ob in meshes:
+        names = {g.index: g.name for g in ob.vertex_groups}
+        for v in ob.data.vertices:
+            weighted.update(names[g.group] for g in v.groups if g.weight > 0 and g.group in names)
+    segs, joints, labels = [], [], []
     for a in arms:
         mw = np.array(a.matrix_world)
+        deform = {b.name for b in a.data.bones if b.use_deform and (not weighted or b.name in weighted)}
         for b in a.data.bones:
-            if not b.use_deform:
+            if b.name not in deform:
                 continue
             h = mw[:3, :3] @ np.array(b.head_local) + mw[:3, 3]
             t = mw[:3, :3] @ np.array(b.tail_local) + mw[:3, 3]
             joints.append(h)
-            if b.children:
+            labels.append(b.name + ".head")
+            if any(c.name in deform for c in b.children):
                 joints.append(t)
+                labels.append(b.name + ".tail")
                 segs.append((h, t))
             else:
                 segs.append((h, h))
+    character.labels = labels
     return np.concatenate(verts), np.concatenate(tris), segs, np.array(joints)
 
 
@@ -117,6 +130,7 @@ def main(argv=None):
     ap.add_argument("--resolution", type=int, default=96)
     ap.add_argument("--no-time", action="store_true")
     ap.add_argument("--dump", default="", help="write each model's skeletons as .npz here")
+    ap.add_argument("--detail", type=int, default=0, help="print the N worst joints each way")
     args = ap.parse_args(argv)
     if not MODELS_DIR.is_dir():
         print(f"[bench_autorig] {MODELS_DIR} is absent: nothing to measure")
@@ -146,25 +160,40 @@ def main(argv=None):
         ours_segs = list(zip(heads, tails))
         ours_joints = unique_rows(np.concatenate([heads, tails]))
         cd, a, b = cd_j2b(ours_segs, ours_joints, art_segs, art_joints)
+        # heel.02 lies on the ground under the heel (Rigify's foot-roll marker), outside by design.
+        body = unique_rows(np.concatenate([np.stack([h, tl]) for h, tl, n in zip(heads, tails, rig["names"])
+                                           if not n.startswith("heel")]))
+        outside = int((~msc.points_inside(v.astype(np.float32), t, body.astype(np.float32))).sum())
+        if args.detail:
+            worst_b = sorted(((min(point_segment(p, *sg) for sg in ours_segs), lab)
+                              for p, lab in zip(art_joints, character.labels)), reverse=True)[:args.detail]
+            ours_lab = [f"{n}.{e}" for n in rig["names"] for e in ("head", "tail")]
+            ours_pts = [p for h, t in zip(heads, tails) for p in (h, t)]
+            worst_a = sorted(((min(point_segment(p, *sg) for sg in art_segs), lab)
+                              for p, lab in zip(ours_pts, ours_lab)), reverse=True)[:args.detail]
+            print("  artist joints far from ours:", ", ".join(f"{lab} {100 * d / diag:.1f}" for d, lab in worst_b))
+            print("  our joints far from artist's:", ", ".join(f"{lab} {100 * d / diag:.1f}" for d, lab in worst_a))
         if args.dump:
             Path(args.dump).mkdir(parents=True, exist_ok=True)
             np.savez(Path(args.dump) / f"{path.stem}.npz", heads=heads, tails=tails, names=np.array(rig["names"]),
                      parents=rig["parents"], art=np.array([np.concatenate(s) for s in art_segs]),
                      vertices=v, forward=rig["forward"], cp=rig["centre_points"], ce=rig["centre_edges"])
         rows.append((name, len(v), rig["template"], f"{len(rig['names'])}", 100 * cd / diag, 100 * a / diag,
-                     100 * b / diag, secs))
+                     100 * b / diag, secs, outside, len(body)))
         print(f"[bench_autorig] {name}: {rig['template']} {len(rig['names'])} bones, tail {rig['tail']}, "
               f"CD-J2B {100 * cd / diag:.2f} % (ours->artist {100 * a / diag:.2f}, artist->ours "
-              f"{100 * b / diag:.2f}), {secs:.2f} s")
-    lines = ["| model | vertices | template | bones | CD-J2B % | ours→artist % | artist→ours % | time s |",
-             "|---|---:|---|---:|---:|---:|---:|---:|"]
+              f"{100 * b / diag:.2f}), {outside} of {len(body)} joints outside, {secs:.2f} s")
+    lines = ["| model | vertices | template | bones | CD-J2B % | ours→artist % | artist→ours % "
+             "| joints outside | time s |",
+             "|---|---:|---|---:|---:|---:|---:|---:|---:|"]
     cds = []
     for r in rows:
         if r[2] == "refused":
-            lines.append(f"| {r[0]} | {r[1]} | refused: {r[3]} | | | | | {r[7]:.2f} |")
+            lines.append(f"| {r[0]} | {r[1]} | refused: {r[3]} | | | | | | {r[7]:.2f} |")
         else:
             cds.append(r[4])
-            lines.append(f"| {r[0]} | {r[1]} | {r[2]} | {r[3]} | {r[4]:.2f} | {r[5]:.2f} | {r[6]:.2f} | {r[7]:.2f} |")
+            lines.append(f"| {r[0]} | {r[1]} | {r[2]} | {r[3]} | {r[4]:.2f} | {r[5]:.2f} | {r[6]:.2f} | "
+                         f"{r[8]} of {r[9]} | {r[7]:.2f} |")
     if cds:
         lines.append(f"\nCD-J2B median {statistics.median(cds):.2f} %, max {max(cds):.2f} % "
                      f"({len(cds)} of {len(rows)} rigged; resolution {args.resolution})")

@@ -9,6 +9,7 @@
 //! - **feet** are leaves within [`GROUND_BAND`] of the height above the lowest vertex whose
 //!   path up into the body climbs: over its first [`LEG_WALK`] of the height it rises at least
 //!   [`LEG_SLOPE`] of the way (a figure lying down has no such leaf);
+//! - leaves whose paths meet below [`SHIN`] of the height (a toe and a heel) are one foot;
 //! - two or three feet make a biped, four or more a quadruped (its four lowest);
 //! - a biped's left-right axis joins its feet; it faces where its toes point (the foot's
 //!   lowest vertices lie ahead of the ankle); its hands are the leaves farthest out to each side
@@ -19,6 +20,7 @@
 //!   enough branch.
 
 use super::centreline::Tree;
+use super::voxels::Voxels;
 use crate::{Error, Result};
 use glam::DVec3;
 
@@ -56,6 +58,13 @@ pub(crate) struct Body {
     /// Where the legs join (biped: one; quadruped: hind, front).
     pub hips: usize,
     pub chest: Option<usize>,
+    /// Biped: the point between the legs where the body closes over them (the crotch), when
+    /// the legs' paths show it; the tree's own junction can sit far higher when a flat torso
+    /// lets each leg's path run up it on its own.
+    pub crotch: Option<DVec3>,
+    /// The mirror plane: `p . left = plane`, midway between the legs where they are shins (the
+    /// legs are the most reliably symmetric part; a hand's pose or a prop is not).
+    pub plane: f64,
     pub forward: DVec3,
     pub left: DVec3,
     /// Lowest vertex height and the height of the mesh (unit frame).
@@ -69,7 +78,13 @@ fn horizontal(v: DVec3) -> DVec3 {
 }
 
 /// Find the body's parts. `forward`: the facing asked for (horizontal, any length), if any.
-pub(crate) fn find_body(tree: &Tree, vertices: &[DVec3], template: Template, forward: Option<DVec3>) -> Result<Body> {
+pub(crate) fn find_body(
+    tree: &Tree,
+    vox: &Voxels,
+    vertices: &[DVec3],
+    template: Template,
+    forward: Option<DVec3>,
+) -> Result<Body> {
     let ground = vertices.iter().map(|p| p.z).fold(f64::INFINITY, f64::min);
     let top = vertices.iter().map(|p| p.z).fold(f64::NEG_INFINITY, f64::max);
     let height = top - ground;
@@ -85,7 +100,21 @@ pub(crate) fn find_body(tree: &Tree, vertices: &[DVec3], template: Template, for
                 .into(),
         ));
     }
-    let feet: Vec<usize> = low.iter().copied().filter(|&l| climbs(tree, l, centre, height)).collect();
+    // One foot per leg: leaves whose paths meet below the shins (a toe and a heel) are one
+    // foot, the lowest of them (`low` is sorted by height).
+    let mut legs_seen = Vec::new();
+    let mut feet: Vec<usize> = Vec::new();
+    for &l in &low {
+        if !climbs(tree, l, centre, height) {
+            continue;
+        }
+        let path = tree.path(l, centre);
+        let leg = path.iter().copied().find(|&n| tree.pos[n].z >= ground + SHIN * height).unwrap_or(centre);
+        if !legs_seen.contains(&leg) {
+            legs_seen.push(leg);
+            feet.push(l);
+        }
+    }
     if feet.len() < 2 {
         return Err(Error::Unsuitable(format!(
             "not standing upright: {} limb(s) reach the ground but {} rise(s) from it (Auto Rig takes a \
@@ -105,7 +134,7 @@ pub(crate) fn find_body(tree: &Tree, vertices: &[DVec3], template: Template, for
             feet.len()
         ))),
         Template::Quadruped => quadruped(tree, vertices, &feet[..4], forward, ground, height),
-        _ => biped(tree, vertices, [feet[0], feet[1]], forward, ground, height),
+        _ => biped(tree, vox, vertices, [feet[0], feet[1]], forward, ground, height),
     }
 }
 
@@ -128,6 +157,7 @@ fn climbs(tree: &Tree, l: usize, centre: usize, height: f64) -> bool {
 
 fn biped(
     tree: &Tree,
+    vox: &Voxels,
     vertices: &[DVec3],
     feet: [usize; 2],
     forward: Option<DVec3>,
@@ -194,7 +224,11 @@ fn biped(
         .unwrap_or(0);
     let hips = tree.median(feet[0], feet[1], head);
     let chest = hands.map(|h| tree.median(h[0], h[1], head));
+    let crotch = crotch(tree, vox, feet, ground, tree.pos[hips].z);
+    let plane = (shin(feet[0]) + shin(feet[1])).dot(left) * 0.5;
     Ok(Body {
+        crotch,
+        plane,
         template: Template::Biped,
         feet: feet.to_vec(),
         hands,
@@ -217,10 +251,8 @@ fn quadruped(
     ground: f64,
     height: f64,
 ) -> Result<Body> {
-    let q: Vec<DVec3> = feet
-        .iter()
-        .map(|&f| horizontal(point_at_height(tree, f, ground + SHIN * height).unwrap_or(tree.pos[f])))
-        .collect();
+    let shin = |f: usize| point_at_height(tree, f, ground + SHIN * height).unwrap_or(tree.pos[f]);
+    let q: Vec<DVec3> = feet.iter().map(|&f| horizontal(shin(f))).collect();
     let mean = q.iter().sum::<DVec3>() / 4.0;
     // Long axis of the four feet (2x2 covariance).
     let (mut sxx, mut sxy, mut syy) = (0.0, 0.0, 0.0);
@@ -261,6 +293,7 @@ fn quadruped(
         }
     };
     let (hind, front) = (by_side(hind), by_side(front));
+    let plane = feet.iter().map(|&f| shin(f).dot(left)).sum::<f64>() / 4.0;
     let hips = tree.median(hind[0], hind[1], front[0]);
     let chest = tree.median(front[0], front[1], hind[0]);
     let all = [hind[0], hind[1], front[0], front[1]];
@@ -294,6 +327,8 @@ fn quadruped(
         hands: None,
         head,
         tail,
+        crotch: None,
+        plane,
         hips,
         chest: Some(chest),
         forward,
@@ -321,4 +356,20 @@ fn point_at_height(tree: &Tree, l: usize, z: f64) -> Option<DVec3> {
         let (a, b) = (tree.pos[w[0]], tree.pos[w[1]]);
         ((a.z - z) * (b.z - z) <= 0.0 && a.z != b.z).then(|| a + (b - a) * ((z - a.z) / (b.z - a.z)))
     })
+}
+
+/// The lowest point, midway between the two legs' paths, that is inside the solid: where the
+/// body closes over the legs. Searched from the ground up to `top`, a voxel at a time.
+fn crotch(tree: &Tree, vox: &Voxels, feet: [usize; 2], ground: f64, top: f64) -> Option<DVec3> {
+    let mut z = ground.max(tree.pos[feet[0]].z).max(tree.pos[feet[1]].z) + vox.step;
+    while z < top {
+        if let (Some(a), Some(b)) = (point_at_height(tree, feet[0], z), point_at_height(tree, feet[1], z)) {
+            let mid = (a + b) * 0.5;
+            if vox.inside_at(mid) {
+                return Some(mid);
+            }
+        }
+        z += 0.5 * vox.step;
+    }
+    None
 }

@@ -16,6 +16,7 @@
 
 use super::body::{Body, Template};
 use super::centreline::Tree;
+use crate::skeleton::{fit_joints, FitOptions};
 use glam::DVec3;
 
 /// Search this fraction of a limb's length either side of a proportional joint for a bend.
@@ -24,6 +25,8 @@ const BEND_WINDOW: f64 = 0.12;
 const MIN_BEND_DEG: f64 = 15.0;
 /// A limb's tube starts where its radius is at most this times the radius of its middle.
 const TUBE: f64 = 1.3;
+/// Fit Skeleton moves a joint at most this far (unit frame) when settling.
+const SETTLE_MOVE: f64 = 0.03;
 /// Shortest bone, unit frame.
 const MIN_BONE: f64 = 2e-3;
 
@@ -48,6 +51,15 @@ impl Line {
     fn new(tree: &Tree, nodes: &[usize]) -> Line {
         let p: Vec<DVec3> = nodes.iter().map(|&n| tree.pos[n]).collect();
         let r = nodes.iter().map(|&n| tree.radius[n]).collect();
+        let mut s = vec![0.0];
+        for w in p.windows(2) {
+            s.push(s.last().unwrap() + (w[1] - w[0]).length());
+        }
+        Line { p, r, s }
+    }
+
+    fn from_points(points: impl Iterator<Item = (DVec3, f64)>) -> Line {
+        let (p, r): (Vec<DVec3>, Vec<f64>) = points.unzip();
         let mut s = vec![0.0];
         for w in p.windows(2) {
             s.push(s.last().unwrap() + (w[1] - w[0]).length());
@@ -164,25 +176,73 @@ fn spine_names(first: usize, count: usize) -> Vec<String> {
     (first..first + count).map(|i| if i == 0 { "spine".into() } else { format!("spine.{i:03}") }).collect()
 }
 
-/// The bones for `body`, unit frame.
-pub(crate) fn embed(tree: &Tree, body: &Body, vertices: &[DVec3]) -> Vec<Bone> {
+/// The bones for `body`, unit frame: laid along the tree, mirrored, then settled into the
+/// mesh by Fit Skeleton (`unit`, `triangles`: the mesh in the unit frame): each joint moves to
+/// the middle of its bones' cross-sections, at most [`SETTLE_MOVE`], and joints outside (a
+/// centre joint projected onto the mirror plane between a pair of horns) are pulled in.
+pub(crate) fn embed(
+    tree: &Tree,
+    body: &Body,
+    vertices: &[DVec3],
+    unit: &[[f32; 3]],
+    triangles: &[[u32; 3]],
+) -> Vec<Bone> {
     let mut b = Builder { bones: Vec::new() };
     match body.template {
         Template::Quadruped => quadruped(&mut b, tree, body),
         _ => biped(&mut b, tree, body, vertices),
     }
-    mirror(&mut b.bones, vertices, body);
+    mirror(&mut b.bones, body);
+    settle(&mut b.bones, unit, triangles);
+    mirror(&mut b.bones, body);
     b.bones
 }
 
+/// Move the joints with [`fit_joints`] (heel markers stay on the ground).
+fn settle(bones: &mut [Bone], unit: &[[f32; 3]], triangles: &[[u32; 3]]) {
+    // Joints: a connected bone's head is its parent's tail.
+    let mut joints: Vec<[f32; 3]> = Vec::new();
+    let mut ends: Vec<[u32; 2]> = Vec::new();
+    let mut tail_joint = vec![0u32; bones.len()];
+    for (i, b) in bones.iter().enumerate() {
+        let head = match (b.connected, b.parent) {
+            (true, Some(p)) => tail_joint[p],
+            _ => {
+                joints.push(b.head.as_vec3().to_array());
+                joints.len() as u32 - 1
+            }
+        };
+        joints.push(b.tail.as_vec3().to_array());
+        tail_joint[i] = joints.len() as u32 - 1;
+        ends.push([head, tail_joint[i]]);
+    }
+    let mut movable = vec![true; joints.len()];
+    for (b, e) in bones.iter().zip(&ends) {
+        if b.name.starts_with("heel") {
+            movable[e[0] as usize] = false;
+            movable[e[1] as usize] = false;
+        }
+    }
+    let opts = FitOptions { max_move: SETTLE_MOVE, ..FitOptions::default() };
+    let Ok((moved, _)) = fit_joints(unit, triangles, &joints, &ends, &movable, &opts) else {
+        return;
+    };
+    let p = |j: u32| DVec3::from_array(moved[j as usize].map(f64::from));
+    for (b, e) in bones.iter_mut().zip(&ends) {
+        b.head = p(e[0]);
+        b.tail = p(e[1]);
+    }
+}
+
 /// A leg's line from its junction to its foot, and the hip joint: where the leg's path, coming
-/// up from the foot, has climbed 80 % of the way to the junction's height, raised to that height.
-fn leg(tree: &Tree, junction: usize, foot: usize) -> (Line, f64, DVec3) {
+/// up from the foot, crosses the height `hip_z` (default: 80 % of the way to the junction's
+/// height, raised to that height).
+fn leg(tree: &Tree, junction: usize, foot: usize, hip_z: Option<f64>) -> (Line, f64, DVec3) {
     let line = Line::new(tree, &tree.path(junction, foot));
     let zj = line.p[0].z;
     let zf = line.p.last().unwrap().z;
-    // From the foot up: the last crossing of the 80 % height along the line from the junction.
-    let target = zf + 0.8 * (zj - zf);
+    let target = hip_z.unwrap_or(zf + 0.8 * (zj - zf));
+    // From the foot up: the last crossing along the line from the junction.
     let s = (0..line.p.len().saturating_sub(1))
         .rev()
         .find_map(|i| {
@@ -192,18 +252,34 @@ fn leg(tree: &Tree, junction: usize, foot: usize) -> (Line, f64, DVec3) {
         })
         .unwrap_or(0.0);
     let p = line.at(s);
-    (line, s, DVec3::new(p.x, p.y, zj.max(p.z)))
+    (line, s, DVec3::new(p.x, p.y, hip_z.unwrap_or(zj.max(p.z))))
 }
 
 fn biped(b: &mut Builder, tree: &Tree, body: &Body, vertices: &[DVec3]) {
     let (fwd, left, ground) = (body.forward, body.left, body.ground);
-    let spine = Line::new(tree, &tree.path(body.hips, body.head));
+    // Hips: half a leg's radius above the crotch, when the crotch is found.
+    let hip_z = body.crotch.map(|c| {
+        let (line, _, _) = leg(tree, body.hips, body.feet[0], None);
+        let r = line.nearest(c);
+        c.z + 0.5 * line.radius(r)
+    });
+    let nodes = tree.path(body.hips, body.head);
+    let spine = match (body.crotch, hip_z) {
+        (Some(c), Some(z)) => {
+            // The torso from the crotch up: the tree's nodes above the hips after the root.
+            let kept: Vec<usize> = nodes.iter().copied().filter(|&n| tree.pos[n].z > z).collect();
+            let r0 = kept.first().map_or(0.0, |&n| tree.radius[n]);
+            Line::from_points(
+                std::iter::once((DVec3::new(c.x, c.y, z), r0))
+                    .chain(kept.iter().map(|&n| (tree.pos[n], tree.radius[n]))),
+            )
+        }
+        _ => Line::new(tree, &nodes),
+    };
     // Legs.
-    let mut hips_z = Vec::new();
     let mut legs = Vec::new();
     for (k, side) in ["L", "R"].iter().enumerate() {
-        let (line, s_hip, hip) = leg(tree, body.hips, body.feet[k]);
-        hips_z.push(hip.z);
+        let (line, s_hip, hip) = leg(tree, body.hips, body.feet[k], hip_z);
         legs.push((side, line, s_hip, hip));
     }
     // Arms first: the shoulders' height splits chest from neck.
@@ -324,14 +400,22 @@ fn straightness(a: DVec3, b: DVec3, c: DVec3) -> f64 {
 fn quadruped(b: &mut Builder, tree: &Tree, body: &Body) {
     let (fwd, left) = (body.forward, body.left);
     let chest = body.chest.unwrap_or(body.head);
-    let spine = Line::new(tree, &tree.path(body.hips, body.head));
+    // The torso starts above the hind legs' hip joints (the tree's junction of the hind legs
+    // can lie well in front of them, under the belly).
+    let hips_along = (0..2).map(|k| leg(tree, body.hips, body.feet[k], None).2.dot(fwd)).sum::<f64>() / 2.0;
+    let junction = tree.pos[body.hips];
+    let root = junction + fwd * (hips_along - junction.dot(fwd)).min(0.0);
+    let nodes = tree.path(body.hips, body.head);
+    let spine = Line::from_points(std::iter::once((root, tree.radius[body.hips])).chain(
+        nodes.iter().filter(|&&n| tree.pos[n].dot(fwd) > root.dot(fwd)).map(|&n| (tree.pos[n], tree.radius[n])),
+    ));
     let len = spine.len();
     let s_f = spine.nearest(tree.pos[chest]).max(0.2 * len).min(0.8 * len);
-    // Torso: five bones from the hips to the chest junction.
-    let torso: Vec<DVec3> = (0..=5).map(|k| spine.at(s_f * k as f64 / 5.0)).collect();
     // Neck and head: the head is the widest point of the last part; its base the narrowest
     // point between the chest and it.
     let s_nb = s_f + 0.1 * (len - s_f);
+    // Torso: five bones from the hips to the neck's start.
+    let pts: Vec<DVec3> = (0..=5).map(|k| spine.at(s_nb * k as f64 / 5.0)).collect();
     let samples = 60;
     let at = |k: usize, a: f64, c: f64| a + (c - a) * k as f64 / samples as f64;
     let s_hc = (0..=samples)
@@ -344,21 +428,20 @@ fn quadruped(b: &mut Builder, tree: &Tree, body: &Body) {
         .unwrap_or(s_nb)
         .max(s_nb + 0.1 * (len - s_nb))
         .min(s_hc - 0.05 * (len - s_nb));
-    let s_end = (len - spine.radius(len)).max(s_hc + 0.05 * (len - s_nb));
-    let mut pts = torso.clone();
-    pts[5] = spine.at(s_f);
-    let neck_start = spine.at(s_nb);
-    let names = spine_names(4, 5);
-    b.chain(&names, &pts, None, false);
-    let neck = [neck_start, spine.at(0.5 * (s_nb + s_hb)), spine.at(s_hb), spine.at(s_end)];
-    b.chain(&spine_names(9, 3), &neck, Some("spine.008"), neck_start.distance(pts[5]) < 1e-9);
-    // Tail.
+    let head_end = spine.at((len - spine.radius(len)).max(s_hc + 0.05 * (len - s_nb)));
+    b.chain(&spine_names(4, 5), &pts, None, false);
+    // The neck starts its own rig in Rigify (not connected), where the torso ends.
+    let neck = [pts[5], spine.at(0.5 * (s_nb + s_hb)), spine.at(s_hb), head_end];
+    b.chain(&spine_names(9, 3), &neck, Some("spine.008"), false);
+    // Tail: from the torso's root, as in Rigify's metarig, back along the tree to the tip.
     if let Some(tail) = body.tail {
-        let line = Line::new(tree, &tree.path(body.hips, tail));
+        let nodes = tree.path(body.hips, tail);
+        let line = Line::from_points(std::iter::once((root, tree.radius[body.hips])).chain(
+            nodes.iter().filter(|&&n| tree.pos[n].dot(fwd) < root.dot(fwd)).map(|&n| (tree.pos[n], tree.radius[n])),
+        ));
         let l = line.len();
-        let s0 = (line.tube_start(0.0) - line.radius(line.tube_start(0.0))).max(0.0);
-        let s1 = (l - line.radius(l)).max(s0 + 0.5 * (l - s0));
-        let pts: Vec<DVec3> = (0..=4).map(|k| line.at(s0 + (s1 - s0) * k as f64 / 4.0)).collect();
+        let s1 = l - line.radius(l);
+        let pts: Vec<DVec3> = (0..=4).map(|k| line.at(s1 * k as f64 / 4.0)).collect();
         let names: Vec<String> =
             (0..4).map(|k| if k == 3 { "spine".into() } else { format!("spine.{:03}", 3 - k) }).collect();
         b.chain(&names, &pts, Some("spine.004"), false);
@@ -368,7 +451,7 @@ fn quadruped(b: &mut Builder, tree: &Tree, body: &Body) {
     for (first, prefix, parent, fr) in parts {
         let junction = if first == 0 { body.hips } else { chest };
         for (k, side) in ["L", "R"].iter().enumerate() {
-            let (line, s_hip, hip) = leg(tree, junction, body.feet[first + k]);
+            let (line, s_hip, hip) = leg(tree, junction, body.feet[first + k], None);
             let l = line.len();
             let mut s = [0.0; 3];
             for (i, f) in fr.iter().enumerate() {
@@ -386,8 +469,10 @@ fn quadruped(b: &mut Builder, tree: &Tree, body: &Body) {
                 b.chain(&names, &pts, Some(parent), false);
             } else {
                 let sign = if *side == "L" { 1.0 } else { -1.0 };
-                let top = spine.at(s_f) + DVec3::Z * 0.6 * spine.radius(s_f);
-                let base = top + left * sign * 0.3 * (hip - spine.at(s_f)).dot(left).abs();
+                // The shoulder blade: from above the spine where the leg joins, down to the leg.
+                let s_sh = spine.nearest(hip);
+                let top = spine.at(s_sh) + DVec3::Z * 0.6 * spine.radius(s_sh);
+                let base = top + left * sign * 0.3 * (hip - spine.at(s_sh)).dot(left).abs();
                 let shoulder = format!("shoulder.{side}");
                 b.add(&shoulder, base, hip, Some(parent), false);
                 b.chain(&names, &pts, Some(&shoulder), false);
@@ -396,15 +481,11 @@ fn quadruped(b: &mut Builder, tree: &Tree, body: &Body) {
     }
 }
 
-/// Make pairs exact mirror images and centre bones lie on the mesh's vertical mirror plane
-/// along `left` (midway between the 2nd and 98th percentiles of the vertices across, so a
-/// small prop does not move it; the spine's own path may wander into an ear or a horn).
-fn mirror(bones: &mut [Bone], vertices: &[DVec3], body: &Body) {
+/// Make pairs exact mirror images and centre bones lie on the body's mirror plane (found from
+/// its legs; the spine's own path may wander into an ear or a horn).
+fn mirror(bones: &mut [Bone], body: &Body) {
     let n = body.left;
-    let mut across: Vec<f64> = vertices.iter().map(|p| p.dot(n)).collect();
-    across.sort_by(f64::total_cmp);
-    let q = |f: f64| across[((across.len() - 1) as f64 * f).round() as usize];
-    let plane = 0.5 * (q(0.02) + q(0.98));
+    let plane = body.plane;
     let reflect = |p: DVec3| p - n * (2.0 * (p.dot(n) - plane));
     for i in 0..bones.len() {
         match side_of(&bones[i].name) {

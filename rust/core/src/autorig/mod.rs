@@ -125,8 +125,8 @@ pub fn auto_rig(vertices: &[[f32; 3]], triangles: &[[u32; 3]], opts: &AutoRigOpt
     let tree = centreline::centre_tree(&vox).ok_or_else(|| {
         Error::Unsuitable("the mesh encloses no volume (a flat or open surface?): Auto Rig needs a solid body".into())
     })?;
-    let body = body::find_body(&tree, &unit, opts.template, forward)?;
-    let bones = embed::embed(&tree, &body, &unit);
+    let body = body::find_body(&tree, &vox, &unit, opts.template, forward)?;
+    let bones = embed::embed(&tree, &body, &unit, &unit_all, triangles);
     let out = |p: DVec3| frame.from_unit(p).as_vec3().to_array();
     Ok(AutoRig {
         template: body.template,

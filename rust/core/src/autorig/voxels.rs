@@ -12,11 +12,17 @@
 //! exact Euclidean distance transform of Felzenszwalb & Huttenlocher (2012, "Distance
 //! transforms of sampled functions"), one separable pass per axis.
 //!
+//! Parts apart by at most [`MAX_GAP`] voxels (a kit-built robot's hands and feet) are joined to
+//! the largest part by a line of voxels.
+//!
 //! Known limits: a part thinner than a voxel may vanish (no voxel centre inside it).
 
 use crate::mesh::solid::Solid;
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
+
+/// Parts of the solid at most this many voxels apart are joined by a line of voxels.
+const MAX_GAP: usize = 4;
 
 /// A regular grid over the unit frame.
 pub(crate) struct Voxels {
@@ -47,6 +53,16 @@ impl Voxels {
     pub fn centre(&self, v: usize) -> DVec3 {
         let [i, j, k] = self.coords(v);
         self.origin + DVec3::new(i as f64, j as f64, k as f64) * self.step
+    }
+
+    /// Is the voxel holding `p` inside (false off the grid)?
+    pub fn inside_at(&self, p: DVec3) -> bool {
+        let c = ((p - self.origin) / self.step).round();
+        if c.min_element() < 0.0 {
+            return false;
+        }
+        let (i, j, k) = (c.x as usize, c.y as usize, c.z as usize);
+        i < self.dims[0] && j < self.dims[1] && k < self.dims[2] && self.inside[self.index(i, j, k)]
     }
 
     /// Build from the solid over the box `lo..hi` (unit frame).
@@ -94,9 +110,102 @@ impl Voxels {
                 }
             }
         }
-        let inside: Vec<bool> = votes.iter().map(|&v| v >= 2).collect();
+        let mut inside: Vec<bool> = votes.iter().map(|&v| v >= 2).collect();
+        bridge_gaps(&mut inside, dims, MAX_GAP);
         let depth = distance_transform(&inside, dims);
         Voxels { dims, origin, step, inside, depth }
+    }
+}
+
+/// Join parts of the solid to the largest one across gaps of at most `max_gap` voxels (a kit-built
+/// model's feet or hands hang apart from its legs and arms): a breadth-first search from the
+/// largest part through the outside finds each other part's nearest voxel, and the path back is
+/// made inside. Repeated, so a chain of parts (foot, shin, thigh) joins link by link.
+fn bridge_gaps(inside: &mut [bool], dims: [usize; 3], max_gap: usize) {
+    let n = inside.len();
+    let strides = [1isize, dims[0] as isize, (dims[0] * dims[1]) as isize];
+    let step = |v: usize, axis: usize, dir: isize| -> Option<usize> {
+        let c = [v % dims[0], (v / dims[0]) % dims[1], v / (dims[0] * dims[1])];
+        let x = c[axis] as isize + dir;
+        (x >= 0 && x < dims[axis] as isize).then(|| (v as isize + dir * strides[axis]) as usize)
+    };
+    for _ in 0..8 {
+        // Parts (6-connected), the largest first.
+        let mut label = vec![u32::MAX; n];
+        let mut sizes = Vec::new();
+        for s in 0..n {
+            if !inside[s] || label[s] != u32::MAX {
+                continue;
+            }
+            let id = sizes.len() as u32;
+            label[s] = id;
+            let mut stack = vec![s];
+            let mut size = 0usize;
+            while let Some(v) = stack.pop() {
+                size += 1;
+                for axis in 0..3 {
+                    for dir in [-1, 1] {
+                        if let Some(w) = step(v, axis, dir) {
+                            if inside[w] && label[w] == u32::MAX {
+                                label[w] = id;
+                                stack.push(w);
+                            }
+                        }
+                    }
+                }
+            }
+            sizes.push(size);
+        }
+        if sizes.len() < 2 {
+            return;
+        }
+        let main = (0..sizes.len()).max_by_key(|&i| sizes[i]).unwrap() as u32;
+        // Breadth-first from the main part through the outside, up to `max_gap` steps.
+        let mut dist = vec![u16::MAX; n];
+        let mut parent = vec![usize::MAX; n];
+        let mut frontier: Vec<usize> = (0..n).filter(|&v| label[v] == main).collect();
+        for &v in &frontier {
+            dist[v] = 0;
+        }
+        let mut reached: Vec<(u32, usize)> = Vec::new();
+        for d in 1..=max_gap as u16 {
+            let mut next = Vec::new();
+            for &v in &frontier {
+                for axis in 0..3 {
+                    for dir in [-1, 1] {
+                        let Some(w) = step(v, axis, dir) else { continue };
+                        if dist[w] != u16::MAX {
+                            continue;
+                        }
+                        dist[w] = d;
+                        parent[w] = v;
+                        if inside[w] {
+                            reached.push((label[w], w));
+                        } else {
+                            next.push(w);
+                        }
+                    }
+                }
+            }
+            frontier = next;
+        }
+        let mut joined = vec![false; sizes.len()];
+        let mut any = false;
+        for (part, w) in reached {
+            if joined[part as usize] {
+                continue;
+            }
+            joined[part as usize] = true;
+            any = true;
+            let mut x = parent[w];
+            while x != usize::MAX && !inside[x] {
+                inside[x] = true;
+                x = parent[x];
+            }
+        }
+        if !any {
+            return;
+        }
     }
 }
 
