@@ -411,11 +411,12 @@ def _bare_model(name):
         bpy.ops.wm.obj_import(filepath=str(path))
     else:
         bpy.ops.wm.ply_import(filepath=str(path))
-    new = [ob for ob in bpy.data.objects if ob not in before]
+    new = [ob for ob in bpy.data.objects if ob not in before]  # the importer's bone shapes too
     for arm in [ob for ob in new if ob.type == "ARMATURE"]:
         arm.data.pose_position = "REST"
     bpy.context.view_layer.update()
-    meshes = [ob for ob in new if ob.type == "MESH" and len(ob.data.polygons)]
+    shapes = {pb.custom_shape for arm in new if arm.type == "ARMATURE" for pb in arm.pose.bones}
+    meshes = [ob for ob in new if ob.type == "MESH" and len(ob.data.polygons) and ob not in shapes]
     for ob in meshes:
         world = ob.matrix_world.copy()
         ob.parent = None
