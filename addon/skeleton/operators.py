@@ -75,8 +75,7 @@ def _editable_armature(op, arm, need_bones=True):
 
 
 class MINISKELETON_OT_auto_rig(bpy.types.Operator):
-    """Add an armature fitted inside the selected meshes (one character, standing on +Z up), \
-bones named as Rigify's metarigs, and bind the meshes to it"""
+    """Add a skeleton fitted inside the selected meshes of a character standing upright, as Rigify's metarigs"""
 
     bl_idname = "object.miniskeleton_auto_rig"
     bl_label = "Auto Rig"
