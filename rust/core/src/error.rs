@@ -21,6 +21,9 @@ pub enum Error {
     Shape(String),
     /// An argument is out of its range.
     InvalidArgument(String),
+    /// The mesh is not a shape the task can take (Auto Rig: no ground contact, not upright);
+    /// the text says what was found.
+    Unsuitable(String),
     /// The caller's progress callback asked to stop.
     Cancelled,
     /// A panic in the core (a bug, never bad input), caught where one piece of work must not
@@ -41,6 +44,7 @@ impl fmt::Display for Error {
             Error::NoBones(s) => write!(f, "{s}"),
             Error::Shape(s) => write!(f, "shape mismatch: {s}"),
             Error::InvalidArgument(s) => write!(f, "invalid argument: {s}"),
+            Error::Unsuitable(s) => write!(f, "{s}"),
             Error::Cancelled => write!(f, "cancelled"),
             Error::Internal(s) => write!(f, "internal error (please report): {s}"),
         }

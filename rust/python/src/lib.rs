@@ -1,9 +1,10 @@
 //! The Python module `miniskeleton_core`: thin pyo3 bindings over the pure-Rust core.
-//! One file per core area (mesh, weights, skeleton, motion, posing, and the generated test
+//! One file per core area (mesh, weights, skeleton, autorig, motion, posing, and the generated test
 //! meshes of primitives), each registering its own functions; `error.rs` maps errors and stops
 //! panics; `convert.rs` checks and converts numpy inputs. Arrays in and out are numpy; any
 //! array-like is cast to the documented dtype.
 
+mod autorig;
 mod convert;
 mod error;
 mod mesh;
@@ -22,6 +23,7 @@ fn miniskeleton_core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     mesh::register(m)?;
     weights::register(m)?;
     skeleton::register(m)?;
+    autorig::register(m)?;
     motion::register(m)?;
     posing::register(m)?;
     primitives::register(m)?;

@@ -1,0 +1,205 @@
+"""Auto Rig against the artists' skeletons of the legged models in ``../shared/models``, and its
+speed on a 50k-vertex scan.
+
+    .venv/bin/python bench/bench_autorig.py [--models Fox,CesiumMan] [--resolution 96] [--no-time] [--dump DIR]
+
+For each model: import it, take every mesh of the character in its rest pose (world space;
+the armature's modifiers off, the importer's bone-shape objects left out), hand the vertices
+and triangles to ``miniskeleton_core.auto_rig`` with nothing else (no bone, no name, no facing),
+and compare the skeleton it returns with the artist's **deform** bones:
+
+- **CD-J2B** = the mean of (a) each of our joints' distance to the nearest artist bone segment
+  and (b) each artist joint's distance to the nearest of our bone segments, % of the rest
+  mesh's bounding-box diagonal. Joints are bone heads and tails; an artist's childless bone
+  counts by its head only (a point, not a segment), since importers invent those tails.
+- **facing**: the angle between the facing found and the one the artist's rig implies (the
+  direction from the heels to the toes of its feet, or none when the rig has no named feet;
+  only for the table, nothing uses names).
+
+Then the time of ``auto_rig`` on ``horse.ply`` (48k vertices) and on a 50k-vertex copy of the
+biggest model, median of 3. Writes out/bench_autorig.md. Nothing is asserted here; the Blender
+tests check correctness.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import statistics
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "scripts"))
+import blender_session  # noqa: E402
+
+MODELS_DIR = ROOT.parent / "shared" / "models"
+MODELS = ["Fox.glb", "CesiumMan.gltf", "q_Bunny.glb", "spot_rig.glb", "RobotExpressive.glb"]
+SCANS = ["horse.ply"]
+
+
+def core():
+    sys.path.insert(0, os.environ.get("MINISKELETON_CORE_PATH", str(ROOT / ".build" / "core")))
+    import miniskeleton_core
+
+    return miniskeleton_core
+
+
+def character(bpy, path):
+    """(vertices (n,3), triangles (m,3), artist segments [(head, tail)], artist joints (k,3))."""
+    blender_session.reset_scene()
+    bpy.ops.import_scene.gltf(filepath=str(path))
+    arms = [ob for ob in bpy.data.objects if ob.type == "ARMATURE"]
+    shapes = {pb.custom_shape for a in arms for pb in a.pose.bones if pb.custom_shape is not None}
+    meshes = [ob for ob in bpy.data.objects if ob.type == "MESH" and ob not in shapes]
+    for a in arms:
+        a.data.pose_position = "REST"
+    bpy.context.view_layer.update()
+    deps = bpy.context.evaluated_depsgraph_get()
+    verts, tris, base = [], [], 0
+    for ob in meshes:
+        ev = ob.evaluated_get(deps)
+        me = ev.to_mesh()
+        me.calc_loop_triangles()
+        co = np.empty(len(me.vertices) * 3)
+        me.vertices.foreach_get("co", co)
+        m = np.array(ob.matrix_world)
+        verts.append(co.reshape(-1, 3) @ m[:3, :3].T + m[:3, 3])
+        t = np.empty(len(me.loop_triangles) * 3, dtype=np.int64)
+        me.loop_triangles.foreach_get("vertices", t)
+        tris.append(t.reshape(-1, 3) + base)
+        base += len(me.vertices)
+        ev.to_mesh_clear()
+    segs, joints = [], []
+    for a in arms:
+        mw = np.array(a.matrix_world)
+        for b in a.data.bones:
+            if not b.use_deform:
+                continue
+            h = mw[:3, :3] @ np.array(b.head_local) + mw[:3, 3]
+            t = mw[:3, :3] @ np.array(b.tail_local) + mw[:3, 3]
+            joints.append(h)
+            if b.children:
+                joints.append(t)
+                segs.append((h, t))
+            else:
+                segs.append((h, h))
+    return np.concatenate(verts), np.concatenate(tris), segs, np.array(joints)
+
+
+def point_segment(p, a, b):
+    ab = b - a
+    d = float(ab @ ab)
+    t = 0.0 if d == 0 else min(1.0, max(0.0, float((p - a) @ ab) / d))
+    return float(np.linalg.norm(p - (a + t * ab)))
+
+
+def cd_j2b(ours_segs, ours_joints, art_segs, art_joints):
+    a = np.mean([min(point_segment(p, *s) for s in art_segs) for p in ours_joints])
+    b = np.mean([min(point_segment(p, *s) for s in ours_segs) for p in art_joints])
+    return 0.5 * (a + b), a, b
+
+
+def unique_rows(x, tol=1e-7):
+    out = []
+    for p in x:
+        if all(np.linalg.norm(p - q) > tol for q in out):
+            out.append(p)
+    return np.array(out)
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--models", default="")
+    ap.add_argument("--resolution", type=int, default=96)
+    ap.add_argument("--no-time", action="store_true")
+    ap.add_argument("--dump", default="", help="write each model's skeletons as .npz here")
+    args = ap.parse_args(argv)
+    if not MODELS_DIR.is_dir():
+        print(f"[bench_autorig] {MODELS_DIR} is absent: nothing to measure")
+        return 0
+    bpy = blender_session.start()
+    msc = core()
+    wanted = [m for m in MODELS if not args.models or m.split(".")[0] in args.models.split(",")]
+    rows, biggest = [], None
+    for name in wanted:
+        path = MODELS_DIR / name
+        if not path.exists():
+            print(f"[bench_autorig] {name}: missing, skipped")
+            continue
+        v, t, art_segs, art_joints = character(bpy, path)
+        diag = float(np.linalg.norm(v.max(0) - v.min(0)))
+        if biggest is None or len(v) > len(biggest[0]):
+            biggest = (v, t)
+        t0 = time.perf_counter()
+        try:
+            rig = msc.auto_rig(v.astype(np.float32), t, resolution=args.resolution)
+        except ValueError as e:
+            rows.append((name, len(v), "refused", str(e), "", "", "", time.perf_counter() - t0))
+            print(f"[bench_autorig] {name}: refused: {e}")
+            continue
+        secs = time.perf_counter() - t0
+        heads, tails = rig["heads"].astype(float), rig["tails"].astype(float)
+        ours_segs = list(zip(heads, tails))
+        ours_joints = unique_rows(np.concatenate([heads, tails]))
+        cd, a, b = cd_j2b(ours_segs, ours_joints, art_segs, art_joints)
+        if args.dump:
+            Path(args.dump).mkdir(parents=True, exist_ok=True)
+            np.savez(Path(args.dump) / f"{path.stem}.npz", heads=heads, tails=tails, names=np.array(rig["names"]),
+                     parents=rig["parents"], art=np.array([np.concatenate(s) for s in art_segs]),
+                     vertices=v, forward=rig["forward"], cp=rig["centre_points"], ce=rig["centre_edges"])
+        rows.append((name, len(v), rig["template"], f"{len(rig['names'])}", 100 * cd / diag, 100 * a / diag,
+                     100 * b / diag, secs))
+        print(f"[bench_autorig] {name}: {rig['template']} {len(rig['names'])} bones, tail {rig['tail']}, "
+              f"CD-J2B {100 * cd / diag:.2f} % (ours->artist {100 * a / diag:.2f}, artist->ours "
+              f"{100 * b / diag:.2f}), {secs:.2f} s")
+    lines = ["| model | vertices | template | bones | CD-J2B % | ours→artist % | artist→ours % | time s |",
+             "|---|---:|---|---:|---:|---:|---:|---:|"]
+    cds = []
+    for r in rows:
+        if r[2] == "refused":
+            lines.append(f"| {r[0]} | {r[1]} | refused: {r[3]} | | | | | {r[7]:.2f} |")
+        else:
+            cds.append(r[4])
+            lines.append(f"| {r[0]} | {r[1]} | {r[2]} | {r[3]} | {r[4]:.2f} | {r[5]:.2f} | {r[6]:.2f} | {r[7]:.2f} |")
+    if cds:
+        lines.append(f"\nCD-J2B median {statistics.median(cds):.2f} %, max {max(cds):.2f} % "
+                     f"({len(cds)} of {len(rows)} rigged; resolution {args.resolution})")
+    if not args.no_time:
+        lines.append("\n| speed input | vertices | auto_rig s (median of 3) |\n|---|---:|---:|")
+        for scan in SCANS:
+            path = MODELS_DIR / scan
+            if path.exists():
+                blender_session.reset_scene()
+                bpy.ops.wm.ply_import(filepath=str(path))
+                ob = [o for o in bpy.data.objects if o.type == "MESH"][0]
+                me = ob.data
+                me.calc_loop_triangles()
+                co = np.empty(len(me.vertices) * 3, dtype=np.float32)
+                me.vertices.foreach_get("co", co)
+                tri = np.empty(len(me.loop_triangles) * 3, dtype=np.int64)
+                me.loop_triangles.foreach_get("vertices", tri)
+                lines.append(timing(msc, scan, co.reshape(-1, 3), tri.reshape(-1, 3), args.resolution))
+    text = "\n".join(lines)
+    print(text)
+    blender_session.write_report(ROOT / "out" / "bench_autorig.md", text)
+    return 0
+
+
+def timing(msc, label, v, t, resolution):
+    times = []
+    for _ in range(3):
+        t0 = time.perf_counter()
+        try:
+            msc.auto_rig(v, t, resolution=resolution)
+        except ValueError as e:
+            return f"| {label} | {len(v)} | refused: {e} |"
+        times.append(time.perf_counter() - t0)
+    return f"| {label} | {len(v)} | {statistics.median(times):.3f} |"
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,447 @@
+//! The template skeleton laid along the body's centre lines, with Rigify's metarig names.
+//!
+//! Inputs: the [`Tree`], the [`Body`] (its parts and directions) and the mesh's vertices (unit
+//! frame). Output: the bones `(name, head, tail, parent, connected)`, unit frame, in the order
+//! and with the parenting of Rigify's `basic_human` and `basic_quadruped` metarigs.
+//!
+//! Method: each limb is the tree's path from where it joins the body to its leaf. A limb starts
+//! where the path becomes a tube (its radius falls to that of the limb's middle), its inner
+//! joints sit at the usual proportions along it (Rigify's metarigs) moved to the sharpest bend
+//! within [`BEND_WINDOW`] of there when the path bends more than [`MIN_BEND_DEG`] (a knee, a
+//! hock); a biped's ankle is where the leg comes down to the foot's height and its toes reach
+//! the front of the foot's vertices. The spine runs from the hips' junction along the path to
+//! the head: chest and neck split it at the shoulders' height and at the narrowest point below
+//! the head, whose bone ends one head radius past its centre. Pairs are made exactly mirrored
+//! across the mesh's vertical mirror plane.
+
+use super::body::{Body, Template};
+use super::centreline::Tree;
+use glam::DVec3;
+
+/// Search this fraction of a limb's length either side of a proportional joint for a bend.
+const BEND_WINDOW: f64 = 0.12;
+/// A bend sharper than this (degrees) places the joint.
+const MIN_BEND_DEG: f64 = 15.0;
+/// A limb's tube starts where its radius is at most this times the radius of its middle.
+const TUBE: f64 = 1.3;
+/// Shortest bone, unit frame.
+const MIN_BONE: f64 = 2e-3;
+
+/// One bone of the result, unit frame.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct Bone {
+    pub name: String,
+    pub head: DVec3,
+    pub tail: DVec3,
+    pub parent: Option<usize>,
+    pub connected: bool,
+}
+
+/// A polyline with radii and arc length.
+struct Line {
+    p: Vec<DVec3>,
+    r: Vec<f64>,
+    s: Vec<f64>,
+}
+
+impl Line {
+    fn new(tree: &Tree, nodes: &[usize]) -> Line {
+        let p: Vec<DVec3> = nodes.iter().map(|&n| tree.pos[n]).collect();
+        let r = nodes.iter().map(|&n| tree.radius[n]).collect();
+        let mut s = vec![0.0];
+        for w in p.windows(2) {
+            s.push(s.last().unwrap() + (w[1] - w[0]).length());
+        }
+        Line { p, r, s }
+    }
+
+    fn len(&self) -> f64 {
+        *self.s.last().unwrap()
+    }
+
+    fn seg(&self, s: f64) -> (usize, f64) {
+        let s = s.clamp(0.0, self.len());
+        let i = self.s.partition_point(|&x| x <= s).clamp(1, self.p.len().max(2) - 1);
+        if self.p.len() < 2 {
+            return (0, 0.0);
+        }
+        let d = self.s[i] - self.s[i - 1];
+        (i - 1, if d > 0.0 { (s - self.s[i - 1]) / d } else { 0.0 })
+    }
+
+    fn at(&self, s: f64) -> DVec3 {
+        if self.p.len() < 2 {
+            return self.p[0];
+        }
+        let (i, t) = self.seg(s);
+        self.p[i].lerp(self.p[i + 1], t)
+    }
+
+    fn radius(&self, s: f64) -> f64 {
+        if self.p.len() < 2 {
+            return self.r[0];
+        }
+        let (i, t) = self.seg(s);
+        self.r[i] + (self.r[i + 1] - self.r[i]) * t
+    }
+
+    /// First arc length (from the start) where the height crosses `z`.
+    fn at_height(&self, z: f64) -> Option<f64> {
+        (0..self.p.len().saturating_sub(1)).find_map(|i| {
+            let (a, b) = (self.p[i].z, self.p[i + 1].z);
+            ((a - z) * (b - z) <= 0.0 && a != b).then(|| self.s[i] + (self.s[i + 1] - self.s[i]) * (z - a) / (b - a))
+        })
+    }
+
+    /// Median radius over arc lengths `a..b`.
+    fn median_radius(&self, a: f64, b: f64) -> f64 {
+        let mut r: Vec<f64> = (0..=10).map(|k| self.radius(a + (b - a) * k as f64 / 10.0)).collect();
+        r.sort_by(f64::total_cmp);
+        r[5]
+    }
+
+    /// Where the tube starts: the first arc length from `from` on with radius <= TUBE x the middle's.
+    fn tube_start(&self, from: f64) -> f64 {
+        let len = self.len();
+        let mid = self.median_radius(from + 0.3 * (len - from), from + 0.8 * (len - from));
+        let steps = 100;
+        (0..=steps)
+            .map(|k| from + (len - from) * k as f64 / steps as f64)
+            .find(|&s| self.radius(s) <= TUBE * mid)
+            .unwrap_or(from)
+            .min(from + 0.5 * (len - from))
+    }
+
+    /// `s0`, or the sharpest bend within the window around it when it bends enough.
+    fn bend_near(&self, s0: f64, lo: f64, hi: f64) -> f64 {
+        let w = BEND_WINDOW * (hi - lo);
+        let h = (0.08 * (hi - lo)).max(1e-6);
+        let mut best = (s0, MIN_BEND_DEG.to_radians());
+        for k in 0..=20 {
+            let s = s0 - w + 2.0 * w * k as f64 / 20.0;
+            if s - h < lo || s + h > hi {
+                continue;
+            }
+            let (a, b) = (self.at(s) - self.at(s - h), self.at(s + h) - self.at(s));
+            let angle = a.angle_between(b);
+            if angle > best.1 {
+                best = (s, angle);
+            }
+        }
+        best.0
+    }
+
+    /// The arc length of the node nearest to `q`.
+    fn nearest(&self, q: DVec3) -> f64 {
+        let i =
+            (0..self.p.len()).min_by(|&a, &b| (self.p[a] - q).length().total_cmp(&(self.p[b] - q).length())).unwrap();
+        self.s[i]
+    }
+}
+
+struct Builder {
+    bones: Vec<Bone>,
+}
+
+impl Builder {
+    fn add(&mut self, name: &str, head: DVec3, tail: DVec3, parent: Option<&str>, connected: bool) -> usize {
+        let parent = parent.and_then(|p| self.bones.iter().position(|b| b.name == p));
+        let tail = if (tail - head).length() < MIN_BONE { head + DVec3::Z * MIN_BONE } else { tail };
+        self.bones.push(Bone { name: name.into(), head, tail, parent, connected });
+        self.bones.len() - 1
+    }
+
+    /// A connected chain through `points` named `names`, the first bone under `parent`.
+    fn chain(&mut self, names: &[String], points: &[DVec3], parent: Option<&str>, connect_first: bool) {
+        for (k, name) in names.iter().enumerate() {
+            let par = if k == 0 { parent.map(str::to_string) } else { Some(names[k - 1].clone()) };
+            self.add(name, points[k], points[k + 1], par.as_deref(), k > 0 || connect_first);
+        }
+    }
+}
+
+fn spine_names(first: usize, count: usize) -> Vec<String> {
+    (first..first + count).map(|i| if i == 0 { "spine".into() } else { format!("spine.{i:03}") }).collect()
+}
+
+/// The bones for `body`, unit frame.
+pub(crate) fn embed(tree: &Tree, body: &Body, vertices: &[DVec3]) -> Vec<Bone> {
+    let mut b = Builder { bones: Vec::new() };
+    match body.template {
+        Template::Quadruped => quadruped(&mut b, tree, body),
+        _ => biped(&mut b, tree, body, vertices),
+    }
+    mirror(&mut b.bones, vertices, body);
+    b.bones
+}
+
+/// A leg's line from its junction to its foot, and the hip joint: where the leg's path, coming
+/// up from the foot, has climbed 80 % of the way to the junction's height, raised to that height.
+fn leg(tree: &Tree, junction: usize, foot: usize) -> (Line, f64, DVec3) {
+    let line = Line::new(tree, &tree.path(junction, foot));
+    let zj = line.p[0].z;
+    let zf = line.p.last().unwrap().z;
+    // From the foot up: the last crossing of the 80 % height along the line from the junction.
+    let target = zf + 0.8 * (zj - zf);
+    let s = (0..line.p.len().saturating_sub(1))
+        .rev()
+        .find_map(|i| {
+            let (a, b) = (line.p[i].z, line.p[i + 1].z);
+            ((a - target) * (b - target) <= 0.0 && a != b)
+                .then(|| line.s[i] + (line.s[i + 1] - line.s[i]) * (target - a) / (b - a))
+        })
+        .unwrap_or(0.0);
+    let p = line.at(s);
+    (line, s, DVec3::new(p.x, p.y, zj.max(p.z)))
+}
+
+fn biped(b: &mut Builder, tree: &Tree, body: &Body, vertices: &[DVec3]) {
+    let (fwd, left, ground) = (body.forward, body.left, body.ground);
+    let spine = Line::new(tree, &tree.path(body.hips, body.head));
+    // Legs.
+    let mut hips_z = Vec::new();
+    let mut legs = Vec::new();
+    for (k, side) in ["L", "R"].iter().enumerate() {
+        let (line, s_hip, hip) = leg(tree, body.hips, body.feet[k]);
+        hips_z.push(hip.z);
+        legs.push((side, line, s_hip, hip));
+    }
+    // Arms first: the shoulders' height splits chest from neck.
+    let mut arms = Vec::new();
+    if let (Some(hands), Some(chest)) = (body.hands, body.chest) {
+        for (k, side) in ["L", "R"].iter().enumerate() {
+            let line = Line::new(tree, &tree.path(chest, hands[k]));
+            let s_sh = line.tube_start(0.0).max(0.15 * line.len());
+            let len = line.len();
+            let s_wr = s_sh + 0.75 * (len - s_sh);
+            let s_el = line.bend_near(s_sh + 0.52 * (s_wr - s_sh), s_sh, s_wr);
+            let s_hand = s_wr + 0.45 * (len - s_wr);
+            arms.push((side, [line.at(s_sh), line.at(s_el), line.at(s_wr), line.at(s_hand)]));
+        }
+    }
+    let len = spine.len();
+    let top_z = spine.p.iter().map(|p| p.z).fold(f64::NEG_INFINITY, f64::max);
+    let s_sh = if arms.is_empty() {
+        spine.at_height(spine.p[0].z + 0.7 * (top_z - spine.p[0].z)).unwrap_or(0.7 * len)
+    } else {
+        let z = arms.iter().map(|(_, j)| j[0].z).sum::<f64>() / arms.len() as f64;
+        spine.at_height(z).unwrap_or(0.7 * len)
+    };
+    // Head: its base is the narrowest point in the first half of the way from the shoulders to
+    // the end of the path, its centre the widest point past that (not an ear or a horn: they
+    // are thinner than the head they grow from).
+    let samples = 60;
+    let at = |k: usize, a: f64, c: f64| a + (c - a) * k as f64 / samples as f64;
+    let s_hb = (0..=samples)
+        .map(|k| at(k, s_sh, s_sh + 0.5 * (len - s_sh)))
+        .min_by(|&x, &y| spine.radius(x).total_cmp(&spine.radius(y)))
+        .unwrap_or(s_sh)
+        .max(s_sh + 0.02 * len)
+        .min(len);
+    let s_hc = (0..=samples)
+        .map(|k| at(k, s_hb, len))
+        .max_by(|&x, &y| spine.radius(x).total_cmp(&spine.radius(y)))
+        .unwrap_or(len);
+    let r_head = spine.radius(s_hc);
+    let s_nb = s_sh + 0.37 * (s_hb - s_sh);
+    let s_nb = s_nb.min(s_hb - 0.02 * len).max(0.6 * s_sh);
+    let top = vertices.iter().map(|p| p.z).fold(f64::NEG_INFINITY, f64::max);
+    let head_top = spine.at(s_hc) + DVec3::Z * r_head.min(top - spine.at(s_hc).z);
+    let fr = [0.0, 0.23, 0.44, 0.70, 1.0];
+    let mut pts: Vec<DVec3> = fr.iter().map(|f| spine.at(f * s_nb)).collect();
+    pts.push(spine.at(0.5 * (s_nb + s_hb)));
+    pts.push(spine.at(s_hb));
+    pts.push(head_top);
+    b.chain(&spine_names(0, 7), &pts, None, false);
+    // spine.004 (the neck) starts its own rig in Rigify's metarig.
+    b.bones[4].connected = false;
+
+    for (side, line, s_hip, hip) in legs {
+        let foot_z = ground + 0.08 * (hip.z - ground);
+        let s_ank = (0..line.p.len().saturating_sub(1))
+            .find_map(|i| {
+                let (a, c) = (line.p[i].z, line.p[i + 1].z);
+                (line.s[i] >= s_hip && (a - foot_z) * (c - foot_z) <= 0.0 && a != c)
+                    .then(|| line.s[i] + (line.s[i + 1] - line.s[i]) * (foot_z - a) / (c - a))
+            })
+            .unwrap_or(0.92 * line.len());
+        let ankle = line.at(s_ank);
+        let s_knee = line.bend_near(s_hip + 0.53 * (s_ank - s_hip), s_hip, s_ank);
+        let mut knee = line.at(s_knee);
+        // A straight leg still bends a little forward, so IK knows which way the knee goes.
+        knee += fwd * 0.02 * (hip - ankle).length() * straightness(hip, knee, ankle);
+        let sign = if *side == "L" { 1.0 } else { -1.0 };
+        let reach = 0.3 * (hip.z - ground);
+        let foot: Vec<DVec3> = vertices
+            .iter()
+            .copied()
+            .filter(|p| {
+                p.z < ankle.z && {
+                    let d = *p - ankle;
+                    DVec3::new(d.x, d.y, 0.0).length() < reach && sign * d.dot(left) > -0.5 * reach
+                }
+            })
+            .collect();
+        let ahead = foot.iter().map(|p| (*p - ankle).dot(fwd)).fold(0.0, f64::max);
+        let behind = foot.iter().map(|p| (*p - ankle).dot(fwd)).fold(0.0, f64::min);
+        let ankle_flat = DVec3::new(ankle.x, ankle.y, ground);
+        let lift = ankle.z - ground;
+        let toe_tip = ankle_flat + fwd * (0.9 * ahead) + DVec3::Z * (0.2 * lift);
+        let ball = ankle_flat + fwd * (0.62 * 0.9 * ahead) + DVec3::Z * (0.2 * lift);
+        let names: Vec<String> = ["thigh", "shin", "foot", "toe"].iter().map(|n| format!("{n}.{side}")).collect();
+        b.chain(&names, &[hip, knee, ankle, ball, toe_tip], Some("spine"), false);
+        let heel = ankle_flat + fwd * (0.8 * behind);
+        let w = line.radius(s_ank).max(0.01);
+        b.add(
+            &format!("heel.02.{side}"),
+            heel - left * sign * w,
+            heel + left * sign * w,
+            Some(&format!("foot.{side}")),
+            false,
+        );
+    }
+
+    let neck_base = spine.at(s_nb);
+    for (side, j) in arms {
+        let sign = if *side == "L" { 1.0 } else { -1.0 };
+        let mut elbow = j[1];
+        elbow -= fwd * 0.02 * (j[0] - j[2]).length() * straightness(j[0], j[1], j[2]);
+        let base = neck_base + (j[0] - neck_base) * 0.1 + left * sign * 1e-3;
+        let clavicle_tail = neck_base + (j[0] - neck_base) * 0.85;
+        let shoulder = format!("shoulder.{side}");
+        b.add(&shoulder, base, clavicle_tail, Some("spine.003"), false);
+        let names: Vec<String> = ["upper_arm", "forearm", "hand"].iter().map(|n| format!("{n}.{side}")).collect();
+        b.chain(&names, &[j[0], elbow, j[2], j[3]], Some(&shoulder), false);
+    }
+}
+
+/// 1 for three points in a straight line, 0 when they bend by 10 degrees or more.
+fn straightness(a: DVec3, b: DVec3, c: DVec3) -> f64 {
+    let angle = (b - a).angle_between(c - b).to_degrees();
+    (1.0 - angle / 10.0).clamp(0.0, 1.0)
+}
+
+fn quadruped(b: &mut Builder, tree: &Tree, body: &Body) {
+    let (fwd, left) = (body.forward, body.left);
+    let chest = body.chest.unwrap_or(body.head);
+    let spine = Line::new(tree, &tree.path(body.hips, body.head));
+    let len = spine.len();
+    let s_f = spine.nearest(tree.pos[chest]).max(0.2 * len).min(0.8 * len);
+    // Torso: five bones from the hips to the chest junction.
+    let torso: Vec<DVec3> = (0..=5).map(|k| spine.at(s_f * k as f64 / 5.0)).collect();
+    // Neck and head: the head is the widest point of the last part; its base the narrowest
+    // point between the chest and it.
+    let s_nb = s_f + 0.1 * (len - s_f);
+    let samples = 60;
+    let at = |k: usize, a: f64, c: f64| a + (c - a) * k as f64 / samples as f64;
+    let s_hc = (0..=samples)
+        .map(|k| at(k, s_nb + 0.4 * (len - s_nb), len))
+        .max_by(|&x, &y| spine.radius(x).total_cmp(&spine.radius(y)))
+        .unwrap_or(len);
+    let s_hb = (0..=samples)
+        .map(|k| at(k, s_nb, s_hc))
+        .min_by(|&x, &y| spine.radius(x).total_cmp(&spine.radius(y)))
+        .unwrap_or(s_nb)
+        .max(s_nb + 0.1 * (len - s_nb))
+        .min(s_hc - 0.05 * (len - s_nb));
+    let s_end = (len - spine.radius(len)).max(s_hc + 0.05 * (len - s_nb));
+    let mut pts = torso.clone();
+    pts[5] = spine.at(s_f);
+    let neck_start = spine.at(s_nb);
+    let names = spine_names(4, 5);
+    b.chain(&names, &pts, None, false);
+    let neck = [neck_start, spine.at(0.5 * (s_nb + s_hb)), spine.at(s_hb), spine.at(s_end)];
+    b.chain(&spine_names(9, 3), &neck, Some("spine.008"), neck_start.distance(pts[5]) < 1e-9);
+    // Tail.
+    if let Some(tail) = body.tail {
+        let line = Line::new(tree, &tree.path(body.hips, tail));
+        let l = line.len();
+        let s0 = (line.tube_start(0.0) - line.radius(line.tube_start(0.0))).max(0.0);
+        let s1 = (l - line.radius(l)).max(s0 + 0.5 * (l - s0));
+        let pts: Vec<DVec3> = (0..=4).map(|k| line.at(s0 + (s1 - s0) * k as f64 / 4.0)).collect();
+        let names: Vec<String> =
+            (0..4).map(|k| if k == 3 { "spine".into() } else { format!("spine.{:03}", 3 - k) }).collect();
+        b.chain(&names, &pts, Some("spine.004"), false);
+    }
+    // Legs: hind then front.
+    let parts = [(0, "", "spine.004", [0.29, 0.62, 0.85]), (2, "front_", "spine.008", [0.33, 0.67, 0.84])];
+    for (first, prefix, parent, fr) in parts {
+        let junction = if first == 0 { body.hips } else { chest };
+        for (k, side) in ["L", "R"].iter().enumerate() {
+            let (line, s_hip, hip) = leg(tree, junction, body.feet[first + k]);
+            let l = line.len();
+            let mut s = [0.0; 3];
+            for (i, f) in fr.iter().enumerate() {
+                let lo = if i == 0 { s_hip } else { s[i - 1] };
+                s[i] = line.bend_near(s_hip + f * (l - s_hip), lo, l).max(lo + MIN_BONE);
+            }
+            let tip = line.at(l - line.radius(l));
+            let mut pts = vec![hip, line.at(s[0]), line.at(s[1]), line.at(s[2]), tip];
+            let bend = if first == 0 { -1.0 } else { 1.0 };
+            let nudge = fwd * bend * 0.02 * (hip - pts[2]).length() * straightness(hip, pts[1], pts[2]);
+            pts[1] += nudge;
+            let names: Vec<String> =
+                ["thigh", "shin", "foot", "toe"].iter().map(|n| format!("{prefix}{n}.{side}")).collect();
+            if first == 0 {
+                b.chain(&names, &pts, Some(parent), false);
+            } else {
+                let sign = if *side == "L" { 1.0 } else { -1.0 };
+                let top = spine.at(s_f) + DVec3::Z * 0.6 * spine.radius(s_f);
+                let base = top + left * sign * 0.3 * (hip - spine.at(s_f)).dot(left).abs();
+                let shoulder = format!("shoulder.{side}");
+                b.add(&shoulder, base, hip, Some(parent), false);
+                b.chain(&names, &pts, Some(&shoulder), false);
+            }
+        }
+    }
+}
+
+/// Make pairs exact mirror images and centre bones lie on the mesh's vertical mirror plane
+/// along `left` (midway between the 2nd and 98th percentiles of the vertices across, so a
+/// small prop does not move it; the spine's own path may wander into an ear or a horn).
+fn mirror(bones: &mut [Bone], vertices: &[DVec3], body: &Body) {
+    let n = body.left;
+    let mut across: Vec<f64> = vertices.iter().map(|p| p.dot(n)).collect();
+    across.sort_by(f64::total_cmp);
+    let q = |f: f64| across[((across.len() - 1) as f64 * f).round() as usize];
+    let plane = 0.5 * (q(0.02) + q(0.98));
+    let reflect = |p: DVec3| p - n * (2.0 * (p.dot(n) - plane));
+    for i in 0..bones.len() {
+        match side_of(&bones[i].name) {
+            None => {
+                for p in [&mut bones[i].head, &mut bones[i].tail] {
+                    *p -= n * (p.dot(n) - plane);
+                }
+            }
+            Some(true) => {
+                let twin = bones[i].name.trim_end_matches(".L").to_string() + ".R";
+                if let Some(j) = bones.iter().position(|b| b.name == twin) {
+                    let head = (bones[i].head + reflect(bones[j].head)) * 0.5;
+                    let tail = (bones[i].tail + reflect(bones[j].tail)) * 0.5;
+                    bones[i].head = head;
+                    bones[i].tail = tail;
+                    bones[j].head = reflect(head);
+                    bones[j].tail = reflect(tail);
+                }
+            }
+            Some(false) => {}
+        }
+    }
+    // Connected children start where their parents end.
+    for i in 0..bones.len() {
+        if let (true, Some(p)) = (bones[i].connected, bones[i].parent) {
+            bones[i].head = bones[p].tail;
+        }
+    }
+}
+
+/// `Some(true)` for a left bone, `Some(false)` for a right one, `None` on the centre line.
+fn side_of(name: &str) -> Option<bool> {
+    if name.ends_with(".L") {
+        Some(true)
+    } else if name.ends_with(".R") {
+        Some(false)
+    } else {
+        None
+    }
+}
