@@ -34,7 +34,8 @@ FORWARD_ITEMS = [("AUTO", "Auto", "Found from the mesh (where the head and the t
 # type, parameters, bone collections of its FK and tweak controls). ".S" stands for both sides
 # (.L and .R). Parameters that are enum names (strings), and the control collections, are set
 # only through Rigify's properties (``store_rigify_types``); ``pivot_pos`` is kept inside the
-# spine's chain.
+# spine's chain, and ``connect_chain`` is on only where the bone starts where Rigify can join
+# its parent's chain.
 RIGIFY_TYPES = {
     "BIPED": {
         "spine": ("spines.basic_spine", {"pivot_pos": 2}, {"fk": "Torso (Tweak)", "tweak": "Torso (Tweak)"}),
@@ -267,6 +268,8 @@ def store_rigify_types(arm: bpy.types.Object, template: str) -> bool:
         params = dict(params)
         if "pivot_pos" in params:  # inside the spine's chain (Rigify refuses a pivot outside it)
             params["pivot_pos"] = max(1, min(params["pivot_pos"], _chain_length(arm.data.bones[bone]) - 1))
+        if params.get("connect_chain") and not _joins_parent_chain(arm.data.bones[bone]):
+            params["connect_chain"] = False  # Rigify refuses to join it: the rig stays on its own
         if enabled:
             pb.rigify_type = rig_type
             for key, value in params.items():
@@ -281,6 +284,20 @@ def store_rigify_types(arm: bpy.types.Object, template: str) -> bool:
             store["rigify_type"] = rig_type
             store["rigify_parameters"] = {k: v for k, v in params.items() if not isinstance(v, str)}
     return enabled
+
+
+def _joins_parent_chain(bone: bpy.types.Bone) -> bool:
+    """Whether Rigify's ``connect_chain`` can join ``bone``'s rig to its parent's chain: its head
+    at the parent's tail, or at the head of the parent's connected chain (a tail leaving the
+    hips), within Rigify's 1e-5."""
+    parent = bone.parent
+    if parent is None:
+        return False
+    root = parent
+    while root.parent is not None and root.use_connect:
+        root = root.parent
+    head = bone.head_local
+    return (parent.tail_local - head).length < 1e-5 or (root.head_local - head).length < 1e-5
 
 
 def _chain_length(bone: bpy.types.Bone) -> int:
