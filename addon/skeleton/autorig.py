@@ -121,7 +121,8 @@ def read_character(meshes) -> tuple[np.ndarray, np.ndarray, list[str]]:
             continue
         bad = int((~np.isfinite(v)).any(axis=1).sum())
         if bad:
-            raise AutoRigError(f"Mesh '{ob.name}' has {bad} vertices with NaN or infinite coordinates")
+            raise AutoRigError(f"Mesh '{ob.name}' has {bad} {'vertex' if bad == 1 else 'vertices'} with NaN "
+                               "or infinite coordinates")
         parts.append((v, t))
     if not parts:
         return np.zeros((0, 3)), np.zeros((0, 3), np.uint32), faceless
