@@ -51,7 +51,8 @@ $(EXT_ZIP): $(WHEEL) $(ADDON_SRC)
 	    build --source-dir addon --output-dir dist --split-platforms
 	test -f $@
 
-## Headless demo on a creature the project generates (or MODEL=path.glb).
+## Headless demo: Spot the cow's bare mesh (assets/spot) auto-rigged, bound, animated, rendered
+## (or MODEL=path: any mesh the same way, or a model with its armature; PUPPET=five-rod: puppets).
 demo: $(EXT_ZIP)
 	$(VPY) scripts/demo.py --out out $(if $(MODEL),--model $(MODEL)) $(if $(PUPPET),--puppet $(PUPPET))
 

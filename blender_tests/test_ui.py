@@ -150,14 +150,14 @@ def test_each_method_and_motion_gets_its_own_button():
 
 
 def test_add_on_is_in_the_menus_riggers_use():
-    """Ctrl+P (Object > Parent) and Weight Paint > Weights: weights; Add > Armature: puppets;
-    Armature (Edit Mode) and Pose: fit / restore / keep and motions; File > Import / Export: the
-    rig bundle; Render: the video. Each menu draws at least one function of the areas' ui.py,
+    """Ctrl+P (Object > Parent) and Weight Paint > Weights: weights; Add > Armature: Auto Rig and
+    puppets; Armature (Edit Mode) and Pose: fit / restore / keep and motions; File > Import /
+    Export: the rig bundle; Render: the video. Each menu draws at least one function of the areas' ui.py,
     and each panel is registered in the MiniSkeleton sidebar tab."""
     wanted = {
         "VIEW3D_MT_object_parent": {"draw_parent_menu"},
         "VIEW3D_MT_paint_weight": {"draw_parent_menu"},
-        "VIEW3D_MT_armature_add": {"draw_puppet_add_menu"},
+        "VIEW3D_MT_armature_add": {"draw_auto_rig_add_menu", "draw_puppet_add_menu"},
         "VIEW3D_MT_edit_armature": {"draw_armature_menu"},
         "VIEW3D_MT_pose": {"draw_armature_menu", "draw_pose_motion_menu"},
         "TOPBAR_MT_file_export": {"draw_export_menu"},

@@ -167,6 +167,13 @@ def _creature():
     return body, arm
 
 
+def _creature_body():
+    """The creature's bare mesh, selected and active (for Auto Rig)."""
+    body = creature.build_body()
+    bpy.context.view_layer.update()  # the Skin graph object it removed leaves the layer
+    B.set_active(body, [body])
+
+
 def _creature_posed():
     body, arm = _creature()
     assert bpy.ops.object.miniskeleton_auto_weights() == {"FINISHED"}
@@ -210,6 +217,8 @@ def _puppet_and_png(tmp_path) -> dict:
 
 # case: (set-up (returns the operator's options), operator, the fingerprint's sections it changes)
 CASES = {
+    "auto_rig": (lambda tmp: _creature_body() or {}, lambda: bpy.ops.object.miniskeleton_auto_rig,
+                 {"objects", "meshes", "armatures"}),
     "auto_weights": (lambda tmp: _creature() and {}, lambda: bpy.ops.object.miniskeleton_auto_weights,
                      {"meshes", "objects"}),
     "fit": (lambda tmp: _creature() and {}, lambda: bpy.ops.armature.miniskeleton_fit_skeleton, {"armatures"}),

@@ -1,14 +1,14 @@
-"""The MiniSkeleton demo, headless: generate (or import) a creature, bind it with Auto Weights
-(Heat), pose it, render a PNG with Workbench and save the .blend; then key a head shake, a walk
-and a run on it, render them to an MP4 and save the .blend again.
+"""The MiniSkeleton demo, headless: import Spot the cow's bare mesh (assets/spot, public domain),
+Auto Rig it (a Rigify-named skeleton found in the mesh, bound with Auto Weights (Heat)), pose it,
+render a PNG with Workbench and save the .blend; then key a head shake, a walk and a run on it,
+render them to an MP4 and save the .blend again. No joint is placed by hand.
 
     python scripts/demo.py --out out [--model path/to/model.glb]
 
-A model without an armature (an OBJ or PLY scan of a four-legged animal, +Z up, such as
-../shared/models/cow.obj) first gets the rough skeleton a rigger blocks in by eye
-(scan_rig.py), which Fit Skeleton to Mesh then centres in the mesh. A motion the rig cannot
-take (too few bones, no legs) is skipped with the operator's reason, and so is the video when
-no motion was added.
+Any mesh goes the same way (OBJ, PLY, GLB/glTF, FBX; +Z up, standing on its feet, such as
+../shared/models/cow.obj or horse.ply): Auto Rig finds its skeleton. A model that comes with an
+armature keeps it and is bound to it. A motion the rig cannot take (too few bones, no legs) is
+skipped with the operator's reason, and so is the video when no motion was added.
 
 `make demo` runs this after building and packaging the extension. Prints one line per stage
 with the time it took.
@@ -26,11 +26,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import blender_session  # noqa: E402
 
 
-def make_creature():
-    import creature
-
-    body, rig = creature.build()
-    return [body], rig
+SPOT = Path(__file__).resolve().parents[1] / "assets" / "spot" / "spot.glb"
 
 
 def import_model(path: Path):
@@ -50,10 +46,10 @@ def import_model(path: Path):
         raise SystemExit(f"unsupported model format: {path} (GLB, glTF, FBX, OBJ or PLY)")
     new = [ob for ob in bpy.data.objects if ob not in before]
     rigs = [ob for ob in new if ob.type == "ARMATURE"]
-    meshes = [ob for ob in new if ob.type == "MESH"]
-    if not meshes or (not rigs and len(meshes) != 1):
-        raise SystemExit(f"{path} needs a mesh and an armature, or one mesh alone (a scan) "
-                         f"(found {len(rigs)} armatures, {len(meshes)} meshes)")
+    shapes = {pb.custom_shape for rig in rigs for pb in rig.pose.bones}  # the glTF importer's bone shapes
+    meshes = [ob for ob in new if ob.type == "MESH" and len(ob.data.polygons) and ob not in shapes]
+    if not meshes:
+        raise SystemExit(f"{path} has no mesh with faces")
     return meshes, (rigs[0] if rigs else None)
 
 
@@ -64,26 +60,22 @@ def addon_module(name: str):
     return importlib.import_module(f"{blender_session.ADDON_MODULE}.{name}")
 
 
-def rough_rig(meshes):
-    """The rough four-legged skeleton a rigger blocks in over a +Z-up scan (scan_rig.py: joints
-    at fixed fractions of the height above the four feet, some outside the mesh)."""
-    import bpy
-    import scan_rig
-
-    rig, _ = scan_rig.armature(bpy, addon_module("common.meshes").mesh_world_vertices(meshes[0]))
-    print(f"[demo]   {len(rig.data.bones)} bones")
-    return rig
-
-
-def fit(meshes, rig):
-    """Fit Skeleton to Mesh: the rough joints to the centres of the mesh's cross-sections (the
-    operator reports the joints outside the mesh before and after)."""
+def auto_rig(meshes):
+    """Auto Rig: a skeleton found in the mesh (Rigify's metarig names), bound with Heat; the
+    operator's report names the template, the bones and the time."""
     import bpy
 
-    select(meshes, rig)
-    result = bpy.ops.armature.miniskeleton_fit_skeleton()
+    select(meshes, meshes[0])
+    try:
+        result = bpy.ops.object.miniskeleton_auto_rig(bind=True)
+    except RuntimeError as err:  # its error report: the mesh is no character it can rig
+        raise SystemExit(f"auto rig failed: {str(err).strip()}") from None
     if result != {"FINISHED"}:
-        raise SystemExit(f"fitting failed: {result}")
+        raise SystemExit(f"auto rig failed: {result}")
+    rig = bpy.context.view_layer.objects.active
+    print(f"[demo]   {rig.name}: {len(rig.data.bones)} bones, "
+          f"{sum(len(ob.vertex_groups) for ob in meshes)} groups written")
+    return rig
 
 
 def select(meshes, rig):
@@ -116,6 +108,12 @@ def pose(rig):
     wanted = {"head": (0, 0, 30), "neck": (-15, 0, 10), "upper_arm.L": (-50, 0, 0),
               "forearm.L": (70, 0, 0), "thigh.R": (30, 0, 0), "tail.001": (-30, 0, 0),
               "tail.002": (-20, 0, 0)}
+    if "spine.011" in rig.pose.bones:  # Auto Rig's quadruped (Rigify's names): head, neck, front leg, tail
+        wanted = {"spine.011": (0, 0, 25), "spine.010": (-10, 0, 0), "front_thigh.L": (-40, 0, 0),
+                  "front_shin.L": (60, 0, 0), "spine.002": (20, 0, 0), "spine.001": (15, 0, 0)}
+    elif "spine.006" in rig.pose.bones:  # Auto Rig's biped
+        wanted = {"spine.006": (0, 0, 25), "spine.005": (-10, 0, 0), "upper_arm.L": (-50, 0, 0),
+                  "forearm.L": (70, 0, 0), "thigh.R": (30, 0, 0)}
     posed = 0
     for pb in rig.pose.bones:
         for key, deg in wanted.items():
@@ -131,8 +129,25 @@ def pose(rig):
     bpy.context.view_layer.update()
 
 
-def frame_camera(meshes):
-    """Camera and ground framing the evaluated meshes; Workbench settings."""
+def facing(rig):
+    """The horizontal way an Auto Rig skeleton faces (hips to head for a quadruped, heel to toe
+    for a biped), else -Y (Blender's front view), as a unit mathutils Vector."""
+    from mathutils import Vector
+
+    bones, m = rig.data.bones, rig.matrix_world
+    if "spine.011" in bones and "spine.004" in bones:
+        way = m @ bones["spine.011"].tail_local - m @ bones["spine.004"].head_local
+    elif "toe.L" in bones and "foot.L" in bones:
+        way = m @ bones["toe.L"].tail_local - m @ bones["foot.L"].head_local
+    else:
+        way = Vector((0.0, -1.0, 0.0))
+    way.z = 0.0
+    return way.normalized() if way.length > 0 else Vector((0.0, -1.0, 0.0))
+
+
+def frame_camera(meshes, rig):
+    """Camera (in front of the character, to its left) and ground framing the evaluated meshes;
+    Workbench settings."""
     import bpy
     from mathutils import Vector
 
@@ -149,7 +164,9 @@ def frame_camera(meshes):
     cam_data.lens = 50
     cam = bpy.data.objects.new("DemoCamera", cam_data)
     scene.collection.objects.link(cam)
-    direction = Vector((1.2, -1.8, 0.7)).normalized()
+    front = facing(rig)
+    left = Vector((0.0, 0.0, 1.0)).cross(front)
+    direction = (1.8 * front + 1.2 * left + Vector((0.0, 0.0, 0.7))).normalized()
     cam.location = centre + direction * radius * 3.2
     cam.rotation_euler = (centre - cam.location).to_track_quat("-Z", "Y").to_euler()
     scene.camera = cam
@@ -227,8 +244,8 @@ def render_video(path: Path, size=(480, 320)):
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--out", default="out", type=Path)
-    ap.add_argument("--model", type=Path, help="GLB/glTF/FBX/OBJ with an armature, or an OBJ/PLY scan of a "
-                    "four-legged animal (+Z up) without one (default: generated)")
+    ap.add_argument("--model", type=Path, default=SPOT, help="a mesh to Auto Rig (OBJ, PLY, GLB/glTF, FBX; +Z "
+                    "up, standing), or a model with its armature (default: Spot the cow, assets/spot/spot.glb)")
     ap.add_argument("--puppet", help="shadow-play clip instead: five-rod, three-rod, prop, strip, quadruped")
     args = ap.parse_args(argv)
     if args.puppet:
@@ -240,16 +257,13 @@ def main(argv=None):
     st = blender_session.Stages()
     bpy = st.run("start Blender and install the extension", blender_session.start)
     st.run("empty scene", blender_session.reset_scene)
-    if args.model:
-        meshes, rig = st.run(f"import {args.model.name}", import_model, args.model)
-        if rig is None:
-            rig = st.run("block in a rough four-legged skeleton", rough_rig, meshes)
-            st.run("fit skeleton to mesh", fit, meshes, rig)
+    meshes, rig = st.run(f"import {args.model.name}", import_model, args.model)
+    if rig is None:
+        rig = st.run("auto rig and bind with Auto Weights (Heat)", auto_rig, meshes)
     else:
-        meshes, rig = st.run("generate creature (Skin modifier)", make_creature)
-    st.run("bind with Auto Weights (Heat)", bind, meshes, rig)
+        st.run("bind with Auto Weights (Heat)", bind, meshes, rig)
     st.run("pose", pose, rig)
-    st.run("camera and ground", frame_camera, meshes)
+    st.run("camera and ground", frame_camera, meshes, rig)
     png = args.out.resolve() / "demo.png"
     st.run("render PNG (Workbench)", render_png, png)
     blend = args.out.resolve() / "demo.blend"

@@ -2,9 +2,9 @@
 blocks in by eye before fitting: a spine at 58 % of the height from the back feet to the front
 feet, a neck and head toward the end that sticks out further (the head), and a two-bone leg
 above each of the four feet (the clusters of the lowest vertices). Joints are rough on purpose:
-Fit Skeleton centres them. Shared by demo.py (a scan given as --model), bench_weights.py
-(speed on real meshes; its cylinder rigs also use `armature_object`) and
-blender_tests/test_models.py (fit and bind on real scans).
+Fit Skeleton centres them. Shared by bench_weights.py (speed on real meshes; its cylinder rigs
+also use `armature_object`) and blender_tests/test_models.py (fit and bind on real scans); the
+demo rigs scans with Auto Rig instead.
 """
 
 from __future__ import annotations

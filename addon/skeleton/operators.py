@@ -1,26 +1,32 @@
-"""Skeleton operators: Fit Skeleton to Mesh, Restore Original Skeleton / Keep Current as Original,
-and rig exchange (NPZ bundle export/import, debug JSON export).
+"""Skeleton operators: Auto Rig, Fit Skeleton to Mesh, Restore Original Skeleton / Keep Current as
+Original, and rig exchange (NPZ bundle export/import, debug JSON export).
+
+Auto Rig's skeleton is found by ``miniskeleton_core.auto_rig`` in world space around the ground
+point of the meshes; the armature is built and bound in ``autorig``.
 
 Fitting is computed by ``miniskeleton_core.fit_joints`` in the armature's frame (its axes and
 origin at world size, ``armature_frame``: X symmetry is the armature's x = 0, and a scaled
 armature does not stretch the mesh's cross-sections). The operators check and report; the work is
-in ``fitting``, ``snapshot`` (the original rest pose), ``editing`` (Edit Mode and bone ends),
+in ``autorig`` (Auto Rig), ``fitting``, ``snapshot`` (the original rest pose), ``editing`` (Edit Mode and bone ends),
 ``joints`` (the joint graph) and ``exchange`` (NPZ / JSON).
 """
 
 from __future__ import annotations
 
 import os
+import time
 
 import bpy
 import numpy as np
-from bpy.props import EnumProperty, FloatProperty, IntProperty, StringProperty
+from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty, StringProperty
 from bpy_extras.io_utils import ExportHelper, ImportHelper
 
 from ..common.armatures import find_armature, invented_tails, pose_flag, rest_pose
 from ..common.meshes import shaped_world_mesh, stack_meshes
 from ..common.reports import in_edit_mode, name_list, read_only, unplaced
 from ..common.transforms import armature_frame, to_armature_frame
+from .autorig import (FORWARD_ITEMS, TEMPLATES, AutoRigError, build_armature, facing_name, fit_rig, ground_point,
+                      read_character, remove_armature, store_rigify_types)
 from .editing import armature_edit, bone_children_stay
 from .exchange import RigError, apply_weights, collect_rig, load_npz, output_path, rig_json, save_json, save_npz
 from .fitting import FitError, fit_skeleton, movable_joints, place_fitted, read_skeleton
@@ -66,6 +72,124 @@ def _editable_armature(op, arm, need_bones=True):
         op.report({"ERROR"}, locked)
         return False
     return True
+
+
+class MINISKELETON_OT_auto_rig(bpy.types.Operator):
+    """Add a skeleton fitted inside the selected meshes of a character standing upright, as Rigify's metarigs"""
+
+    bl_idname = "object.miniskeleton_auto_rig"
+    bl_label = "Auto Rig"
+    bl_options = {"REGISTER", "UNDO"}
+
+    template: EnumProperty(name="Template", items=TEMPLATES, default="AUTO")
+    forward: EnumProperty(name="Forward", items=FORWARD_ITEMS, default="AUTO",
+                          description="The way the character faces")
+    bind: BoolProperty(name="Bind", default=True,
+                       description="Bind the meshes to the new armature with Auto Weights (Heat)")
+
+    def _meshes(self, context):
+        """The selected meshes, checked, or None (reported)."""
+        selected = list(context.selected_objects)
+        meshes = sorted((ob for ob in selected if ob.type == "MESH"), key=lambda ob: ob.name)
+        editing = in_edit_mode(meshes)
+        if editing:
+            self.report({"ERROR"}, editing)
+            return None
+        if context.mode != "OBJECT":
+            self.report({"ERROR"}, "Auto Rig works in Object Mode: switch to Object Mode, select the "
+                        "character's mesh(es) and run it again")
+            return None
+        if not selected:
+            self.report({"ERROR"}, "Nothing selected: select the character's mesh(es)")
+            return None
+        others = sorted(ob.name for ob in selected if ob.type != "MESH")
+        if not meshes:
+            self.report({"ERROR"}, f"No mesh selected ({name_list([repr(n) for n in others])} "
+                        f"{'is not a mesh' if len(others) == 1 else 'are not meshes'}): select the "
+                        "character's mesh(es); Object > Convert > Mesh turns curves and text into meshes")
+            return None
+        if others:
+            self.report({"WARNING"}, f"Skipped {len(others)} selected object(s) that are not meshes: "
+                        f"{name_list(others)}")
+        problem = unplaced(*meshes) or (read_only(*[b for ob in meshes for b in (ob, ob.data)])
+                                        if self.bind else None)
+        if problem:
+            self.report({"ERROR"}, problem + ("; or turn Bind off" if "linked" in problem else "")
+                        + "; nothing was added")
+            return None
+        return meshes
+
+    def execute(self, context):
+        import miniskeleton_core as core
+
+        meshes = self._meshes(context)
+        if meshes is None:
+            return {"CANCELLED"}
+        try:
+            verts, tris, faceless = read_character(meshes)
+        except AutoRigError as err:
+            self.report({"ERROR"}, f"{err}; nothing was added")
+            return {"CANCELLED"}
+        if len(tris) == 0:
+            what = "is empty" if not any(len(ob.data.vertices) for ob in meshes) else "has no faces"
+            self.report({"ERROR"}, f"{'Mesh' if len(meshes) == 1 else 'The selected meshes'} "
+                        f"{name_list([repr(n) for n in faceless])} {what}: Auto Rig needs the character's "
+                        "surface; nothing was added")
+            return {"CANCELLED"}
+        if faceless:
+            self.report({"WARNING"}, f"Skipped {len(faceless)} mesh(es) without faces: {name_list(faceless)}")
+        origin = ground_point(verts)
+        start = time.perf_counter()
+        try:
+            rig = fit_rig(core, verts, tris, origin, self.template, self.forward)
+        except AutoRigError as err:
+            self.report({"ERROR"}, f"Auto Rig: {err}; nothing was added")
+            return {"CANCELLED"}
+        secs = time.perf_counter() - start
+        active = context.active_object
+        character = active if active in meshes else meshes[0]
+        selection = (list(context.selected_objects), active)
+        arm = None
+        try:
+            arm = build_armature(context, f"{character.name}_rig", origin, rig)
+            rigify = store_rigify_types(arm, rig["template"])
+            bound = self._bind(context, meshes, arm) if self.bind else ""
+        except Exception as err:  # noqa: BLE001 - any failure: the scene as it was, one report
+            if arm is not None:
+                remove_armature(arm, meshes)
+            self._reselect(context, *selection)
+            self.report({"ERROR"}, f"Auto Rig: {str(err).strip() or type(err).__name__}; nothing was added")
+            return {"CANCELLED"}
+        tail = " with a tail" if rig.get("tail") else ""
+        note = "" if rigify else "; Rigify types stored (enable Rigify to Generate Rig)"
+        self.report({"INFO"}, f"Auto Rig: {rig['template'].lower()}{tail}, {len(rig['names'])} bones in "
+                    f"'{arm.name}' facing {facing_name(rig['forward'])} ({len(verts)} vertices, {secs:.2f} s)"
+                    f"{bound}{note}")
+        return {"FINISHED"}
+
+    def _bind(self, context, meshes, arm) -> str:
+        """Auto Weights (Heat) from ``meshes`` to ``arm``, as Ctrl+P would; the armature active
+        and selected alone afterwards. The text for the report; raises with the reason."""
+        for ob in meshes:
+            ob.select_set(True)
+        context.view_layer.objects.active = arm
+        try:
+            result = bpy.ops.object.miniskeleton_auto_weights(method="HEAT")
+        except RuntimeError as err:  # its error report
+            raise RuntimeError(f"binding failed: {str(err).removeprefix('Error: ').strip()}") from None
+        if result != {"FINISHED"}:
+            raise RuntimeError(f"binding failed ({', '.join(result)})")
+        for ob in meshes:
+            ob.select_set(False)
+        return f"; bound {len(meshes)} mesh(es) with Heat"
+
+    @staticmethod
+    def _reselect(context, selected, active):
+        for ob in context.selected_objects:
+            ob.select_set(False)
+        for ob in selected:
+            ob.select_set(True)
+        context.view_layer.objects.active = active
 
 
 class MINISKELETON_OT_fit_skeleton(bpy.types.Operator):
@@ -368,6 +492,7 @@ class MINISKELETON_OT_export_json(bpy.types.Operator, ExportHelper):
 
 
 classes = (
+    MINISKELETON_OT_auto_rig,
     MINISKELETON_OT_fit_skeleton,
     MINISKELETON_OT_restore_skeleton,
     MINISKELETON_OT_snapshot_skeleton,

@@ -1,5 +1,5 @@
-"""The Skeleton panel of the MiniSkeleton sidebar tab and the skeleton menu entries (Armature in
-Edit Mode, Pose, File > Export / Import). Layout only; the operators are in ``operators``."""
+"""The Skeleton panel of the MiniSkeleton sidebar tab and the skeleton menu entries (Add >
+Armature, Armature in Edit Mode, Pose, File > Export / Import). Layout only; the operators are in ``operators``."""
 
 from __future__ import annotations
 
@@ -8,16 +8,20 @@ import bpy
 from ..common.panels import SidebarPanel
 
 FIT_OP = "armature.miniskeleton_fit_skeleton"
+AUTO_RIG_OP = "object.miniskeleton_auto_rig"
 
 
 class MINISKELETON_PT_skeleton(SidebarPanel, bpy.types.Panel):
-    """Sidebar > MiniSkeleton > Skeleton: fit, restore, Blender's own bone editing, rig exchange"""
+    """Sidebar > MiniSkeleton > Skeleton: auto rig, fit, restore, Blender's own bone editing, rig exchange"""
 
     bl_label = "Skeleton"
     bl_idname = "MINISKELETON_PT_skeleton"
 
     def draw(self, context):
         layout = self.layout
+        col = layout.column(align=True)
+        col.label(text="Select the character's meshes")
+        col.operator(AUTO_RIG_OP, text="Auto Rig", icon="OUTLINER_OB_ARMATURE")
         col = layout.column(align=True)
         col.label(text="Select meshes, then the armature")
         col.operator(FIT_OP, text="Fit Skeleton to Mesh", icon="ARMATURE_DATA").symmetry = "NONE"
@@ -48,6 +52,11 @@ def draw_armature_menu(self, context):
     layout.operator("armature.miniskeleton_snapshot_skeleton")
 
 
+def draw_auto_rig_add_menu(self, context):
+    """Add > Armature: Auto Rig (from the selected meshes)."""
+    self.layout.operator(AUTO_RIG_OP, text="Auto Rig (from Selected Meshes)", icon="OUTLINER_OB_ARMATURE")
+
+
 def draw_export_menu(self, context):
     self.layout.operator("export_scene.miniskeleton_npz", text="MiniSkeleton Rig Bundle (.npz)")
     self.layout.operator("export_scene.miniskeleton_json", text="MiniSkeleton Rig Debug (.json)")
@@ -61,6 +70,7 @@ classes = (MINISKELETON_PT_skeleton,)
 
 # (Blender menu, draw function appended to it), in the order they are added.
 MENUS = (
+    ("VIEW3D_MT_armature_add", draw_auto_rig_add_menu),
     ("VIEW3D_MT_edit_armature", draw_armature_menu),
     ("VIEW3D_MT_pose", draw_armature_menu),
     ("TOPBAR_MT_file_export", draw_export_menu),
