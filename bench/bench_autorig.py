@@ -16,9 +16,10 @@ keeps every deform bone):
   mesh's bounding-box diagonal. Joints are bone heads and tails; an artist's childless bone
   counts by its head only (a point, not a segment), since importers invent those tails; so does
   a bone whose children deform nothing.
-- **facing**: the angle between the facing found and the one the artist's rig implies (the
-  direction from the heels to the toes of its feet, or none when the rig has no named feet;
-  only for the table, nothing uses names).
+- **CD-J2B links**: the same with the artist's joints the file itself has (bone heads: glTF
+  nodes) and its bones as the links from each head to its children's heads. A glTF bone has no
+  tail: the importer invents one for every bone, and for a bone with several children (Fox's
+  spine) it points anywhere. Where a tail sits on a child, both measures agree.
 
 Then the time of ``auto_rig`` on ``horse.ply`` (48k vertices) and on a 50k-vertex copy of the
 biggest model, median of 3. Writes out/bench_autorig.md. Nothing is asserted here; the Blender
@@ -83,6 +84,7 @@ def character(bpy, path):
         for v in ob.data.vertices:
             weighted.update(names[g.group] for g in v.groups if g.weight > 0 and g.group in names)
     segs, joints, labels = [], [], []
+    links, heads = [], []  # the joints the file has (glTF nodes) and the parent -> child links
     for a in arms:
         mw = np.array(a.matrix_world)
         deform = {b.name for b in a.data.bones if b.use_deform and (not weighted or b.name in weighted)}
@@ -99,7 +101,14 @@ def character(bpy, path):
                 segs.append((h, t))
             else:
                 segs.append((h, h))
+            kids = [c for c in b.children if c.name in deform]
+            for c in kids:
+                links.append((h, mw[:3, :3] @ np.array(c.head_local) + mw[:3, 3]))
+            if not kids:
+                links.append((h, h))
+            heads.append(h)
     character.labels = labels
+    character.links = (links, np.array(heads))
     return np.concatenate(verts), np.concatenate(tris), segs, np.array(joints)
 
 
@@ -160,6 +169,7 @@ def main(argv=None):
         ours_segs = list(zip(heads, tails))
         ours_joints = unique_rows(np.concatenate([heads, tails]))
         cd, a, b = cd_j2b(ours_segs, ours_joints, art_segs, art_joints)
+        cd_links = cd_j2b(ours_segs, ours_joints, *character.links)[0]
         # heel.02 lies on the ground under the heel (Rigify's foot-roll marker), outside by design.
         body = unique_rows(np.concatenate([np.stack([h, tl]) for h, tl, n in zip(heads, tails, rig["names"])
                                            if not n.startswith("heel")]))
@@ -179,23 +189,26 @@ def main(argv=None):
                      parents=rig["parents"], art=np.array([np.concatenate(s) for s in art_segs]),
                      vertices=v, forward=rig["forward"], cp=rig["centre_points"], ce=rig["centre_edges"])
         rows.append((name, len(v), rig["template"], f"{len(rig['names'])}", 100 * cd / diag, 100 * a / diag,
-                     100 * b / diag, secs, outside, len(body)))
+                     100 * b / diag, secs, outside, len(body), 100 * cd_links / diag))
         print(f"[bench_autorig] {name}: {rig['template']} {len(rig['names'])} bones, tail {rig['tail']}, "
               f"CD-J2B {100 * cd / diag:.2f} % (ours->artist {100 * a / diag:.2f}, artist->ours "
-              f"{100 * b / diag:.2f}), {outside} of {len(body)} joints outside, {secs:.2f} s")
+              f"{100 * b / diag:.2f}), links {100 * cd_links / diag:.2f} %, {outside} of {len(body)} joints outside, "
+              f"{secs:.2f} s")
     lines = ["| model | vertices | template | bones | CD-J2B % | ours→artist % | artist→ours % "
-             "| joints outside | time s |",
-             "|---|---:|---|---:|---:|---:|---:|---:|---:|"]
-    cds = []
+             "| CD-J2B links % | joints outside | time s |",
+             "|---|---:|---|---:|---:|---:|---:|---:|---:|---:|"]
+    cds, links = [], []
     for r in rows:
         if r[2] == "refused":
-            lines.append(f"| {r[0]} | {r[1]} | refused: {r[3]} | | | | | | {r[7]:.2f} |")
+            lines.append(f"| {r[0]} | {r[1]} | refused: {r[3]} | | | | | | | {r[7]:.2f} |")
         else:
             cds.append(r[4])
+            links.append(r[10])
             lines.append(f"| {r[0]} | {r[1]} | {r[2]} | {r[3]} | {r[4]:.2f} | {r[5]:.2f} | {r[6]:.2f} | "
-                         f"{r[8]} of {r[9]} | {r[7]:.2f} |")
+                         f"{r[10]:.2f} | {r[8]} of {r[9]} | {r[7]:.2f} |")
     if cds:
-        lines.append(f"\nCD-J2B median {statistics.median(cds):.2f} %, max {max(cds):.2f} % "
+        lines.append(f"\nCD-J2B median {statistics.median(cds):.2f} %, max {max(cds):.2f} %; links: median "
+                     f"{statistics.median(links):.2f} %, max {max(links):.2f} % "
                      f"({len(cds)} of {len(rows)} rigged; resolution {args.resolution})")
     if not args.no_time:
         lines.append("\n| speed input | vertices | auto_rig s (median of 3) |\n|---|---:|---:|")

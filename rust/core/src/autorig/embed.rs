@@ -25,6 +25,9 @@ const BEND_WINDOW: f64 = 0.12;
 const MIN_BEND_DEG: f64 = 15.0;
 /// A limb's tube starts where its radius is at most this times the radius of its middle.
 const TUBE: f64 = 1.3;
+/// A pair whose joints differ from each other's mirror images by more than this (unit frame)
+/// is posed, not symmetric, and is not averaged.
+const ASYMMETRY: f64 = 0.02;
 /// Fit Skeleton moves a joint at most this far (unit frame) when settling.
 const SETTLE_MOVE: f64 = 0.03;
 /// Shortest bone, unit frame.
@@ -200,18 +203,23 @@ pub(crate) fn embed(
 
 /// Move the joints with [`fit_joints`] (heel markers stay on the ground).
 fn settle(bones: &mut [Bone], unit: &[[f32; 3]], triangles: &[[u32; 3]]) {
-    // Joints: a connected bone's head is its parent's tail.
+    // Joints: a bone starting on its parent's tail (connected, or a chain Rigify joins by
+    // position: the neck) or head (the tail) shares that joint.
     let mut joints: Vec<[f32; 3]> = Vec::new();
     let mut ends: Vec<[u32; 2]> = Vec::new();
     let mut tail_joint = vec![0u32; bones.len()];
+    let mut head_joint = vec![0u32; bones.len()];
     for (i, b) in bones.iter().enumerate() {
-        let head = match (b.connected, b.parent) {
-            (true, Some(p)) => tail_joint[p],
+        let head = match b.parent {
+            Some(p) if b.connected || (b.head - bones[p].tail).length() < 1e-9 => tail_joint[p],
+            // Rigify's tail starts on the torso's root.
+            Some(p) if (b.head - bones[p].head).length() < 1e-9 => head_joint[p],
             _ => {
                 joints.push(b.head.as_vec3().to_array());
                 joints.len() as u32 - 1
             }
         };
+        head_joint[i] = head;
         joints.push(b.tail.as_vec3().to_array());
         tail_joint[i] = joints.len() as u32 - 1;
         ends.push([head, tail_joint[i]]);
@@ -482,21 +490,47 @@ fn quadruped(b: &mut Builder, tree: &Tree, body: &Body) {
 }
 
 /// Make pairs exact mirror images and centre bones lie on the body's mirror plane (found from
-/// its legs; the spine's own path may wander into an ear or a horn).
+/// its legs; the spine's own path may wander into an ear or a horn) -- where the pose is
+/// symmetric: a limb whose joints stray more than [`ASYMMETRY`] from its twin's mirror image (a
+/// hind leg stepping back) keeps its own, and so does a centre joint that far off the plane (a
+/// head turned aside).
 fn mirror(bones: &mut [Bone], body: &Body) {
     let n = body.left;
     let plane = body.plane;
     let reflect = |p: DVec3| p - n * (2.0 * (p.dot(n) - plane));
+    let twin = |bones: &[Bone], i: usize| {
+        let name = bones[i].name.strip_suffix(".L")?.to_string() + ".R";
+        bones.iter().position(|b| b.name == name)
+    };
+    // The limb of a side bone: its first side ancestor's name.
+    let limb = |bones: &[Bone], mut i: usize| {
+        while let Some(p) = bones[i].parent.filter(|&p| side_of(&bones[p].name).is_some()) {
+            i = p;
+        }
+        bones[i].name.clone()
+    };
+    let mut straying: Vec<String> = Vec::new();
+    for i in 0..bones.len() {
+        if let Some(j) = twin(bones, i) {
+            let off = (bones[i].head - reflect(bones[j].head))
+                .length()
+                .max((bones[i].tail - reflect(bones[j].tail)).length());
+            if off > ASYMMETRY {
+                straying.push(limb(bones, i));
+            }
+        }
+    }
     for i in 0..bones.len() {
         match side_of(&bones[i].name) {
             None => {
                 for p in [&mut bones[i].head, &mut bones[i].tail] {
-                    *p -= n * (p.dot(n) - plane);
+                    if (p.dot(n) - plane).abs() <= ASYMMETRY {
+                        *p -= n * (p.dot(n) - plane);
+                    }
                 }
             }
             Some(true) => {
-                let twin = bones[i].name.trim_end_matches(".L").to_string() + ".R";
-                if let Some(j) = bones.iter().position(|b| b.name == twin) {
+                if let Some(j) = twin(bones, i).filter(|_| !straying.contains(&limb(bones, i))) {
                     let head = (bones[i].head + reflect(bones[j].head)) * 0.5;
                     let tail = (bones[i].tail + reflect(bones[j].tail)) * 0.5;
                     bones[i].head = head;
