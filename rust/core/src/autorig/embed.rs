@@ -491,8 +491,8 @@ fn quadruped(b: &mut Builder, tree: &Tree, body: &Body) {
 
 /// Make pairs exact mirror images and centre bones lie on the body's mirror plane (found from
 /// its legs; the spine's own path may wander into an ear or a horn) -- where the pose is
-/// symmetric: a limb whose joints stray more than [`ASYMMETRY`] from its twin's mirror image (a
-/// hind leg stepping back) keeps its own, and so does a centre joint that far off the plane (a
+/// symmetric: a limb whose root or end strays more than [`ASYMMETRY`] from its twin's mirror
+/// image (a hind leg stepping back) keeps its own joints, and so does a centre joint that far off the plane (a
 /// head turned aside).
 fn mirror(bones: &mut [Bone], body: &Body) {
     let n = body.left;
@@ -509,12 +509,21 @@ fn mirror(bones: &mut [Bone], body: &Body) {
         }
         bones[i].name.clone()
     };
+    // A limb strays when its root or its end (a bone with no side child) is away from its
+    // twin's image; inner joints may differ by where each side's bend was found.
     let mut straying: Vec<String> = Vec::new();
     for i in 0..bones.len() {
-        if let Some(j) = twin(bones, i) {
-            let off = (bones[i].head - reflect(bones[j].head))
-                .length()
-                .max((bones[i].tail - reflect(bones[j].tail)).length());
+        let side_child = |b: &Bone| b.parent == Some(i) && side_of(&b.name).is_some() && !b.name.starts_with("heel");
+        let is_end = !bones.iter().any(side_child);
+        let is_root = bones[i].parent.is_none_or(|p| side_of(&bones[p].name).is_none());
+        if let Some(j) = twin(bones, i).filter(|_| is_end || is_root) {
+            let mut off: f64 = 0.0;
+            if is_root {
+                off = off.max((bones[i].head - reflect(bones[j].head)).length());
+            }
+            if is_end {
+                off = off.max((bones[i].tail - reflect(bones[j].tail)).length());
+            }
             if off > ASYMMETRY {
                 straying.push(limb(bones, i));
             }
