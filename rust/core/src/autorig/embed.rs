@@ -195,9 +195,9 @@ pub(crate) fn embed(
         Template::Quadruped => quadruped(&mut b, tree, body),
         _ => biped(&mut b, tree, body, vertices),
     }
-    mirror(&mut b.bones, body);
+    let symmetric = mirror(&mut b.bones, body, None);
     settle(&mut b.bones, unit, triangles);
-    mirror(&mut b.bones, body);
+    mirror(&mut b.bones, body, Some(symmetric));
     b.bones
 }
 
@@ -422,8 +422,10 @@ fn quadruped(b: &mut Builder, tree: &Tree, body: &Body) {
     // Neck and head: the head is the widest point of the last part; its base the narrowest
     // point between the chest and it.
     let s_nb = s_f + 0.1 * (len - s_f);
-    // Torso: five bones from the hips to the neck's start.
-    let pts: Vec<DVec3> = (0..=5).map(|k| spine.at(s_nb * k as f64 / 5.0)).collect();
+    // Torso: five bones from the hips to the neck's start, on the straight line between them
+    // (a wide body's centre line is a sheet's, and wanders; Fit Skeleton centres them after).
+    let (a, c) = (spine.at(0.0), spine.at(s_nb));
+    let pts: Vec<DVec3> = (0..=5).map(|k| a.lerp(c, k as f64 / 5.0)).collect();
     let samples = 60;
     let at = |k: usize, a: f64, c: f64| a + (c - a) * k as f64 / samples as f64;
     let s_hc = (0..=samples)
@@ -494,7 +496,7 @@ fn quadruped(b: &mut Builder, tree: &Tree, body: &Body) {
 /// symmetric: a limb whose root or end strays more than [`ASYMMETRY`] from its twin's mirror
 /// image (a hind leg stepping back) keeps its own joints, and so does a centre joint that far off the plane (a
 /// head turned aside).
-fn mirror(bones: &mut [Bone], body: &Body) {
+fn mirror(bones: &mut [Bone], body: &Body, decided: Option<Symmetric>) -> Symmetric {
     let n = body.left;
     let plane = body.plane;
     let reflect = |p: DVec3| p - n * (2.0 * (p.dot(n) - plane));
@@ -511,35 +513,43 @@ fn mirror(bones: &mut [Bone], body: &Body) {
     };
     // A limb strays when its root or its end (a bone with no side child) is away from its
     // twin's image; inner joints may differ by where each side's bend was found.
-    let mut straying: Vec<String> = Vec::new();
-    for i in 0..bones.len() {
-        let side_child = |b: &Bone| b.parent == Some(i) && side_of(&b.name).is_some() && !b.name.starts_with("heel");
-        let is_end = !bones.iter().any(side_child);
-        let is_root = bones[i].parent.is_none_or(|p| side_of(&bones[p].name).is_none());
-        if let Some(j) = twin(bones, i).filter(|_| is_end || is_root) {
-            let mut off: f64 = 0.0;
-            if is_root {
-                off = off.max((bones[i].head - reflect(bones[j].head)).length());
-            }
-            if is_end {
-                off = off.max((bones[i].tail - reflect(bones[j].tail)).length());
-            }
-            if off > ASYMMETRY {
-                straying.push(limb(bones, i));
+    let decided = decided.unwrap_or_else(|| {
+        let mut straying: Vec<String> = Vec::new();
+        for i in 0..bones.len() {
+            let side_child =
+                |b: &Bone| b.parent == Some(i) && side_of(&b.name).is_some() && !b.name.starts_with("heel");
+            let is_end = !bones.iter().any(side_child);
+            let is_root = bones[i].parent.is_none_or(|p| side_of(&bones[p].name).is_none());
+            if let Some(j) = twin(bones, i).filter(|_| is_end || is_root) {
+                let mut off: f64 = 0.0;
+                if is_root {
+                    off = off.max((bones[i].head - reflect(bones[j].head)).length());
+                }
+                if is_end {
+                    off = off.max((bones[i].tail - reflect(bones[j].tail)).length());
+                }
+                if off > ASYMMETRY {
+                    straying.push(limb(bones, i));
+                }
             }
         }
-    }
+        let on_plane = bones
+            .iter()
+            .map(|b| [b.head, b.tail].map(|p| side_of(&b.name).is_none() && (p.dot(n) - plane).abs() <= ASYMMETRY))
+            .collect();
+        Symmetric { straying, on_plane }
+    });
     for i in 0..bones.len() {
         match side_of(&bones[i].name) {
             None => {
-                for p in [&mut bones[i].head, &mut bones[i].tail] {
-                    if (p.dot(n) - plane).abs() <= ASYMMETRY {
+                for (p, on) in [&mut bones[i].head, &mut bones[i].tail].into_iter().zip(decided.on_plane[i]) {
+                    if on {
                         *p -= n * (p.dot(n) - plane);
                     }
                 }
             }
             Some(true) => {
-                if let Some(j) = twin(bones, i).filter(|_| !straying.contains(&limb(bones, i))) {
+                if let Some(j) = twin(bones, i).filter(|_| !decided.straying.contains(&limb(bones, i))) {
                     let head = (bones[i].head + reflect(bones[j].head)) * 0.5;
                     let tail = (bones[i].tail + reflect(bones[j].tail)) * 0.5;
                     bones[i].head = head;
@@ -557,6 +567,14 @@ fn mirror(bones: &mut [Bone], body: &Body) {
             bones[i].head = bones[p].tail;
         }
     }
+    decided
+}
+
+/// What [`mirror`] decided, kept for its second pass after settling: the limbs posed
+/// asymmetrically, and the centre joints (per bone: head, tail) on the plane.
+struct Symmetric {
+    straying: Vec<String>,
+    on_plane: Vec<[bool; 2]>,
 }
 
 /// `Some(true)` for a left bone, `Some(false)` for a right one, `None` on the centre line.
