@@ -100,6 +100,7 @@ bench: $(EXT_ZIP)
 	$(VPY) bench/eval_weights.py
 	$(VPY) bench/heat_ceiling.py
 	$(VPY) bench/bench_fit.py
+	$(VPY) bench/bench_autorig.py
 	$(VPY) bench/bench_keys.py
 	$(VPY) bench/motion_corpus.py
 
