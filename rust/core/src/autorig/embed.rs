@@ -52,13 +52,7 @@ struct Line {
 
 impl Line {
     fn new(tree: &Tree, nodes: &[usize]) -> Line {
-        let p: Vec<DVec3> = nodes.iter().map(|&n| tree.pos[n]).collect();
-        let r = nodes.iter().map(|&n| tree.radius[n]).collect();
-        let mut s = vec![0.0];
-        for w in p.windows(2) {
-            s.push(s.last().unwrap() + (w[1] - w[0]).length());
-        }
-        Line { p, r, s }
+        Line::from_points(nodes.iter().map(|&n| (tree.pos[n], tree.radius[n])))
     }
 
     fn from_points(points: impl Iterator<Item = (DVec3, f64)>) -> Line {
