@@ -405,38 +405,11 @@ def test_one_undo_takes_it_all_back(capfd):
 # ---------------------------------------------------------------------------- shared models
 
 def _bare_model(name):
-    """Model ``name`` of ../shared/models as a bare mesh: its armature(s) deleted, with the
-    meshes kept where they are in the rest pose and their groups and Armature modifiers gone."""
+    """Model ``name`` of ../shared/models as a bare mesh (``rig_corpus.bare_model``)."""
     path = rig_corpus.MODELS_DIR / name
     if not path.exists():
         pytest.skip(f"{path} not present")
-    before = set(bpy.data.objects)
-    if path.suffix in (".glb", ".gltf"):
-        bpy.ops.import_scene.gltf(filepath=str(path))
-    elif path.suffix == ".obj":
-        bpy.ops.wm.obj_import(filepath=str(path))
-    else:
-        bpy.ops.wm.ply_import(filepath=str(path))
-    new = [ob for ob in bpy.data.objects if ob not in before]  # the importer's bone shapes too
-    for arm in [ob for ob in new if ob.type == "ARMATURE"]:
-        arm.data.pose_position = "REST"
-    bpy.context.view_layer.update()
-    shapes = {pb.custom_shape for arm in new if arm.type == "ARMATURE" for pb in arm.pose.bones}
-    meshes = [ob for ob in new if ob.type == "MESH" and len(ob.data.polygons) and ob not in shapes]
-    for ob in meshes:
-        world = ob.matrix_world.copy()
-        ob.parent = None
-        ob.matrix_world = world
-        ob.vertex_groups.clear()
-        for mod in [m for m in ob.modifiers if m.type == "ARMATURE"]:
-            ob.modifiers.remove(mod)
-    for ob in new:
-        if ob.type != "MESH" or ob not in meshes:
-            bpy.data.objects.remove(ob)
-    for data in list(bpy.data.armatures):
-        bpy.data.armatures.remove(data)
-    bpy.context.view_layer.update()
-    return meshes
+    return rig_corpus.bare_model(path)
 
 
 @pytest.mark.parametrize("name,template", [("CesiumMan.gltf", "BIPED"), ("Fox.glb", "QUADRUPED"),

@@ -1,7 +1,7 @@
 """Rigs to measure Add Motion on (bench/motion_corpus.py; Blender tests can import the same
 builders): Rigify control rigs, Mixamo-style humanoids round-tripped through glTF and FBX,
 game and hand-made rigs from ``../shared/models``, a Blender-built deform-only rig, the
-project's generated creature, and legless characters.
+project's generated creature, legless characters, and bare meshes rigged by Auto Rig.
 
 Every builder starts from the current (empty) scene and returns a :class:`Rig`: the armature
 to animate and the meshes that follow it (an Armature modifier or a bone parent). Rigs made
@@ -37,7 +37,7 @@ class Rig:
     name: str
     arm: bpy.types.Object
     meshes: list
-    kind: str                 # rigify / mixamo / game / hand-made / legless
+    kind: str                 # rigify / mixamo / game / hand-made / legless / auto-rigged
     legless: bool = False     # WALK and RUN must be refused ("no legs")
     notes: list = field(default_factory=list)
 
@@ -428,6 +428,81 @@ def shared_model(name):
     return Rig(name, arm, meshes, kind, legless, notes)
 
 
+# ---------------------------------------------------------------------------- auto-rigged
+
+# rig: the bare mesh Auto Rig is run on (the project's Spot; the scans and the game characters
+# of ../shared/models, the latter without their armature)
+AUTORIG = {
+    "autorig_spot": ROOT / "assets" / "spot" / "spot.glb",
+    "autorig_cow": MODELS_DIR / "cow.obj",
+    "autorig_horse": MODELS_DIR / "horse.ply",
+    "autorig_CesiumMan": MODELS_DIR / "CesiumMan.gltf",
+    "autorig_Fox": MODELS_DIR / "Fox.glb",
+}
+
+
+def bare_model(path):
+    """Model ``path`` (glTF, OBJ or PLY) imported as a bare mesh: its armature(s) deleted, with
+    the meshes kept where they are in the rest pose and their groups and Armature modifiers gone.
+    Returns the meshes (the importer's bone shapes left out)."""
+    path = Path(path)
+    before = set(bpy.data.objects)
+    if path.suffix in (".glb", ".gltf"):
+        bpy.ops.import_scene.gltf(filepath=str(path))
+    elif path.suffix == ".obj":
+        bpy.ops.wm.obj_import(filepath=str(path))
+    else:
+        bpy.ops.wm.ply_import(filepath=str(path))
+    new = [ob for ob in bpy.data.objects if ob not in before]  # the importer's bone shapes too
+    for arm in [ob for ob in new if ob.type == "ARMATURE"]:
+        arm.data.pose_position = "REST"
+    bpy.context.view_layer.update()
+    shapes = {pb.custom_shape for arm in new if arm.type == "ARMATURE" for pb in arm.pose.bones}
+    meshes = [ob for ob in new if ob.type == "MESH" and len(ob.data.polygons) and ob not in shapes]
+    for ob in meshes:
+        world = ob.matrix_world.copy()
+        ob.parent = None
+        ob.matrix_world = world
+        ob.vertex_groups.clear()
+        for mod in [m for m in ob.modifiers if m.type == "ARMATURE"]:
+            ob.modifiers.remove(mod)
+    for ob in new:
+        if ob.type != "MESH" or ob not in meshes:
+            bpy.data.objects.remove(ob)
+    for data in list(bpy.data.armatures):
+        bpy.data.armatures.remove(data)
+    bpy.context.view_layer.update()
+    return meshes
+
+
+def unweighted(arm, meshes) -> int:
+    """How many vertices of ``meshes`` carry no weight on a deform bone of ``arm``."""
+    deform = {b.name for b in arm.data.bones if b.use_deform}
+    count = 0
+    for ob in meshes:
+        groups = {g.index for g in ob.vertex_groups if g.name in deform}
+        count += sum(not any(g.group in groups and g.weight > 0 for g in v.groups) for v in ob.data.vertices)
+    return count
+
+
+def auto_rigged(name):
+    """``AUTORIG[name]`` as a bare mesh, auto-rigged and bound as a user does it: the meshes
+    selected, ``object.miniskeleton_auto_rig`` with its defaults (template and facing found from
+    the mesh, bound with Heat)."""
+    meshes = bare_model(AUTORIG[name])
+    set_active(meshes[0], selected=meshes)
+    result = bpy.ops.object.miniskeleton_auto_rig(template="AUTO", forward="AUTO", bind=True)
+    if result != {"FINISHED"}:
+        raise RuntimeError(f"miniskeleton_auto_rig: {result}")
+    arm = imported_armature()
+    bound = following_meshes(arm)
+    if len(bound) != len(meshes):
+        raise RuntimeError(f"auto rig bound {[ob.name for ob in bound]} of {[ob.name for ob in meshes]}")
+    return Rig(name, arm, bound, "auto-rigged",
+               notes=[f"Auto Rig on the bare mesh of {AUTORIG[name].name}: {len(arm.data.bones)} bones, "
+                      f"{unweighted(arm, bound)} unweighted vertices"])
+
+
 def creature_rig():
     """The project's generated quadruped (scripts/creature.py), bound to its bones."""
     import creature
@@ -447,6 +522,10 @@ def _shared(name):
     return lambda: shared_model(name)
 
 
+def _auto(name):
+    return lambda: auto_rigged(name)
+
+
 BUILDERS = {name: _rigify(name) for name in RIGIFY_METARIGS}
 BUILDERS.update({
     "mixamo_blend": mixamo_source,
@@ -457,15 +536,15 @@ BUILDERS.update({
 BUILDERS.update({name: _shared(name) for name in SHARED if not SHARED[name][2]})
 BUILDERS.update({"deform_only_human": deform_only_human, "creature": creature_rig})
 BUILDERS.update({name: _shared(name) for name in SHARED if SHARED[name][2]})
+BUILDERS.update({name: _auto(name) for name in AUTORIG})
 NAMES = list(BUILDERS)
 
 
 def missing(name) -> str | None:
     """Why rig ``name`` cannot be built here (its file is absent), else None."""
-    if name in SHARED:
-        path = MODELS_DIR / SHARED[name][0]
-        if not path.exists():
-            return f"{path} not present"
+    path = MODELS_DIR / SHARED[name][0] if name in SHARED else AUTORIG.get(name)
+    if path is not None and not path.exists():
+        return f"{path} not present"
     return None
 
 
