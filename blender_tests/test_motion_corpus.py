@@ -3,7 +3,9 @@
 and FBX, the game and hand-made rigs of ../shared/models, a deform-only rig, the generated
 creature, and the legless characters): the roles it finds are the rig's anatomy, and walk and
 run meet bench/motion_corpus.py's targets (the mesh moves, feet planted, on the ground); the
-head shake keeps the feet still; legless rigs are refused with "no legs" and nothing keyed.
+head shake keeps the feet still; legless rigs are refused with "no legs" and nothing keyed. The
+bare meshes Auto Rig rigs and binds (rig_corpus.AUTORIG: Spot, always; the scans and the game
+characters without their armature) walk and run to the same targets and shake their heads.
 
 The expected roles below are each rig's anatomy read off its bones (names where they say it;
 CesiumMan's anonymous legs by where they are: its toes point along +X, so its left is +Y).
@@ -63,10 +65,14 @@ EXPECTED = {
                            "back R": ("leg_back_R_hip", "leg_back_R_ankle")}),
 }
 LEGLESS = [name for name in rig_corpus.NAMES if name.startswith("q_") and name not in EXPECTED]
+AUTORIG = list(rig_corpus.AUTORIG)
 # spot_rig's hind hooves rest 7 % of its size above its front ones; feet are planted at their
 # own rest heights, so in a gallop's hind-only stance nothing touches the front hooves' ground
-# (rust/core/src/motion/gait.rs, known limitations). Strict: this fails the day it passes.
-KNOWN = {("spot_rig", "RUN"): "hind hooves rest above the front hooves' ground"}
+# (rust/core/src/motion/gait.rs, known limitations). Spot's mesh auto-rigged is the same mesh.
+# Strict: this fails the day it passes.
+KNOWN = {("spot_rig", "RUN"): "hind hooves rest above the front hooves' ground",
+         ("autorig_spot", "RUN"): "hind hooves rest 7 % of the diagonal above the front hooves' ground "
+                                  "(measured: skate 0.74, float 2.13 %, pen. 0.00 %)"}
 
 
 @pytest.fixture(autouse=True)
@@ -116,7 +122,7 @@ def test_the_roles_are_the_rigs_anatomy(name):
         assert found[label][0] == first and foot in found[label], (label, found[label])
 
 
-@pytest.fixture(scope="module", params=list(EXPECTED))
+@pytest.fixture(scope="module", params=list(EXPECTED) + AUTORIG)
 def rig(request):
     return request.param
 
@@ -138,8 +144,16 @@ def test_head_shake_turns_the_head_and_keeps_the_feet_still(rig):
     r = built(rig)
     row = corpus.run_motion(r.arm, r.meshes, "HEAD_SHAKE", r.basis)
     assert row["result"] == "FINISHED", row["error"]
-    assert row.get("head_bone") == EXPECTED[rig]["head"], row["info"]
+    if rig in EXPECTED:   # an auto-rigged one's head is where Auto Rig put the bones
+        assert row.get("head_bone") == EXPECTED[rig]["head"], row["info"]
     assert row["head"] >= corpus.TARGET["head"] and row["feet"] < corpus.TARGET["feet"], row
+
+
+@pytest.mark.parametrize("name", AUTORIG)
+def test_an_auto_rigged_mesh_is_bound_with_every_vertex_weighted(name):
+    r = built(name)
+    assert r.kind == "auto-rigged" and r.meshes
+    assert rig_corpus.unweighted(r.arm, r.meshes) == 0
 
 
 @pytest.mark.parametrize("name", LEGLESS)
