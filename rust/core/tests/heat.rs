@@ -557,6 +557,64 @@ fn a_prop_rides_the_bone_nearest_the_centre_of_its_volume() {
     assert!(is_rigid_on(&inf, block, 1) && is_rigid_on(&inf, plate, 1));
 }
 
+/// A grid sheet in the plane y = `y` from `(x0, z0)` to `(x1, z1)`, `nx` by `nz` vertices,
+/// appended to `m` (an open piece, like a wing membrane). Returns the new vertex range.
+fn add_sheet(
+    m: &mut Mesh,
+    (x0, z0): (f32, f32),
+    (x1, z1): (f32, f32),
+    y: f32,
+    (nx, nz): (usize, usize),
+) -> std::ops::Range<usize> {
+    let base = m.0.len();
+    for k in 0..nz {
+        for i in 0..nx {
+            let (u, w) = (i as f32 / (nx - 1) as f32, k as f32 / (nz - 1) as f32);
+            m.0.push([x0 + u * (x1 - x0), y, z0 + w * (z1 - z0)]);
+        }
+    }
+    let at = |i: usize, k: usize| (base + k * nx + i) as u32;
+    for k in 0..nz - 1 {
+        for i in 0..nx - 1 {
+            m.1.push([at(i, k), at(i + 1, k), at(i + 1, k + 1)]);
+            m.1.push([at(i, k), at(i + 1, k + 1), at(i, k + 1)]);
+        }
+    }
+    base..m.0.len()
+}
+
+/// A body with an arm of 3 bones held out sideways, a thin membrane hanging under the arm (no
+/// bone inside, most of it nearer to the other arm bones than to the middle one) and a small
+/// bead beside the last arm bone: the membrane is no rigid accessory, it blends along the
+/// chain, each arm bone leading the part below it; the bead, owned by the bone it sits by,
+/// stays rigid on it.
+#[test]
+fn a_membrane_along_a_chain_blends_and_a_bead_by_one_bone_stays_rigid() {
+    let (mut m, (mut h, mut t)) = cylinder();
+    for k in 0..3 {
+        let x = 0.2 + 0.3 * k as f32;
+        h.push([x, 0.0, 1.6]);
+        t.push([x + 0.3, 0.0, 1.6]);
+    }
+    let sheet = add_sheet(&mut m, (0.2, 1.2), (1.1, 1.55), 0.0, (31, 8));
+    let bead = add_box(&mut m, [0.95, 0.0, 1.68], [0.03, 0.03, 0.03], false);
+    let b = (h, t);
+    let (inf, rep) = heat(&m, &b, &HeatOptions::default());
+    assert_rows_sum_to_one(&inf);
+    assert_eq!((rep.pieces, rep.boneless_pieces, rep.rigid_pieces, rep.spanning_pieces), (3, 2, 1, 1), "{rep:?}");
+    assert!(is_rigid_on(&inf, bead, 6));
+    // Along the membrane the leading bone goes 4, 5, 6 from the body out, and weights blend.
+    let lead = |v: usize| inf.row(v).0[0];
+    let column = |i: usize| sheet.start + 4 * 31 + i; // a row of the sheet, half way down
+    assert_eq!((lead(column(3)), lead(column(15)), lead(column(27))), (4, 5, 6));
+    let shared = sheet.clone().filter(|&v| inf.row(v).1[0] < 0.9).count();
+    assert!(shared > 31, "{shared} of {} membrane vertices blend two bones", sheet.len());
+    // Switched off, nothing is rigid and the membrane is still weighted.
+    let (off, rep) = heat(&m, &b, &HeatOptions { rigid_accessories: false, ..Default::default() });
+    assert_rows_sum_to_one(&off);
+    assert_eq!((rep.rigid_pieces, rep.spanning_pieces), (0, 0));
+}
+
 /// An imported-style rig (tails invented by the importer, nothing connected) in a thin upright
 /// cylinder: a root below the mesh, a bone whose tail is a short sideways stub while its child
 /// starts 0.9 higher, and that child. Returns (mesh, bones, parents).
