@@ -683,23 +683,58 @@ fn a_reaching_bone_drops_its_invented_tail() {
 }
 
 /// A childless bone whose invented tail points sideways (as the Fox's head bone points up while
-/// its snout lies ahead) also continues its parent's line: the limb beyond the joint is its own,
-/// not shared half and half with the parent, whose end is just as near.
+/// its snout lies ahead) also continues its parent's line when the rig's tails are guesses
+/// (here the parent's tail is a sideways stub, not aimed at its child): the limb beyond the
+/// joint is its own, not shared half and half with the parent, whose end is just as near.
 #[test]
 fn a_childless_bone_continues_its_parent_line() {
     let m = capped_cylinder(0.3, 2.0, 41, 16);
     let heads = vec![[0.0, 0.0, 0.1], [0.0, 0.0, 1.0]];
-    let tails = vec![[0.0, 0.0, 1.0], [0.25, 0.0, 1.0]];
+    let tails = vec![[0.05, 0.0, 0.1], [0.25, 0.0, 1.0]];
     let b = (heads, tails);
     let opts = HeatOptions { parents: Some(vec![-1, 0]), ..HeatOptions::default() };
     let (reach, _) = heat(&m, &b, &opts);
-    let (tails, _) = heat(&m, &b, &HeatOptions::default());
+    // The same bones as plain head -> tail, the parent reaching its child.
+    let plain = (b.0.clone(), vec![[0.0, 0.0, 1.0], [0.25, 0.0, 1.0]]);
+    let (tails, _) = heat(&m, &plain, &HeatOptions::default());
     assert_rows_sum_to_one(&reach);
     let (with, without) = (mean_weight(&m, &reach, 1, 1.4, 2.0), mean_weight(&m, &tails, 1, 1.4, 2.0));
     assert!(with > 0.95, "the leaf continuing its parent's line: {with}");
     assert!(without < with - 0.1, "the leaf as its sideways tail: {without}");
     // The parent keeps its own part.
     assert!(mean_weight(&m, &reach, 0, 0.2, 0.7) > 0.9);
+}
+
+/// When the rig's tails point at their children (the author's bones, as a rig made in Blender
+/// and exported keeps them), a leaf's tail is the author's too: no continuation, the leaf is
+/// its head -> tail, and the weights are those of the plain bones.
+#[test]
+fn a_leaf_of_a_rig_with_aimed_tails_keeps_its_own_tail() {
+    let m = capped_cylinder(0.3, 2.0, 41, 16);
+    let b = (vec![[0.0, 0.0, 0.1], [0.0, 0.0, 1.0]], vec![[0.0, 0.0, 1.0], [0.25, 0.0, 1.0]]);
+    let opts = HeatOptions { parents: Some(vec![-1, 0]), ..HeatOptions::default() };
+    let (reach, _) = heat(&m, &b, &opts);
+    let (tails, _) = heat(&m, &b, &HeatOptions::default());
+    assert_eq!((&reach.indices, &reach.weights), (&tails.indices, &tails.weights));
+}
+
+/// A root joint with no children, given a long invented tail that runs straight up through
+/// another bone (a round monster's body joint and its head bone, both roots), ends halfway to
+/// that bone: the head bone leads its own part instead of tying with the root over it, and the
+/// root keeps the bottom.
+#[test]
+fn an_invented_tail_that_runs_into_another_bone_ends_before_it() {
+    let m = capped_cylinder(0.2, 2.0, 41, 16);
+    let heads = vec![[0.0, 0.0, 0.0], [0.0, 0.0, 0.8], [0.0, 0.0, 1.4]];
+    let tails = vec![[0.0, 0.0, 1.6], [0.0, 0.0, 1.4], [0.0, 0.0, 2.0]];
+    let b = (heads, tails);
+    let opts = HeatOptions { parents: Some(vec![-1, -1, 1]), ..HeatOptions::default() };
+    let (reach, _) = heat(&m, &b, &opts);
+    let (plain, _) = heat(&m, &b, &HeatOptions::default());
+    assert_rows_sum_to_one(&reach);
+    let (with, without) = (mean_weight(&m, &reach, 1, 0.95, 1.25), mean_weight(&m, &plain, 1, 0.95, 1.25));
+    assert!(with > 0.9 && without < 0.6, "the head bone's part, the root's tail cut: {with}, or not: {without}");
+    assert!(mean_weight(&m, &reach, 0, 0.0, 0.2) > 0.9);
 }
 
 /// A bone whose tail starts a connected child and which has a child elsewhere too (a chest with
