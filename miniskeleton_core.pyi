@@ -87,9 +87,10 @@ def heat_weights_report(
     progress: Optional[Callable[[float], Optional[bool]]] = None, **options: Unpack[HeatOptions],
 ) -> Tuple[npt.NDArray[np.int32], npt.NDArray[np.float32], dict]:
     """As heat_weights, plus a report: pieces, fallback_pieces (saw no bone), rigid_pieces, boneless_pieces,
-    welded_vertices, flipped_faces (wound against their neighbours; turned for the normals only),
-    isolated_vertices, mirrored_vertices (with bone_mirror: vertices with a mirror twin or on the plane,
-    the only ones averaged), regularized, factorization_failed, timings (stage -> seconds)."""
+    spanning_pieces (bone-less pieces that no one bone owns, solved by heat), welded_vertices, flipped_faces
+    (wound against their neighbours; turned for the normals only), isolated_vertices, mirrored_vertices
+    (with bone_mirror: vertices with a mirror twin or on the plane, the only ones averaged), regularized,
+    factorization_failed, timings (stage -> seconds)."""
 
 def heat_weights_many(
     meshes: Sequence[Tuple[ArrayLike, ArrayLike]], bone_heads: ArrayLike, bone_tails: ArrayLike,

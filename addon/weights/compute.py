@@ -117,10 +117,12 @@ def _gather(inputs, members: list[int], solved, settings: dict, results: list, n
     i, w, report = solved
     name = _group_name(inputs, members)
     counts = [len(inputs[m][2]) for m in members]
-    if report and (report.get("fallback_pieces") or report.get("rigid_pieces")):
+    if report and (report.get("fallback_pieces") or report.get("rigid_pieces") or report.get("spanning_pieces")):
         notes.append(f"{name}: of {report['pieces']} pieces, "
                      f"{report['fallback_pieces']} saw no bone (nearest bone used), "
-                     f"{report['rigid_pieces']} bound rigidly (no bone inside)")
+                     f"{report['rigid_pieces']} bound rigidly (no bone inside)"
+                     + (f", {report['spanning_pieces']} with no bone inside blended over the bones "
+                        "they span" if report.get("spanning_pieces") else ""))
     if report and report.get("flipped_faces"):
         notes.append(f"{name}: {report['flipped_faces']} triangles are wound against their neighbours "
                      "(flipped normals); the weights ignore that, the mesh is unchanged (Mesh > Normals "

@@ -557,6 +557,64 @@ fn a_prop_rides_the_bone_nearest_the_centre_of_its_volume() {
     assert!(is_rigid_on(&inf, block, 1) && is_rigid_on(&inf, plate, 1));
 }
 
+/// A grid sheet in the plane y = `y` from `(x0, z0)` to `(x1, z1)`, `nx` by `nz` vertices,
+/// appended to `m` (an open piece, like a wing membrane). Returns the new vertex range.
+fn add_sheet(
+    m: &mut Mesh,
+    (x0, z0): (f32, f32),
+    (x1, z1): (f32, f32),
+    y: f32,
+    (nx, nz): (usize, usize),
+) -> std::ops::Range<usize> {
+    let base = m.0.len();
+    for k in 0..nz {
+        for i in 0..nx {
+            let (u, w) = (i as f32 / (nx - 1) as f32, k as f32 / (nz - 1) as f32);
+            m.0.push([x0 + u * (x1 - x0), y, z0 + w * (z1 - z0)]);
+        }
+    }
+    let at = |i: usize, k: usize| (base + k * nx + i) as u32;
+    for k in 0..nz - 1 {
+        for i in 0..nx - 1 {
+            m.1.push([at(i, k), at(i + 1, k), at(i + 1, k + 1)]);
+            m.1.push([at(i, k), at(i + 1, k + 1), at(i, k + 1)]);
+        }
+    }
+    base..m.0.len()
+}
+
+/// A body with an arm of 3 bones held out sideways, a thin membrane hanging under the arm (no
+/// bone inside, most of it nearer to the other arm bones than to the middle one) and a small
+/// bead beside the last arm bone: the membrane is no rigid accessory, it blends along the
+/// chain, each arm bone leading the part below it; the bead, owned by the bone it sits by,
+/// stays rigid on it.
+#[test]
+fn a_membrane_along_a_chain_blends_and_a_bead_by_one_bone_stays_rigid() {
+    let (mut m, (mut h, mut t)) = cylinder();
+    for k in 0..3 {
+        let x = 0.2 + 0.3 * k as f32;
+        h.push([x, 0.0, 1.6]);
+        t.push([x + 0.3, 0.0, 1.6]);
+    }
+    let sheet = add_sheet(&mut m, (0.2, 1.2), (1.1, 1.55), 0.0, (31, 8));
+    let bead = add_box(&mut m, [0.95, 0.0, 1.68], [0.03, 0.03, 0.03], false);
+    let b = (h, t);
+    let (inf, rep) = heat(&m, &b, &HeatOptions::default());
+    assert_rows_sum_to_one(&inf);
+    assert_eq!((rep.pieces, rep.boneless_pieces, rep.rigid_pieces, rep.spanning_pieces), (3, 2, 1, 1), "{rep:?}");
+    assert!(is_rigid_on(&inf, bead, 6));
+    // Along the membrane the leading bone goes 4, 5, 6 from the body out, and weights blend.
+    let lead = |v: usize| inf.row(v).0[0];
+    let column = |i: usize| sheet.start + 4 * 31 + i; // a row of the sheet, half way down
+    assert_eq!((lead(column(3)), lead(column(15)), lead(column(27))), (4, 5, 6));
+    let shared = sheet.clone().filter(|&v| inf.row(v).1[0] < 0.9).count();
+    assert!(shared > 31, "{shared} of {} membrane vertices blend two bones", sheet.len());
+    // Switched off, nothing is rigid and the membrane is still weighted.
+    let (off, rep) = heat(&m, &b, &HeatOptions { rigid_accessories: false, ..Default::default() });
+    assert_rows_sum_to_one(&off);
+    assert_eq!((rep.rigid_pieces, rep.spanning_pieces), (0, 0));
+}
+
 /// An imported-style rig (tails invented by the importer, nothing connected) in a thin upright
 /// cylinder: a root below the mesh, a bone whose tail is a short sideways stub while its child
 /// starts 0.9 higher, and that child. Returns (mesh, bones, parents).
@@ -625,23 +683,58 @@ fn a_reaching_bone_drops_its_invented_tail() {
 }
 
 /// A childless bone whose invented tail points sideways (as the Fox's head bone points up while
-/// its snout lies ahead) also continues its parent's line: the limb beyond the joint is its own,
-/// not shared half and half with the parent, whose end is just as near.
+/// its snout lies ahead) also continues its parent's line when the rig's tails are guesses
+/// (here the parent's tail is a sideways stub, not aimed at its child): the limb beyond the
+/// joint is its own, not shared half and half with the parent, whose end is just as near.
 #[test]
 fn a_childless_bone_continues_its_parent_line() {
     let m = capped_cylinder(0.3, 2.0, 41, 16);
     let heads = vec![[0.0, 0.0, 0.1], [0.0, 0.0, 1.0]];
-    let tails = vec![[0.0, 0.0, 1.0], [0.25, 0.0, 1.0]];
+    let tails = vec![[0.05, 0.0, 0.1], [0.25, 0.0, 1.0]];
     let b = (heads, tails);
     let opts = HeatOptions { parents: Some(vec![-1, 0]), ..HeatOptions::default() };
     let (reach, _) = heat(&m, &b, &opts);
-    let (tails, _) = heat(&m, &b, &HeatOptions::default());
+    // The same bones as plain head -> tail, the parent reaching its child.
+    let plain = (b.0.clone(), vec![[0.0, 0.0, 1.0], [0.25, 0.0, 1.0]]);
+    let (tails, _) = heat(&m, &plain, &HeatOptions::default());
     assert_rows_sum_to_one(&reach);
     let (with, without) = (mean_weight(&m, &reach, 1, 1.4, 2.0), mean_weight(&m, &tails, 1, 1.4, 2.0));
     assert!(with > 0.95, "the leaf continuing its parent's line: {with}");
     assert!(without < with - 0.1, "the leaf as its sideways tail: {without}");
     // The parent keeps its own part.
     assert!(mean_weight(&m, &reach, 0, 0.2, 0.7) > 0.9);
+}
+
+/// When the rig's tails point at their children (the author's bones, as a rig made in Blender
+/// and exported keeps them), a leaf's tail is the author's too: no continuation, the leaf is
+/// its head -> tail, and the weights are those of the plain bones.
+#[test]
+fn a_leaf_of_a_rig_with_aimed_tails_keeps_its_own_tail() {
+    let m = capped_cylinder(0.3, 2.0, 41, 16);
+    let b = (vec![[0.0, 0.0, 0.1], [0.0, 0.0, 1.0]], vec![[0.0, 0.0, 1.0], [0.25, 0.0, 1.0]]);
+    let opts = HeatOptions { parents: Some(vec![-1, 0]), ..HeatOptions::default() };
+    let (reach, _) = heat(&m, &b, &opts);
+    let (tails, _) = heat(&m, &b, &HeatOptions::default());
+    assert_eq!((&reach.indices, &reach.weights), (&tails.indices, &tails.weights));
+}
+
+/// A root joint with no children, given a long invented tail that runs straight up through
+/// another bone (a round monster's body joint and its head bone, both roots), ends halfway to
+/// that bone: the head bone leads its own part instead of tying with the root over it, and the
+/// root keeps the bottom.
+#[test]
+fn an_invented_tail_that_runs_into_another_bone_ends_before_it() {
+    let m = capped_cylinder(0.2, 2.0, 41, 16);
+    let heads = vec![[0.0, 0.0, 0.0], [0.0, 0.0, 0.8], [0.0, 0.0, 1.4]];
+    let tails = vec![[0.0, 0.0, 1.6], [0.0, 0.0, 1.4], [0.0, 0.0, 2.0]];
+    let b = (heads, tails);
+    let opts = HeatOptions { parents: Some(vec![-1, -1, 1]), ..HeatOptions::default() };
+    let (reach, _) = heat(&m, &b, &opts);
+    let (plain, _) = heat(&m, &b, &HeatOptions::default());
+    assert_rows_sum_to_one(&reach);
+    let (with, without) = (mean_weight(&m, &reach, 1, 0.95, 1.25), mean_weight(&m, &plain, 1, 0.95, 1.25));
+    assert!(with > 0.9 && without < 0.6, "the head bone's part, the root's tail cut: {with}, or not: {without}");
+    assert!(mean_weight(&m, &reach, 0, 0.0, 0.2) > 0.9);
 }
 
 /// A bone whose tail starts a connected child and which has a child elsewhere too (a chest with

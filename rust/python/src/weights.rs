@@ -97,6 +97,7 @@ fn report_dict<'py>(py: Python<'py>, r: &HeatReport) -> PyResult<Bound<'py, PyDi
     d.set_item("fallback_pieces", r.fallback_pieces)?;
     d.set_item("rigid_pieces", r.rigid_pieces)?;
     d.set_item("boneless_pieces", r.boneless_pieces)?;
+    d.set_item("spanning_pieces", r.spanning_pieces)?;
     d.set_item("isolated_vertices", r.isolated_vertices)?;
     d.set_item("welded_vertices", r.welded_vertices)?;
     d.set_item("flipped_faces", r.flipped_faces)?;

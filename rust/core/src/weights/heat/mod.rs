@@ -63,7 +63,9 @@ pub struct HeatOptions {
     pub weight_limit_end: f32,
     /// Bind accessory pieces rigidly: a piece of the welded mesh with no bone inside it (an
     /// eye, a button, a held prop), no larger than half the skeleton, goes 100% to the bone
-    /// nearest to its centre (the rules are in the doc of the `pieces` module). Default true.
+    /// nearest to its centre when that bone owns it (most of the piece is nearest that bone);
+    /// a piece spanning several bones (a wing membrane) is solved by heat. The rules are in the
+    /// doc of the `pieces` module. Default true.
     pub rigid_accessories: bool,
     /// Rank bones by Blender's normal-weighted distance `d / ((cos + 1.001) / 2)`, `cos` between
     /// the vertex's outward normal and the direction from the bone, instead of the plain
@@ -125,11 +127,14 @@ pub struct HeatReport {
     /// Pieces where no vertex could see a bone (nearest bone by distance used instead).
     pub fallback_pieces: usize,
     /// Pieces bound rigidly (100%) to one bone (shared only on an exact tie): accessories
-    /// (no bone inside, see [`HeatOptions::rigid_accessories`]) and fallback pieces no larger
-    /// than their nearest bone.
+    /// (no bone inside and owned by one bone, see [`HeatOptions::rigid_accessories`]) and
+    /// fallback pieces no larger than their nearest bone.
     pub rigid_pieces: usize,
     /// Pieces with no bone inside them (0 when the test is off).
     pub boneless_pieces: usize,
+    /// Of those, pieces small enough for accessories but solved by heat, as no one bone owns
+    /// them (a wing membrane along an arm chain; see [`HeatOptions::rigid_accessories`]).
+    pub spanning_pieces: usize,
     /// Input vertices merged into another one by welding (`n - welded count`).
     pub welded_vertices: usize,
     /// Triangles wound against their neighbours (flipped normals), turned for the normals and

@@ -15,7 +15,11 @@
 //! - if no piece holds a bone (the mesh is a prop, e.g. a held carrot), all pieces move as one
 //!   rigid body on the bone nearest to their common centre of mass;
 //! - otherwise every piece that holds no bone, except the largest one (by area), is rigid on
-//!   the bone nearest to its own centre of mass (an eye, a button).
+//!   the bone nearest to its own centre of mass (an eye, a button, a helmet) when that bone
+//!   owns it: at least [`OWNED_SHARE`] of its area is nearest that bone as well. A piece that
+//!   spans several bones, most of it nearer to others (a wing membrane along an arm chain, a
+//!   cape, a fin), is solved by heat like the body, from each vertex's nearest visible bone, so
+//!   its weights blend along those bones.
 //!
 //! The centre of mass is that of the enclosed volume for closed pieces, else of the area.
 //! Exact ties (a piece on the mirror plane between a left and a right bone) share equally.
@@ -47,6 +51,9 @@ const BONE_SAMPLES: [f64; 5] = [0.0, 0.25, 0.5, 0.75, 1.0];
 const BONE_INSIDE_SAMPLES: usize = 3;
 /// An accessory is at most this fraction of the skeleton's bbox diagonal.
 const ACCESSORY_SIZE: f64 = 0.5;
+/// An accessory is rigid on the bone nearest its centre only when at least this share of its
+/// area is nearest that bone too (see the module doc).
+const OWNED_SHARE: f64 = 0.5;
 
 /// Geometry of one connected piece (welded, unit frame).
 #[derive(Clone, Debug)]
@@ -184,12 +191,34 @@ pub(crate) struct PieceCounts {
     pub(crate) rigid: usize,
     /// Of those, pieces with no bone inside (0 without `accessories`).
     pub(crate) boneless: usize,
+    /// Of those, accessory-sized pieces solved by heat, as no one bone owns them.
+    pub(crate) spanning: usize,
+}
+
+/// Per piece bound to `rigid[i]`: the share of its area (`area`, per vertex) whose nearest
+/// bone by distance (`sources[v].nearest`, `labels[v]` its piece) is one of those bones; 0
+/// for the other pieces.
+fn owned_shares(rigid: &[Option<Ties>], labels: &[u32], sources: &[Source], area: &[f64]) -> Vec<f64> {
+    let mut owned = vec![0.0f64; rigid.len()];
+    let mut total = vec![0.0f64; rigid.len()];
+    for ((&l, s), &a) in labels.iter().zip(sources).zip(area) {
+        let Some(t) = &rigid[l as usize] else { continue };
+        total[l as usize] += a;
+        let near = &s.nearest.bones[..s.nearest.count as usize];
+        if t.bones[..t.count as usize].iter().any(|b| near.contains(b)) {
+            owned[l as usize] += a;
+        }
+    }
+    owned.iter().zip(&total).map(|(&o, &t)| if t > 0.0 { o / t } else { 0.0 }).collect()
 }
 
 /// The bone(s) each piece is bound to rigidly, `None` for pieces solved by heat (the rules
 /// are in the module doc). `accessories`: apply the accessory rules
-/// (`inside[i]`: piece `i` holds a bone); with or without them, a piece that sees no bone and
-/// is no larger than its nearest bone (`bone_len`, per bone) is rigid on that bone.
+/// (`inside[i]`: piece `i` holds a bone; `labels`, `sources` and `area()`, per welded vertex
+/// its piece, its sources and its area, for the owner test); with or without them, a piece
+/// that sees no bone and is no larger than its nearest bone (`bone_len`, per bone) is rigid
+/// on that bone.
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn rigid_pieces(
     pieces: &[PieceStats],
     inside: &[bool],
@@ -197,6 +226,9 @@ pub(crate) fn rigid_pieces(
     owner: &[u32],
     bone_len: &[f64],
     accessories: bool,
+    labels: &[u32],
+    sources: &[Source],
+    area: &dyn Fn() -> Vec<f64>,
 ) -> (Vec<Option<Ties>>, PieceCounts) {
     let npieces = pieces.len();
     let mut rigid: Vec<Option<Ties>> = vec![None; npieces];
@@ -219,9 +251,20 @@ pub(crate) fn rigid_pieces(
                 rigid[i] = Some(ties);
             }
         } else {
-            for &i in &active {
-                if !inside[i] && Some(i) != largest && pieces[i].size() <= max_size {
-                    rigid[i] = Some(nearest_bones(pieces[i].centre(), segs).owned(owner));
+            let candidates: Vec<usize> = (active.iter().copied())
+                .filter(|&i| !inside[i] && Some(i) != largest && pieces[i].size() <= max_size)
+                .collect();
+            for &i in &candidates {
+                rigid[i] = Some(nearest_bones(pieces[i].centre(), segs).owned(owner));
+            }
+            if !candidates.is_empty() {
+                // Rigid only when that bone owns the piece; one spanning several bones is solved.
+                let share = owned_shares(&rigid, labels, sources, &area());
+                for &i in &candidates {
+                    if share[i] < OWNED_SHARE {
+                        rigid[i] = None;
+                        counts.spanning += 1;
+                    }
                 }
             }
         }

@@ -80,7 +80,7 @@ pub(super) fn run(
     report.timings.extend([("bvh", bvh), ("rays", rays), ("laplacian", laplacian), ("symbolic", symbolic)]);
     report.flipped_faces = vis.flipped;
     clock.tick(0.2)?;
-    let rigid = bind_pieces(&mut vis, inputs.heads.len(), &opts, &mut report);
+    let rigid = bind_pieces(&mut vis, &prep, inputs.heads.len(), &opts, &mut report);
     let heat = assemble(&prep, &vis, &matrix.mass, given, &opts, &mut report);
     clock.lap(&mut report, "assemble");
     clock.tick(0.3)?;
@@ -114,7 +114,7 @@ pub(super) fn sources_found(inputs: &Inputs, opts: &HeatOptions) -> Result<Influ
     let opts = resolve(inputs, None, opts, &mut report)?;
     let prep = prepare(inputs, &opts, &mut report);
     let mut vis = visibility(&prep, &opts);
-    bind_pieces(&mut vis, inputs.heads.len(), &opts, &mut report);
+    bind_pieces(&mut vis, &prep, inputs.heads.len(), &opts, &mut report);
     let mut welded = Influences::empty(vis.sources.len(), MAX_TIES);
     for (v, s) in vis.sources.iter().enumerate() {
         let n = s.count as usize;
@@ -321,18 +321,37 @@ fn matrix(prep: &Prepared) -> Matrix {
 /// Mark the pieces that see a bone, find the rigid pieces (see `pieces`), and give the
 /// vertices of pieces that see no bone their nearest bone by distance as heat source.
 /// Returns each piece's rigid bone(s).
-fn bind_pieces(vis: &mut Visibility, nb: usize, opts: &HeatOptions, report: &mut HeatReport) -> Vec<Option<Ties>> {
+fn bind_pieces(
+    vis: &mut Visibility,
+    prep: &Prepared,
+    nb: usize,
+    opts: &HeatOptions,
+    report: &mut HeatReport,
+) -> Vec<Option<Ties>> {
+    let (wpos, tris) = (&prep.wpos, &prep.tris);
     mark_sources(&mut vis.pieces, &vis.labels, &vis.sources);
     let mut bone_len = vec![0.0f64; nb];
     for ((h, t), &o) in vis.segs.iter().zip(&vis.owner) {
         bone_len[o as usize] = bone_len[o as usize].max((*t - *h).length());
     }
     let accessories = opts.rigid_accessories && vis.ray_mesh.is_some();
-    let (rigid, counts) = rigid_pieces(&vis.pieces, &vis.inside, &vis.segs, &vis.owner, &bone_len, accessories);
+    let area = || vertex_areas(wpos, tris);
+    let (rigid, counts) = rigid_pieces(
+        &vis.pieces,
+        &vis.inside,
+        &vis.segs,
+        &vis.owner,
+        &bone_len,
+        accessories,
+        &vis.labels,
+        &vis.sources,
+        &area,
+    );
     report.pieces = counts.pieces;
     report.fallback_pieces = counts.fallback;
     report.rigid_pieces = counts.rigid;
     report.boneless_pieces = counts.boneless;
+    report.spanning_pieces = counts.spanning;
     let pieces = &vis.pieces;
     vis.sources.par_iter_mut().zip(vis.labels.par_iter()).with_min_len(1024).for_each(|(s, &l)| {
         if !pieces[l as usize].sees {
@@ -342,6 +361,19 @@ fn bind_pieces(vis: &mut Visibility, nb: usize, opts: &HeatOptions, report: &mut
         }
     });
     rigid
+}
+
+/// `(nw,)` each welded vertex's share of the area of its triangles (a third of each).
+fn vertex_areas(wpos: &[DVec3], tris: &[[u32; 3]]) -> Vec<f64> {
+    let mut area = vec![0.0f64; wpos.len()];
+    for t in tris {
+        let [a, b, c] = t.map(|i| wpos[i as usize]);
+        let third = (b - a).cross(c - a).length() / 6.0;
+        for &i in t {
+            area[i as usize] += third;
+        }
+    }
+    area
 }
 
 /// The right-hand side's ingredients: which bones share each welded vertex's heat, and that
