@@ -30,6 +30,8 @@ const TUBE: f64 = 1.3;
 const ASYMMETRY: f64 = 0.02;
 /// Fit Skeleton moves a joint at most this far (unit frame) when settling.
 const SETTLE_MOVE: f64 = 0.03;
+/// A tail bone chain is at least this fraction of the torso's length.
+const TAIL_MIN: f64 = 0.2;
 /// Shortest bone, unit frame.
 const MIN_BONE: f64 = 2e-3;
 
@@ -164,7 +166,9 @@ impl Builder {
     fn chain(&mut self, names: &[String], points: &[DVec3], parent: Option<&str>, connect_first: bool) {
         for (k, name) in names.iter().enumerate() {
             let par = if k == 0 { parent.map(str::to_string) } else { Some(names[k - 1].clone()) };
-            self.add(name, points[k], points[k + 1], par.as_deref(), k > 0 || connect_first);
+            // A connected bone starts on its parent's tail, which `add` may have lengthened.
+            let head = if k > 0 { self.bones.last().map_or(points[k], |b| b.tail) } else { points[k] };
+            self.add(name, head, points[k + 1], par.as_deref(), k > 0 || connect_first);
         }
     }
 }
@@ -445,10 +449,13 @@ fn quadruped(b: &mut Builder, tree: &Tree, body: &Body) {
         ));
         let l = line.len();
         let s1 = l - line.radius(l);
-        let pts: Vec<DVec3> = (0..=4).map(|k| line.at(s1 * k as f64 / 4.0)).collect();
-        let names: Vec<String> =
-            (0..4).map(|k| if k == 3 { "spine".into() } else { format!("spine.{:03}", 3 - k) }).collect();
-        b.chain(&names, &pts, Some("spine.004"), false);
+        // A tail that ends about where the torso starts is a rump, not a tail.
+        if s1 > TAIL_MIN * (pts[5] - root).length() {
+            let pts: Vec<DVec3> = (0..=4).map(|k| line.at(s1 * k as f64 / 4.0)).collect();
+            let names: Vec<String> =
+                (0..4).map(|k| if k == 3 { "spine".into() } else { format!("spine.{:03}", 3 - k) }).collect();
+            b.chain(&names, &pts, Some("spine.004"), false);
+        }
     }
     // Legs: hind then front.
     let parts = [(0, "", "spine.004", [0.29, 0.62, 0.85]), (2, "front_", "spine.008", [0.33, 0.67, 0.84])];

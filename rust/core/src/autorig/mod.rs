@@ -74,7 +74,7 @@ pub struct AutoRig {
     pub forward: [f64; 3],
     /// The character's left (`up x forward`), the side of the `.L` bones.
     pub left: [f64; 3],
-    /// A tail was found and rigged.
+    /// A tail was found and rigged (Rigify's `spine.003` .. `spine`).
     pub tail: bool,
     /// The centre-line tree the bones were laid along: points `(c, 3)` (input units) and edges
     /// `(e, 2)`, for display and diagnosis.
@@ -142,7 +142,7 @@ pub fn auto_rig(vertices: &[[f32; 3]], triangles: &[[u32; 3]], opts: &AutoRigOpt
             .collect(),
         forward: body.forward.to_array(),
         left: body.left.to_array(),
-        tail: body.tail.is_some(),
+        tail: bones.iter().any(|b| b.name == "spine.003"),
         centre_points: tree.pos.iter().map(|p| out(*p)).collect(),
         centre_edges: (0..tree.pos.len())
             .flat_map(|a| tree.adj[a].iter().filter(move |&&b| a < b).map(move |&b| [a as u32, b as u32]))
