@@ -332,10 +332,6 @@ def mixamo_roundtrip(fmt, bone_axis="Y"):
     set_active(src.arm, selected=src.meshes)
     if fmt == "gltf":
         path = folder / "mixamo.glb"
-        # Blender 4.2's exporter evaluates the depsgraph first thing; a depsgraph left stale by
-        # an earlier scene reset segfaulted there. Evaluating it here first avoids that.
-        bpy.context.view_layer.update()
-        bpy.context.evaluated_depsgraph_get()
         bpy.ops.export_scene.gltf(filepath=str(path), export_format="GLB", use_selection=True,
                                   export_animations=False)
     else:
