@@ -20,6 +20,7 @@
 //!   enough branch.
 
 use super::centreline::Tree;
+use super::line::Line;
 use super::voxels::Voxels;
 use crate::{Error, Result};
 use glam::DVec3;
@@ -67,10 +68,8 @@ pub(crate) struct Body {
     pub plane: f64,
     pub forward: DVec3,
     pub left: DVec3,
-    /// Lowest vertex height and the height of the mesh (unit frame).
+    /// Lowest vertex height (unit frame).
     pub ground: f64,
-    #[allow(dead_code)]
-    pub height: f64,
 }
 
 fn horizontal(v: DVec3) -> DVec3 {
@@ -89,7 +88,7 @@ pub(crate) fn find_body(
     let top = vertices.iter().map(|p| p.z).fold(f64::NEG_INFINITY, f64::max);
     let height = top - ground;
     let leaves = tree.leaves();
-    let centre = (0..tree.pos.len()).max_by(|&a, &b| tree.radius[a].total_cmp(&tree.radius[b])).unwrap_or(0);
+    let centre = tree.deepest();
     let mut low: Vec<usize> =
         leaves.iter().copied().filter(|&l| tree.pos[l].z - tree.radius[l] < ground + GROUND_BAND * height).collect();
     low.sort_by(|&a, &b| tree.pos[a].z.total_cmp(&tree.pos[b].z));
@@ -239,7 +238,6 @@ fn biped(
         forward,
         left,
         ground,
-        height,
     })
 }
 
@@ -316,8 +314,7 @@ fn quadruped(
         .copied()
         .filter(|&l| l != head && along(l) < along(hips))
         .filter(|&l| {
-            let p = tree.path(hips, l);
-            let len: f64 = p.windows(2).map(|w| (tree.pos[w[1]] - tree.pos[w[0]]).length()).sum();
+            let len = Line::new(tree, &tree.path(hips, l)).len();
             len > TAIL_LENGTH * span && (tree.pos[l] - tree.pos[hips]).dot(left).abs() < 0.5 * len
         })
         .min_by(|&a, &b| along(a).total_cmp(&along(b)));
@@ -334,7 +331,6 @@ fn quadruped(
         forward,
         left,
         ground,
-        height,
     })
 }
 
@@ -350,20 +346,18 @@ fn frame(facing: DVec3) -> Result<(DVec3, DVec3)> {
 
 /// First point on the path from leaf `l` into the tree (towards the deepest node) at height `z`.
 fn point_at_height(tree: &Tree, l: usize, z: f64) -> Option<DVec3> {
-    let centre = (0..tree.pos.len()).max_by(|&a, &b| tree.radius[a].total_cmp(&tree.radius[b]))?;
-    let path = tree.path(l, centre);
-    path.windows(2).find_map(|w| {
-        let (a, b) = (tree.pos[w[0]], tree.pos[w[1]]);
-        ((a.z - z) * (b.z - z) <= 0.0 && a.z != b.z).then(|| a + (b - a) * ((z - a.z) / (b.z - a.z)))
-    })
+    let line = Line::new(tree, &tree.path(l, tree.deepest()));
+    line.at_height(z).map(|s| line.at(s))
 }
 
 /// The lowest point, midway between the two legs' paths, that is inside the solid: where the
 /// body closes over the legs. Searched from the ground up to `top`, a voxel at a time.
 fn crotch(tree: &Tree, vox: &Voxels, feet: [usize; 2], ground: f64, top: f64) -> Option<DVec3> {
+    let legs = feet.map(|f| Line::new(tree, &tree.path(f, tree.deepest())));
+    let at = |line: &Line, z: f64| line.at_height(z).map(|s| line.at(s));
     let mut z = ground.max(tree.pos[feet[0]].z).max(tree.pos[feet[1]].z) + vox.step;
     while z < top {
-        if let (Some(a), Some(b)) = (point_at_height(tree, feet[0], z), point_at_height(tree, feet[1], z)) {
+        if let (Some(a), Some(b)) = (at(&legs[0], z), at(&legs[1], z)) {
             let mid = (a + b) * 0.5;
             if vox.inside_at(mid) {
                 return Some(mid);

@@ -46,6 +46,11 @@ pub(crate) struct Tree {
 }
 
 impl Tree {
+    /// The node farthest from the surface (the middle of the body); 0 for an empty tree.
+    pub fn deepest(&self) -> usize {
+        (0..self.pos.len()).max_by(|&a, &b| self.radius[a].total_cmp(&self.radius[b])).unwrap_or(0)
+    }
+
     pub fn leaves(&self) -> Vec<usize> {
         (0..self.pos.len()).filter(|&i| self.adj[i].len() == 1).collect()
     }

@@ -7,7 +7,7 @@
 //! Method: each limb is the tree's path from where it joins the body to its leaf. A limb starts
 //! where the path becomes a tube (its radius falls to that of the limb's middle), its inner
 //! joints sit at the usual proportions along it (Rigify's metarigs) moved to the sharpest bend
-//! within [`BEND_WINDOW`] of there when the path bends more than [`MIN_BEND_DEG`] (a knee, a
+//! within a window of there when the path bends more than a threshold (`line.rs`; a knee, a
 //! hock); a biped's ankle is where the leg comes down to the foot's height and its toes reach
 //! the front of the foot's vertices. The spine runs from the hips' junction along the path to
 //! the head: chest and neck split it at the shoulders' height and at the narrowest point below
@@ -16,15 +16,10 @@
 
 use super::body::{Body, Template};
 use super::centreline::Tree;
+use super::line::Line;
 use crate::skeleton::{fit_joints, FitOptions};
 use glam::DVec3;
 
-/// Search this fraction of a limb's length either side of a proportional joint for a bend.
-const BEND_WINDOW: f64 = 0.12;
-/// A bend sharper than this (degrees) places the joint.
-const MIN_BEND_DEG: f64 = 15.0;
-/// A limb's tube starts where its radius is at most this times the radius of its middle.
-const TUBE: f64 = 1.3;
 /// A pair whose joints differ from each other's mirror images by more than this (unit frame)
 /// is posed, not symmetric, and is not averaged.
 const ASYMMETRY: f64 = 0.02;
@@ -43,111 +38,6 @@ pub(crate) struct Bone {
     pub tail: DVec3,
     pub parent: Option<usize>,
     pub connected: bool,
-}
-
-/// A polyline with radii and arc length.
-struct Line {
-    p: Vec<DVec3>,
-    r: Vec<f64>,
-    s: Vec<f64>,
-}
-
-impl Line {
-    fn new(tree: &Tree, nodes: &[usize]) -> Line {
-        Line::from_points(nodes.iter().map(|&n| (tree.pos[n], tree.radius[n])))
-    }
-
-    fn from_points(points: impl Iterator<Item = (DVec3, f64)>) -> Line {
-        let (p, r): (Vec<DVec3>, Vec<f64>) = points.unzip();
-        let mut s = vec![0.0];
-        for w in p.windows(2) {
-            s.push(s.last().unwrap() + (w[1] - w[0]).length());
-        }
-        Line { p, r, s }
-    }
-
-    fn len(&self) -> f64 {
-        *self.s.last().unwrap()
-    }
-
-    fn seg(&self, s: f64) -> (usize, f64) {
-        let s = s.clamp(0.0, self.len());
-        let i = self.s.partition_point(|&x| x <= s).clamp(1, self.p.len().max(2) - 1);
-        if self.p.len() < 2 {
-            return (0, 0.0);
-        }
-        let d = self.s[i] - self.s[i - 1];
-        (i - 1, if d > 0.0 { (s - self.s[i - 1]) / d } else { 0.0 })
-    }
-
-    fn at(&self, s: f64) -> DVec3 {
-        if self.p.len() < 2 {
-            return self.p[0];
-        }
-        let (i, t) = self.seg(s);
-        self.p[i].lerp(self.p[i + 1], t)
-    }
-
-    fn radius(&self, s: f64) -> f64 {
-        if self.p.len() < 2 {
-            return self.r[0];
-        }
-        let (i, t) = self.seg(s);
-        self.r[i] + (self.r[i + 1] - self.r[i]) * t
-    }
-
-    /// First arc length (from the start) where the height crosses `z`.
-    fn at_height(&self, z: f64) -> Option<f64> {
-        (0..self.p.len().saturating_sub(1)).find_map(|i| {
-            let (a, b) = (self.p[i].z, self.p[i + 1].z);
-            ((a - z) * (b - z) <= 0.0 && a != b).then(|| self.s[i] + (self.s[i + 1] - self.s[i]) * (z - a) / (b - a))
-        })
-    }
-
-    /// Median radius over arc lengths `a..b`.
-    fn median_radius(&self, a: f64, b: f64) -> f64 {
-        let mut r: Vec<f64> = (0..=10).map(|k| self.radius(a + (b - a) * k as f64 / 10.0)).collect();
-        r.sort_by(f64::total_cmp);
-        r[5]
-    }
-
-    /// Where the tube starts: the first arc length from `from` on with radius <= TUBE x the middle's.
-    fn tube_start(&self, from: f64) -> f64 {
-        let len = self.len();
-        let mid = self.median_radius(from + 0.3 * (len - from), from + 0.8 * (len - from));
-        let steps = 100;
-        (0..=steps)
-            .map(|k| from + (len - from) * k as f64 / steps as f64)
-            .find(|&s| self.radius(s) <= TUBE * mid)
-            .unwrap_or(from)
-            .min(from + 0.5 * (len - from))
-    }
-
-    /// `s0`, or the sharpest bend within the window around it when it bends enough.
-    fn bend_near(&self, s0: f64, lo: f64, hi: f64) -> f64 {
-        let w = BEND_WINDOW * (hi - lo);
-        let h = (0.08 * (hi - lo)).max(1e-6);
-        let mut best = (s0, MIN_BEND_DEG.to_radians());
-        for k in 0..=20 {
-            let s = s0 - w + 2.0 * w * k as f64 / 20.0;
-            if s - h < lo || s + h > hi {
-                continue;
-            }
-            let (a, b) = (self.at(s) - self.at(s - h), self.at(s + h) - self.at(s));
-            let angle = a.angle_between(b);
-            if angle > best.1 {
-                best = (s, angle);
-            }
-        }
-        best.0
-    }
-
-    /// The arc length of the node nearest to `q`.
-    fn nearest(&self, q: DVec3) -> f64 {
-        let i =
-            (0..self.p.len()).min_by(|&a, &b| (self.p[a] - q).length().total_cmp(&(self.p[b] - q).length())).unwrap();
-        self.s[i]
-    }
 }
 
 struct Builder {
@@ -240,35 +130,29 @@ fn settle(bones: &mut [Bone], unit: &[[f32; 3]], triangles: &[[u32; 3]]) {
     }
 }
 
-/// A leg's line from its junction to its foot, and the hip joint: where the leg's path, coming
-/// up from the foot, crosses the height `hip_z` (default: 80 % of the way to the junction's
-/// height, raised to that height).
-fn leg(tree: &Tree, junction: usize, foot: usize, hip_z: Option<f64>) -> (Line, f64, DVec3) {
-    let line = Line::new(tree, &tree.path(junction, foot));
+/// A leg's line from its junction to its foot.
+fn leg_line(tree: &Tree, junction: usize, foot: usize) -> Line {
+    Line::new(tree, &tree.path(junction, foot))
+}
+
+/// The hip joint on a leg's line and its arc length: where the leg's path, coming up from the
+/// foot, crosses the height `hip_z` (default: 80 % of the way to the junction's height, raised
+/// to that height).
+fn hip(line: &Line, hip_z: Option<f64>) -> (f64, DVec3) {
     let zj = line.p[0].z;
     let zf = line.p.last().unwrap().z;
     let target = hip_z.unwrap_or(zf + 0.8 * (zj - zf));
     // From the foot up: the last crossing along the line from the junction.
-    let s = (0..line.p.len().saturating_sub(1))
-        .rev()
-        .find_map(|i| {
-            let (a, b) = (line.p[i].z, line.p[i + 1].z);
-            ((a - target) * (b - target) <= 0.0 && a != b)
-                .then(|| line.s[i] + (line.s[i + 1] - line.s[i]) * (target - a) / (b - a))
-        })
-        .unwrap_or(0.0);
+    let s = line.crossings(target).next_back().unwrap_or(0.0);
     let p = line.at(s);
-    (line, s, DVec3::new(p.x, p.y, hip_z.unwrap_or(zj.max(p.z))))
+    (s, DVec3::new(p.x, p.y, hip_z.unwrap_or(zj.max(p.z))))
 }
 
 fn biped(b: &mut Builder, tree: &Tree, body: &Body, vertices: &[DVec3]) {
     let (fwd, left, ground) = (body.forward, body.left, body.ground);
     // Hips: half a leg's radius above the crotch, when the crotch is found.
-    let hip_z = body.crotch.map(|c| {
-        let (line, _, _) = leg(tree, body.hips, body.feet[0], None);
-        let r = line.nearest(c);
-        c.z + 0.5 * line.radius(r)
-    });
+    let lines = [0, 1].map(|k| leg_line(tree, body.hips, body.feet[k]));
+    let hip_z = body.crotch.map(|c| c.z + 0.5 * lines[0].radius(lines[0].nearest(c)));
     let nodes = tree.path(body.hips, body.head);
     let spine = match (body.crotch, hip_z) {
         (Some(c), Some(z)) => {
@@ -283,11 +167,14 @@ fn biped(b: &mut Builder, tree: &Tree, body: &Body, vertices: &[DVec3]) {
         _ => Line::new(tree, &nodes),
     };
     // Legs.
-    let mut legs = Vec::new();
-    for (k, side) in ["L", "R"].iter().enumerate() {
-        let (line, s_hip, hip) = leg(tree, body.hips, body.feet[k], hip_z);
-        legs.push((side, line, s_hip, hip));
-    }
+    let legs: Vec<_> = ["L", "R"]
+        .iter()
+        .zip(lines)
+        .map(|(side, line)| {
+            let (s_hip, hip) = hip(&line, hip_z);
+            (side, line, s_hip, hip)
+        })
+        .collect();
     // Arms first: the shoulders' height splits chest from neck.
     let mut arms = Vec::new();
     if let (Some(hands), Some(chest)) = (body.hands, body.chest) {
@@ -340,13 +227,7 @@ fn biped(b: &mut Builder, tree: &Tree, body: &Body, vertices: &[DVec3]) {
 
     for (side, line, s_hip, hip) in legs {
         let foot_z = ground + 0.08 * (hip.z - ground);
-        let s_ank = (0..line.p.len().saturating_sub(1))
-            .find_map(|i| {
-                let (a, c) = (line.p[i].z, line.p[i + 1].z);
-                (line.s[i] >= s_hip && (a - foot_z) * (c - foot_z) <= 0.0 && a != c)
-                    .then(|| line.s[i] + (line.s[i + 1] - line.s[i]) * (foot_z - a) / (c - a))
-            })
-            .unwrap_or(0.92 * line.len());
+        let s_ank = line.crossings(foot_z).find(|&s| s >= s_hip).unwrap_or(0.92 * line.len());
         let ankle = line.at(s_ank);
         let s_knee = line.bend_near(s_hip + 0.53 * (s_ank - s_hip), s_hip, s_ank);
         let mut knee = line.at(s_knee);
@@ -408,7 +289,8 @@ fn quadruped(b: &mut Builder, tree: &Tree, body: &Body) {
     let chest = body.chest.unwrap_or(body.head);
     // The torso starts above the hind legs' hip joints (the tree's junction of the hind legs
     // can lie well in front of them, under the belly).
-    let hips_along = (0..2).map(|k| leg(tree, body.hips, body.feet[k], None).2.dot(fwd)).sum::<f64>() / 2.0;
+    let legs = [0, 1, 2, 3].map(|k| leg_line(tree, if k < 2 { body.hips } else { chest }, body.feet[k]));
+    let hips_along = (0..2).map(|k| hip(&legs[k], None).1.dot(fwd)).sum::<f64>() / 2.0;
     let junction = tree.pos[body.hips];
     let root = junction + fwd * (hips_along - junction.dot(fwd)).min(0.0);
     let nodes = tree.path(body.hips, body.head);
@@ -460,9 +342,9 @@ fn quadruped(b: &mut Builder, tree: &Tree, body: &Body) {
     // Legs: hind then front.
     let parts = [(0, "", "spine.004", [0.29, 0.62, 0.85]), (2, "front_", "spine.008", [0.33, 0.67, 0.84])];
     for (first, prefix, parent, fr) in parts {
-        let junction = if first == 0 { body.hips } else { chest };
         for (k, side) in ["L", "R"].iter().enumerate() {
-            let (line, s_hip, hip) = leg(tree, junction, body.feet[first + k], None);
+            let line = &legs[first + k];
+            let (s_hip, hip) = hip(line, None);
             let l = line.len();
             let mut s = [0.0; 3];
             for (i, f) in fr.iter().enumerate() {

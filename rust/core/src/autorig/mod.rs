@@ -8,6 +8,7 @@
 //! - `centreline`: the centre-line tree of the voxels (TEASAR), whose leaves are the
 //!   extremities;
 //! - `body`: which leaves are feet, hands, head and tail, and the facing;
+//! - `line`: a path of the tree as a polyline (heights, tube starts, bends);
 //! - `embed`: the template's joints along the tree's paths, with Rigify's names.
 //!
 //! Why a voxel centre line: it reads a mesh in many pieces (eyes, teeth, clothes, a hat) as one
@@ -23,6 +24,7 @@
 mod body;
 mod centreline;
 mod embed;
+mod line;
 mod voxels;
 
 pub use body::Template;
