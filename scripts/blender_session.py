@@ -74,3 +74,29 @@ class Stages:
 
     def total(self):
         print(f"[{self.prefix}] total: {time.perf_counter() - self.t0:.2f} s", flush=True)
+
+
+def import_model(path):
+    """Import a model file (glTF/GLB, FBX, OBJ or PLY) into the current scene; returns (the new
+    objects, the new meshes with faces, the new armatures). The glTF importer's bone-shape
+    objects are not among the meshes. ValueError for another format."""
+    import bpy
+
+    path = Path(path)
+    before = set(bpy.data.objects)
+    suffix = path.suffix.lower()
+    if suffix in (".glb", ".gltf"):
+        bpy.ops.import_scene.gltf(filepath=str(path))
+    elif suffix == ".fbx":
+        bpy.ops.import_scene.fbx(filepath=str(path))
+    elif suffix == ".obj":
+        bpy.ops.wm.obj_import(filepath=str(path))
+    elif suffix == ".ply":
+        bpy.ops.wm.ply_import(filepath=str(path))
+    else:
+        raise ValueError(f"unsupported model format: {path} (GLB, glTF, FBX, OBJ or PLY)")
+    new = [ob for ob in bpy.data.objects if ob not in before]
+    rigs = [ob for ob in new if ob.type == "ARMATURE"]
+    shapes = {pb.custom_shape for rig in rigs for pb in rig.pose.bones}  # the glTF importer's bone shapes
+    meshes = [ob for ob in new if ob.type == "MESH" and len(ob.data.polygons) and ob not in shapes]
+    return new, meshes, rigs

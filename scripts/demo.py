@@ -30,24 +30,10 @@ SPOT = Path(__file__).resolve().parents[1] / "assets" / "spot" / "spot.glb"
 
 
 def import_model(path: Path):
-    import bpy
-
-    before = set(bpy.data.objects)
-    suffix = path.suffix.lower()
-    if suffix in (".glb", ".gltf"):
-        bpy.ops.import_scene.gltf(filepath=str(path))
-    elif suffix == ".fbx":
-        bpy.ops.import_scene.fbx(filepath=str(path))
-    elif suffix == ".obj":
-        bpy.ops.wm.obj_import(filepath=str(path))
-    elif suffix == ".ply":
-        bpy.ops.wm.ply_import(filepath=str(path))
-    else:
-        raise SystemExit(f"unsupported model format: {path} (GLB, glTF, FBX, OBJ or PLY)")
-    new = [ob for ob in bpy.data.objects if ob not in before]
-    rigs = [ob for ob in new if ob.type == "ARMATURE"]
-    shapes = {pb.custom_shape for rig in rigs for pb in rig.pose.bones}  # the glTF importer's bone shapes
-    meshes = [ob for ob in new if ob.type == "MESH" and len(ob.data.polygons) and ob not in shapes]
+    try:
+        _, meshes, rigs = blender_session.import_model(path)
+    except ValueError as err:
+        raise SystemExit(str(err)) from None
     if not meshes:
         raise SystemExit(f"{path} has no mesh with faces")
     return meshes, (rigs[0] if rigs else None)

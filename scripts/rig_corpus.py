@@ -442,23 +442,15 @@ AUTORIG = {
 
 
 def bare_model(path):
-    """Model ``path`` (glTF, OBJ or PLY) imported as a bare mesh: its armature(s) deleted, with
+    """Model ``path`` (glTF, FBX, OBJ or PLY) imported as a bare mesh: its armature(s) deleted, with
     the meshes kept where they are in the rest pose and their groups and Armature modifiers gone.
     Returns the meshes (the importer's bone shapes left out)."""
-    path = Path(path)
-    before = set(bpy.data.objects)
-    if path.suffix in (".glb", ".gltf"):
-        bpy.ops.import_scene.gltf(filepath=str(path))
-    elif path.suffix == ".obj":
-        bpy.ops.wm.obj_import(filepath=str(path))
-    else:
-        bpy.ops.wm.ply_import(filepath=str(path))
-    new = [ob for ob in bpy.data.objects if ob not in before]  # the importer's bone shapes too
-    for arm in [ob for ob in new if ob.type == "ARMATURE"]:
+    import blender_session
+
+    new, meshes, rigs = blender_session.import_model(path)  # new: the importer's bone shapes too
+    for arm in rigs:
         arm.data.pose_position = "REST"
     bpy.context.view_layer.update()
-    shapes = {pb.custom_shape for arm in new if arm.type == "ARMATURE" for pb in arm.pose.bones}
-    meshes = [ob for ob in new if ob.type == "MESH" and len(ob.data.polygons) and ob not in shapes]
     for ob in meshes:
         world = ob.matrix_world.copy()
         ob.parent = None
