@@ -1,5 +1,5 @@
 """Mesh data as arrays: world vertices, triangles and faces, the shape its modifiers give it,
-several meshes stacked as one, and the vertices a Weight Paint mask selects."""
+several meshes stacked as one, the vertices a Weight Paint mask selects, and a new mesh of triangles."""
 
 from __future__ import annotations
 
@@ -96,3 +96,17 @@ def paint_mask(ob: bpy.types.Object) -> tuple[np.ndarray | None, str]:
     sizes, corners = mesh_polygons(ob)
     picked[corners[np.repeat(faces, sizes)]] = True
     return picked, "Face Selection"
+
+
+def triangle_mesh(name: str, verts: np.ndarray, tris: np.ndarray) -> bpy.types.Mesh:
+    """A new mesh of ``verts`` (n, 3) and the triangles ``tris`` (m, 3) (vertex indices), its
+    edges computed; nothing else (no normals of its own, no UVs)."""
+    me = bpy.data.meshes.new(name)
+    me.vertices.add(len(verts))
+    me.vertices.foreach_set("co", np.asarray(verts, np.float32).ravel())
+    me.loops.add(3 * len(tris))
+    me.loops.foreach_set("vertex_index", np.asarray(tris, np.int32).ravel())
+    me.polygons.add(len(tris))
+    me.polygons.foreach_set("loop_start", np.arange(0, 3 * len(tris), 3, dtype=np.int32))
+    me.update(calc_edges=True)
+    return me
