@@ -1056,8 +1056,8 @@ def _video_state(folder):
     camera, the render settings it changes, the frame, and the files in ``folder`` (bytes)."""
     scene = bpy.context.scene
     render = scene.render
-    blocks = {kind: sorted(b.name for b in getattr(bpy.data, kind)) for kind in ("objects", "cameras", "lights",
-                                                                                 "actions")}
+    blocks = {kind: sorted(b.name for b in getattr(bpy.data, kind))
+              for kind in ("objects", "cameras", "lights", "actions", "meshes", "materials", "node_groups")}
     settings = (render.engine, render.resolution_x, render.resolution_y, render.resolution_percentage, render.fps,
                 render.fps_base, render.filepath, render.image_settings.file_format, render.ffmpeg.codec,
                 render.use_border, render.use_multiview, scene.display.shading.light)
@@ -1089,8 +1089,9 @@ def test_a_video_whose_render_fails_leaves_the_scene_and_the_earlier_video_as_th
                                                                                        failure, message):
     """Make Video is one transaction: it renders into a hidden file beside the video and
     replaces the earlier video only with a whole one; when the render fails, the camera (a
-    following one with its keys) and the light it added go again, the scene camera and the
-    render settings are as they were, no part file is left, and the report says why. Before,
+    following one with its keys), the light and the floor and shadow it added go again, with
+    their meshes, materials and node groups, the scene camera and the render settings are as
+    they were, no part file is left, and the report says why. Before,
     the earlier video was deleted first, the camera and light stayed, and "Image too small"
     and a disabled Cycles were tracebacks."""
     scene = bpy.context.scene
@@ -1131,10 +1132,11 @@ def test_a_video_whose_render_fails_leaves_the_scene_and_the_earlier_video_as_th
     assert "Traceback" not in why and re.search(
         f"No video made: {message}.*; the scene and the earlier video are as they were", why), why
     assert _video_state(tmp_path) == before
-    if failure == "views":   # the render ran with what Make Video added, which is gone again
-        added = {"IF_MISSING": ("MiniSkeletonCamera", ["CubeAction"], ["CAMERA", "LIGHT", "MESH"]),
+    if failure == "views":   # the render ran with what Make Video added (camera, light, floor and the
+        # cube's shadow), which is gone again
+        added = {"IF_MISSING": ("MiniSkeletonCamera", ["CubeAction"], ["CAMERA", "LIGHT", "MESH", "MESH", "MESH"]),
                  "FOLLOW": ("MiniSkeletonCamera", ["CubeAction", "MiniSkeletonCameraAction"],
-                            ["CAMERA", "CAMERA", "LIGHT", "MESH"])}[camera]
+                            ["CAMERA", "CAMERA", "LIGHT", "MESH", "MESH", "MESH"])}[camera]
         assert rendering and all(r == added for r in rendering), rendering
 
 

@@ -1,8 +1,9 @@
 """Filming a character for Make Video: which objects to frame, a camera that frames (or
-follows) their motion over the frame range, a light, the render engine and H.264 MP4 output,
-the frame range rendered with progress into a file that replaces the video only when whole,
-and the scene's render settings put back afterwards; a failed video takes back the camera and
-light it added. Rendering itself is Blender's."""
+follows) their motion over the frame range looking down past the horizon (``studio`` lays the
+floor it sees), a light, the render engine and H.264 MP4 output, the frame range rendered with
+progress into a file that replaces the video only when whole, and the scene's render settings
+put back afterwards; a failed video takes back the camera and light it added. Rendering itself
+is Blender's."""
 
 from __future__ import annotations
 
@@ -16,6 +17,7 @@ import bpy
 from mathutils import Quaternion, Vector
 
 from ..common.files import part_path
+from .studio import half_tangents, min_pitch
 
 ENGINES = [
     ("WORKBENCH", "Workbench", "Fast solid shading, any machine"),
@@ -74,14 +76,22 @@ def union_box(boxes) -> tuple[Vector, Vector]:
 def _fit_distance(lo: Vector, hi: Vector, rot: Quaternion, angle: float, aspect: float) -> float:
     """Distance along the view axis at which the box (lo, hi) fits the frame (with a margin)."""
     right, up, back = (rot @ Vector(a) for a in ((1, 0, 0), (0, 1, 0), (0, 0, 1)))
-    tx = math.tan(angle / 2) if aspect >= 1 else math.tan(angle / 2) * aspect
-    ty = tx / aspect
+    tx, ty = half_tangents(angle, aspect)
     centre, dist, margin = (lo + hi) / 2, 0.0, 0.88
     for i in range(8):
         c = Vector((hi.x if i & 1 else lo.x, hi.y if i & 2 else lo.y, hi.z if i & 4 else lo.z)) - centre
         x, y, z = c.dot(right), c.dot(up), c.dot(back)
         dist = max(dist, z + abs(x) / (tx * margin), z + abs(y) / (ty * margin))
     return dist
+
+
+def _aim(view: Vector, angle: float, aspect: float) -> Quaternion:
+    """The rotation of a camera looking back along ``view`` (from the subject towards the
+    camera), pitched down at least ``min_pitch`` so that it sees no horizon."""
+    flat = math.hypot(view.x, view.y)
+    pitch = max(math.atan2(view.z, flat), min_pitch(angle, aspect))
+    look = Vector((view.x / flat * math.cos(pitch), view.y / flat * math.cos(pitch), math.sin(pitch)))
+    return (-look).to_track_quat("-Z", "Y")
 
 
 def _new_camera(scene) -> bpy.types.Object:
@@ -107,8 +117,8 @@ def add_camera(scene, lo: Vector, hi: Vector, aspect: float) -> bpy.types.Object
         view = Vector((0.35, -1.0, 0.4))
     else:
         view = Vector((1.2, -1.8, 0.7))
-    rot = (-view.normalized()).to_track_quat("-Z", "Y")
     cam = _new_camera(scene)
+    rot = _aim(view, cam.data.angle, aspect)
     dist = _fit_distance(lo, hi, rot, cam.data.angle, aspect)
     _clip_for(cam, dist)
     cam.location = (lo + hi) / 2 + rot @ Vector((0, 0, dist))
@@ -129,11 +139,11 @@ def add_follow_camera(scene, boxes, aspect: float) -> bpy.types.Object:
     t = travel.normalized()
     side = Vector((-t.y, t.x, 0.0))            # left of the direction of travel
     view = side + 0.6 * t + Vector((0, 0, 0.35))
-    rot = (-view.normalized()).to_track_quat("-Z", "Y")
     half = Vector(map(max, *((b[2] - b[1]) / 2 for b in boxes))) if len(boxes) > 1 else \
         (boxes[0][2] - boxes[0][1]) / 2
     half.z = (hi.z - lo.z) / 2                     # the camera stays at mid_z while the figure bobs or jumps
     cam = _new_camera(scene)
+    rot = _aim(view, cam.data.angle, aspect)
     dist = _fit_distance(-half, half, rot, cam.data.angle, aspect)
     _clip_for(cam, dist)
     cam.rotation_euler = rot.to_euler()
@@ -155,9 +165,12 @@ def add_light(scene) -> bpy.types.Object:
     return sun
 
 
-def set_engine(scene, engine: str) -> None:
+def set_engine(scene, engine: str, on_set: bool = False) -> None:
     """Pick the render engine with settings that suit a character video; SCENE changes nothing.
-    VideoError when this Blender does not offer it (Cycles is an add-on that can be disabled)."""
+    On Make Video's set (``studio.studio_set``, which draws the shadow) Workbench renders one
+    sample with FXAA and without its own shadows; in a scene of the user's, with its shadows
+    and the scene's anti-aliasing. VideoError when this Blender does not offer the engine
+    (Cycles is an add-on that can be disabled)."""
     if engine == "SCENE":
         return
     if engine == "WORKBENCH":
@@ -165,8 +178,10 @@ def set_engine(scene, engine: str) -> None:
         shading = scene.display.shading
         shading.light = "STUDIO"
         shading.color_type = "MATERIAL"
-        shading.show_shadows = True
+        shading.show_shadows = not on_set
         shading.show_cavity = True
+        if on_set:
+            scene.display.render_aa = "FXAA"
     elif engine == "EEVEE":
         for name in ("BLENDER_EEVEE_NEXT", "BLENDER_EEVEE"):  # 4.2-4.4 / 5.0
             try:
@@ -203,9 +218,9 @@ def set_mp4(scene, path: Path) -> None:
     scene.render.filepath = str(path)
 
 
-def render_video(context, path: Path, size: tuple[int, int], fps: int, engine: str) -> int:
+def render_video(context, path: Path, size: tuple[int, int], fps: int, engine: str, on_set: bool = False) -> int:
     """Set the scene up for the MP4 (``size`` (even width, height); ``fps`` 0: the scene's; the
-    ``engine`` of ``set_engine``) and render its frame range with progress; frames rendered.
+    ``engine`` and ``on_set`` of ``set_engine``) and render its frame range with progress; frames rendered.
     The frames go to a hidden file beside ``path`` (``part_path``) that replaces ``path`` only
     once the render has finished and written it: VideoError with the reason otherwise (Blender's
     render error, such as "Image too small" for a render border smaller than a pixel; a render
@@ -217,7 +232,7 @@ def render_video(context, path: Path, size: tuple[int, int], fps: int, engine: s
     render.resolution_percentage = 100
     if fps:
         render.fps, render.fps_base = fps, 1.0
-    set_engine(scene, engine)
+    set_engine(scene, engine, on_set)
     set_mp4(scene, part)
 
     total = len(range(scene.frame_start, scene.frame_end + 1, scene.frame_step))  # as Blender renders
@@ -278,6 +293,7 @@ _VIDEO_SETTINGS = (
                 "filepath", "use_file_extension")),
     ("render.image_settings", ("media_type", "file_format")),
     ("render.ffmpeg", ("format", "codec", "constant_rate_factor", "ffmpeg_preset", "gopsize", "audio_codec")),
+    ("display", ("render_aa",)),
     ("display.shading", ("light", "color_type", "show_shadows", "show_cavity")),
     ("cycles", ("device", "samples")),
 )

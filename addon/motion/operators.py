@@ -3,8 +3,9 @@
 The roles of the bones and the per-frame rotations come from the Rust core
 (``miniskeleton_core.make_motion``, called by ``planning``); ``keying`` writes them as keyframes
 (the same calls on Blender 4.2 and on 5.0's slotted actions), on a Rigify rig on the controls
-that ``rigify`` finds and solves, and ``filming`` sets up the camera, light and output for
-Blender's renderer. The operators check, report and render.
+that ``rigify`` finds and solves, ``filming`` sets up the camera, light and output for
+Blender's renderer, and ``studio`` the floor and shadow a framing camera films on. The
+operators check, report and render.
 """
 
 from __future__ import annotations
@@ -12,6 +13,7 @@ from __future__ import annotations
 import math
 import os
 import time
+from contextlib import nullcontext
 from pathlib import Path
 
 import bpy
@@ -28,6 +30,7 @@ from .keying import (constrained_rotation_bones, driven_rotation_bones, last_key
                      write_keys)
 from .planning import describe_roles, make_motion, motion_armature, motion_bones
 from .rigify import is_rigify, key_controls, merged_segments, plan_controls
+from .studio import studio_set
 
 MOTIONS = [
     ("HEAD_SHAKE", "Head Shake", "Neck and head yaw back and forth; ears and other head children follow"),
@@ -208,6 +211,9 @@ class MINISKELETON_OT_make_video(bpy.types.Operator):
                ("FOLLOW", "New Following Camera", "Always add a camera that travels along with "
                 "the character, closer than one framing the whole motion"),
                ("SCENE", "Scene Camera", "Use the scene camera only")])
+    floor: BoolProperty(name="Floor and Shadow", default=True,
+                        description="With a camera it adds: film the character on a floor that fills the view, "
+                        "with its shadow, laid for the render only (not when the scene has a ground under it)")
 
     def execute(self, context):
         scene = context.scene
@@ -246,7 +252,11 @@ class MINISKELETON_OT_make_video(bpy.types.Operator):
                                  else add_camera(scene, *union_box(boxes), aspect))
                     if not any(ob.type == "LIGHT" for ob in scene.objects):
                         added.append(add_light(scene))
-                total = render_video(context, path, self.video_size(), self.fps, self.engine)
+                # The floor and shadow, when it frames the character itself, are for the render only.
+                framing = boxes is not None and self.engine != "SCENE" and self.floor
+                with (studio_set(scene, objects, boxes, scene.camera, aspect, shadow=self.engine == "WORKBENCH")
+                      if framing else nullcontext([])) as laid:
+                    total = render_video(context, path, self.video_size(), self.fps, self.engine, on_set=bool(laid))
         except VideoError as err:
             kept = "the scene and the earlier video are as they were" if path.exists() else "the scene is as it was"
             self.report({"ERROR"}, f"No video made: {err}; {kept}")
