@@ -132,19 +132,12 @@ def facing(rig):
 
 
 def frame_camera(meshes, rig):
-    """Camera (in front of the character, to its left) and ground framing the evaluated meshes;
-    Workbench settings."""
+    """A camera in front of the character, to its left, framing the evaluated meshes."""
     import bpy
     from mathutils import Vector
 
     scene = bpy.context.scene
-    depsgraph = bpy.context.evaluated_depsgraph_get()
-    pts = []
-    for ob in meshes:
-        ev = ob.evaluated_get(depsgraph)
-        pts += [ev.matrix_world @ Vector(c) for c in ev.bound_box]
-    lo = Vector(min(p[i] for p in pts) for i in range(3))
-    hi = Vector(max(p[i] for p in pts) for i in range(3))
+    lo, hi = posed_box(meshes)
     centre, radius = (lo + hi) / 2, (hi - lo).length / 2
     cam_data = bpy.data.cameras.new("DemoCamera")
     cam_data.lens = 50
@@ -155,28 +148,39 @@ def frame_camera(meshes, rig):
     direction = (1.8 * front + 1.2 * left + Vector((0.0, 0.0, 0.7))).normalized()
     cam.location = centre + direction * radius * 3.2
     cam.rotation_euler = (centre - cam.location).to_track_quat("-Z", "Y").to_euler()
+    cam_data.clip_end = max(cam_data.clip_end, radius * 8)
     scene.camera = cam
-    s = radius * 4
-    # The add-on's one-face mesh maker gives the edges (Blender 5.0.1 mistypes computed ones).
-    ground = addon_module("puppet.build").polygon_mesh("Ground", [(-s, -s, 0), (s, -s, 0), (s, s, 0), (-s, s, 0)])
-    g = bpy.data.objects.new("Ground", ground)
-    g.location = (centre.x, centre.y, lo.z)
-    scene.collection.objects.link(g)
-    scene.render.engine = "BLENDER_WORKBENCH"
-    scene.display.shading.light = "STUDIO"
-    scene.display.shading.show_shadows = True
-    scene.display.shading.show_cavity = True
 
 
-def render_png(path: Path, size=(960, 640)):
+def posed_box(meshes):
+    """World bounding box (lo, hi) of the evaluated ``meshes`` as they are posed now."""
+    import bpy
+    from mathutils import Vector
+
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    pts = []
+    for ob in meshes:
+        ev = ob.evaluated_get(depsgraph)
+        pts += [ev.matrix_world @ Vector(c) for c in ev.bound_box]
+    return Vector(min(p[i] for p in pts) for i in range(3)), Vector(max(p[i] for p in pts) for i in range(3))
+
+
+def render_png(path: Path, meshes, size=(960, 640)):
+    """The still, on Make Video's set (floor and shadow, laid for this render only) with its
+    Workbench look, anti-aliased with 8 samples."""
     import bpy
 
+    filming, studio = addon_module("motion.filming"), addon_module("motion.studio")
     scene = bpy.context.scene
     scene.render.resolution_x, scene.render.resolution_y = size
     scene.render.resolution_percentage = 100
     scene.render.image_settings.file_format = "PNG"
     scene.render.filepath = str(path)
-    bpy.ops.render.render(write_still=True)
+    boxes = [(scene.frame_current, *posed_box(meshes))]
+    with studio.studio_set(scene, meshes, boxes, scene.camera, size[0] / size[1]) as laid:
+        filming.set_engine(scene, "WORKBENCH", on_set=bool(laid))
+        scene.display.render_aa = "8"
+        bpy.ops.render.render(write_still=True)
     if not path.exists():
         raise SystemExit(f"render did not write {path}")
 
@@ -213,12 +217,9 @@ def add_motion(rig, motion, **props) -> bool:
 
 def render_video(path: Path, size=(480, 320)):
     """render.miniskeleton_make_video: Workbench MP4, a new camera travelling with the creature
-    (the still's camera stays in the file); the ground is widened to cover the whole path."""
+    (the still's camera stays in the file) over the floor Make Video lays for it."""
     import bpy
 
-    ground = bpy.data.objects.get("Ground")
-    if ground is not None:
-        ground.scale = (4.0, 4.0, 1.0)
     result = bpy.ops.render.miniskeleton_make_video(
         filepath=str(path), engine="WORKBENCH", resolution_x=size[0], resolution_y=size[1],
         camera="FOLLOW")
@@ -249,9 +250,9 @@ def main(argv=None):
     else:
         st.run("bind with Auto Weights (Heat)", bind, meshes, rig)
     st.run("pose", pose, rig)
-    st.run("camera and ground", frame_camera, meshes, rig)
+    st.run("camera", frame_camera, meshes, rig)
     png = args.out.resolve() / "demo.png"
-    st.run("render PNG (Workbench)", render_png, png)
+    st.run("render PNG (Workbench)", render_png, png, meshes)
     blend = args.out.resolve() / "demo.blend"
     st.run("save .blend", lambda: bpy.ops.wm.save_as_mainfile(filepath=str(blend)))
     print(f"[demo] wrote {png} and {blend}")
