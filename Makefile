@@ -107,6 +107,7 @@ bench: $(EXT_ZIP)
 	$(VPY) bench/bench_autorig.py
 	$(VPY) bench/bench_keys.py
 	$(VPY) bench/motion_corpus.py
+	$(VPY) bench/bench_video.py
 
 clean:
 	rm -rf dist addon/wheels out .build
