@@ -16,6 +16,7 @@
 
 use super::body::{Body, Template};
 use super::centreline::Tree;
+use super::chain;
 use super::line::Line;
 use crate::skeleton::{fit_joints, FitOptions};
 use glam::DVec3;
@@ -28,7 +29,7 @@ const SETTLE_MOVE: f64 = 0.03;
 /// A tail bone chain is at least this fraction of the torso's length.
 const TAIL_MIN: f64 = 0.2;
 /// Shortest bone, unit frame.
-const MIN_BONE: f64 = 2e-3;
+pub(super) const MIN_BONE: f64 = 2e-3;
 
 /// One bone of the result, unit frame.
 #[derive(Debug, Clone, PartialEq)]
@@ -40,12 +41,12 @@ pub(crate) struct Bone {
     pub connected: bool,
 }
 
-struct Builder {
-    bones: Vec<Bone>,
+pub(super) struct Builder {
+    pub bones: Vec<Bone>,
 }
 
 impl Builder {
-    fn add(&mut self, name: &str, head: DVec3, tail: DVec3, parent: Option<&str>, connected: bool) -> usize {
+    pub fn add(&mut self, name: &str, head: DVec3, tail: DVec3, parent: Option<&str>, connected: bool) -> usize {
         let parent = parent.and_then(|p| self.bones.iter().position(|b| b.name == p));
         let tail = if (tail - head).length() < MIN_BONE { head + DVec3::Z * MIN_BONE } else { tail };
         self.bones.push(Bone { name: name.into(), head, tail, parent, connected });
@@ -53,7 +54,7 @@ impl Builder {
     }
 
     /// A connected chain through `points` named `names`, the first bone under `parent`.
-    fn chain(&mut self, names: &[String], points: &[DVec3], parent: Option<&str>, connect_first: bool) {
+    pub fn chain(&mut self, names: &[String], points: &[DVec3], parent: Option<&str>, connect_first: bool) {
         for (k, name) in names.iter().enumerate() {
             let par = if k == 0 { parent.map(str::to_string) } else { Some(names[k - 1].clone()) };
             // A connected bone starts on its parent's tail, which `add` may have lengthened.
@@ -63,7 +64,7 @@ impl Builder {
     }
 }
 
-fn spine_names(first: usize, count: usize) -> Vec<String> {
+pub(super) fn spine_names(first: usize, count: usize) -> Vec<String> {
     (first..first + count).map(|i| if i == 0 { "spine".into() } else { format!("spine.{i:03}") }).collect()
 }
 
@@ -81,7 +82,12 @@ pub(crate) fn embed(
     let mut b = Builder { bones: Vec::new() };
     match body.template {
         Template::Quadruped => quadruped(&mut b, tree, body),
+        Template::Chain | Template::Winged => chain::chain(&mut b, tree, body),
         _ => biped(&mut b, tree, body, vertices),
+    }
+    if !body.symmetric {
+        settle(&mut b.bones, unit, triangles);
+        return b.bones;
     }
     let symmetric = mirror(&mut b.bones, body, None);
     settle(&mut b.bones, unit, triangles);
@@ -131,14 +137,14 @@ fn settle(bones: &mut [Bone], unit: &[[f32; 3]], triangles: &[[u32; 3]]) {
 }
 
 /// A leg's line from its junction to its foot.
-fn leg_line(tree: &Tree, junction: usize, foot: usize) -> Line {
+pub(super) fn leg_line(tree: &Tree, junction: usize, foot: usize) -> Line {
     Line::new(tree, &tree.path(junction, foot))
 }
 
 /// The hip joint on a leg's line and its arc length: where the leg's path, coming up from the
 /// foot, crosses the height `hip_z` (default: 80 % of the way to the junction's height, raised
 /// to that height).
-fn hip(line: &Line, hip_z: Option<f64>) -> (f64, DVec3) {
+pub(super) fn hip(line: &Line, hip_z: Option<f64>) -> (f64, DVec3) {
     let zj = line.p[0].z;
     let zf = line.p.last().unwrap().z;
     let target = hip_z.unwrap_or(zf + 0.8 * (zj - zf));
@@ -279,7 +285,7 @@ fn biped(b: &mut Builder, tree: &Tree, body: &Body, vertices: &[DVec3]) {
 }
 
 /// 1 for three points in a straight line, 0 when they bend by 10 degrees or more.
-fn straightness(a: DVec3, b: DVec3, c: DVec3) -> f64 {
+pub(super) fn straightness(a: DVec3, b: DVec3, c: DVec3) -> f64 {
     let angle = (b - a).angle_between(c - b).to_degrees();
     (1.0 - angle / 10.0).clamp(0.0, 1.0)
 }
@@ -345,17 +351,8 @@ fn quadruped(b: &mut Builder, tree: &Tree, body: &Body) {
         for (k, side) in ["L", "R"].iter().enumerate() {
             let line = &legs[first + k];
             let (s_hip, hip) = hip(line, None);
-            let l = line.len();
-            let mut s = [0.0; 3];
-            for (i, f) in fr.iter().enumerate() {
-                let lo = if i == 0 { s_hip } else { s[i - 1] };
-                s[i] = line.bend_near(s_hip + f * (l - s_hip), lo, l).max(lo + MIN_BONE);
-            }
-            let tip = line.at(l - line.radius(l));
-            let mut pts = vec![hip, line.at(s[0]), line.at(s[1]), line.at(s[2]), tip];
             let bend = if first == 0 { -1.0 } else { 1.0 };
-            let nudge = fwd * bend * 0.02 * (hip - pts[2]).length() * straightness(hip, pts[1], pts[2]);
-            pts[1] += nudge;
+            let pts = limb_points(line, s_hip, hip, &fr, fwd * bend);
             let names: Vec<String> =
                 ["thigh", "shin", "foot", "toe"].iter().map(|n| format!("{prefix}{n}.{side}")).collect();
             if first == 0 {
@@ -372,6 +369,27 @@ fn quadruped(b: &mut Builder, tree: &Tree, body: &Body) {
             }
         }
     }
+}
+
+/// A limb's joints along `line` from arc length `from`: its start `start`, the inner joints at the
+/// shares `fr` of the rest (each moved to the sharpest bend near it), and the tip (one radius
+/// short of the line's end). The middle joint of a straight limb is nudged along `bend` by 2 %
+/// of the limb, so IK knows which way it folds.
+pub(super) fn limb_points(line: &Line, from: f64, start: DVec3, fr: &[f64], bend: DVec3) -> Vec<DVec3> {
+    let l = line.len();
+    let mut s = vec![0.0; fr.len()];
+    for (i, f) in fr.iter().enumerate() {
+        let lo = if i == 0 { from } else { s[i - 1] };
+        s[i] = line.bend_near(from + f * (l - from), lo, l).max(lo + MIN_BONE);
+    }
+    let tip = line.at(l - line.radius(l));
+    let mut pts: Vec<DVec3> = std::iter::once(start).chain(s.iter().map(|&x| line.at(x))).collect();
+    pts.push(tip);
+    if pts.len() >= 4 {
+        let (a, b, c) = (pts[0], pts[1], pts[2]);
+        pts[1] += bend * 0.02 * (a - c).length() * straightness(a, b, c);
+    }
+    pts
 }
 
 /// Make pairs exact mirror images and centre bones lie on the body's mirror plane (found from
