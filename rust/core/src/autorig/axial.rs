@@ -19,8 +19,8 @@
 //! - the head is the upper end when the ends differ in height by [`HEAD_RISE`] of their
 //!   distance, else the thicker end (a head is a bulb, a tail tapers);
 //! - wings are the side pair spanning widest, when tip to tip they span [`WING_SPAN`] times the
-//!   body's height or more (arms held out in a T-pose span about once the height) and their tips
-//!   are off the ground;
+//!   body's height or more ([`WING_SPAN_LEGGED`] on legs: arms held out in a T-pose span once
+//!   to 1.6 times the height) and their tips are off the ground;
 //! - the spine's ends are pushed out along it to the surface (a blunt snout or a rump is no
 //!   leaf of the tree).
 //!
@@ -45,6 +45,9 @@ const PAIR: f64 = 0.12;
 const HEAD_RISE: f64 = 0.25;
 /// Wings span at least this many times the body's height, tip to tip.
 const WING_SPAN: f64 = 1.4;
+/// ... and this many times on a body standing on its legs (a chibi's T-posed arms span 1.6
+/// times its height; a standing bird's wings twice or more).
+const WING_SPAN_LEGGED: f64 = 1.8;
 /// A body without limbs or a neck is a round blob unless it is this many times its greatest
 /// depth from end to end (a snake is 20 times, a fish 9 times, a capsule twice as long as wide 4 times).
 const BLOB: f64 = 4.5;
@@ -176,13 +179,14 @@ pub(crate) fn axial_body(
     let wings = limbs
         .iter()
         .copied()
-        .filter(|p| span(p) >= WING_SPAN * height)
+        .filter(|p| span(p) >= if legs.is_empty() { WING_SPAN } else { WING_SPAN_LEGGED } * height)
         .filter(|p| p.iter().all(|&l| tree.pos[l].z - tree.radius[l] > ground + RESTING * height))
         .max_by(|x, y| span(x).total_cmp(&span(y)));
     let template = match template {
         Template::Winged if wings.is_none() => {
             return Err(Error::Unsuitable(format!(
-                "no wings: no pair of limbs spreads {WING_SPAN} times the body's height from tip to tip"
+                "no wings: no pair of limbs spreads {WING_SPAN} times the body's height from tip to tip ({WING_SPAN_LEGGED} \
+                 on legs)"
             )))
         }
         Template::Winged => Template::Winged,

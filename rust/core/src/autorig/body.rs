@@ -39,14 +39,11 @@ const SHIN: f64 = 0.15;
 const HAND_REACH: f64 = 0.12;
 /// A tail's branch is at least this fraction of the hind-to-front distance.
 const TAIL_LENGTH: f64 = 0.25;
-/// Legs hold the body up: at least this share of what touches the ground is their feet (a
-/// fish resting on its fins, a cone on flippers, a moth on its wing tips: the body touches it
-/// too).
-const LIFT: f64 = 0.75;
+/// Legs hold the body up: nothing touches the ground within this share of the body's greatest
+/// depth (horizontally) of its middle, but the feet.
+const UNDER: f64 = 0.5;
 /// What lies within this fraction of the height above the lowest vertex touches the ground.
 const CONTACT: f64 = 0.04;
-/// A foot covers the ground this fraction of the height beyond its leg's surface (toes, a heel).
-const FOOT_REACH: f64 = 0.1;
 /// A head and neck rise above the tail by at least this fraction of the height, or the
 /// thicker end is the head.
 const RISE: f64 = 0.05;
@@ -260,39 +257,29 @@ fn pair_feet(tree: &Tree, feet: &[usize], mirror: &Mirror) -> [[usize; 2]; 2] {
     best.map(|p| p.map(|i| feet[i]))
 }
 
-/// Do the legs ending at `feet` hold the body up: of the solid's voxels touching the ground
-/// (within [`CONTACT`] of the height, or two voxels, of the lowest vertex), do at least [`LIFT`]
-/// lie under the feet (within [`FOOT_REACH`] of the height beyond the surface of a leg's path
-/// below the shins)? A fish on its fins, a cone on flippers or a moth on its wing tips rests its
-/// body on the ground too.
+/// Do the legs ending at `feet` hold the body up: does nothing of the body touch the ground
+/// straight under its middle (within [`UNDER`] of the depth there, horizontally, of the tree's
+/// deepest node), feet aside (what lies near a foot's path in the ground band)? A fish resting on its fins, a cone on flippers or a moth on its
+/// abdomen touch the ground there; a lizard's belly, a biped's crotch, a quadruped's belly do not.
+/// The ground band is [`CONTACT`] of the height, or two voxels, above the lowest vertex.
 fn lifted(tree: &Tree, vox: &Voxels, feet: &[usize], ground: f64, height: f64) -> bool {
     if feet.is_empty() {
         return false;
     }
-    let shin = ground + SHIN * height;
-    let centre = tree.deepest();
-    let legs: Vec<usize> = feet
-        .iter()
-        .flat_map(|&f| {
-            tree.path(f, centre)
-                .into_iter()
-                .take_while(|&n| tree.pos[n].z < shin.max(ground + 3.0 * vox.step))
-                .collect::<Vec<_>>()
-        })
-        .collect();
+    let middle = tree.pos[tree.deepest()];
+    let reach = UNDER * tree.radius[tree.deepest()];
     let band = ground + (CONTACT * height).max(2.0 * vox.step);
-    let (mut under, mut all) = (0usize, 0usize);
-    for v in (0..vox.inside.len()).filter(|&v| vox.inside[v]) {
+    // The feet: the nodes of each foot's path into the body that lie in the ground band.
+    let soles: Vec<usize> = feet
+        .iter()
+        .flat_map(|&f| tree.path(f, tree.deepest()).into_iter().filter(|&n| tree.pos[n].z < band + 2.0 * vox.step))
+        .collect();
+    !(0..vox.inside.len()).filter(|&v| vox.inside[v]).any(|v| {
         let p = vox.centre(v);
-        if p.z >= band {
-            continue;
-        }
-        all += 1;
-        if legs.iter().any(|&n| horizontal(tree.pos[n] - p).length() <= tree.radius[n] + FOOT_REACH * height) {
-            under += 1;
-        }
-    }
-    all > 0 && under as f64 >= LIFT * all as f64
+        p.z < band
+            && horizontal(p - middle).length() <= reach
+            && soles.iter().all(|&n| (p - tree.pos[n]).length() > tree.radius[n] + 2.0 * vox.step)
+    })
 }
 
 /// Does the path from leaf `l` towards `centre` rise like a leg: over its first
