@@ -497,6 +497,7 @@ def test_control_rig_binds_the_def_bones_and_walks_cleanly(capfd, template):
     with the feet planted (the motion corpus' measure)."""
     bpy.ops.preferences.addon_enable(module="rigify")
     body = human() if template == "BIPED" else quadruped()
+    name = body.name
     B.set_active(body)
     bpy.ops.ed.undo_push(message="before")
     before = fingerprint()
@@ -511,7 +512,7 @@ def test_control_rig_binds_the_def_bones_and_walks_cleanly(capfd, template):
     assert fingerprint() == after
     metarig = next(ob for ob in armatures() if ob.data.rigify_target_rig is not None)
     rig = metarig.data.rigify_target_rig
-    body = bpy.data.objects[body.name]
+    body = bpy.data.objects[name]  # undo and redo made the scene's objects anew
     assert bpy.context.view_layer.objects.active == rig and metarig.hide_get()
     assert [m.object for m in body.modifiers if m.type == "ARMATURE"] == [rig]
     groups = {g.name for g in body.vertex_groups}
