@@ -28,6 +28,10 @@ const ASYMMETRY: f64 = 0.02;
 const SETTLE_MOVE: f64 = 0.03;
 /// A tail bone chain is at least this fraction of the torso's length.
 const TAIL_MIN: f64 = 0.2;
+/// A biped's ankle lies at this fraction of the hip's height above the ground...
+const ANKLE: f64 = 0.08;
+/// ...or higher, up to this fraction, where the leg turns onto a long, flat foot.
+const HEEL: f64 = 0.25;
 /// Shortest bone, unit frame.
 pub(super) const MIN_BONE: f64 = 2e-3;
 
@@ -232,8 +236,12 @@ fn biped(b: &mut Builder, tree: &Tree, body: &Body, vertices: &[DVec3]) {
     b.bones[4].connected = false;
 
     for (side, line, s_hip, hip) in legs {
-        let foot_z = ground + 0.08 * (hip.z - ground);
+        let foot_z = ground + ANKLE * (hip.z - ground);
         let s_ank = line.crossings(foot_z).find(|&s| s >= s_hip).unwrap_or(0.92 * line.len());
+        // A long, flat foot (a rabbit's): the leg's path comes down to the back of the foot and
+        // runs along it; the ankle is where it turns from down to along, not where it crosses
+        // the ankle's usual height far along the foot.
+        let s_ank = line.turn_down_to_along(s_hip, s_ank, ground + HEEL * (hip.z - ground)).unwrap_or(s_ank);
         let ankle = line.at(s_ank);
         let s_knee = line.bend_near(s_hip + 0.53 * (s_ank - s_hip), s_hip, s_ank);
         let mut knee = line.at(s_knee);
