@@ -44,6 +44,8 @@ const TAIL_LENGTH: f64 = 0.25;
 const UNDER: f64 = 0.5;
 /// What lies within this fraction of the height above the lowest vertex touches the ground.
 const CONTACT: f64 = 0.04;
+/// A foot reaches this fraction of the height beyond its leg (toes, a heel, a boot).
+const FOOT: f64 = 0.08;
 /// A head and neck rise above the tail by at least this fraction of the height, or the
 /// thicker end is the head.
 const RISE: f64 = 0.05;
@@ -259,7 +261,7 @@ fn pair_feet(tree: &Tree, feet: &[usize], mirror: &Mirror) -> [[usize; 2]; 2] {
 
 /// Do the legs ending at `feet` hold the body up: does nothing of the body touch the ground
 /// straight under its middle (within [`UNDER`] of the depth there, horizontally, of the tree's
-/// deepest node), feet aside (what lies near a foot's path in the ground band)? A fish resting on its fins, a cone on flippers or a moth on its
+/// deepest node), feet aside (what lies within [`FOOT`] of a leg's path below the shins)? A fish resting on its fins, a cone on flippers or a moth on its
 /// abdomen touch the ground there; a lizard's belly, a biped's crotch, a quadruped's belly do not.
 /// The ground band is [`CONTACT`] of the height, or two voxels, above the lowest vertex.
 fn lifted(tree: &Tree, vox: &Voxels, feet: &[usize], ground: f64, height: f64) -> bool {
@@ -269,16 +271,20 @@ fn lifted(tree: &Tree, vox: &Voxels, feet: &[usize], ground: f64, height: f64) -
     let middle = tree.pos[tree.deepest()];
     let reach = UNDER * tree.radius[tree.deepest()];
     let band = ground + (CONTACT * height).max(2.0 * vox.step);
-    // The feet: the nodes of each foot's path into the body that lie in the ground band.
+    // The feet: each foot's path up to the shins (not where it dips into a body resting low),
+    // and what lies
+    // within their depth and a foot's reach of them, horizontally (a boot, toes, a heel).
+    let shin = ground + SHIN * height;
     let soles: Vec<usize> = feet
         .iter()
-        .flat_map(|&f| tree.path(f, tree.deepest()).into_iter().filter(|&n| tree.pos[n].z < band + 2.0 * vox.step))
+        .flat_map(|&f| tree.path(f, tree.deepest()).into_iter().take_while(|&n| tree.pos[n].z < shin))
+        .chain(feet.iter().copied())
         .collect();
     !(0..vox.inside.len()).filter(|&v| vox.inside[v]).any(|v| {
         let p = vox.centre(v);
         p.z < band
             && horizontal(p - middle).length() <= reach
-            && soles.iter().all(|&n| (p - tree.pos[n]).length() > tree.radius[n] + 2.0 * vox.step)
+            && soles.iter().all(|&n| horizontal(p - tree.pos[n]).length() > tree.radius[n] + FOOT * height)
     })
 }
 
