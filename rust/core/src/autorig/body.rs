@@ -39,9 +39,9 @@ const SHIN: f64 = 0.15;
 const HAND_REACH: f64 = 0.12;
 /// A tail's branch is at least this fraction of the hind-to-front distance.
 const TAIL_LENGTH: f64 = 0.25;
-/// Legs hold the body up: nothing touches the ground within this share of the body's greatest
-/// depth (horizontally) of its middle, but the feet.
-const UNDER: f64 = 0.5;
+/// Legs hold the body up: nothing but the feet touches the ground within this share of the
+/// distance between a pair of feet (horizontally) of the feet's centre.
+const UNDER: f64 = 0.25;
 /// What lies within this fraction of the height above the lowest vertex touches the ground.
 const CONTACT: f64 = 0.04;
 /// A foot reaches this fraction of the height beyond its leg (toes, a heel, a boot).
@@ -259,17 +259,23 @@ fn pair_feet(tree: &Tree, feet: &[usize], mirror: &Mirror) -> [[usize; 2]; 2] {
     best.map(|p| p.map(|i| feet[i]))
 }
 
-/// Do the legs ending at `feet` hold the body up: does nothing of the body touch the ground
-/// straight under its middle (within [`UNDER`] of the depth there, horizontally, of the tree's
-/// deepest node), feet aside (what lies within [`FOOT`] of a leg's path below the shins)? A fish resting on its fins, a cone on flippers or a moth on its
-/// abdomen touch the ground there; a lizard's belly, a biped's crotch, a quadruped's belly do not.
+/// Do the legs ending at `feet` (in pairs) hold the body up: does nothing of the body touch the
+/// ground under its middle (within [`UNDER`] of the stance's width, horizontally, of the feet's
+/// centre), feet aside (what lies within [`FOOT`] of a leg's path below the shins)? A fish
+/// resting on its fins, a cone on flippers or a moth on its abdomen touch the ground there; a
+/// lizard's belly, a biped's crotch, a quadruped's belly do not.
 /// The ground band is [`CONTACT`] of the height, or two voxels, above the lowest vertex.
 fn lifted(tree: &Tree, vox: &Voxels, feet: &[usize], ground: f64, height: f64) -> bool {
     if feet.is_empty() {
         return false;
     }
-    let middle = tree.pos[tree.deepest()];
-    let reach = UNDER * tree.radius[tree.deepest()];
+    // Under the middle: around the feet's centre, within a share of the stance's width.
+    let middle = feet.iter().map(|&f| tree.pos[f]).sum::<DVec3>() / feet.len() as f64;
+    let reach = UNDER
+        * feet
+            .chunks(2)
+            .map(|p| horizontal(tree.pos[p[0]] - tree.pos[p[p.len() - 1]]).length())
+            .fold(f64::INFINITY, f64::min);
     let band = ground + (CONTACT * height).max(2.0 * vox.step);
     // The feet: each foot's path up to the shins (not where it dips into a body resting low),
     // and what lies
