@@ -27,8 +27,8 @@
 //! Known limits: the plane is vertical (a figure lying on its side reads as a chain of limbs); a body with long arms
 //! spread wider than [`WING_SPAN`] times its height (a chibi in T-pose) reads as winged.
 
-use super::body::{end_thickness, frame, Body, Template};
 use super::centreline::Tree;
+use super::parts::{end_thickness, frame, Axial, Body, Template};
 use super::symmetry::Mirror;
 use super::voxels::Voxels;
 use crate::{Error, Result};
@@ -62,21 +62,6 @@ const MIN_FIN: f64 = 0.08;
 /// Wing tips are in the air: at least this share of the height above the ground (limbs resting
 /// on the ground are legs, fins or flippers).
 const RESTING: f64 = 0.1;
-
-/// The spine and the side chains of a chain or winged body (tree node indices).
-#[derive(Debug, Clone)]
-pub(crate) struct Axial {
-    /// The spine's nodes, from the tail end to the head end.
-    pub spine: Vec<usize>,
-    /// The spine's ends pushed out along it to the surface: tail end, head end.
-    pub tips: [DVec3; 2],
-    /// The spine stands (an upright blob, a moth): its lower end is no tail.
-    pub upright: bool,
-    /// Wing tips, [left, right].
-    pub wings: Option<[usize; 2]>,
-    /// Other paired side chains' tips, [left, right], from the head back.
-    pub fins: Vec<[usize; 2]>,
-}
 
 /// Read `tree` as a chain or winged body (`template`: `Chain`, `Winged`, or `Auto` for a
 /// legless body: Chain, or a refusal). `legs`: the feet of the legs that hold the body up.

@@ -19,9 +19,10 @@
 //!   is the most forward leaf, its tail the most backward leaf behind the hind legs on a long
 //!   enough branch.
 
-use super::axial::{self, Axial};
+use super::axial;
 use super::centreline::Tree;
 use super::line::Line;
+use super::parts::{end_thickness, frame, horizontal, Body, Template};
 use super::symmetry::{mirror_plane, Mirror};
 use super::voxels::Voxels;
 use crate::{Error, Result};
@@ -49,69 +50,6 @@ const FOOT: f64 = 0.08;
 /// A head and neck rise above the tail by at least this fraction of the height, or the
 /// thicker end is the head.
 const RISE: f64 = 0.05;
-
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Template {
-    /// Decide from the shape: legs, wings, or neither.
-    Auto,
-    Biped,
-    Quadruped,
-    /// No legs: a spine from tail to head, fins or tentacles as side chains (Rigify's shark).
-    Chain,
-    /// Wings spread to the sides, with two, four or no legs (Rigify's bird).
-    Winged,
-}
-
-impl Template {
-    /// The name the bindings and reports use: "BIPED", "QUADRUPED", "CHAIN", "WINGED", "AUTO".
-    pub fn name(self) -> &'static str {
-        match self {
-            Template::Auto => "AUTO",
-            Template::Biped => "BIPED",
-            Template::Quadruped => "QUADRUPED",
-            Template::Chain => "CHAIN",
-            Template::Winged => "WINGED",
-        }
-    }
-}
-
-/// The parts found in the tree (node indices) and the body's directions.
-#[derive(Debug, Clone)]
-pub(crate) struct Body {
-    pub template: Template,
-    /// Why this template, for the report ("4 legs hold the body up", ...).
-    pub reason: String,
-    /// Biped: [left, right]; quadruped: [hind left, hind right, front left, front right];
-    /// chain: none; winged: none, [left, right] or the quadruped's four.
-    pub feet: Vec<usize>,
-    /// Biped: [left, right], when both are found.
-    pub hands: Option<[usize; 2]>,
-    pub head: usize,
-    pub tail: Option<usize>,
-    /// Where the legs join (biped: one; quadruped: hind, front).
-    pub hips: usize,
-    pub chest: Option<usize>,
-    /// Biped: the point between the legs where the body closes over them (the crotch), when
-    /// the legs' paths show it; the tree's own junction can sit far higher when a flat torso
-    /// lets each leg's path run up it on its own.
-    pub crotch: Option<DVec3>,
-    /// The mirror plane: `p . left = plane`, midway between the legs where they are shins (the
-    /// legs are the most reliably symmetric part; a hand's pose or a prop is not).
-    pub plane: f64,
-    /// Pairs are made mirror images across the plane (off for a body that is not symmetric,
-    /// such as a snake lying in curves).
-    pub symmetric: bool,
-    pub forward: DVec3,
-    pub left: DVec3,
-    /// Lowest vertex height (unit frame).
-    pub ground: f64,
-    /// Chain and winged bodies: the spine and the side chains.
-    pub axial: Option<Axial>,
-}
-
-fn horizontal(v: DVec3) -> DVec3 {
-    DVec3::new(v.x, v.y, 0.0)
-}
 
 /// Find the body's parts. `forward`: the facing asked for (horizontal, any length), if any.
 pub(crate) fn find_body(
@@ -501,16 +439,6 @@ fn quadruped(
     })
 }
 
-/// Forward (horizontal, unit) and left (`up x forward`).
-pub(crate) fn frame(facing: DVec3) -> Result<(DVec3, DVec3)> {
-    let f = horizontal(facing);
-    if !(f.length() > 1e-9) {
-        return Err(Error::InvalidArgument("the facing direction must have a horizontal part".into()));
-    }
-    let f = f.normalize();
-    Ok((f, DVec3::Z.cross(f)))
-}
-
 /// First point on the path from leaf `l` into the tree (towards the deepest node) at height `z`.
 fn point_at_height(tree: &Tree, l: usize, z: f64) -> Option<DVec3> {
     let line = Line::new(tree, &tree.path(l, tree.deepest()));
@@ -533,24 +461,4 @@ fn crotch(tree: &Tree, vox: &Voxels, feet: [usize; 2], ground: f64, top: f64) ->
         z += 0.5 * vox.step;
     }
     None
-}
-
-/// The mean radius of the tree over the last `reach` of the way from node `far` into the body:
-/// a head is a bulb, a tail tapers.
-pub(crate) fn end_thickness(tree: &Tree, far: usize, reach: f64) -> f64 {
-    let path = tree.path(far, tree.deepest());
-    let (mut walked, mut sum, mut n) = (0.0, 0.0, 0usize);
-    for w in path.windows(2) {
-        sum += tree.radius[w[0]];
-        n += 1;
-        walked += (tree.pos[w[1]] - tree.pos[w[0]]).length();
-        if walked >= reach {
-            break;
-        }
-    }
-    if n == 0 {
-        tree.radius[far]
-    } else {
-        sum / n as f64
-    }
 }

@@ -21,10 +21,10 @@
 //! sit at the shares of [`WING`], [`LEG`] and [`FRONT_LEG`], moved to the sharpest bend near
 //! each (`embed::limb_points`).
 
-use super::body::{Body, Template};
+use super::bones::{hip, leg_line, limb_points, spine_names, Builder, MIN_BONE};
 use super::centreline::Tree;
-use super::embed::{hip, leg_line, limb_points, spine_names, Builder, MIN_BONE};
 use super::line::Line;
+use super::parts::{Body, Template};
 use glam::DVec3;
 
 /// Where a spine is split, as shares of its length from the tail end.

@@ -27,14 +27,16 @@
 
 mod axial;
 mod body;
+mod bones;
 mod centreline;
 mod chain;
 mod embed;
 mod line;
+mod parts;
 mod symmetry;
 mod voxels;
 
-pub use body::Template;
+pub use parts::Template;
 
 use crate::mesh::solid::Solid;
 use crate::mesh::{validate_mesh, Frame};
