@@ -214,22 +214,6 @@ pub(crate) fn axial_body(
     let along = |n: usize| spine.iter().position(|&s| s == n).unwrap_or(0);
     let mut fins: Vec<[usize; 2]> = limbs.iter().copied().filter(|p| Some(*p) != wings).map(sided).collect();
     fins.sort_by_key(|p| std::cmp::Reverse(along(branch(p[0]).0)));
-    // Feet on a wing's branch are the wing's lower edge, not legs (a flying dragon's lowest
-    // points are its wings').
-    let wing_nodes: Vec<usize> = wings
-        .filter(|_| template == Template::Winged)
-        .map(|w| {
-            w.iter()
-                .flat_map(|&tip| {
-                    let mut path = tree.path(tip, branch(tip).0);
-                    path.pop(); // the junction on the spine
-                    path
-                })
-                .collect()
-        })
-        .unwrap_or_default();
-    let legs: &[usize] =
-        if legs.iter().any(|&f| tree.path(f, head_end).iter().any(|n| wing_nodes.contains(n))) { &[] } else { legs };
     let feet = match legs.len() {
         2 => sided([legs[0], legs[1]]).to_vec(),
         4 => {
