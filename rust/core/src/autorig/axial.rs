@@ -313,7 +313,8 @@ fn rev(v: &[usize]) -> Vec<usize> {
 }
 
 /// Where the body ends beyond the first node of `path`: from it, along the path's direction
-/// there (over its first few nodes), to the last inside voxel, half a voxel short.
+/// there (over its first few nodes), to the last point inside the voxels (in half-voxel steps:
+/// a joint there stays inside the mesh).
 fn end_tip(tree: &Tree, vox: &Voxels, path: &[usize]) -> DVec3 {
     let end = tree.pos[path[0]];
     let back = tree.pos[path[path.len().min(4) - 1]];
@@ -321,9 +322,5 @@ fn end_tip(tree: &Tree, vox: &Voxels, path: &[usize]) -> DVec3 {
     if dir == DVec3::ZERO {
         return end;
     }
-    let mut p = end;
-    while vox.inside_at(p + dir * vox.step) {
-        p += dir * vox.step;
-    }
-    p + dir * (0.5 * vox.step)
+    end + dir * vox.reach(end, dir, f64::INFINITY)
 }

@@ -8,7 +8,9 @@
 //! Method, by geometry only:
 //! - **feet** are leaves within [`GROUND_BAND`] of the height above the lowest vertex whose
 //!   path up into the body climbs: over its first [`LEG_WALK`] of the height it rises at least
-//!   [`LEG_SLOPE`] of the way (a figure lying down has no such leaf);
+//!   [`LEG_SLOPE`] of the way (a figure lying down has no such leaf), through a tube, not a
+//!   sheet: above the foot the solid across the path is at most [`MEMBRANE`] times as wide as
+//!   it is thick (`section`; a wing's membrane hanging to the ground, a cape, is no leg);
 //! - leaves whose paths meet below [`SHIN`] of the height (a toe and a heel) are one foot;
 //! - two or three feet make a biped, four or more a quadruped (its four lowest);
 //! - a biped's left-right axis joins its feet; it faces where its toes point (the foot's
@@ -23,6 +25,7 @@ use super::axial;
 use super::centreline::Tree;
 use super::line::Line;
 use super::parts::{end_thickness, frame, horizontal, Body, Template};
+use super::section;
 use super::symmetry::{mirror_plane, Mirror};
 use super::voxels::Voxels;
 use crate::{Error, Result};
@@ -34,6 +37,10 @@ const GROUND_BAND: f64 = 0.2;
 const LEG_WALK: f64 = 0.3;
 /// ...climbs at least this fraction of the way it goes.
 const LEG_SLOPE: f64 = 0.5;
+/// A leg is a tube: across its path above the foot, the solid is at most this many times as wide
+/// as it is thick (the median over the path; limbs read 1 to 2, a membrane its width over its
+/// thickness, 3 and more).
+const MEMBRANE: f64 = 2.5;
 /// Legs are compared where they cross this fraction of the height (shins, not toes or heels).
 const SHIN: f64 = 0.15;
 /// A hand lies at least this fraction of the height to the side of the body's middle.
@@ -62,15 +69,15 @@ pub(crate) fn find_body(
     let ground = vertices.iter().map(|p| p.z).fold(f64::INFINITY, f64::min);
     let top = vertices.iter().map(|p| p.z).fold(f64::NEG_INFINITY, f64::max);
     let height = top - ground;
-    let feet = feet(tree, ground, height);
+    let feet = feet(tree, vox, ground, height);
     let mirror = mirror_plane(vox);
     // Legs that hold the body up, in pairs (a quadruped's pairs found along the tree).
     let pairs: Vec<[usize; 2]> = match feet.len() {
         0 | 1 => Vec::new(),
-        2 | 3 => biped_pair(tree, &feet, &mirror).into_iter().collect(),
+        2 | 3 => biped_pair(tree, &feet, &mirror, ground, height).into_iter().collect(),
         _ => pair_feet(tree, &feet[..4], &mirror).to_vec(),
     };
-    let pairs = if pairs.iter().all(|&p| sides(tree, p, &mirror)) { pairs } else { Vec::new() };
+    let pairs = if pairs.iter().all(|&p| sides(tree, p, &mirror, ground, height)) { pairs } else { Vec::new() };
     let legs: Vec<usize> = pairs.iter().flatten().copied().collect();
     let legs = if lifted(tree, vox, &legs, ground, height) { legs } else { Vec::new() };
     let n_legs = legs.len();
@@ -125,9 +132,9 @@ pub(crate) fn find_body(
     Ok(body)
 }
 
-/// Leaves that reach the ground and rise from it like legs, one per leg (a toe and a heel whose
-/// paths meet below the shins are one foot, the lowest), lowest first.
-fn feet(tree: &Tree, ground: f64, height: f64) -> Vec<usize> {
+/// Leaves that reach the ground and rise from it like legs, through a tube, one per leg (a toe
+/// and a heel whose paths meet below the shins are one foot, the lowest), lowest first.
+fn feet(tree: &Tree, vox: &Voxels, ground: f64, height: f64) -> Vec<usize> {
     let centre = tree.deepest();
     let mut low: Vec<usize> =
         tree.leaves().into_iter().filter(|&l| tree.pos[l].z - tree.radius[l] < ground + GROUND_BAND * height).collect();
@@ -139,7 +146,10 @@ fn feet(tree: &Tree, ground: f64, height: f64) -> Vec<usize> {
             continue;
         }
         let path = tree.path(l, centre);
-        let leg = path.iter().copied().find(|&n| tree.pos[n].z >= ground + SHIN * height).unwrap_or(centre);
+        if section::flatness(tree, vox, &path, FOOT * height, LEG_WALK * height).is_some_and(|f| f > MEMBRANE) {
+            continue;
+        }
+        let leg = shin(tree, &path, ground, height);
         if !legs_seen.contains(&leg) {
             legs_seen.push(leg);
             feet.push(l);
@@ -150,7 +160,7 @@ fn feet(tree: &Tree, ground: f64, height: f64) -> Vec<usize> {
 
 /// A biped's two feet among two or three: of those on opposite sides of the mirror plane, the
 /// two nearest each other's mirror images (the lowest two when the body does not mirror well).
-fn biped_pair(tree: &Tree, feet: &[usize], mirror: &Mirror) -> Option<[usize; 2]> {
+fn biped_pair(tree: &Tree, feet: &[usize], mirror: &Mirror, ground: f64, height: f64) -> Option<[usize; 2]> {
     if mirror.score < axial::SYMMETRIC {
         return Some([feet[0], feet[1]]);
     }
@@ -159,7 +169,7 @@ fn biped_pair(tree: &Tree, feet: &[usize], mirror: &Mirror) -> Option<[usize; 2]
         for j in i + 1..feet.len() {
             let p = [feet[i], feet[j]];
             let d = (mirror.reflect(tree.pos[p[0]]) - tree.pos[p[1]]).length();
-            if sides(tree, p, mirror) && best.is_none_or(|b| d < b.1) {
+            if sides(tree, p, mirror, ground, height) && best.is_none_or(|b| d < b.1) {
                 best = Some((p, d));
             }
         }
@@ -167,11 +177,20 @@ fn biped_pair(tree: &Tree, feet: &[usize], mirror: &Mirror) -> Option<[usize; 2]
     best.map(|b| b.0)
 }
 
-/// Do the feet `pair` stand on opposite sides of the mirror plane, off it (a moth's abdomen
-/// on the plane is no leg)? Always when the body does not mirror well.
-fn sides(tree: &Tree, pair: [usize; 2], mirror: &Mirror) -> bool {
-    let d = pair.map(|f| mirror.distance(tree.pos[f]));
-    mirror.score < axial::SYMMETRIC || (d[0] * d[1] < 0.0 && d.iter().all(|x| x.abs() >= axial::ON_PLANE * 0.5))
+/// Do the feet `pair` stand on opposite sides of the mirror plane, their legs off it: where a
+/// leg crosses the shins, the plane passes at least half the leg's depth from its centre (a
+/// moth's abdomen on the plane is no leg; a winged biped's legs are near the plane for its
+/// span, not for their thickness)? Always when the body does not mirror well.
+fn sides(tree: &Tree, pair: [usize; 2], mirror: &Mirror, ground: f64, height: f64) -> bool {
+    let leg = pair.map(|f| shin(tree, &tree.path(f, tree.deepest()), ground, height));
+    let d = leg.map(|n| mirror.distance(tree.pos[n]));
+    mirror.score < axial::SYMMETRIC || (d[0] * d[1] < 0.0 && (0..2).all(|i| d[i].abs() >= 0.5 * tree.radius[leg[i]]))
+}
+
+/// Where the `path` from a foot up into the body first reaches the shins ([`SHIN`] of the
+/// height), or the path's end.
+fn shin(tree: &Tree, path: &[usize], ground: f64, height: f64) -> usize {
+    path.iter().copied().find(|&n| tree.pos[n].z >= ground + SHIN * height).unwrap_or(path[path.len() - 1])
 }
 
 /// Four feet in two pairs, the left and right legs of the hind and the front: of the three ways

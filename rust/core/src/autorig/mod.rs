@@ -9,6 +9,7 @@
 //!   extremities;
 //! - `body`: which leaves are feet, hands, head and tail, and the facing; legs count only when
 //!   they hold the body up;
+//! - `section`: how flat the solid is across a path (a leg is a tube, a wing's membrane a sheet);
 //! - `symmetry`: the solid's vertical mirror plane, for bodies without legs;
 //! - `axial`: a legless or winged body read along its spine (ends, wings, side chains);
 //! - `line`: a path of the tree as a polyline (heights, tube starts, bends);
@@ -33,6 +34,7 @@ mod chain;
 mod embed;
 mod line;
 mod parts;
+mod section;
 mod symmetry;
 mod voxels;
 
