@@ -132,10 +132,20 @@ fn biped(b: &mut Builder, tree: &Tree, body: &Body, vertices: &[DVec3]) {
     // Arms first: the shoulders' height splits chest from neck.
     let mut arms = Vec::new();
     if let (Some(hands), Some(chest)) = (body.hands, body.chest) {
+        let lines = hands.map(|h| Line::new(tree, &tree.path(chest, h)));
+        // Both arms leave the torso as far from the mirror plane, the farther of where their
+        // tubes start (however the hands are posed: an arm thick in its middle, a sleeve or a
+        // held prop, reads its tube's start inside the torso).
+        let off = |p: DVec3| (p.dot(body.left) - body.plane).abs();
+        let starts = lines.each_ref().map(|l| l.tube_start(0.0).max(0.15 * l.len()));
+        let reach = off(lines[0].at(starts[0])).max(off(lines[1].at(starts[1])));
         for (k, side) in ["L", "R"].iter().enumerate() {
-            let line = Line::new(tree, &tree.path(chest, hands[k]));
-            let s_sh = line.tube_start(0.0).max(0.15 * line.len());
+            let line = &lines[k];
             let len = line.len();
+            let s_sh = (0..=100)
+                .map(|i| starts[k] + (0.5 * len - starts[k]).max(0.0) * i as f64 / 100.0)
+                .find(|&s| off(line.at(s)) >= reach)
+                .unwrap_or(starts[k].max(0.5 * len));
             let s_wr = s_sh + 0.75 * (len - s_sh);
             let s_el = line.bend_near(s_sh + 0.52 * (s_wr - s_sh), s_sh, s_wr);
             let s_hand = s_wr + 0.45 * (len - s_wr);
