@@ -11,8 +11,8 @@
 //! Method: at each node, the path's direction over [`SPAN`] nodes either side; in the plane
 //! perpendicular to it, [`DIRECTIONS`] chords over half a turn, each the solid's reach from the
 //! node both ways (`Voxels::reach`, half-voxel steps, at most [`CAP`] times the node's depth or
-//! a voxel each way) and a voxel (the half voxels beyond the last inside points). The median over the nodes ignores a node where the path turns
-//! (a knee, where the limb joins a foot).
+//! a voxel each way) and a voxel (the half voxels beyond the last inside points). The median
+//! over the nodes outvotes a few nodes where the path turns (a knee, an ankle).
 //!
 //! Known limits: a sheet or a limb one or two voxels thick is read in half voxels, so ratios
 //! there are coarse (a thin tube reads up to about 2); a sheet narrower than [`CAP`] times its
