@@ -236,16 +236,18 @@ def bone_mirror_indices(names: list[str]) -> npt.NDArray[np.int32]:
 
 def auto_rig(vertices: ArrayLike, triangles: ArrayLike, *, template: str = "AUTO",
              forward: Optional[ArrayLike] = None, resolution: int = 96) -> dict:
-    """A Rigify-metarig skeleton for a bare mesh of a character standing on its feet (+Z up, any
-    pieces, any scale, facing any horizontal direction). template "AUTO" (2-3 feet: biped, 4 or
-    more: quadruped) | "BIPED" | "QUADRUPED"; forward (3,) overrides the facing found; resolution
-    16..512 voxels along the longest side. Returns {template ('BIPED'|'QUADRUPED'), names (list of
-    str, basic_human / basic_quadruped names), heads, tails (k,3) float32 (input units), parents
-    (k,) int64 (-1 root; parents first), connected (k,) bool, forward, left (3,) float32 (left = the
-    .L side), tail (bool), centre_points (c,3) float32, centre_edges (e,2) uint32 (the centre-line
-    tree the bones follow)}. ValueError, saying why, for an empty or non-finite mesh and for a
-    shape the templates do not fit: no enclosed volume, no ground contact, not standing upright,
-    too few feet, no head."""
+    """A Rigify-metarig skeleton for a bare mesh of a character (+Z up, any pieces, any scale,
+    facing any horizontal direction). template "AUTO" (legs that hold the body up: 2 biped, 4
+    quadruped; wings spread: winged; no legs: chain) | "BIPED" | "QUADRUPED" | "CHAIN" |
+    "WINGED"; forward (3,) overrides the facing found; resolution 16..512 voxels along the
+    longest side. Returns {template ('BIPED'|'QUADRUPED'|'CHAIN'|'WINGED'), reason (str: why that
+    template), names (list of str: basic_human / basic_quadruped / shark / bird names), heads,
+    tails (k,3) float32 (input units), parents (k,) int64 (-1 root; parents first), connected
+    (k,) bool, forward, left (3,) float32 (left = the .L side), tail (bool: tail bones were
+    built), centre_points (c,3) float32, centre_edges (e,2) uint32 (the centre-line tree the
+    bones follow)}. ValueError, saying why, for an empty or non-finite mesh and for a shape the
+    templates do not fit: no enclosed volume, a round blob, too few feet for the template asked,
+    no wings for WINGED, no head."""
 
 # ---------------------------------------------------------------------------- motion
 

@@ -21,9 +21,13 @@ keeps every deform bone):
   tail: the importer invents one for every bone, and for a bone with several children (Fox's
   spine) it points anywhere. Where a tail sits on a child, both measures agree.
 
-Then the time of ``auto_rig`` on ``horse.ply`` (48k vertices) and on a 50k-vertex copy of the
-biggest model, median of 3. Writes out/bench_autorig.md. Nothing is asserted here; the Blender
-tests check correctness.
+The legless models (q_Dragon, q_Orc, q_Cat) have no skeleton to compare with in the same
+sense (their artists' rigs are 4-13 bones): their rows give the template Auto Rig reads, why,
+and the joints outside.
+
+Then the time of ``auto_rig`` on ``horse.ply`` (48k vertices) and on the same scan with every
+edge cut three times (``bmesh.ops.subdivide_edges``, about 580k vertices), median of 3.
+Writes out/bench_autorig.md. Nothing is asserted here; the Blender tests check correctness.
 """
 
 from __future__ import annotations
@@ -43,6 +47,7 @@ import blender_session  # noqa: E402
 
 MODELS_DIR = ROOT.parent / "shared" / "models"
 MODELS = ["Fox.glb", "CesiumMan.gltf", "q_Bunny.glb", "spot_rig.glb", "RobotExpressive.glb"]
+LEGLESS = ["q_Dragon.glb", "q_Orc.glb", "q_Cat.glb"]
 SCANS = ["horse.ply"]
 
 
@@ -146,7 +151,7 @@ def main(argv=None):
         return 0
     bpy = blender_session.start()
     msc = core()
-    wanted = [m for m in MODELS if not args.models or m.split(".")[0] in args.models.split(",")]
+    wanted = [m for m in MODELS + LEGLESS if not args.models or m.split(".")[0] in args.models.split(",")]
     rows, biggest = [], None
     for name in wanted:
         path = MODELS_DIR / name
@@ -166,6 +171,13 @@ def main(argv=None):
             continue
         secs = time.perf_counter() - t0
         heads, tails = rig["heads"].astype(float), rig["tails"].astype(float)
+        print(f"[bench_autorig] {name}: {rig['template']} ({rig['reason']})")
+        if name in LEGLESS:
+            pts = np.concatenate([heads, tails]).astype(np.float32)
+            outside = int((~msc.points_inside(v.astype(np.float32), t, pts)).sum())
+            rows.append((name, len(v), "legless", f"{rig['template']} ({rig['reason']})", len(rig["names"]),
+                         outside, len(pts), secs))
+            continue
         ours_segs = list(zip(heads, tails))
         ours_joints = unique_rows(np.concatenate([heads, tails]))
         cd, a, b = cd_j2b(ours_segs, ours_joints, art_segs, art_joints)
@@ -199,6 +211,9 @@ def main(argv=None):
              "|---|---:|---|---:|---:|---:|---:|---:|---:|---:|"]
     cds, links = [], []
     for r in rows:
+        if r[2] == "legless":
+            lines.append(f"| {r[0]} | {r[1]} | {r[3]} | {r[4]} | | | | | {r[5]} of {r[6]} | {r[7]:.2f} |")
+            continue
         if r[2] == "refused":
             lines.append(f"| {r[0]} | {r[1]} | refused: {r[3]} | | | | | | | {r[7]:.2f} |")
         else:
@@ -225,10 +240,28 @@ def main(argv=None):
                 tri = np.empty(len(me.loop_triangles) * 3, dtype=np.int64)
                 me.loop_triangles.foreach_get("vertices", tri)
                 lines.append(timing(msc, scan, co.reshape(-1, 3), tri.reshape(-1, 3), args.resolution))
+                v, t = subdivided(me, 3)
+                lines.append(timing(msc, f"{scan}, edges cut 3 times", v, t, args.resolution))
     text = "\n".join(lines)
     print(text)
     blender_session.write_report(ROOT / "out" / "bench_autorig.md", text)
     return 0
+
+
+def subdivided(me, cuts):
+    """``me`` with every edge cut ``cuts`` times (``bmesh.ops.subdivide_edges``, grid fill):
+    (vertices (n, 3) float32, triangles (m, 3) int64)."""
+    import bmesh
+
+    bm = bmesh.new()
+    bm.from_mesh(me)
+    bmesh.ops.subdivide_edges(bm, edges=bm.edges[:], cuts=cuts, use_grid_fill=True)
+    bmesh.ops.triangulate(bm, faces=bm.faces[:])
+    bm.verts.index_update()
+    v = np.array([p.co[:] for p in bm.verts], np.float32)
+    t = np.array([[p.index for p in f.verts] for f in bm.faces], np.int64)
+    bm.free()
+    return v, t
 
 
 def timing(msc, label, v, t, resolution):

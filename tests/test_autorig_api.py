@@ -1,5 +1,5 @@
 """Auto Rig from plain Python: a kit-built quadruped of capped cylinders gets Rigify's quadruped
-bones as numpy arrays, and every bad input is one ValueError."""
+bones as numpy arrays, a snake a chain, and every bad input is one ValueError."""
 
 import numpy as np
 import pytest
@@ -41,6 +41,7 @@ def test_a_quadruped_gets_rigifys_bones(quadruped):
     v, t = quadruped
     rig = msc.auto_rig(v, t)
     assert rig["template"] == "QUADRUPED" and rig["tail"] is False
+    assert rig["reason"] == "4 legs hold the body up"
     names = rig["names"]
     k = len(names)
     assert rig["heads"].shape == (k, 3) and rig["heads"].dtype == np.float32
@@ -70,9 +71,31 @@ def test_bad_input_is_one_value_error(quadruped):
         ((v, t), {"forward": [0, 0, 1]}, "horizontal"),
         ((v, t), {"forward": [1, 0]}, "shape"),
         ((v, t), {"resolution": 2}, "resolution"),
-        ((v[:, [0, 2, 1]], t), {}, "upright"),
+        (msc.capped_cylinder(0.5, 1.0, 12, 16), {}, "blob"),
         ((np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], np.float32), np.array([[0, 1, 2]])), {}, "volume"),
     ]
     for args, kw, word in cases:
         with pytest.raises(ValueError, match=word):
             msc.auto_rig(*args, **kw)
+
+
+def test_a_snake_gets_a_chain_from_tail_to_head():
+    parts = []
+    pts = [[0.15 * np.sin(3 * np.pi * t), -1.2 + 2.4 * t, 0.06] for t in np.linspace(0, 1, 13)]
+    for k in range(12):
+        limb(parts, pts[k], pts[k + 1], 0.06 if k < 9 else 0.06 - 0.012 * (k - 8))
+    limb(parts, [0, -1.2, 0.07], [0, -1.38, 0.07], 0.085)
+    verts, tris, base = [], [], 0
+    for v, t in parts:
+        verts.append(v)
+        tris.append(t.astype(np.int64) + base)
+        base += len(v)
+    v, t = np.concatenate(verts).astype(np.float32), np.concatenate(tris)
+    rig = msc.auto_rig(v, t)
+    assert rig["template"] == "CHAIN" and "no legs" in rig["reason"], rig["reason"]
+    names = rig["names"]
+    assert not [n for n in names if n.startswith(("thigh", "shin"))]
+    assert rig["tails"][names.index("spine.007")][1] < -1.1  # the head end
+    assert rig["tail"] and rig["tails"][names.index("spine")][1] > 0.9
+    with pytest.raises(ValueError, match="no wings"):
+        msc.auto_rig(v, t, template="WINGED")

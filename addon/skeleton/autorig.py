@@ -2,8 +2,9 @@
 the core's skeleton (``miniskeleton_core.auto_rig``) built into a new armature object with
 sensible rolls and Rigify's rig types, and that armature taken out again when a later step fails.
 
-The skeleton follows Rigify's Basic metarigs (``rigify/metarigs/Basic/basic_human.py`` and
-``basic_quadruped.py``): the core gives the bone names, parents and joints; which pose bones
+The skeleton follows Rigify's metarigs (``rigify/metarigs/Basic/basic_human.py`` and
+``basic_quadruped.py``, ``Animals/shark.py`` for Chain and ``Animals/bird.py`` for Winged): the
+core gives the bone names, parents and joints; which pose bones
 carry a Rigify rig type, and with which parameters, is ``RIGIFY_TYPES`` here, the one table of
 it. With Rigify enabled the types are set through its properties; without it they are stored
 where Rigify's registered properties keep them (``rigify_storage``), so Generate Rig works once
@@ -18,11 +19,16 @@ import numpy as np
 from ..common.meshes import shaped_world_mesh, stack_meshes
 
 TEMPLATES = [
-    ("AUTO", "Auto", "Biped or quadruped, from how many limbs reach the ground"),
+    ("AUTO", "Auto", "Read from the shape: legs that hold the body up (two: biped, four: quadruped), wings "
+     "spread to the sides (winged), or neither (chain)"),
     ("BIPED", "Biped", "Two legs on the ground, two arms: Rigify's human metarig (spine, neck, head, legs "
      "with heels, arms)"),
     ("QUADRUPED", "Quadruped", "Four legs on the ground: Rigify's quadruped metarig (spine, neck, head, "
      "four paws, a tail when the mesh has one)"),
+    ("CHAIN", "Chain", "No legs (a snake, a worm, a fish, a blob with a head): Rigify's shark metarig (a spine "
+     "from tail to head, fins or tentacles as side chains)"),
+    ("WINGED", "Winged", "Wings spread to the sides (a bird, a dragon, a moth): Rigify's bird metarig (spine, "
+     "neck, head, tail, wings, and two or four legs when it stands on them)"),
 ]
 
 # The way the character faces (the mesh's frame, +Z up); AUTO: found from the mesh.
@@ -54,6 +60,26 @@ RIGIFY_TYPES = {
         "front_thigh.S": ("limbs.front_paw", {"ik_local_location": False},
                           {"fk": "Arm.S (FK)", "tweak": "Arm.S (Tweak)"}),
     },
+    # Rigify's shark metarig: its torso spine.003 > spine.008 > spine.004 > spine.005, the head
+    # spine.006 > spine.007, the tail spine.002 > spine.001 > spine, fins as tentacles.
+    "CHAIN": {
+        "spine.003": ("spines.basic_spine", {"pivot_pos": 2}, {"fk": "Spine (Tweak)", "tweak": "Spine (Tweak)"}),
+        "spine.006": ("spines.super_head", {"connect_chain": True}, {"tweak": "Spine (Tweak)"}),
+        "spine.002": ("spines.basic_tail", {"connect_chain": True}, {"tweak": "Spine (Tweak)"}),
+        **{f"{fin}.S": ("limbs.simple_tentacle", {}, {})
+           for fin in ("side_fin", "chest_fin", "back_fin", "mid_fin", "tail_fin")},
+    },
+    # Rigify's bird metarig: torso spine.003 > ... > spine.006, neck.001 > neck.002 > head, wings
+    # from a shoulder, legs as paws.
+    "WINGED": {
+        "spine.003": ("spines.basic_spine", {"pivot_pos": 2}, {"fk": "Spine (Tweak)", "tweak": "Spine (Tweak)"}),
+        "neck.001": ("spines.super_head", {"connect_chain": True}, {"tweak": "Spine (Tweak)"}),
+        "spine.002": ("spines.basic_tail", {"connect_chain": True}, {"tweak": "Spine (Tweak)"}),
+        "shoulder.S": ("basic.super_copy", {"make_widget": False}, {}),
+        "Wing.S": ("limbs.simple_tentacle", {}, {}),
+        "thigh.S": ("limbs.paw", {"ik_local_location": False}, {"fk": "Leg.S (FK)", "tweak": "Leg.S (Tweak)"}),
+        "front_thigh.S": ("limbs.paw", {"ik_local_location": False}, {"fk": "Arm.S (FK)", "tweak": "Arm.S (Tweak)"}),
+    },
 }
 
 # Rigify's bone collections, as on its Basic metarigs: (name, row of its button in the rig's UI,
@@ -64,7 +90,13 @@ _LIMBS = [(f"{part}.S ({kind})", row + k, "" if kind == "IK" else f"({kind})")
 BONE_COLLECTIONS = {
     "BIPED": [("Torso", 1, ""), ("Torso (Tweak)", 2, "(Tweak)"), *_LIMBS, ("Root", 13, "")],
     "QUADRUPED": [("Spine", 1, ""), ("Spine (Tweak)", 2, "(Tweak)"), *_LIMBS, ("Tail", 12, ""), ("Root", 15, "")],
+    "CHAIN": [("Spine", 1, ""), ("Spine (Tweak)", 2, "(Tweak)"), ("Fins", 3, ""), ("Tail", 4, ""), ("Root", 6, "")],
+    "WINGED": [("Spine", 1, ""), ("Spine (Tweak)", 2, "(Tweak)"), ("Wings", 3, ""), *_LIMBS, ("Tail", 12, ""),
+               ("Root", 15, "")],
 }
+# Tail bones of each template (a quadruped's tail leaves its root; a chain's and a bird's theirs).
+TAIL_BONES = {"QUADRUPED": ("spine", "spine.001", "spine.002", "spine.003"),
+              "CHAIN": ("spine", "spine.001", "spine.002"), "WINGED": ("spine", "spine.001", "spine.002")}
 # Bones whose Z axis points forward (the arms; their X axis, the elbow's and wrist's bending
 # axis, then lies across the arm), and bones whose X axis points to the character's right
 # (the toes), as on Rigify's metarigs. Every other bone has its X axis to the character's left
@@ -94,11 +126,15 @@ def rig_types(template: str, names: list[str]) -> dict[str, tuple[str, dict, dic
 
 def bone_collection(template: str, name: str) -> str:
     """The Rigify bone collection (``BONE_COLLECTIONS``) bone ``name`` goes in, as on the Basic
-    metarigs: limbs by side, a quadruped's shoulders with its front legs and its tail apart, the
-    rest in the torso."""
+    and Animals metarigs: limbs by side, a quadruped's shoulders with its front legs, tails,
+    fins and wings apart, the rest in the torso."""
     side = name[-1] if name.endswith((".L", ".R")) else ""
-    if template == "QUADRUPED" and name in ("spine", "spine.001", "spine.002", "spine.003"):
+    if name in TAIL_BONES.get(template, ()):
         return "Tail"
+    if template == "CHAIN" and side:
+        return "Fins"
+    if template == "WINGED" and name.startswith(("Wing", "shoulder.")):
+        return "Wings"
     if side and (name.startswith(("upper_arm.", "forearm.", "hand.", "front_"))
                  or (template == "QUADRUPED" and name.startswith("shoulder."))):
         return f"Arm.{side} (IK)"
@@ -325,3 +361,66 @@ def remove_armature(arm: bpy.types.Object, meshes) -> None:
     bpy.data.objects.remove(arm)
     if data.users == 0:
         bpy.data.armatures.remove(data)
+
+
+def rigify_enabled() -> bool:
+    """Whether the Rigify add-on is enabled (its properties are registered)."""
+    return hasattr(bpy.types.PoseBone, "rigify_type")
+
+
+def make_control_rig(context, metarig: bpy.types.Object, meshes, bind: bool) -> bpy.types.Object:
+    """Rigify's Generate Rig on ``metarig`` (Auto Rig's armature), then, with ``bind``, the
+    meshes bound to the control rig's DEF bones instead: the metarig's groups, modifier and
+    parent taken off and Auto Weights (Heat) solved again for the DEF bones (Rigify splits a
+    limb bone into twist segments, which take their own share). The metarig is hidden, as after
+    a Generate by hand; the control rig is active and selected alone. On any failure the
+    control rig is removed again and the error raised."""
+    for ob in context.selected_objects:
+        ob.select_set(False)
+    metarig.select_set(True)
+    context.view_layer.objects.active = metarig
+    rig = None
+    try:
+        try:
+            result = bpy.ops.pose.rigify_generate()
+        except RuntimeError as err:
+            raise RuntimeError(f"Rigify's Generate Rig failed: {str(err).removeprefix('Error: ').strip()}") from None
+        rig = metarig.data.rigify_target_rig
+        if result != {"FINISHED"} or rig is None:
+            raise RuntimeError(f"Rigify's Generate Rig failed ({', '.join(result)})")
+        if bind:
+            names = {b.name for b in metarig.data.bones}
+            for ob in meshes:
+                for mod in [m for m in ob.modifiers if m.type == "ARMATURE" and m.object == metarig]:
+                    ob.modifiers.remove(mod)
+                for group in [g for g in ob.vertex_groups if g.name in names]:
+                    ob.vertex_groups.remove(group)
+                if ob.parent == metarig:
+                    world = ob.matrix_world.copy()
+                    ob.parent = None
+                    ob.matrix_world = world
+            if context.object is not None and context.object.mode != "OBJECT":
+                bpy.ops.object.mode_set(mode="OBJECT")
+            for ob in context.selected_objects:
+                ob.select_set(False)
+            for ob in meshes:
+                ob.select_set(True)
+            rig.select_set(True)
+            context.view_layer.objects.active = rig
+            try:
+                done = bpy.ops.object.miniskeleton_auto_weights(method="HEAT")
+            except RuntimeError as err:
+                raise RuntimeError(f"binding to the control rig failed: "
+                                   f"{str(err).removeprefix('Error: ').strip()}") from None
+            if done != {"FINISHED"}:
+                raise RuntimeError(f"binding to the control rig failed ({', '.join(done)})")
+    except Exception:
+        if rig is not None:
+            remove_armature(rig, meshes)
+        raise
+    for ob in context.selected_objects:
+        ob.select_set(False)
+    metarig.hide_set(True)
+    rig.select_set(True)
+    context.view_layer.objects.active = rig
+    return rig

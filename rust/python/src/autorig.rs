@@ -8,9 +8,10 @@ use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
-/// Rig a bare mesh of a standing character (+Z up). template "AUTO" | "BIPED" | "QUADRUPED";
-/// forward: None or a (3,) vector, the way the character faces; resolution: voxels along the
-/// longest side. Returns a dict: template ("BIPED" | "QUADRUPED"), names (list of str), heads
+/// Rig a bare mesh of a character (+Z up). template "AUTO" | "BIPED" | "QUADRUPED" | "CHAIN" |
+/// "WINGED"; forward: None or a (3,) vector, the way the character faces; resolution: voxels
+/// along the longest side. Returns a dict: template ("BIPED" | "QUADRUPED" | "CHAIN" |
+/// "WINGED"), reason (str: why that template), names (list of str), heads
 /// and tails (k,3) float32, parents (k,) int64 (-1 for the root), connected (k,) bool, forward
 /// and left (3,) float32 (left: the `.L` side), tail (bool), and the centre-line tree the bones were
 /// laid along: centre_points (c,3) float32, centre_edges (e,2) uint32. ValueError when the mesh cannot
@@ -31,8 +32,12 @@ pub fn auto_rig<'py>(
         "AUTO" => Template::Auto,
         "BIPED" => Template::Biped,
         "QUADRUPED" => Template::Quadruped,
+        "CHAIN" => Template::Chain,
+        "WINGED" => Template::Winged,
         other => {
-            return Err(PyValueError::new_err(format!("template must be AUTO, BIPED or QUADRUPED, got {other:?}")))
+            return Err(PyValueError::new_err(format!(
+                "template must be AUTO, BIPED, QUADRUPED, CHAIN or WINGED, got {other:?}"
+            )))
         }
     };
     let forward = match forward {
@@ -48,7 +53,8 @@ pub fn auto_rig<'py>(
     let opts = AutoRigOptions { template, forward, resolution };
     let rig = guarded(py, move || autorig::auto_rig(&v, &t, &opts))?;
     let d = PyDict::new(py);
-    d.set_item("template", if rig.template == Template::Quadruped { "QUADRUPED" } else { "BIPED" })?;
+    d.set_item("template", rig.template.name())?;
+    d.set_item("reason", rig.reason.clone())?;
     d.set_item("names", rig.bones.iter().map(|b| b.name.clone()).collect::<Vec<_>>())?;
     d.set_item("heads", from_rows(py, &rig.bones.iter().map(|b| b.head).collect::<Vec<_>>())?)?;
     d.set_item("tails", from_rows(py, &rig.bones.iter().map(|b| b.tail).collect::<Vec<_>>())?)?;

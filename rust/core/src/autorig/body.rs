@@ -8,7 +8,9 @@
 //! Method, by geometry only:
 //! - **feet** are leaves within [`GROUND_BAND`] of the height above the lowest vertex whose
 //!   path up into the body climbs: over its first [`LEG_WALK`] of the height it rises at least
-//!   [`LEG_SLOPE`] of the way (a figure lying down has no such leaf);
+//!   [`LEG_SLOPE`] of the way (a figure lying down has no such leaf), through a tube, not a
+//!   sheet: above the foot the solid across the path is at most [`MEMBRANE`] times as wide as
+//!   it is thick (`section`; a wing's membrane hanging to the ground, a cape, is no leg);
 //! - leaves whose paths meet below [`SHIN`] of the height (a toe and a heel) are one foot;
 //! - two or three feet make a biped, four or more a quadruped (its four lowest);
 //! - a biped's left-right axis joins its feet; it faces where its toes point (the foot's
@@ -19,8 +21,12 @@
 //!   is the most forward leaf, its tail the most backward leaf behind the hind legs on a long
 //!   enough branch.
 
+use super::axial;
 use super::centreline::Tree;
 use super::line::Line;
+use super::parts::{end_thickness, frame, horizontal, Body, Template};
+use super::section;
+use super::symmetry::{mirror_plane, Mirror};
 use super::voxels::Voxels;
 use crate::{Error, Result};
 use glam::DVec3;
@@ -31,50 +37,26 @@ const GROUND_BAND: f64 = 0.2;
 const LEG_WALK: f64 = 0.3;
 /// ...climbs at least this fraction of the way it goes.
 const LEG_SLOPE: f64 = 0.5;
+/// A leg is a tube: across its path above the foot, the solid is at most this many times as wide
+/// as it is thick (the median over the path; limbs read 1 to 2, a membrane its width over its
+/// thickness, 3 and more).
+const MEMBRANE: f64 = 2.5;
 /// Legs are compared where they cross this fraction of the height (shins, not toes or heels).
 const SHIN: f64 = 0.15;
 /// A hand lies at least this fraction of the height to the side of the body's middle.
 const HAND_REACH: f64 = 0.12;
 /// A tail's branch is at least this fraction of the hind-to-front distance.
 const TAIL_LENGTH: f64 = 0.25;
-
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Template {
-    /// Decide from the number of feet.
-    Auto,
-    Biped,
-    Quadruped,
-}
-
-/// The parts found in the tree (node indices) and the body's directions.
-#[derive(Debug, Clone)]
-pub(crate) struct Body {
-    pub template: Template,
-    /// Biped: [left, right]; quadruped: [hind left, hind right, front left, front right].
-    pub feet: Vec<usize>,
-    /// Biped: [left, right], when both are found.
-    pub hands: Option<[usize; 2]>,
-    pub head: usize,
-    pub tail: Option<usize>,
-    /// Where the legs join (biped: one; quadruped: hind, front).
-    pub hips: usize,
-    pub chest: Option<usize>,
-    /// Biped: the point between the legs where the body closes over them (the crotch), when
-    /// the legs' paths show it; the tree's own junction can sit far higher when a flat torso
-    /// lets each leg's path run up it on its own.
-    pub crotch: Option<DVec3>,
-    /// The mirror plane: `p . left = plane`, midway between the legs where they are shins (the
-    /// legs are the most reliably symmetric part; a hand's pose or a prop is not).
-    pub plane: f64,
-    pub forward: DVec3,
-    pub left: DVec3,
-    /// Lowest vertex height (unit frame).
-    pub ground: f64,
-}
-
-fn horizontal(v: DVec3) -> DVec3 {
-    DVec3::new(v.x, v.y, 0.0)
-}
+/// Legs hold the body up: nothing but the feet touches the ground within this share of the
+/// distance between a pair of feet (horizontally) of the feet's centre.
+const UNDER: f64 = 0.25;
+/// What lies within this fraction of the height above the lowest vertex touches the ground.
+const CONTACT: f64 = 0.04;
+/// A foot reaches this fraction of the height beyond its leg (toes, a heel, a boot).
+const FOOT: f64 = 0.08;
+/// A head and neck rise above the tail by at least this fraction of the height, or the
+/// thicker end is the head.
+const RISE: f64 = 0.05;
 
 /// Find the body's parts. `forward`: the facing asked for (horizontal, any length), if any.
 pub(crate) fn find_body(
@@ -87,20 +69,76 @@ pub(crate) fn find_body(
     let ground = vertices.iter().map(|p| p.z).fold(f64::INFINITY, f64::min);
     let top = vertices.iter().map(|p| p.z).fold(f64::NEG_INFINITY, f64::max);
     let height = top - ground;
-    let leaves = tree.leaves();
+    let feet = feet(tree, vox, ground, height);
+    let mirror = mirror_plane(vox);
+    // Legs that hold the body up, in pairs (a quadruped's pairs found along the tree).
+    let pairs: Vec<[usize; 2]> = match feet.len() {
+        0 | 1 => Vec::new(),
+        2 | 3 => biped_pair(tree, &feet, &mirror, ground, height).into_iter().collect(),
+        _ => pair_feet(tree, &feet[..4], &mirror).to_vec(),
+    };
+    let pairs = if pairs.iter().all(|&p| sides(tree, p, &mirror, ground, height)) { pairs } else { Vec::new() };
+    let legs: Vec<usize> = pairs.iter().flatten().copied().collect();
+    let legs = if lifted(tree, vox, &legs, ground, height) { legs } else { Vec::new() };
+    let n_legs = legs.len();
+    let needs = |what: &str| {
+        Error::Unsuitable(format!(
+            "{what}: {} limb(s) reach the ground and rise from it (the Biped template takes a character \
+             standing on its feet, +Z up; Chain and Winged take bodies without legs)",
+            feet.len(),
+        ))
+    };
+    let legged = |t: Template| match t {
+        Template::Quadruped => {
+            quadruped(tree, vertices, &pair_feet(tree, &feet[..4], &mirror), forward, ground, height)
+        }
+        _ => biped(tree, vox, vertices, [feet[0], feet[1]], forward, ground, height),
+    };
+    let mut body = match template {
+        Template::Quadruped if feet.len() < 4 => {
+            return Err(Error::Unsuitable(format!(
+                "found {} feet on the ground; a quadruped needs 4 (try the Biped template)",
+                feet.len()
+            )))
+        }
+        Template::Biped if feet.len() < 2 => return Err(needs("not standing upright")),
+        Template::Biped | Template::Quadruped => legged(template)?,
+        Template::Chain => {
+            axial::axial_body(tree, vox, &mirror, vertices, &[], Template::Chain, forward, ground, height)?
+        }
+        Template::Winged => {
+            axial::axial_body(tree, vox, &mirror, vertices, &legs, Template::Winged, forward, ground, height)?
+        }
+        Template::Auto => {
+            let winged =
+                axial::axial_body(tree, vox, &mirror, vertices, &legs, Template::Winged, forward, ground, height);
+            match winged {
+                Ok(b) => b,
+                Err(_) if n_legs >= 4 => legged(Template::Quadruped)?,
+                Err(_) if n_legs >= 2 => legged(Template::Biped)?,
+                Err(_) => {
+                    axial::axial_body(tree, vox, &mirror, vertices, &[], Template::Auto, forward, ground, height)?
+                }
+            }
+        }
+    };
+    if body.reason.is_empty() {
+        body.reason = match (template, body.template) {
+            (Template::Auto, Template::Quadruped) => "4 legs hold the body up".into(),
+            (Template::Auto, Template::Biped) => "2 legs hold the body up".into(),
+            _ => "asked for".into(),
+        };
+    }
+    Ok(body)
+}
+
+/// Leaves that reach the ground and rise from it like legs, through a tube, one per leg (a toe
+/// and a heel whose paths meet below the shins are one foot, the lowest), lowest first.
+fn feet(tree: &Tree, vox: &Voxels, ground: f64, height: f64) -> Vec<usize> {
     let centre = tree.deepest();
     let mut low: Vec<usize> =
-        leaves.iter().copied().filter(|&l| tree.pos[l].z - tree.radius[l] < ground + GROUND_BAND * height).collect();
+        tree.leaves().into_iter().filter(|&l| tree.pos[l].z - tree.radius[l] < ground + GROUND_BAND * height).collect();
     low.sort_by(|&a, &b| tree.pos[a].z.total_cmp(&tree.pos[b].z));
-    if low.is_empty() {
-        return Err(Error::Unsuitable(
-            "no ground contact: no limb reaches down to the lowest part of the mesh (Auto Rig takes a \
-             character standing upright, +Z up, on its feet)"
-                .into(),
-        ));
-    }
-    // One foot per leg: leaves whose paths meet below the shins (a toe and a heel) are one
-    // foot, the lowest of them (`low` is sorted by height).
     let mut legs_seen = Vec::new();
     let mut feet: Vec<usize> = Vec::new();
     for &l in &low {
@@ -108,33 +146,109 @@ pub(crate) fn find_body(
             continue;
         }
         let path = tree.path(l, centre);
-        let leg = path.iter().copied().find(|&n| tree.pos[n].z >= ground + SHIN * height).unwrap_or(centre);
+        if section::flatness(tree, vox, &path, FOOT * height, LEG_WALK * height).is_some_and(|f| f > MEMBRANE) {
+            continue;
+        }
+        let leg = shin(tree, &path, ground, height);
         if !legs_seen.contains(&leg) {
             legs_seen.push(leg);
             feet.push(l);
         }
     }
-    if feet.len() < 2 {
-        return Err(Error::Unsuitable(format!(
-            "not standing upright: {} limb(s) reach the ground but {} rise(s) from it (Auto Rig takes a \
-             character standing on its feet, +Z up)",
-            low.len(),
-            feet.len()
-        )));
+    feet
+}
+
+/// A biped's two feet among two or three: of those on opposite sides of the mirror plane, the
+/// two nearest each other's mirror images (the lowest two when the body does not mirror well).
+fn biped_pair(tree: &Tree, feet: &[usize], mirror: &Mirror, ground: f64, height: f64) -> Option<[usize; 2]> {
+    if mirror.score < axial::SYMMETRIC {
+        return Some([feet[0], feet[1]]);
     }
-    let template = match template {
-        Template::Auto if feet.len() >= 4 => Template::Quadruped,
-        Template::Auto => Template::Biped,
-        t => t,
+    let mut best: Option<([usize; 2], f64)> = None;
+    for i in 0..feet.len() {
+        for j in i + 1..feet.len() {
+            let p = [feet[i], feet[j]];
+            let d = (mirror.reflect(tree.pos[p[0]]) - tree.pos[p[1]]).length();
+            if sides(tree, p, mirror, ground, height) && best.is_none_or(|b| d < b.1) {
+                best = Some((p, d));
+            }
+        }
+    }
+    best.map(|b| b.0)
+}
+
+/// Do the feet `pair` stand on opposite sides of the mirror plane, their legs off it: where a
+/// leg crosses the shins, the plane passes at least half the leg's depth from its centre (a
+/// moth's abdomen on the plane is no leg; a winged biped's legs are near the plane for its
+/// span, not for their thickness)? Always when the body does not mirror well.
+fn sides(tree: &Tree, pair: [usize; 2], mirror: &Mirror, ground: f64, height: f64) -> bool {
+    let leg = pair.map(|f| shin(tree, &tree.path(f, tree.deepest()), ground, height));
+    let d = leg.map(|n| mirror.distance(tree.pos[n]));
+    mirror.score < axial::SYMMETRIC || (d[0] * d[1] < 0.0 && (0..2).all(|i| d[i].abs() >= 0.5 * tree.radius[leg[i]]))
+}
+
+/// Where the `path` from a foot up into the body first reaches the shins ([`SHIN`] of the
+/// height), or the path's end.
+fn shin(tree: &Tree, path: &[usize], ground: f64, height: f64) -> usize {
+    path.iter().copied().find(|&n| tree.pos[n].z >= ground + SHIN * height).unwrap_or(path[path.len() - 1])
+}
+
+/// Four feet in two pairs, the left and right legs of the hind and the front: of the three ways
+/// to pair them, the one whose feet lie nearest to each other's mirror images across the body's
+/// vertical mirror plane (a lizard's splayed legs stand wider apart than front from back). A
+/// body that does not mirror well pairs the feet whose paths along the tree are shortest.
+fn pair_feet(tree: &Tree, feet: &[usize], mirror: &Mirror) -> [[usize; 2]; 2] {
+    let d = |a: usize, b: usize| {
+        if mirror.score >= axial::SYMMETRIC {
+            (mirror.reflect(tree.pos[a]) - tree.pos[b]).length()
+        } else {
+            tree.path_length(a, b)
+        }
     };
-    match template {
-        Template::Quadruped if feet.len() < 4 => Err(Error::Unsuitable(format!(
-            "found {} feet on the ground; a quadruped needs 4 (try the Biped template)",
-            feet.len()
-        ))),
-        Template::Quadruped => quadruped(tree, vertices, &feet[..4], forward, ground, height),
-        _ => biped(tree, vox, vertices, [feet[0], feet[1]], forward, ground, height),
+    let ways = [[[0, 1], [2, 3]], [[0, 2], [1, 3]], [[0, 3], [1, 2]]];
+    let best = ways
+        .iter()
+        .min_by(|x, y| {
+            let cost = |w: &[[usize; 2]; 2]| d(feet[w[0][0]], feet[w[0][1]]) + d(feet[w[1][0]], feet[w[1][1]]);
+            cost(x).total_cmp(&cost(y))
+        })
+        .unwrap();
+    best.map(|p| p.map(|i| feet[i]))
+}
+
+/// Do the legs ending at `feet` (in pairs) hold the body up: does nothing of the body touch the
+/// ground under its middle (within [`UNDER`] of the stance's width, horizontally, of the feet's
+/// centre), feet aside (what lies within [`FOOT`] of a leg's path below the shins)? A fish
+/// resting on its fins, a cone on flippers or a moth on its abdomen touch the ground there; a
+/// lizard's belly, a biped's crotch, a quadruped's belly do not.
+/// The ground band is [`CONTACT`] of the height, or two voxels, above the lowest vertex.
+fn lifted(tree: &Tree, vox: &Voxels, feet: &[usize], ground: f64, height: f64) -> bool {
+    if feet.is_empty() {
+        return false;
     }
+    // Under the middle: around the feet's centre, within a share of the stance's width.
+    let middle = feet.iter().map(|&f| tree.pos[f]).sum::<DVec3>() / feet.len() as f64;
+    let reach = UNDER
+        * feet
+            .chunks(2)
+            .map(|p| horizontal(tree.pos[p[0]] - tree.pos[p[p.len() - 1]]).length())
+            .fold(f64::INFINITY, f64::min);
+    let band = ground + (CONTACT * height).max(2.0 * vox.step);
+    // The feet: each foot's path up to the shins (not where it dips into a body resting low),
+    // and what lies
+    // within their depth and a foot's reach of them, horizontally (a boot, toes, a heel).
+    let shin = ground + SHIN * height;
+    let soles: Vec<usize> = feet
+        .iter()
+        .flat_map(|&f| tree.path(f, tree.deepest()).into_iter().take_while(|&n| tree.pos[n].z < shin))
+        .chain(feet.iter().copied())
+        .collect();
+    !(0..vox.inside.len()).filter(|&v| vox.inside[v]).any(|v| {
+        let p = vox.centre(v);
+        p.z < band
+            && horizontal(p - middle).length() <= reach
+            && soles.iter().all(|&n| horizontal(p - tree.pos[n]).length() > tree.radius[n] + FOOT * height)
+    })
 }
 
 /// Does the path from leaf `l` towards `centre` rise like a leg: over its first
@@ -226,6 +340,9 @@ fn biped(
     let crotch = crotch(tree, vox, feet, ground, tree.pos[hips].z);
     let plane = (shin(feet[0]) + shin(feet[1])).dot(left) * 0.5;
     Ok(Body {
+        reason: String::new(),
+        symmetric: true,
+        axial: None,
         crotch,
         plane,
         template: Template::Biped,
@@ -244,37 +361,41 @@ fn biped(
 fn quadruped(
     tree: &Tree,
     vertices: &[DVec3],
-    feet: &[usize],
+    pairs: &[[usize; 2]; 2],
     forward: Option<DVec3>,
     ground: f64,
     height: f64,
 ) -> Result<Body> {
     let shin = |f: usize| point_at_height(tree, f, ground + SHIN * height).unwrap_or(tree.pos[f]);
-    let q: Vec<DVec3> = feet.iter().map(|&f| horizontal(shin(f))).collect();
-    let mean = q.iter().sum::<DVec3>() / 4.0;
-    // Long axis of the four feet (2x2 covariance).
-    let (mut sxx, mut sxy, mut syy) = (0.0, 0.0, 0.0);
-    for p in &q {
-        let d = *p - mean;
-        sxx += d.x * d.x;
-        sxy += d.x * d.y;
-        syy += d.y * d.y;
-    }
-    let angle = 0.5 * (2.0 * sxy).atan2(sxx - syy);
-    let axis = DVec3::new(angle.cos(), angle.sin(), 0.0);
-    let mut order: Vec<usize> = (0..4).collect();
-    order.sort_by(|&a, &b| q[a].dot(axis).total_cmp(&q[b].dot(axis)));
-    let (back, front) = ([feet[order[0]], feet[order[1]]], [feet[order[2]], feet[order[3]]]);
-    let s_back = (q[order[0]] + q[order[1]]).dot(axis) * 0.5;
-    let s_front = (q[order[2]] + q[order[3]]).dot(axis) * 0.5;
+    let mid = |p: [usize; 2]| horizontal(shin(p[0]) + shin(p[1])) * 0.5;
+    // The body's axis runs from one pair of legs to the other.
+    let axis = (mid(pairs[1]) - mid(pairs[0])).normalize_or(DVec3::X);
+    let (back, front) = (pairs[0], pairs[1]);
+    let s_back = mid(back).dot(axis);
+    let s_front = mid(front).dot(axis);
+    let feet: Vec<usize> = pairs.iter().flatten().copied().collect();
     let facing = match forward {
         Some(f) => f,
         None => {
-            // The head and neck rise above the body; the tail seldom does.
+            // The head and neck rise above the body; the tail seldom does. A long, low body
+            // (a lizard) holds its head as low as its tail: then its head is the thicker end.
             let top = |beyond: &dyn Fn(f64) -> bool| {
                 vertices.iter().filter(|p| beyond(p.dot(axis))).map(|p| p.z).fold(f64::NEG_INFINITY, f64::max)
             };
-            if top(&|s| s > s_front) >= top(&|s| s < s_back) {
+            let rise = top(&|s| s > s_front) - top(&|s| s < s_back);
+            let ahead = if rise.abs() > RISE * height {
+                rise > 0.0
+            } else {
+                let end = |sign: f64| {
+                    let beyond = |n: usize| {
+                        sign * (horizontal(tree.pos[n]).dot(axis) - if sign > 0.0 { s_front } else { s_back })
+                    };
+                    let far = (0..tree.pos.len()).max_by(|&a, &b| beyond(a).total_cmp(&beyond(b))).unwrap_or(0);
+                    end_thickness(tree, far, beyond(far))
+                };
+                end(1.0) >= end(-1.0)
+            };
+            if ahead {
                 axis
             } else {
                 -axis
@@ -319,6 +440,9 @@ fn quadruped(
         })
         .min_by(|&a, &b| along(a).total_cmp(&along(b)));
     Ok(Body {
+        reason: String::new(),
+        symmetric: true,
+        axial: None,
         template: Template::Quadruped,
         feet: all.to_vec(),
         hands: None,
@@ -332,16 +456,6 @@ fn quadruped(
         left,
         ground,
     })
-}
-
-/// Forward (horizontal, unit) and left (`up x forward`).
-fn frame(facing: DVec3) -> Result<(DVec3, DVec3)> {
-    let f = horizontal(facing);
-    if !(f.length() > 1e-9) {
-        return Err(Error::InvalidArgument("the facing direction must have a horizontal part".into()));
-    }
-    let f = f.normalize();
-    Ok((f, DVec3::Z.cross(f)))
 }
 
 /// First point on the path from leaf `l` into the tree (towards the deepest node) at height `z`.

@@ -70,6 +70,27 @@ impl Tree {
         out
     }
 
+    /// The length of the path from `a` to `b`.
+    pub fn path_length(&self, a: usize, b: usize) -> f64 {
+        self.path(a, b).windows(2).map(|w| (self.pos[w[1]] - self.pos[w[0]]).length()).sum()
+    }
+
+    /// Distances along the tree from `a` to every node (`INFINITY` where unreached).
+    pub fn distances_from(&self, a: usize) -> Vec<f64> {
+        let mut dist = vec![f64::INFINITY; self.pos.len()];
+        dist[a] = 0.0;
+        let mut stack = vec![a];
+        while let Some(x) = stack.pop() {
+            for &y in &self.adj[x] {
+                if dist[y].is_infinite() {
+                    dist[y] = dist[x] + (self.pos[y] - self.pos[x]).length();
+                    stack.push(y);
+                }
+            }
+        }
+        dist
+    }
+
     /// Where the paths between `a`, `b` and `c` meet.
     pub fn median(&self, a: usize, b: usize, c: usize) -> usize {
         let ab = self.path(a, b);

@@ -14,9 +14,11 @@
 //! the head, whose bone ends one head radius past its centre. Pairs are made exactly mirrored
 //! across the mesh's vertical mirror plane.
 
-use super::body::{Body, Template};
+use super::bones::{hip, leg_line, limb_points, spine_names, straightness, Bone, Builder};
 use super::centreline::Tree;
+use super::chain;
 use super::line::Line;
+use super::parts::{Body, Template};
 use crate::skeleton::{fit_joints, FitOptions};
 use glam::DVec3;
 
@@ -27,45 +29,10 @@ const ASYMMETRY: f64 = 0.02;
 const SETTLE_MOVE: f64 = 0.03;
 /// A tail bone chain is at least this fraction of the torso's length.
 const TAIL_MIN: f64 = 0.2;
-/// Shortest bone, unit frame.
-const MIN_BONE: f64 = 2e-3;
-
-/// One bone of the result, unit frame.
-#[derive(Debug, Clone, PartialEq)]
-pub(crate) struct Bone {
-    pub name: String,
-    pub head: DVec3,
-    pub tail: DVec3,
-    pub parent: Option<usize>,
-    pub connected: bool,
-}
-
-struct Builder {
-    bones: Vec<Bone>,
-}
-
-impl Builder {
-    fn add(&mut self, name: &str, head: DVec3, tail: DVec3, parent: Option<&str>, connected: bool) -> usize {
-        let parent = parent.and_then(|p| self.bones.iter().position(|b| b.name == p));
-        let tail = if (tail - head).length() < MIN_BONE { head + DVec3::Z * MIN_BONE } else { tail };
-        self.bones.push(Bone { name: name.into(), head, tail, parent, connected });
-        self.bones.len() - 1
-    }
-
-    /// A connected chain through `points` named `names`, the first bone under `parent`.
-    fn chain(&mut self, names: &[String], points: &[DVec3], parent: Option<&str>, connect_first: bool) {
-        for (k, name) in names.iter().enumerate() {
-            let par = if k == 0 { parent.map(str::to_string) } else { Some(names[k - 1].clone()) };
-            // A connected bone starts on its parent's tail, which `add` may have lengthened.
-            let head = if k > 0 { self.bones.last().map_or(points[k], |b| b.tail) } else { points[k] };
-            self.add(name, head, points[k + 1], par.as_deref(), k > 0 || connect_first);
-        }
-    }
-}
-
-fn spine_names(first: usize, count: usize) -> Vec<String> {
-    (first..first + count).map(|i| if i == 0 { "spine".into() } else { format!("spine.{i:03}") }).collect()
-}
+/// A biped's ankle lies at this fraction of the hip's height above the ground...
+const ANKLE: f64 = 0.08;
+/// ...or higher, up to this fraction, where the leg turns onto a long, flat foot.
+const HEEL: f64 = 0.25;
 
 /// The bones for `body`, unit frame: laid along the tree, mirrored, then settled into the
 /// mesh by Fit Skeleton (`unit`, `triangles`: the mesh in the unit frame): each joint moves to
@@ -81,7 +48,12 @@ pub(crate) fn embed(
     let mut b = Builder { bones: Vec::new() };
     match body.template {
         Template::Quadruped => quadruped(&mut b, tree, body),
+        Template::Chain | Template::Winged => chain::chain(&mut b, tree, body),
         _ => biped(&mut b, tree, body, vertices),
+    }
+    if !body.symmetric {
+        settle(&mut b.bones, unit, triangles);
+        return b.bones;
     }
     let symmetric = mirror(&mut b.bones, body, None);
     settle(&mut b.bones, unit, triangles);
@@ -130,24 +102,6 @@ fn settle(bones: &mut [Bone], unit: &[[f32; 3]], triangles: &[[u32; 3]]) {
     }
 }
 
-/// A leg's line from its junction to its foot.
-fn leg_line(tree: &Tree, junction: usize, foot: usize) -> Line {
-    Line::new(tree, &tree.path(junction, foot))
-}
-
-/// The hip joint on a leg's line and its arc length: where the leg's path, coming up from the
-/// foot, crosses the height `hip_z` (default: 80 % of the way to the junction's height, raised
-/// to that height).
-fn hip(line: &Line, hip_z: Option<f64>) -> (f64, DVec3) {
-    let zj = line.p[0].z;
-    let zf = line.p.last().unwrap().z;
-    let target = hip_z.unwrap_or(zf + 0.8 * (zj - zf));
-    // From the foot up: the last crossing along the line from the junction.
-    let s = line.crossings(target).next_back().unwrap_or(0.0);
-    let p = line.at(s);
-    (s, DVec3::new(p.x, p.y, hip_z.unwrap_or(zj.max(p.z))))
-}
-
 fn biped(b: &mut Builder, tree: &Tree, body: &Body, vertices: &[DVec3]) {
     let (fwd, left, ground) = (body.forward, body.left, body.ground);
     // Hips: half a leg's radius above the crotch, when the crotch is found.
@@ -178,10 +132,20 @@ fn biped(b: &mut Builder, tree: &Tree, body: &Body, vertices: &[DVec3]) {
     // Arms first: the shoulders' height splits chest from neck.
     let mut arms = Vec::new();
     if let (Some(hands), Some(chest)) = (body.hands, body.chest) {
+        let lines = hands.map(|h| Line::new(tree, &tree.path(chest, h)));
+        // Both arms leave the torso as far from the mirror plane, the farther of where their
+        // tubes start (however the hands are posed: an arm thick in its middle, a sleeve or a
+        // held prop, reads its tube's start inside the torso).
+        let off = |p: DVec3| (p.dot(body.left) - body.plane).abs();
+        let starts = lines.each_ref().map(|l| l.tube_start(0.0).max(0.15 * l.len()));
+        let reach = off(lines[0].at(starts[0])).max(off(lines[1].at(starts[1])));
         for (k, side) in ["L", "R"].iter().enumerate() {
-            let line = Line::new(tree, &tree.path(chest, hands[k]));
-            let s_sh = line.tube_start(0.0).max(0.15 * line.len());
+            let line = &lines[k];
             let len = line.len();
+            let s_sh = (0..=100)
+                .map(|i| starts[k] + (0.5 * len - starts[k]).max(0.0) * i as f64 / 100.0)
+                .find(|&s| off(line.at(s)) >= reach)
+                .unwrap_or(starts[k].max(0.5 * len));
             let s_wr = s_sh + 0.75 * (len - s_sh);
             let s_el = line.bend_near(s_sh + 0.52 * (s_wr - s_sh), s_sh, s_wr);
             let s_hand = s_wr + 0.45 * (len - s_wr);
@@ -226,8 +190,12 @@ fn biped(b: &mut Builder, tree: &Tree, body: &Body, vertices: &[DVec3]) {
     b.bones[4].connected = false;
 
     for (side, line, s_hip, hip) in legs {
-        let foot_z = ground + 0.08 * (hip.z - ground);
+        let foot_z = ground + ANKLE * (hip.z - ground);
         let s_ank = line.crossings(foot_z).find(|&s| s >= s_hip).unwrap_or(0.92 * line.len());
+        // A long, flat foot (a rabbit's): the leg's path comes down to the back of the foot and
+        // runs along it; the ankle is where it turns from down to along, not where it crosses
+        // the ankle's usual height far along the foot.
+        let s_ank = line.turn_down_to_along(s_hip, s_ank, ground + HEEL * (hip.z - ground)).unwrap_or(s_ank);
         let ankle = line.at(s_ank);
         let s_knee = line.bend_near(s_hip + 0.53 * (s_ank - s_hip), s_hip, s_ank);
         let mut knee = line.at(s_knee);
@@ -276,12 +244,6 @@ fn biped(b: &mut Builder, tree: &Tree, body: &Body, vertices: &[DVec3]) {
         let names: Vec<String> = ["upper_arm", "forearm", "hand"].iter().map(|n| format!("{n}.{side}")).collect();
         b.chain(&names, &[j[0], elbow, j[2], j[3]], Some(&shoulder), false);
     }
-}
-
-/// 1 for three points in a straight line, 0 when they bend by 10 degrees or more.
-fn straightness(a: DVec3, b: DVec3, c: DVec3) -> f64 {
-    let angle = (b - a).angle_between(c - b).to_degrees();
-    (1.0 - angle / 10.0).clamp(0.0, 1.0)
 }
 
 fn quadruped(b: &mut Builder, tree: &Tree, body: &Body) {
@@ -345,17 +307,8 @@ fn quadruped(b: &mut Builder, tree: &Tree, body: &Body) {
         for (k, side) in ["L", "R"].iter().enumerate() {
             let line = &legs[first + k];
             let (s_hip, hip) = hip(line, None);
-            let l = line.len();
-            let mut s = [0.0; 3];
-            for (i, f) in fr.iter().enumerate() {
-                let lo = if i == 0 { s_hip } else { s[i - 1] };
-                s[i] = line.bend_near(s_hip + f * (l - s_hip), lo, l).max(lo + MIN_BONE);
-            }
-            let tip = line.at(l - line.radius(l));
-            let mut pts = vec![hip, line.at(s[0]), line.at(s[1]), line.at(s[2]), tip];
             let bend = if first == 0 { -1.0 } else { 1.0 };
-            let nudge = fwd * bend * 0.02 * (hip - pts[2]).length() * straightness(hip, pts[1], pts[2]);
-            pts[1] += nudge;
+            let pts = limb_points(line, s_hip, hip, &fr, fwd * bend);
             let names: Vec<String> =
                 ["thigh", "shin", "foot", "toe"].iter().map(|n| format!("{prefix}{n}.{side}")).collect();
             if first == 0 {

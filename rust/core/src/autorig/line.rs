@@ -115,6 +115,20 @@ impl Line {
         best.0
     }
 
+    /// The first arc length in `from..to` below height `z` where the line, having come down,
+    /// runs more along than down (over a step of a twentieth of that stretch), or `None`.
+    pub fn turn_down_to_along(&self, from: f64, to: f64, z: f64) -> Option<f64> {
+        let h = 0.05 * (to - from);
+        if h <= 0.0 {
+            return None;
+        }
+        (0..=40).map(|k| from + (to - from) * k as f64 / 40.0).find(|&s| {
+            let (a, b) = (self.at(s), self.at((s + h).min(self.len())));
+            let d = b - a;
+            a.z < z && d.z.abs() < DVec3::new(d.x, d.y, 0.0).length() && s + h < to
+        })
+    }
+
     /// The arc length of the node nearest to `q`.
     pub fn nearest(&self, q: DVec3) -> f64 {
         let i =

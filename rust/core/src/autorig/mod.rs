@@ -1,5 +1,5 @@
-//! Auto Rig: a skeleton for a bare mesh of a standing character, biped or quadruped, following
-//! Rigify's metarig conventions.
+//! Auto Rig: a skeleton for a bare mesh of a character (a biped or a quadruped standing on its
+//! legs, a legless chain, a winged body), following Rigify's metarig conventions.
 //!
 //! [`auto_rig`] takes a mesh (any number of pieces, +Z up, standing on its feet, facing any
 //! horizontal direction, left/right symmetric or nearly so) and returns named bones with their
@@ -7,9 +7,14 @@
 //! - `voxels`: the solid as voxels and each voxel's depth (distance transform);
 //! - `centreline`: the centre-line tree of the voxels (TEASAR), whose leaves are the
 //!   extremities;
-//! - `body`: which leaves are feet, hands, head and tail, and the facing;
+//! - `body`: which leaves are feet, hands, head and tail, and the facing; legs count only when
+//!   they hold the body up;
+//! - `section`: how flat the solid is across a path (a leg is a tube, a wing's membrane a sheet);
+//! - `symmetry`: the solid's vertical mirror plane, for bodies without legs;
+//! - `axial`: a legless or winged body read along its spine (ends, wings, side chains);
 //! - `line`: a path of the tree as a polyline (heights, tube starts, bends);
-//! - `embed`: the template's joints along the tree's paths, with Rigify's names.
+//! - `embed`: the template's joints along the tree's paths, with Rigify's names; `chain`: those
+//!   of the Chain and Winged templates.
 //!
 //! Why a voxel centre line: it reads a mesh in many pieces (eyes, teeth, clothes, a hat) as one
 //! solid without any repair, costs a few Dijkstra passes on a coarse grid whatever the vertex
@@ -21,13 +26,19 @@
 //! Known limits: limbs touching the body (arms against the sides) merge with it and are not
 //! found; a character not standing upright on its feet is refused; fingers are not rigged.
 
+mod axial;
 mod body;
+mod bones;
 mod centreline;
+mod chain;
 mod embed;
 mod line;
+mod parts;
+mod section;
+mod symmetry;
 mod voxels;
 
-pub use body::Template;
+pub use parts::Template;
 
 use crate::mesh::solid::Solid;
 use crate::mesh::{validate_mesh, Frame};
@@ -69,14 +80,19 @@ pub struct RigBone {
 /// The skeleton [`auto_rig`] made.
 #[derive(Debug, Clone, PartialEq)]
 pub struct AutoRig {
-    /// [`Template::Biped`] or [`Template::Quadruped`].
+    /// The template built: [`Template::Biped`], [`Template::Quadruped`], [`Template::Chain`] or
+    /// [`Template::Winged`].
     pub template: Template,
+    /// Why that template, read from the shape ("4 legs hold the body up", "wings spread 2.1
+    /// times its height, 2 legs hold the body up", "asked for", ...).
+    pub reason: String,
     pub bones: Vec<RigBone>,
     /// The facing found (or given): unit, horizontal.
     pub forward: [f64; 3],
     /// The character's left (`up x forward`), the side of the `.L` bones.
     pub left: [f64; 3],
-    /// A tail was found and rigged (Rigify's `spine.003` .. `spine`).
+    /// A tail was rigged (quadruped: Rigify's `spine.003` .. `spine`; chain and winged:
+    /// `spine.002` .. `spine`).
     pub tail: bool,
     /// The centre-line tree the bones were laid along: points `(c, 3)` (input units) and edges
     /// `(e, 2)`, for display and diagnosis.
@@ -90,10 +106,11 @@ pub struct AutoRig {
 /// Output: [`AutoRig`], bones in Rigify's metarig order and names (`basic_human`: spine ..
 /// spine.006, thigh/shin/foot/toe/heel.02, shoulder/upper_arm/forearm/hand; `basic_quadruped`:
 /// spine.004 .. spine.011, a tail spine.003 .. spine, thigh/shin/foot/toe, shoulder and
-/// front_thigh/front_shin/front_foot/front_toe).
+/// front_thigh/front_shin/front_foot/front_toe; `shark` for Chain, `bird` for Winged: see
+/// `chain.rs`).
 /// Errors: an empty or non-finite mesh, a resolution out of range, a mesh enclosing no volume,
 /// and [`Error::Unsuitable`] for a shape the templates do not fit (no ground contact, not
-/// standing, too few feet, no head).
+/// standing, too few feet, no head, a round blob, no wings for Winged).
 pub fn auto_rig(vertices: &[[f32; 3]], triangles: &[[u32; 3]], opts: &AutoRigOptions) -> Result<AutoRig> {
     validate_mesh(vertices, triangles, true)?;
     if !(MIN_RESOLUTION..=MAX_RESOLUTION).contains(&opts.resolution) {
@@ -144,7 +161,12 @@ pub fn auto_rig(vertices: &[[f32; 3]], triangles: &[[u32; 3]], opts: &AutoRigOpt
             .collect(),
         forward: body.forward.to_array(),
         left: body.left.to_array(),
-        tail: bones.iter().any(|b| b.name == "spine.003"),
+        tail: match body.template {
+            Template::Quadruped => bones.iter().any(|b| b.name == "spine.003"),
+            Template::Chain | Template::Winged => bones.iter().any(|b| b.name == "spine.002"),
+            _ => false,
+        },
+        reason: body.reason.clone(),
         centre_points: tree.pos.iter().map(|p| out(*p)).collect(),
         centre_edges: (0..tree.pos.len())
             .flat_map(|a| tree.adj[a].iter().filter(move |&&b| a < b).map(move |&b| [a as u32, b as u32]))

@@ -65,6 +65,17 @@ impl Voxels {
         i < self.dims[0] && j < self.dims[1] && k < self.dims[2] && self.inside[self.index(i, j, k)]
     }
 
+    /// How far the solid goes on from `p` along the unit direction `dir`: the distance to the
+    /// last inside point before the first outside one, in steps of half a voxel, at most `cap`.
+    pub fn reach(&self, p: DVec3, dir: DVec3, cap: f64) -> f64 {
+        let h = 0.5 * self.step;
+        let mut t = 0.0;
+        while t + h <= cap && self.inside_at(p + dir * (t + h)) {
+            t += h;
+        }
+        t
+    }
+
     /// Build from the solid over the box `lo..hi` (unit frame).
     pub fn new(solid: &Solid, lo: DVec3, hi: DVec3, resolution: usize) -> Voxels {
         let size = hi - lo;
