@@ -41,12 +41,7 @@ def rebind(rig, how: str) -> None:
     import rig_corpus
 
     arm, body = rig.arm, largest(rig.meshes)
-    world = body.matrix_world.copy()
-    body.parent = None
-    body.matrix_world = world
-    body.vertex_groups.clear()
-    for mod in [m for m in body.modifiers if m.type == "ARMATURE"]:
-        body.modifiers.remove(mod)
+    rig_corpus.unbind(body)
     deform = [b.name for b in arm.data.bones if b.use_deform]
     if how == "segments":
         rig_corpus.bind_to_segments(body, arm, deform)

@@ -556,6 +556,17 @@ AUTORIG = {
 }
 
 
+def unbind(ob) -> None:
+    """Free mesh ``ob`` of its armature where it stands: no parent, no vertex groups, no Armature
+    modifiers."""
+    world = ob.matrix_world.copy()
+    ob.parent = None
+    ob.matrix_world = world
+    ob.vertex_groups.clear()
+    for mod in [m for m in ob.modifiers if m.type == "ARMATURE"]:
+        ob.modifiers.remove(mod)
+
+
 def bare_model(path):
     """Model ``path`` (glTF, FBX, OBJ or PLY) imported as a bare mesh: its armature(s) deleted, with
     the meshes kept where they are in the rest pose and their groups and Armature modifiers gone.
@@ -567,12 +578,7 @@ def bare_model(path):
         arm.data.pose_position = "REST"
     bpy.context.view_layer.update()
     for ob in meshes:
-        world = ob.matrix_world.copy()
-        ob.parent = None
-        ob.matrix_world = world
-        ob.vertex_groups.clear()
-        for mod in [m for m in ob.modifiers if m.type == "ARMATURE"]:
-            ob.modifiers.remove(mod)
+        unbind(ob)
     for ob in new:
         if ob.type != "MESH" or ob not in meshes:
             bpy.data.objects.remove(ob)
