@@ -32,10 +32,14 @@
 //!   0.1, front R 0.45, front L 0.55); more legs alternate by group (tripod-like).
 //! - Cycle period from the leg length (pendulum scaling): walk 1.05 s · √(L / 0.9 m), run
 //!   0.6 s · √(L / 0.9 m), the root clamped to [0.6, 1.6] (rigs not in metres), divided by
-//!   `speed`; stride per cycle 1.3 L (walk) or 2.6 L (run) times `stride`.
+//!   `speed`; stride per cycle 1.3 L (biped walk), 1.1 L (quadruped walk), 1.7 L (biped run)
+//!   or 1.8 L (gallop) times `stride`, a run's duty factor such that a foot is down at least
+//!   75 % of the cycle.
 //! - Body: spine yaw/roll sway (walk), pitch flexion (quadruped run) or twist and lean (biped
-//!   run); neck/head bob at the step rate with the head steadied; tail sway with a lag; biped
-//!   arms swing against the legs.
+//!   run); neck/head bob at the step rate with the head steadied; tail sway with a lag; arms
+//!   held out at rest hang clear of the body's skin (`skin`) and swing against the legs.
+//! - Ground: every stance foot stands on the level ground of the lowest sole of the skin
+//!   (`skin`), a body whose soles do not all rest on it settled first (`settle`).
 //! - Root: forward travel (optional) and the body's height from the planted legs' reach (with
 //!   swinging legs only: the offset that keeps every foot at or above its own rest height and
 //!   the lowest one on it); a tail carried below its rest height turns up at its base.
@@ -43,11 +47,9 @@
 //!   fade in and out (starts and ends at rest), the head taking half; ears and other head
 //!   children swing after it with 35 % of the amplitude and a lag.
 //!
-//! Known limitations: feet are planted by their bones, not the mesh, each at its own rest height:
-//! a rig whose feet do not rest on one ground keeps them apart (spot_rig's hind hooves rest 7 %
-//! of its size above its front ones, so in a gallop's hind-only stance nothing touches the
-//! ground the front hooves stood on); rotations are about world-up-based axes, so a character
-//! lying down is animated as if standing.
+//! Known limitations: the ground is a level plane; without a skin each foot keeps its own rest
+//! height; rotations are about world-up-based axes, so a character lying down is animated as if
+//! standing.
 
 use crate::error::{Error, Result};
 use crate::motion::footfalls::{body_drop, foot_offset, foot_target, leaning_foot, leg_turns, planted_legs, stand_on};
