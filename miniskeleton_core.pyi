@@ -266,10 +266,14 @@ def make_motion(
     motion: str = "WALK", *, names: Optional[list[str]] = None, fps: float = 24.0,
     cycles: float = 2.0, duration: float = 2.0, amplitude: float = 0.5236, stride: float = 1.0,
     speed: float = 1.0, root_motion: bool = True, joint_tails: bool = False,
+    skin_points: Optional[ArrayLike] = None, skin_bones: Optional[ArrayLike] = None,
 ) -> dict:
     """'HEAD_SHAKE', 'WALK' or 'RUN' for a skeleton. rest_matrices (b,3,3): rest orientation per
     bone (columns = bone X, Y, Z) in the heads' space. joint_tails: the tails are an importer's
     invention, so roles and motion read tails made from the joints (children's heads).
+    skin_points (p,3) and skin_bones (p,) int: the skin at rest in the heads' space and the bone
+    weighing most on each point (-1: none): the feet stand on the ground its soles rest on (a
+    body that does not stand level is settled first), arms hang clear of its body.
     Returns {rotations (frames,b,4) float32 local quaternions w,x,y,z; root_offset (frames,3)
     float32; animated (k,) int32; locations (frames,b,3) float32 local locations in the heads'
     units (zero but for located); located (j,) int32 (the riders); moves_root; frames;

@@ -56,7 +56,11 @@ import blender_session  # noqa: E402
 
 MOTIONS = ["WALK", "RUN", "HEAD_SHAKE"]
 CONTACT = 0.005     # contact band above the lowest z, fraction of diag
-TARGET = dict(moves=2.0, skate=0.15, pen=1.0, float=1.0, feet=0.5, head=5.0, inert=0.1)
+TARGET = dict(moves=2.0, skate=0.15, pen=1.0, float=1.0, feet=0.5, head=5.0, inert=0.1, contact=75.0, stance=1.0,
+              hang=30.0, swing=10.0, against=0.0, elbow=45.0, hand_in=1.0)
+# the skin's folds (``folds``): most volume change and collapsed triangles, %, of a walk and a
+# run (a head shake's are shown, not held to them)
+FOLDS = dict(WALK=(5.0, 0.4), RUN=(10.0, 1.5))
 
 
 # ---------------------------------------------------------------------------- measure
@@ -78,22 +82,57 @@ def world_points(meshes) -> np.ndarray:
     return np.concatenate(out) if out else np.zeros((0, 3))
 
 
-def sample(meshes, frames) -> np.ndarray:
-    """(len(frames), n, 3) world vertices of ``meshes`` on each of ``frames``."""
+def bone_points(arm, names) -> np.ndarray:
+    """(b, 2, 3) evaluated world heads and tails of ``arm``'s pose bones ``names``."""
+    m = np.array(arm.matrix_world)
+    ends = np.array([[arm.pose.bones[n].head, arm.pose.bones[n].tail] for n in names]).reshape(-1, 3)
+    return (ends @ m[:3, :3].T + m[:3, 3]).reshape(-1, 2, 3)
+
+
+def sample(meshes, frames, arm=None, bones=()):
+    """(len(frames), n, 3) world vertices of ``meshes`` on each of ``frames``; with ``arm`` and
+    bone names ``bones``, also their (len(frames), b, 2, 3) world heads and tails."""
     import bpy
 
     scene = bpy.context.scene
-    out = []
+    out, ends = [], []
     for f in frames:
         scene.frame_set(int(f))
         out.append(world_points(meshes))
-    return np.stack(out)
+        if arm is not None:
+            ends.append(bone_points(arm, bones))
+    points = np.stack(out)
+    return points if arm is None else (points, np.stack(ends) if ends else np.zeros((len(frames), 0, 2, 3)))
+
+
+def largest_mesh(meshes) -> tuple[slice, np.ndarray]:
+    """The largest of ``meshes`` (most evaluated vertices): its rows in ``world_points``'s stack
+    and its (t, 3) triangles (indices into those rows)."""
+    import bpy
+
+    dg = bpy.context.evaluated_depsgraph_get()
+    start, best = 0, (slice(0, 0), np.zeros((0, 3), dtype=np.int64))
+    for ob in meshes:
+        ev = ob.evaluated_get(dg)
+        me = ev.to_mesh()
+        me.calc_loop_triangles()
+        n = len(me.vertices)
+        if n > best[0].stop - best[0].start:
+            tris = np.empty(len(me.loop_triangles) * 3, dtype=np.int64)
+            me.loop_triangles.foreach_get("vertices", tris)
+            best = (slice(start, start + n), tris.reshape(-1, 3))
+        ev.to_mesh_clear()
+        start += n
+    return best
 
 
 def rest_of(meshes) -> dict:
-    """The rest pose's vertices, bounding-box diagonal and lowest z (call with the rig at rest)."""
+    """The rest pose's vertices, bounding-box diagonal and lowest z (call with the rig at rest),
+    and the largest mesh's rows and triangles (``largest_mesh``) for the fold measures."""
     p = world_points(meshes)
-    return dict(points=p, diag=float(np.linalg.norm(np.ptp(p, axis=0))), ground=float(p[:, 2].min()))
+    rows, tris = largest_mesh(meshes)
+    return dict(points=p, diag=float(np.linalg.norm(np.ptp(p, axis=0))), ground=float(p[:, 2].min()),
+                rows=rows, tris=tris)
 
 
 def skate(points: np.ndarray, diag: float) -> float:
@@ -112,18 +151,53 @@ def skate(points: np.ndarray, diag: float) -> float:
     return float(np.median(ratios)) if ratios else float("nan")
 
 
-def measure(arm, meshes, frames, rest: dict | None = None) -> dict:
+def volumes(points: np.ndarray, tris: np.ndarray) -> np.ndarray:
+    """(frames,) enclosed volume of the triangles ``tris`` over ``points`` (frames, n, 3), by the
+    divergence theorem about each frame's centroid (a closed surface's volume; an open one's
+    depends a little on that point)."""
+    c = points.mean(axis=1, keepdims=True)
+    a, b, d = (points[:, tris[:, k]] - c for k in range(3))
+    return np.einsum("fij,fij->f", a, np.cross(b, d)) / 6.0
+
+
+def areas(points: np.ndarray, tris: np.ndarray) -> np.ndarray:
+    """(frames, t) areas of the triangles ``tris`` over ``points`` (frames, n, 3)."""
+    a, b, d = (points[..., tris[:, k], :] for k in range(3))
+    return 0.5 * np.linalg.norm(np.cross(b - a, d - a), axis=-1)
+
+
+def folds(points: np.ndarray, rest: dict) -> dict:
+    """The skin's folds on the largest mesh (``rest_of``'s rows and triangles) over ``points``
+    (frames, n, 3): ``volume``, the worst frame's change of enclosed volume from rest, and
+    ``collapsed``, the worst frame's share of triangles whose area falls below a quarter of
+    rest (triangles of no area at rest left out), both in %."""
+    tris, rows = rest["tris"], rest["rows"]
+    if not len(tris):
+        return dict(volume=float("nan"), collapsed=float("nan"))
+    p0, p = rest["points"][rows][None], points[:, rows]
+    v0 = volumes(p0, tris)[0]
+    a0 = areas(p0, tris)[0]
+    live = a0 > 1e-12 * rest["diag"] ** 2
+    a = areas(p, tris)[:, live]
+    return dict(volume=float(np.abs(volumes(p, tris) / v0 - 1.0).max()) * 100.0 if abs(v0) > 0 else float("nan"),
+                collapsed=float((a < 0.25 * a0[live]).mean(axis=1).max()) * 100.0 if live.any() else float("nan"))
+
+
+def measure(arm, meshes, frames, rest: dict | None = None, anatomy: "Anatomy | None" = None) -> dict:
     """Measures of ``meshes`` over ``frames`` against ``rest`` (``rest_of``, taken now when not
     given, so the rig must then be at rest): moves, deform, skate, pen(etration), float, feet (% of
-    diag but skate) and the per-frame lowest z. ``arm`` is unused here but for symmetry with
-    ``head_turn``; frames are scene frames."""
+    diag but skate), the folds (``folds``) and the centroid's travel; with the rig's ``anatomy``
+    also its feet's ground contact and its arms (``Anatomy.measure``). Frames are scene frames."""
     rest = rest or rest_of(meshes)
     diag, ground, p0 = rest["diag"], rest["ground"], rest["points"]
-    pts = sample(meshes, frames)
+    if anatomy is not None:
+        pts, ends = sample(meshes, frames, arm, anatomy.bones)
+    else:
+        pts, ends = sample(meshes, frames), None
     pct = 100.0 / diag
     low = pts[:, :, 2].min(axis=1)
     feet = p0[:, 2] <= ground + CONTACT * diag
-    return dict(
+    out = dict(
         diag=diag, ground=ground, frames=len(frames),
         moves=float(np.linalg.norm(pts - p0, axis=2).max()) * pct,
         deform=float(np.linalg.norm(pts - p0 - (pts.mean(axis=1) - p0.mean(axis=0))[:, None], axis=2).max()) * pct,
@@ -132,7 +206,216 @@ def measure(arm, meshes, frames, rest: dict | None = None) -> dict:
         float=float(np.median(low - ground)) * pct,
         feet=float(np.linalg.norm(pts[:, feet] - p0[feet], axis=2).max()) * pct,
         centroid_travel=float(np.linalg.norm(pts[-1].mean(0)[:2] - pts[0].mean(0)[:2])) * pct,
+        **folds(pts, rest),
     )
+    if anatomy is not None:
+        out.update(anatomy.measure(pts, ends, rest))
+    return out
+
+
+# ---------------------------------------------------------------------------- anatomy
+
+def vertex_owners(arm, meshes) -> np.ndarray:
+    """(n,) per stacked vertex of ``meshes`` (``world_points``'s order) the name of the deform bone
+    of ``arm`` that weighs most on it (its vertex groups; a part parented to a bone: that bone),
+    or "" for none."""
+    import bpy
+
+    deform = {b.name for b in arm.data.bones if b.use_deform}
+    dg = bpy.context.evaluated_depsgraph_get()
+    out = []
+    for ob in meshes:
+        n = len(ob.evaluated_get(dg).data.vertices)
+        if ob.parent == arm and ob.parent_type == "BONE" and not ob.vertex_groups:
+            out.append(np.full(n, ob.parent_bone, dtype=object))
+            continue
+        names = {g.index: g.name for g in ob.vertex_groups if g.name in deform}
+        own = np.full(len(ob.data.vertices), "", dtype=object)
+        for v in ob.data.vertices:
+            best = max(((g.weight, g.group) for g in v.groups if g.group in names), default=None)
+            if best is not None and best[0] > 0.0:
+                own[v.index] = names[best[1]]
+        if len(own) != n:   # a modifier changes the vertex count: no owners to read
+            own = np.full(n, "", dtype=object)
+        out.append(own)
+    return np.concatenate(out) if out else np.zeros(0, dtype=object)
+
+
+def console_roles(text: str) -> list[str]:
+    """The role lines the operator wrote to the console (``[MiniSkeleton]   leg L: ...``), bare."""
+    return [ln.split("]", 1)[1].strip() for ln in text.splitlines()
+            if ln.startswith("[MiniSkeleton]") and "roles of" not in ln]
+
+
+def anatomy_of(arm, meshes, console: str, rest: dict) -> "Anatomy":
+    """The ``Anatomy`` of ``meshes`` from the roles Add Motion wrote to its ``console``."""
+    return Anatomy(arm, meshes, role_lines(console_roles(console)), rest)
+
+
+def role_lines(lines: list[str]) -> dict:
+    """The operator's console role lines (``planning.describe_roles``) read back: spine, neck,
+    head, legs [(label, side, bones)] and arms [(side, bones)] by bone name."""
+    out = dict(spine=[], neck=[], head="", legs=[], arms=[])
+
+    def names(text):
+        text = re.sub(r" \(\d+ in all\)$", "", text.strip())
+        return [n for n in text.split(", ") if n and n not in ("-", "...")]
+
+    for line in lines:
+        key, _, text = line.partition(": ")
+        if key in ("spine", "neck"):
+            out[key] = names(text)
+        elif key == "head":
+            out["head"] = text.split(" (+ ")[0].strip()
+        elif key.startswith("leg "):
+            out["legs"].append((key[4:], key[-1], names(text)))
+        elif key.startswith("arm "):
+            out["arms"].append((key[4:], names(text)))
+    return out
+
+
+BAND = 0.01         # a foot stands on the ground within this fraction of diag above it
+FOOT = 0.15         # a foot: a leg's vertices this low in its height
+PLANTED = 0.3       # a foot stands while it moves less than this share of the body's step
+SLAB = 0.03         # hands are tested against the torso's slices this thick, fraction of diag
+
+
+class Anatomy:
+    """The parts of a rig's meshes the contact and arm measures read, from the roles the operator
+    reported (``role_lines``) and the bone weighing most on each vertex (``vertex_owners``):
+    each leg's foot (its vertices in the lowest ``FOOT`` of the leg), each arm's upper arm (the
+    longer of its first two bones, each to the next bone's head), elbow and wrist, its hand (the
+    vertices of the bones from the wrist on) and the torso (spine and neck vertices)."""
+
+    def __init__(self, arm, meshes, roles: dict, rest: dict):
+        p0 = rest["points"]
+        owners = vertex_owners(arm, meshes)
+        bones = arm.data.bones
+
+        def below(names):   # the bones and their deform descendants
+            out = set()
+            for n in names:
+                if n in bones:
+                    out |= {n} | {c.name for c in bones[n].children_recursive if c.use_deform}
+            return out
+
+        def rows(names):
+            return np.flatnonzero(np.isin(owners, list(names))) if names else np.zeros(0, dtype=np.int64)
+
+        self.feet, self.legs = [], []
+        for _label, side, leg in roles["legs"]:
+            own = rows(below(leg))
+            if len(own):
+                z = p0[own, 2]
+                self.feet.append(own[z <= z.min() + FOOT * (z.max() - z.min())])
+                self.legs.append((side, leg[0], leg[-1]))
+        self.torso = rows(set(roles["spine"]) | set(roles["neck"]))
+        self.arms = []
+        for side, chain in roles["arms"]:
+            chain = [n for n in chain if n in bones]
+            if len(chain) < 3:
+                continue
+            # the upper arm as the core takes it: the longer of the first two bones, each to the
+            # next one's head (the first may be a clavicle)
+            heads = [np.array(bones[n].head_local) for n in chain[:3]]
+            k = int(np.linalg.norm(heads[1] - heads[0]) < np.linalg.norm(heads[2] - heads[1]))
+            wrist = chain[k + 2] if k + 2 < len(chain) else None
+            hand = rows(below(chain[k + 2:])) if wrist else np.zeros(0, dtype=np.int64)
+            self.arms.append(dict(side=side, upper=chain[k], elbow=chain[k + 1], wrist=wrist, hand=hand))
+        names = [leg[1] for leg in self.legs] + [leg[2] for leg in self.legs]
+        names += [a[key] for a in self.arms for key in ("upper", "elbow", "wrist") if a[key]]
+        self.bones = list(dict.fromkeys(names))
+
+    def end(self, ends, name, tail=False) -> np.ndarray:
+        """(frames, 3) posed head (or tail) of bone ``name`` from ``sample``'s bone ends."""
+        return ends[:, self.bones.index(name), int(tail)]
+
+    def measure(self, pts: np.ndarray, ends: np.ndarray, rest: dict) -> dict:
+        """Per clip: ``contact``, the share of frames (%) with a foot on the ground (its lowest point
+        within ``BAND`` of it); ``stance``, the worst foot's median height above the ground (% of
+        diag) over the frames it stands (moves less than ``PLANTED`` of the body's step); and
+        with arms: ``hang``, the worst frame's angle of an upper arm out to the side from straight
+        down (degrees; its swing along the walk apart), ``swing``, its least range of swing along
+        the walk (degrees), ``against``, the largest
+        correlation of an arm's swing with its own side's leg's (negative: against the legs),
+        ``elbow``, the least mean bend of an elbow (degrees), and ``hand_in``, the worst frame's
+        share of a hand's vertices inside the torso's slices (%)."""
+        diag, ground = rest["diag"], rest["ground"]
+        out = {}
+        if self.feet:
+            lows = np.stack([pts[:, f, 2].min(axis=1) for f in self.feet]) - ground   # (feet, frames)
+            out["contact"] = float((lows.min(axis=0) <= BAND * diag).mean()) * 100.0
+            body = np.linalg.norm(np.diff(pts.mean(axis=1)[:, :2], axis=0), axis=1)
+            worst = 0.0
+            for f, low in zip(self.feet, lows):
+                step = np.linalg.norm(np.diff(pts[:, f, :2].mean(axis=1), axis=0), axis=1)
+                stands = (step <= PLANTED * body) & (body > 1e-6 * diag)
+                if stands.any():
+                    worst = max(worst, float(np.median(np.minimum(low[1:], low[:-1])[stands])))
+                else:
+                    worst = float("nan")
+                    break
+            out["stance"] = worst * 100.0 / diag
+        if not self.arms:
+            return out
+        travel = pts[-1].mean(axis=0) - pts[0].mean(axis=0)
+        fwd = np.array([travel[0], travel[1], 0.0])
+        fwd = fwd / max(np.linalg.norm(fwd), 1e-30)
+        down = np.array([0.0, 0.0, -1.0])
+
+        def swing_angle(d):   # forward angle of directions (frames, 3) from straight down
+            return np.degrees(np.arctan2(d @ fwd, d @ down))
+
+        side = np.cross(down, fwd)   # across the body
+
+        hang, swing, against, elbow, hand_in = 0.0, float("inf"), -1.0, float("inf"), 0.0
+        for a in self.arms:
+            sh, el = self.end(ends, a["upper"]), self.end(ends, a["elbow"])
+            wr = self.end(ends, a["wrist"]) if a["wrist"] else self.end(ends, a["elbow"], tail=True)
+            up_arm, fore = el - sh, wr - el
+            aside = np.degrees(np.arctan2(np.abs(up_arm @ side), up_arm @ down))   # from down, to the side
+            hang = max(hang, float(aside.max()))
+            s = swing_angle(up_arm)
+            swing = min(swing, float(np.ptp(s)))
+            legs = [leg for leg in self.legs if leg[0] == a["side"]]
+            if legs and np.ptp(s) > 0:
+                leg = self.end(ends, legs[0][2]) - self.end(ends, legs[0][1])
+                ls = swing_angle(leg)
+                if np.ptp(ls) > 0:
+                    against = max(against, float(np.corrcoef(s, ls)[0, 1]))
+            bend = np.einsum("ij,ij->i", up_arm, fore) / np.maximum(
+                np.linalg.norm(up_arm, axis=1) * np.linalg.norm(fore, axis=1), 1e-30)
+            elbow = min(elbow, float(np.degrees(np.arccos(np.clip(bend, -1, 1))).mean()))
+            if len(a["hand"]) and len(self.torso):
+                hand_in = max(hand_in, inside_share(pts[:, a["hand"]], pts[:, self.torso], SLAB * diag))
+        out.update(hang=hang, swing=swing, against=against, elbow=elbow, hand_in=hand_in * 100.0)
+        return out
+
+
+def inside_share(hand: np.ndarray, torso: np.ndarray, slab: float) -> float:
+    """The worst frame's share of ``hand``'s points (frames, h, 3) inside ``torso``'s (frames, t, 3):
+    within the convex outline, seen from above, of the torso's points less than half a ``slab``
+    above or below them."""
+    from mathutils.geometry import convex_hull_2d
+
+    worst = 0.0
+    for hf, tf in zip(hand, torso):
+        inside = 0
+        cells = np.floor(hf[:, 2] / slab).astype(np.int64)
+        for c in np.unique(cells):
+            near = tf[np.abs(tf[:, 2] - (c + 0.5) * slab) <= slab]
+            if len(near) < 3:
+                continue
+            hull = near[convex_hull_2d([tuple(p) for p in near[:, :2]]), :2]
+            if len(hull) < 3:
+                continue
+            pts = hf[cells == c, :2]
+            edge = np.roll(hull, -1, axis=0) - hull
+            rel = pts[:, None, :] - hull[None]
+            cross = edge[None, :, 0] * rel[..., 1] - edge[None, :, 1] * rel[..., 0]
+            inside += int(((cross >= 0).all(axis=1) | (cross <= 0).all(axis=1)).sum())
+        worst = max(worst, inside / max(len(hf), 1))
+    return worst
 
 
 def head_turn(arm, bone: str, frames) -> float:
@@ -240,15 +523,15 @@ def run_motion(arm, meshes, motion: str, basis=None, **props) -> dict:
     row = dict(motion=motion, result=next(iter(result)), secs=secs, error=error, console=text,
                info=[ln[6:] for ln in text.splitlines() if ln.startswith("Info: ")],
                warnings=[ln[9:] for ln in text.splitlines() if ln.startswith("Warning: ")],
-               roles=[ln.split("]", 1)[1].strip() for ln in text.splitlines()
-                      if ln.startswith("[MiniSkeleton]") and "roles of" not in ln],
-               keyed=sorted(keyed_bones(arm)), keyed_any=keyed_anything(arm))
+               roles=console_roles(text), keyed=sorted(keyed_bones(arm)), keyed_any=keyed_anything(arm))
     if row["result"] == "FINISHED":
         span = re.search(r"frames (-?\d+)-(-?\d+)", " ".join(row["info"]))
         scene = bpy.context.scene
         lo, hi = (int(span.group(1)), int(span.group(2))) if span else (scene.frame_start, scene.frame_end)
         frames = list(range(lo, hi + 1))
-        row.update(measure(arm, meshes, frames, rest))
+        anatomy = anatomy_of(arm, meshes, text, rest)
+        row.update(measure(arm, meshes, frames, rest, anatomy))
+        row["biped_arms"] = bool(anatomy.arms) and "(biped)" in " ".join(row["info"])
         head = re.search(r"; head (.+?), legs", " ".join(row["info"]))
         if head and head.group(1) in arm.pose.bones:
             row["head_bone"] = head.group(1)
@@ -290,20 +573,47 @@ def cells(row: dict, legless: bool) -> dict:
     if done and gait and not legless:
         checks = dict(moves=moves >= TARGET["moves"], skate=row["skate"] <= TARGET["skate"],
                       pen=row["pen"] <= TARGET["pen"], float=abs(row["float"]) <= TARGET["float"])
+        if "contact" in row:
+            checks["contact"] = row["contact"] >= TARGET["contact"]
+            checks["stance"] = row["stance"] <= TARGET["stance"]   # NaN: a foot never stands
     elif done and motion == "HEAD_SHAKE":
         checks = dict(head=row.get("head", 0.0) >= TARGET["head"])
         if not legless:   # a legless rig's lowest points are a tail or a chin, not feet
             checks["feet"] = row["feet"] < TARGET["feet"]
-    for key in ("moves", "deform", "skate", "pen", "float", "feet", "head"):
-        if not done or (key == "feet" and motion != "HEAD_SHAKE") or (key == "head" and motion != "HEAD_SHAKE"):
+    if done and motion in FOLDS:
+        most_volume, most_collapsed = FOLDS[motion]
+        checks["volume"] = row["volume"] <= most_volume
+        checks["collapsed"] = row["collapsed"] <= most_collapsed
+    per_motion = dict(feet="HEAD_SHAKE", head="HEAD_SHAKE", contact="gait", stance="gait")
+    for key in ("moves", "deform", "skate", "pen", "float", "contact", "stance", "feet", "head", "volume",
+                "collapsed"):
+        wanted = per_motion.get(key)
+        if not done or (wanted == "gait" and not gait) or (wanted and wanted != "gait" and motion != wanted):
             out[key] = "–"
         else:
             value = row.get(key)
             ok = checks.get(key)
-            if key == "skate" and value is not None and math.isnan(value):
+            if key in ("skate", "stance") and value is not None and math.isnan(value):
                 ok = False if key in checks else None
-            out[key] = fmt(value, 0 if key == "head" else 2) + mark(ok)
+            out[key] = fmt(value, 0 if key in ("head", "contact") else 2) + mark(ok)
+    out["arms"] = arms_cell(row) if done and gait and row.get("biped_arms") else "–"
     return out
+
+
+def arms_cell(row: dict) -> str:
+    """Hang / swing (walk) or elbow (run) degrees and hands inside the torso %, with ✓ / ✗: a walk's
+    upper arms within ``hang`` of straight down, swinging at least ``swing`` against the legs; a
+    run's elbows bent at least ``elbow`` (its arms swing further: their hang is shown, not held
+    to the walk's); no hand in the torso."""
+    t = TARGET
+    ok = row["hand_in"] <= t["hand_in"]
+    if row["motion"] == "WALK":
+        ok = ok and row["hang"] <= t["hang"] and row["swing"] >= t["swing"] and row["against"] < t["against"]
+        text = f"{row['hang']:.0f} / {row['swing']:.0f} / {row['hand_in']:.1f}"
+    else:
+        ok = ok and row["elbow"] >= t["elbow"]
+        text = f"{row['hang']:.0f} / elbow {row['elbow']:.0f} / {row['hand_in']:.1f}"
+    return text + mark(ok)
 
 
 def shorten(text: str, most: int) -> str:
@@ -321,7 +631,9 @@ def roles_cell(row: dict) -> str:
 
 COLUMNS = [("rig", "rig"), ("motion", "motion"), ("result", "result"), ("roles", "roles reported"),
            ("moves", "moves %"), ("deform", "deform %"), ("skate", "skate"), ("pen", "pen. %"), ("float", "float %"),
-           ("feet", "feet %"), ("head", "head °"), ("secs", "op s")]
+           ("contact", "ground %"), ("stance", "stance %"), ("arms", "arms: hang° / swing° or elbow° / hand in %"),
+           ("volume", "volume %"), ("collapsed", "collapsed %"), ("feet", "feet %"), ("head", "head °"),
+           ("secs", "op s")]
 
 
 def table(rows) -> str:
@@ -408,8 +720,9 @@ def main(argv=None) -> None:
             row = run_motion(rig.arm, rig.meshes, motion, basis)
             rows.append((name, rig.legless, row))
             c = cells(row, rig.legless)
-            print(f"{name:24s} {motion:10s} {c['result'][:70]:70s} moves {c['moves']:8s} skate {c['skate']:8s} "
-                  f"pen {c['pen']:8s} float {c['float']:8s} feet {c['feet']:8s} head {c['head']}", flush=True)
+            print(f"{name:24s} {motion:10s} {c['result'][:40]:40s} skate {c['skate']:7s} pen {c['pen']:7s} "
+                  f"float {c['float']:7s} ground {c['contact']:5s} stance {c['stance']:7s} arms {c['arms']:22s} "
+                  f"vol {c['volume']:7s} coll {c['collapsed']:7s} feet {c['feet']:7s} head {c['head']}", flush=True)
     text = "\n".join(["## Add Motion on the rig corpus", "", table(rows), "", summary(rows), ""] + skipped
                      + ["", "## Details", "", details(notes, rows)])
     print()

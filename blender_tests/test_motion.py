@@ -577,6 +577,9 @@ def test_keys_in_every_rotation_mode_interpolate_the_short_way(mode):
     (want, keyed), (got, _) = motion("QUATERNION"), motion(mode)
     assert len(got) == len(want) > 100
     start = bpy.context.scene.frame_start
+    # mathutils' single-precision quaternions read angles near zero coarsely (the creature's
+    # small turns come out as multiples of 2^-10 radians, 0.00098 and 0.00195): slack for that
+    SLACK = 2.5e-3
     worst_step = 0.0
     for k in range(0, len(got) - 2, 2):
         for b in range(len(got[k])):
@@ -585,13 +588,14 @@ def test_keys_in_every_rotation_mode_interpolate_the_short_way(mode):
             # on a key the same rotation; between the walk's last key and the head shake's
             # first (the blend) the modes interpolate, as between subframes
             on_key = got[k][b].rotation_difference(want[k][b]).angle
-            assert on_key < 1e-4 if start + k // 2 in keyed else on_key <= 0.75 * step + 1e-3
+            assert on_key < 1e-4 if start + k // 2 in keyed else on_key <= 0.75 * step + SLACK, (
+                mode, k // 2, b, on_key, step)
             off = got[k + 1][b].rotation_difference(want[k + 1][b]).angle
             # (the modes interpolate differently: an axis-angle key's four numbers interpolate
             # one by one, so a planted leg turning about a changing axis near rest is 0.65 of a
             # 0.017 step off halfway; jerks through a zero axis were 0.16 off the short way in a
             # 0.13 step, 1.2 of it)
-            assert off <= 0.75 * step + 1e-3, (mode, k // 2, b, off, step)
+            assert off <= 0.75 * step + SLACK, (mode, k // 2, b, off, step)
     assert worst_step > 0.05            # the motion turns bones by a few degrees a frame
 
 

@@ -1,11 +1,14 @@
 """pose.miniskeleton_add_motion on the corpus's rigs that are not Rigify control rigs
 (scripts/rig_corpus.py: Mixamo-style humanoids before export and imported again through glTF
-and FBX, the game and hand-made rigs of ../shared/models, a deform-only rig, the generated
+and FBX, game rigs exported from an IK set-up (feet and IK targets off the root) and imported
+again, the game and hand-made rigs of ../shared/models, a deform-only rig, the generated
 creature, and the legless characters): the roles it finds are the rig's anatomy, and walk and
-run meet bench/motion_corpus.py's targets (the mesh moves, feet planted, on the ground); the
-head shake keeps the feet still; legless rigs are refused with "no legs" and nothing keyed. The
-bare meshes Auto Rig rigs and binds (rig_corpus.AUTORIG: Spot, always; the scans and the game
-characters without their armature) walk and run to the same targets and shake their heads.
+run meet bench/motion_corpus.py's targets (the mesh moves, every foot planted on the ground
+while it stands, a foot down three quarters of the cycle, the skin unfolded, a biped's arms
+hanging clear of its body); the head shake keeps the feet still; legless rigs are refused with
+"no legs" and nothing keyed. The bare meshes Auto Rig rigs and binds (rig_corpus.AUTORIG: Spot,
+always; the scans and the game characters without their armature) walk and run to the same
+targets and shake their heads.
 
 The expected roles below are each rig's anatomy read off its bones (names where they say it;
 CesiumMan's anonymous legs by where they are: its toes point along +X, so its left is +Y).
@@ -57,6 +60,14 @@ EXPECTED = {
                             legs={"L": ("UpperLeg.L", "Foot.L"), "R": ("UpperLeg.R", "Foot.R")}),
     "q_Bunny": dict(plan="biped", head="Head", neck=["Neck"], spine={"Hips", "Torso"},
                     legs={"L": ("UpperLeg.L", "Foot.L"), "R": ("UpperLeg.R", "Foot.R")}),
+    "ik_quadruped_gltf": dict(plan="quadruped", head="Head", neck=["Neck"], spine={"Hips", "Spine", "Chest"},
+                              tail="Tail",
+                              legs={f"{where} {s}": (first + s, toe + s)
+                                    for where, first, toe in (("front", "UpperArm.", "FrontToe."),
+                                                              ("back", "Thigh.", "HindToe."))
+                                    for s in "LR"}),
+    "ik_biped_gltf": dict(plan="biped", head="Head", neck=["Neck"], spine={"Hips", "Spine", "Spine2"},
+                          legs={"L": ("LeftUpLeg", "LeftToeBase"), "R": ("RightUpLeg", "RightToeBase")}),
     "spot_rig": dict(plan="quadruped", head="head", neck=["neck_root", "neck_mid"], spine={"body_root", "body_back"},
                      tail="tail",
                      legs={"front L": ("leg_front_L_hip", "leg_front_L_ankle"),
@@ -66,13 +77,16 @@ EXPECTED = {
 }
 LEGLESS = [name for name in rig_corpus.NAMES if name.startswith("q_") and name not in EXPECTED]
 AUTORIG = list(rig_corpus.AUTORIG)
-# spot_rig's hind hooves rest 7 % of its size above its front ones; feet are planted at their
-# own rest heights, so in a gallop's hind-only stance nothing touches the front hooves' ground
-# (rust/core/src/motion/gait.rs, known limitations). Spot's mesh auto-rigged is the same mesh.
-# Strict: this fails the day it passes.
-KNOWN = {("spot_rig", "RUN"): "hind hooves rest above the front hooves' ground",
-         ("autorig_spot", "RUN"): "hind hooves rest 7 % of the diagonal above the front hooves' ground "
-                                  "(measured: skate 0.74, float 2.13 %, pen. 0.00 %)"}
+BIPEDS = [name for name in EXPECTED if EXPECTED[name]["plan"] == "biped"] + ["autorig_CesiumMan"]
+# Clips whose skin still folds past the targets, and why (bench/fold_causes.py binds the same
+# skeleton three ways: its own weights, Blender's bone heat, nearest segments). Strict: each
+# fails the day it passes.
+_POSES = "folds under all three bindings: the poses (hip and shoulder swing on this body)"
+_HEAT = "within the targets on Blender's bone heat, not on Auto Weights' Heat: the weights"
+KNOWN_FOLDS = {("spot_rig", "WALK"): "Spot's mesh, which folds under every binding of autorig_spot",
+               ("autorig_spot", "WALK"): _POSES, ("autorig_spot", "RUN"): _POSES,
+               ("autorig_horse", "WALK"): _POSES, ("autorig_horse", "RUN"): _POSES,
+               ("autorig_Fox", "WALK"): _HEAT, ("autorig_Fox", "RUN"): _HEAT}
 
 
 @pytest.fixture(autouse=True)
@@ -127,17 +141,57 @@ def rig(request):
     return request.param
 
 
+_rows: dict = {}
+
+
+def clip(rig: str, motion: str) -> dict:
+    """``motion_corpus.run_motion``'s row for ``rig`` and ``motion``, measured once per module."""
+    if (rig, motion) not in _rows:
+        r = built(rig)
+        _rows[rig, motion] = corpus.run_motion(r.arm, r.meshes, motion, r.basis)
+    return _rows[rig, motion]
+
+
 @pytest.mark.parametrize("motion", ["WALK", "RUN"])
-def test_walk_and_run_move_the_mesh_with_feet_planted_on_the_ground(rig, motion, request):
-    if (rig, motion) in KNOWN:
-        request.applymarker(pytest.mark.xfail(reason=KNOWN[rig, motion], strict=True))
-    r = built(rig)
-    row = corpus.run_motion(r.arm, r.meshes, motion, r.basis)
+def test_walk_and_run_move_the_mesh_with_every_foot_standing_on_the_ground(rig, motion):
+    """Feet planted (no skate), on the ground (no float, no sinking), each foot standing on the
+    ground while it stands (Spot's hind hooves, 7 % of its size above its front ones at rest,
+    settle onto it), and a foot on the ground three quarters of the cycle or more."""
+    row = clip(rig, motion)
     assert row["result"] == "FINISHED", row["error"]
     t = corpus.TARGET
     assert row["moves"] >= t["moves"] and row["deform"] >= t["inert"], row
     assert row["pen"] <= t["pen"], row["pen"]
     assert row["skate"] <= t["skate"] and abs(row["float"]) <= t["float"], (row["skate"], row["float"])
+    assert row["stance"] <= t["stance"] and row["contact"] >= t["contact"], (row["stance"], row["contact"])
+
+
+@pytest.mark.parametrize("motion", ["WALK", "RUN"])
+def test_walk_and_run_keep_the_skin_from_folding(rig, motion, request):
+    """On the largest mesh, the worst frame's change of enclosed volume and share of triangles
+    collapsed below a quarter of their area stay within the artist's own clips' (the Fox's):
+    5 % and 0.4 % walking, 10 % and 1.5 % running."""
+    if (rig, motion) in KNOWN_FOLDS:
+        request.applymarker(pytest.mark.xfail(reason=KNOWN_FOLDS[rig, motion], strict=True))
+    row = clip(rig, motion)
+    most_volume, most_collapsed = corpus.FOLDS[motion]
+    assert row["volume"] <= most_volume and row["collapsed"] <= most_collapsed, (row["volume"], row["collapsed"])
+
+
+@pytest.mark.parametrize("motion", ["WALK", "RUN"])
+def test_a_bipeds_arms_hang_and_swing_clear_of_its_body(rig, motion):
+    """T- and A-posed arms walk hanging within 30 degrees of straight down, swinging against the
+    legs; running, the elbows bend; no hand goes into the torso."""
+    if rig not in BIPEDS:
+        pytest.skip("not a biped")
+    row = clip(rig, motion)
+    t = corpus.TARGET
+    assert row["hand_in"] <= t["hand_in"], row["hand_in"]
+    if motion == "WALK":
+        assert row["hang"] <= t["hang"] and row["swing"] >= t["swing"], (row["hang"], row["swing"])
+        assert row["against"] < t["against"], row["against"]
+    else:
+        assert row["elbow"] >= t["elbow"], row["elbow"]
 
 
 def test_head_shake_turns_the_head_and_keeps_the_feet_still(rig):

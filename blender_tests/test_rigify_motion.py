@@ -109,12 +109,41 @@ def test_walk_keys_the_controls_and_the_def_bones_follow_with_planted_feet(rig, 
     assert "Rigify controls keyed: " in console
     assert {pb.name: pb["IK_FK"] for pb in arm.pose.bones if "IK_FK" in pb.keys()} == switches
     frames = frames_of(console)
-    m = corpus.measure(arm, r.meshes, frames, rest)
+    m = corpus.measure(arm, r.meshes, frames, rest, corpus.anatomy_of(arm, r.meshes, console, rest))
+    assert_meets_targets(m, "WALK")
+    bones, out, pose = planned(arm)
+    assert_follows(arm, bones, out, pose, frames, rest["diag"])
+
+
+def assert_meets_targets(m: dict, motion: str) -> None:
+    """bench/motion_corpus.py's targets for a walk or run (``measure`` with the rig's anatomy):
+    the mesh moves, the feet are planted and stand on the ground, a foot is down three quarters
+    of the cycle, the skin does not fold; a biped's arms hang (walking) or bend (running) clear
+    of its body."""
     t = corpus.TARGET
     assert m["moves"] >= t["moves"] and m["deform"] >= t["inert"], m
     assert m["skate"] <= t["skate"] and m["pen"] <= t["pen"] and abs(m["float"]) <= t["float"], m
-    bones, out, pose = planned(arm)
-    assert_follows(arm, bones, out, pose, frames, rest["diag"])
+    assert m["contact"] >= t["contact"] and m["stance"] <= t["stance"], m
+    most_volume, most_collapsed = corpus.FOLDS[motion]
+    assert m["volume"] <= most_volume and m["collapsed"] <= most_collapsed, m
+    if "hang" in m:
+        assert m["hand_in"] <= t["hand_in"], m
+        if motion == "WALK":
+            assert m["hang"] <= t["hang"] and m["swing"] >= t["swing"] and m["against"] < t["against"], m
+        else:
+            assert m["elbow"] >= t["elbow"], m
+
+
+def test_run_keeps_a_foot_on_the_ground_through_the_controls(rig, capfd):
+    """A run keyed through the controls gallops (or jogs) with a foot on the ground three
+    quarters of the cycle or more, every foot standing on it, the skin unfolded."""
+    r = built(rig)
+    arm = r.arm
+    rest = corpus.rest_of(r.meshes)
+    result, console = add_motion(capfd, arm, motion="RUN")
+    assert result == {"FINISHED"}, console
+    m = corpus.measure(arm, r.meshes, frames_of(console), rest, corpus.anatomy_of(arm, r.meshes, console, rest))
+    assert_meets_targets(m, "RUN")
 
 
 def test_head_shake_turns_the_head_and_keeps_the_feet_still(rig, capfd):

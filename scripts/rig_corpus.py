@@ -356,6 +356,121 @@ def imported_armature():
     return arms[0]
 
 
+# ---------------------------------------------------------------------------- game rigs with IK
+
+# Game rigs exported from an IK set-up: each foot (and its IK target and pole) hangs off the
+# ground root bone, not off its leg, and the exporter drops the IK constraints that made it
+# follow the leg. Bones: (name, head, tail, parent, connected, deforms); a head or tail is a
+# joint's name or a point. Metres, Z up, facing -Y (the left is +X).
+QUAD_JOINTS = {
+    "root": ((0.0, 0.0, 0.0), 0.0),
+    "hips": ((0.0, 0.30, 0.55), 0.11),
+    "spine": ((0.0, 0.05, 0.57), 0.13),
+    "chest": ((0.0, -0.20, 0.58), 0.13),
+    "neck": ((0.0, -0.30, 0.62), 0.07),
+    "head": ((0.0, -0.42, 0.78), 0.07),
+    "snout": ((0.0, -0.60, 0.74), 0.03),
+    "tail": ((0.0, 0.42, 0.56), 0.04),
+    "tail_tip": ((0.0, 0.65, 0.45), 0.02),
+}
+for _s, _x in (("L", 1.0), ("R", -1.0)):
+    QUAD_JOINTS.update({
+        f"hip.{_s}": ((0.12 * _x, 0.30, 0.50), 0.07),
+        f"stifle.{_s}": ((0.12 * _x, 0.20, 0.32), 0.05),
+        f"hock.{_s}": ((0.12 * _x, 0.36, 0.16), 0.035),
+        f"hind_fetlock.{_s}": ((0.12 * _x, 0.34, 0.03), 0.03),
+        f"hind_toe.{_s}": ((0.12 * _x, 0.27, 0.0), 0.025),
+        f"shoulder.{_s}": ((0.12 * _x, -0.22, 0.50), 0.07),
+        f"elbow.{_s}": ((0.12 * _x, -0.16, 0.30), 0.045),
+        f"wrist.{_s}": ((0.12 * _x, -0.22, 0.12), 0.035),
+        f"front_fetlock.{_s}": ((0.12 * _x, -0.22, 0.03), 0.03),
+        f"front_toe.{_s}": ((0.12 * _x, -0.30, 0.0), 0.025),
+    })
+
+QUAD_IK_BONES = [
+    ("Root", "root", (0.0, 0.2, 0.0), None, False, False),
+    ("Hips", "hips", "spine", "Root", False, True),
+    ("Spine", "spine", "chest", "Hips", True, True),
+    ("Chest", "chest", "neck", "Spine", True, True),
+    ("Neck", "neck", "head", "Chest", True, True),
+    ("Head", "head", "snout", "Neck", True, True),
+    ("Tail", "tail", "tail_tip", "Hips", False, True),
+]
+for _s in "LR":
+    _x = 0.12 if _s == "L" else -0.12
+    QUAD_IK_BONES += [
+        (f"Thigh.{_s}", f"hip.{_s}", f"stifle.{_s}", "Hips", False, True),
+        (f"Shin.{_s}", f"stifle.{_s}", f"hock.{_s}", f"Thigh.{_s}", True, True),
+        (f"HindFoot.{_s}", f"hock.{_s}", f"hind_fetlock.{_s}", "Root", False, True),
+        (f"HindToe.{_s}", f"hind_fetlock.{_s}", f"hind_toe.{_s}", f"HindFoot.{_s}", True, True),
+        (f"UpperArm.{_s}", f"shoulder.{_s}", f"elbow.{_s}", "Chest", False, True),
+        (f"ForeArm.{_s}", f"elbow.{_s}", f"wrist.{_s}", f"UpperArm.{_s}", True, True),
+        (f"FrontFoot.{_s}", f"wrist.{_s}", f"front_fetlock.{_s}", "Root", False, True),
+        (f"FrontToe.{_s}", f"front_fetlock.{_s}", f"front_toe.{_s}", f"FrontFoot.{_s}", True, True),
+        (f"IK_Hind.{_s}", f"hock.{_s}", (_x, 0.46, 0.16), "Root", False, False),
+        (f"IK_Front.{_s}", f"wrist.{_s}", (_x, -0.12, 0.12), "Root", False, False),
+        (f"Pole_Hind.{_s}", (_x, -0.05, 0.32), (_x, -0.10, 0.32), "Root", False, False),
+        (f"Pole_Front.{_s}", (_x, 0.10, 0.30), (_x, 0.15, 0.30), "Root", False, False),
+    ]
+# IK constraints of the source rig: (bone, target, pole)
+QUAD_IK = [(f"Shin.{s}", f"IK_Hind.{s}", f"Pole_Hind.{s}") for s in "LR"] + \
+    [(f"ForeArm.{s}", f"IK_Front.{s}", f"Pole_Front.{s}") for s in "LR"]
+
+BIPED_IK_BONES = [("Root", (0.0, 0.0, 0.0), (0.0, 0.2, 0.0), None, False, False)]
+BIPED_IK_BONES += [(b, h, t, p or "Root", c, True) for b, h, t, p, c in MIXAMO_BONES
+                   if not b.endswith(("Foot", "ToeBase"))]
+for _s, _side in (("L", "Left"), ("R", "Right")):
+    _x = 0.09 if _s == "L" else -0.09
+    _a = 0.70 if _s == "L" else -0.70
+    BIPED_IK_BONES += [
+        (f"{_side}Foot", f"ankle.{_s}", f"ball.{_s}", "Root", False, True),
+        (f"{_side}ToeBase", f"ball.{_s}", f"toe.{_s}", f"{_side}Foot", True, True),
+        (f"IK_Foot.{_s}", f"ankle.{_s}", (_x, 0.12, 0.09), "Root", False, False),
+        (f"IK_Knee.{_s}", (_x, -0.40, 0.52), (_x, -0.50, 0.52), "Root", False, False),
+        (f"IK_Hand.{_s}", f"wrist.{_s}", (_a, 0.10, 1.45), "Root", False, False),
+        (f"IK_Elbow.{_s}", (0.45 if _s == "L" else -0.45, 0.30, 1.45),
+         (0.45 if _s == "L" else -0.45, 0.40, 1.45), "Root", False, False),
+    ]
+BIPED_IK = [(f"{side}Leg", f"IK_Foot.{s}", f"IK_Knee.{s}") for s, side in (("L", "Left"), ("R", "Right"))] + \
+    [(f"{side}ForeArm", f"IK_Hand.{s}", f"IK_Elbow.{s}") for s, side in (("L", "Left"), ("R", "Right"))]
+
+
+def ik_game_rig(name, joints, bones, constraints):
+    """A game rig with its feet, IK targets and poles off the ground root (``bones``, over
+    ``joints``), IK constraints on the legs (``constraints``), a Skin body over its deform bones
+    bound to them; exported with Blender's glTF exporter and imported again with the default
+    options, as a game character reaches a user: the constraints are gone, the feet stay
+    children of the root."""
+    import blender_session
+
+    def at(p):
+        return joints[p][0] if isinstance(p, str) else p
+
+    arm = new_armature("GameRig", [(b, at(h), at(t), p, c) for b, h, t, p, c, _ in bones])
+    for b, *_, deforms in bones:
+        arm.data.bones[b].use_deform = deforms
+    for bone, target, pole in constraints:
+        ik = arm.pose.bones[bone].constraints.new("IK")
+        ik.target, ik.subtarget, ik.pole_target, ik.pole_subtarget = arm, target, arm, pole
+        ik.chain_count = 2
+    deform = [b for b, *_, deforms in bones if deforms]
+    height = max(p[2] for p, _ in joints.values())
+    points, edges, radii = bone_graph(arm, deform, lambda length: 0.0, 1e-4 * height)
+    radius = {tuple(np.round(p, 6)): r for p, r in joints.values()}
+    radii = np.array([radius.get(tuple(np.round(p, 6)), 0.03) for p in points])
+    body = bind_to_segments(skin_body(name + "_body", points, edges, radii), arm, deform)
+    folder = Path(tempfile.mkdtemp(prefix="miniskeleton-gamerig-"))
+    path = folder / f"{name}.glb"
+    set_active(arm, selected=[body])
+    bpy.ops.export_scene.gltf(filepath=str(path), export_format="GLB", use_selection=True, export_animations=False)
+    blender_session.reset_scene()
+    bpy.ops.import_scene.gltf(filepath=str(path))
+    arm = imported_armature()
+    return Rig(name, arm, following_meshes(arm), "game",
+               notes=["feet, IK targets and poles children of the root; IK constraints dropped by the glTF "
+                      "exporter; imported with the default options"])
+
+
 # ---------------------------------------------------------------------------- Rigify
 
 RIGIFY_METARIGS = {
@@ -441,6 +556,17 @@ AUTORIG = {
 }
 
 
+def unbind(ob) -> None:
+    """Free mesh ``ob`` of its armature where it stands: no parent, no vertex groups, no Armature
+    modifiers."""
+    world = ob.matrix_world.copy()
+    ob.parent = None
+    ob.matrix_world = world
+    ob.vertex_groups.clear()
+    for mod in [m for m in ob.modifiers if m.type == "ARMATURE"]:
+        ob.modifiers.remove(mod)
+
+
 def bare_model(path):
     """Model ``path`` (glTF, FBX, OBJ or PLY) imported as a bare mesh: its armature(s) deleted, with
     the meshes kept where they are in the rest pose and their groups and Armature modifiers gone.
@@ -452,12 +578,7 @@ def bare_model(path):
         arm.data.pose_position = "REST"
     bpy.context.view_layer.update()
     for ob in meshes:
-        world = ob.matrix_world.copy()
-        ob.parent = None
-        ob.matrix_world = world
-        ob.vertex_groups.clear()
-        for mod in [m for m in ob.modifiers if m.type == "ARMATURE"]:
-            ob.modifiers.remove(mod)
+        unbind(ob)
     for ob in new:
         if ob.type != "MESH" or ob not in meshes:
             bpy.data.objects.remove(ob)
@@ -524,6 +645,10 @@ BUILDERS.update({
     "mixamo_gltf": lambda: mixamo_roundtrip("gltf"),
     "mixamo_fbx": lambda: mixamo_roundtrip("fbx"),
     "mixamo_fbx_xaxis": lambda: mixamo_roundtrip("fbx", "X"),
+})
+BUILDERS.update({
+    "ik_quadruped_gltf": lambda: ik_game_rig("ik_quadruped_gltf", QUAD_JOINTS, QUAD_IK_BONES, QUAD_IK),
+    "ik_biped_gltf": lambda: ik_game_rig("ik_biped_gltf", HUMAN_JOINTS, BIPED_IK_BONES, BIPED_IK),
 })
 BUILDERS.update({name: _shared(name) for name in SHARED if not SHARED[name][2]})
 BUILDERS.update({"deform_only_human": deform_only_human, "creature": creature_rig})

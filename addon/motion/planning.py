@@ -10,7 +10,9 @@ import math
 import bpy
 import numpy as np
 
-from ..common.armatures import armature_bones
+from ..common.armatures import armature_bones, rest_pose
+from ..common.meshes import mesh_world_vertices
+from ..common.objects import follows_bone
 from ..common.reports import name_list
 
 
@@ -80,6 +82,62 @@ def twin_parents(arm: bpy.types.Object, bones) -> np.ndarray:
     return parents
 
 
+def skinned_meshes(arm: bpy.types.Object) -> list[bpy.types.Object]:
+    """The meshes of the scene that ``arm`` moves: an Armature modifier on it, or a bone parent."""
+    return [ob for ob in bpy.context.scene.objects if ob.type == "MESH" and (
+        follows_bone(ob, arm) or any(m.type == "ARMATURE" and m.object == arm for m in ob.modifiers))]
+
+
+# Most skin points given to the core (every k-th vertex, and each mesh's lowest ones).
+SKIN_POINTS = 20000
+LOWEST = 256
+
+
+def motion_skin(arm: bpy.types.Object, bones) -> tuple[np.ndarray, np.ndarray]:
+    """The skin of the meshes ``arm`` moves, at rest, for the core: (p, 3) world points, float64,
+    and (p,) int32 the index into ``bones.names`` of the bone that weighs most on each (a part
+    parented to a bone: that bone; a bone not among ``bones``, such as a Rigify DEF segment
+    merged into the one before it: its nearest ancestor that is; -1 for none). At most
+    ``SKIN_POINTS`` points: every k-th vertex and each mesh's ``LOWEST`` lowest."""
+    meshes = skinned_meshes(arm)
+    total = sum(len(ob.data.vertices) for ob in meshes)
+    step = max(1, -(-total // SKIN_POINTS))
+    index = {n: i for i, n in enumerate(bones.names)}
+    owner_of: dict[str, int] = {}
+
+    def owner(name: str) -> int:
+        if name not in owner_of:
+            bone = arm.data.bones.get(name)
+            while bone is not None and bone.name not in index:
+                bone = bone.parent
+            owner_of[name] = index[bone.name] if bone is not None else -1
+        return owner_of[name]
+
+    points, owners = [], []
+    with rest_pose(arm, meshes):
+        for ob in meshes:
+            co = mesh_world_vertices(ob)
+            if not len(co):
+                continue
+            pick = np.union1d(np.arange(0, len(co), step), np.argsort(co[:, 2])[:LOWEST])
+            if follows_bone(ob, arm):
+                own = np.full(len(pick), owner(ob.parent_bone), dtype=np.int32)
+            else:
+                groups = {g.index: g.name for g in ob.vertex_groups}
+                verts = ob.data.vertices
+                own = np.full(len(pick), -1, dtype=np.int32)
+                for k, i in enumerate(pick):
+                    best = max(((g.weight, g.group) for g in verts[int(i)].groups if g.group in groups),
+                               default=(0.0, -1))
+                    if best[0] > 0.0:
+                        own[k] = owner(groups[best[1]])
+            points.append(co[pick])
+            owners.append(own)
+    if not points:
+        return np.zeros((0, 3)), np.zeros(0, dtype=np.int32)
+    return np.concatenate(points), np.concatenate(owners)
+
+
 def rest_matrices(arm: bpy.types.Object, names: list[str]) -> np.ndarray:
     """(b, 3, 3) rest orientation of each bone in world space (columns = bone X, Y, Z, of unit
     length: the armature's scale taken out in double precision, as the core's single-precision
@@ -92,23 +150,27 @@ def rest_matrices(arm: bpy.types.Object, names: list[str]) -> np.ndarray:
     return (m / np.where(norms > 0, norms, 1.0)).astype(np.float32)
 
 
-def motion_skeleton(arm: bpy.types.Object, bones) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def motion_skeleton(arm: bpy.types.Object, bones, skin=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Heads and tails of ``bones`` along world axes from the armature's origin, and their world
-    rest orientations (``rest_matrices``), for the core. The origin is taken off in double
-    precision: the motion does not depend on where the rig stands, and 1e5 m from the world
-    origin single-precision points are 8 mm apart. An armature mirrored by a negative scale is
-    given as its mirror image across x = 0: there its rest frames are rotations again, and the
-    local rotations that make that image walk make the armature itself walk (its mirror image's
-    motion, mirrored back)."""
+    rest orientations (``rest_matrices``), for the core; ``skin`` (world points, (p, 3)) is
+    brought along in place. The origin is taken off in double precision: the motion does not
+    depend on where the rig stands, and 1e5 m from the world origin single-precision points are
+    8 mm apart. An armature mirrored by a negative scale is given as its mirror image across
+    x = 0: there its rest frames are rotations again, and the local rotations that make that
+    image walk make the armature itself walk (its mirror image's motion, mirrored back)."""
     origin = np.array(arm.matrix_world.translation, dtype=np.float64)
     heads, tails = bones.heads - origin, bones.tails - origin
     rest = rest_matrices(arm, bones.names)
+    if skin is not None:
+        skin -= origin
     # in double precision: mathutils' single-precision determinant of a mirror scaled by 1e-15
     # underflows to 0, and the mirror would go unseen
     if np.linalg.det(np.array(arm.matrix_world.to_3x3(), dtype=np.float64)) < 0:
         heads[:, 0] *= -1
         tails[:, 0] *= -1
         rest[:, 0, :] *= -1
+        if skin is not None:
+            skin[:, 0] *= -1
     return heads, tails, rest
 
 
@@ -122,15 +184,18 @@ def make_motion(arm, bones, scene, fps: float, motion: str, cycles: float, durat
                 stride: float, speed: float, root_motion: bool) -> dict:
     """The core's ``motion`` (``make_motion``: "HEAD_SHAKE", "WALK" or "RUN", with the Add Motion
     options) for ``arm``'s deform ``bones`` (``armature_bones``) at ``fps``, its offsets in the
-    armature's world units; ValueError when the core finds no legs or no head."""
+    armature's world units; ValueError when the core finds no legs or no head. The skin of the
+    meshes it moves (``motion_skin``) tells the core where the feet stand and how wide the body
+    is beside the arms."""
     import miniskeleton_core as core
 
-    heads, tails, rest = motion_skeleton(arm, bones)
+    skin, skin_bones = motion_skin(arm, bones)
+    heads, tails, rest = motion_skeleton(arm, bones, skin)
     # The cadence follows the leg length in metres: the core gets the skeleton in metres,
     # by the scene's Unit Scale (in a centimetre scene, 0.01, a creature would otherwise walk
     # at the slowest cadence, as if its legs were metres long).
     metres = scene_metres(scene)
-    heads, tails = heads * metres, tails * metres
+    heads, tails, skin = heads * metres, tails * metres, skin * metres
     # The core works in single precision and squares lengths: a skeleton over about 1e19
     # units overflows ("the skeleton is flat"). One larger than 1e6 m or smaller than
     # 1e-3 m is given at that size, by a power of two (exact), and the offsets scaled back;
@@ -145,7 +210,7 @@ def make_motion(arm, bones, scene, fps: float, motion: str, cycles: float, durat
         heads / unit_size, tails / unit_size, bones.parents, rest, motion,
         names=bones.names, fps=fps, cycles=cycles, duration=duration,
         amplitude=amplitude, stride=stride, speed=speed,
-        root_motion=root_motion, joint_tails=bones.imported)
+        root_motion=root_motion, joint_tails=bones.imported, skin_points=skin / unit_size, skin_bones=skin_bones)
     for key in ("root_offset", "locations"):   # back in world units
         out[key] = np.asarray(out[key], dtype=np.float64) * (unit_size / metres)
     return out

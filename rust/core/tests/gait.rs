@@ -5,10 +5,12 @@
 
 mod common;
 
-use common::rigs::{biped, bone, creature, hexapod, ik_biped, rest_of, spot, Skeleton};
+use common::rigs::{
+    biped, bone, bone_skin, creature, hexapod, ik_biped, ik_quadruped, rest_of, spot, t_pose_biped, Skeleton,
+};
 use glam::{Mat3, Quat, Vec3};
 use miniskeleton_core::motion::{
-    detect_roles, motion_clip, posed_points, BodyPlan, Clip, GaitParams, Motion, Roles, Side,
+    detect_roles, motion_clip, posed_points, BodyPlan, Clip, GaitParams, Motion, Roles, Side, Skin,
 };
 
 /// A test rig run through a motion: names, heads, tails, parents, rest matrices, roles, clip.
@@ -59,9 +61,14 @@ fn prepare((names, h, t, p): Skeleton) -> Prepared {
 }
 
 fn run(skel: Skeleton, motion: Motion) -> Animated {
+    run_on(skel, motion, &Skin::NONE)
+}
+
+/// [`run`] with the character's skin.
+fn run_on(skel: Skeleton, motion: Motion, skin: &Skin) -> Animated {
     let (names, h, t, p, rest, roles) = prepare(skel);
     let params = GaitParams { motion, cycles: 2.0, ..Default::default() };
-    let clip = motion_clip(&h, &t, &p, &rest, &roles, &params).unwrap();
+    let clip = motion_clip(&h, &t, &p, &rest, &roles, &params, skin).unwrap();
     (names, h, t, p, rest, roles, clip)
 }
 
@@ -216,6 +223,86 @@ fn quadruped_of_separate_trees_walks() {
     check_walk(spot(), Motion::Run);
 }
 
+/// The lowest posed point of each leg's bones (its sole, for a skin along the bones) per frame.
+fn leg_lows(a: &Animated) -> Vec<Vec<f32>> {
+    let frames = posed_clip(a);
+    a.5.legs
+        .iter()
+        .map(|l| {
+            frames
+                .iter()
+                .map(|(ph, pt)| l.bones.iter().map(|&b| ph[b][2].min(pt[b][2])).fold(f32::MAX, f32::min))
+                .collect()
+        })
+        .collect()
+}
+
+/// Spot's hind legs end 7.5 units above its front ones (of 70): with a skin along its bones
+/// the body settles, pitching back and down, so that every foot stands on the front feet's
+/// ground; without a skin each foot keeps its own height. Either way, no foot goes below.
+#[test]
+fn a_body_whose_hind_feet_rest_high_settles_onto_one_ground() {
+    let (names, h, t, p) = spot();
+    let (points, owners) = bone_skin(&h, &t, &p, 4, 0.0);
+    let skin = Skin { points: &points, bones: &owners };
+    for motion in [Motion::Walk, Motion::Run] {
+        for (on_skin, a) in [(true, run_on(spot(), motion, &skin)), (false, run(spot(), motion))] {
+            let roles = &a.5;
+            let ground = -39.0;
+            for (l, lows) in roles.legs.iter().zip(leg_lows(&a)) {
+                let last = *l.bones.last().unwrap();
+                let own = h[last][2].min(t[last][2]);
+                let stands = if on_skin { ground } else { own };
+                let low = lows.iter().cloned().fold(f32::MAX, f32::min);
+                assert!(
+                    (low - stands).abs() < 0.01 * roles.height,
+                    "{motion:?} skin {on_skin}: {} stands at {low}, not {stands}",
+                    names[last]
+                );
+            }
+        }
+    }
+}
+
+/// A run keeps a foot on the ground at least three quarters of its cycle: a gallop's four feet,
+/// a biped's two, an insect's tripods.
+#[test]
+fn a_run_keeps_a_foot_on_the_ground_three_quarters_of_the_cycle() {
+    for skel in [biped(), creature(), hexapod(), ik_quadruped()] {
+        let a = run(skel, Motion::Run);
+        let (h, t, roles, clip) = (&a.1, &a.2, &a.5, &a.6);
+        let rests: Vec<f32> =
+            roles.legs.iter().map(|l| l.bones.iter().map(|&b| h[b][2].min(t[b][2])).fold(f32::MAX, f32::min)).collect();
+        let lows = leg_lows(&a);
+        let down = (0..clip.frames)
+            .filter(|&f| lows.iter().zip(&rests).any(|(z, r)| z[f] - r < 0.01 * roles.leg_length))
+            .count();
+        let share = down as f32 / clip.frames as f32;
+        assert!(share >= 0.75, "{:?}: a foot on the ground {share} of the cycle", roles.plan);
+    }
+}
+
+/// Feet, IK targets and poles off the root, hind feet from the hock: the feet walk with their
+/// legs; each upright foot (a cannon bone) leans with its leg and its toe stays level.
+#[test]
+fn a_quadruped_exported_with_ik_walks_on_its_feet() {
+    check_walk(ik_quadruped(), Motion::Walk);
+    check_walk(ik_quadruped(), Motion::Run);
+    let a = run(ik_quadruped(), Motion::Walk);
+    let (names, h, t) = (&a.0, &a.1, &a.2);
+    let frames = posed_clip(&a);
+    let turned = |b: usize, f: usize| {
+        let (ph, pt) = &frames[f];
+        let rest = (Vec3::from(t[b]) - Vec3::from(h[b])).normalize();
+        rest.angle_between((Vec3::from(pt[b]) - Vec3::from(ph[b])).normalize())
+    };
+    for s in ["L", "R"] {
+        let [foot, toe] = ["HindFoot", "HindToe"].map(|n| bone(names, &format!("{n}.{s}")));
+        assert!((0..frames.len()).all(|f| turned(toe, f) < 1e-3), "{s}: the hoof tips");
+        assert!((0..frames.len()).any(|f| turned(foot, f) > 0.1), "{s}: the cannon bone never leans");
+    }
+}
+
 #[test]
 fn six_legs_walk_in_alternating_tripods() {
     let skel = hexapod();
@@ -350,8 +437,8 @@ fn correlation(a: &[f32], b: &[f32]) -> f32 {
 /// pitch (the ankle undoes the hip and knee), and the head steadies against the neck's bob.
 #[test]
 fn a_biped_walks_with_its_arms_against_its_legs_and_its_head_steady() {
-    for motion in [Motion::Walk, Motion::Run] {
-        let a = run(biped(), motion);
+    for (motion, skel) in [Motion::Walk, Motion::Run].into_iter().flat_map(|m| [(m, biped()), (m, t_pose_biped())]) {
+        let a = run(skel, motion);
         let (names, h, t, roles) = (&a.0, &a.1, &a.2, &a.5);
         let fwd = Vec3::from(roles.forward);
         let frames = posed_clip(&a);
@@ -403,6 +490,54 @@ fn a_biped_walks_with_its_arms_against_its_legs_and_its_head_steady() {
         let chest = range(headings.iter().map(|x| x.0).collect());
         let turned = range(headings.iter().map(|x| x.1).collect());
         assert!(chest > 0.0 && turned < 0.6 * chest, "{motion:?}: the head turns {turned}, the chest {chest}");
+    }
+}
+
+/// T-posed arms walk and run hanging: each upper arm within 30 degrees of straight down on every
+/// frame, the arm clear of the body beside it, a wider body's skin holding the arms further out.
+#[test]
+fn t_posed_arms_hang_clear_of_the_body() {
+    let (names, h, t, p) = t_pose_biped();
+    // a trunk 0.22 wide at every height (the shoulder joints are 0.18 out), on the spine bones
+    let trunk: Vec<usize> = ["hips", "spine", "chest"].iter().map(|n| bone(&names, n)).collect();
+    let (mut points, mut owners) = bone_skin(&h, &t, &p, 2, 0.0);
+    for &b in &trunk {
+        for k in 0..=10 {
+            let z = h[b][2] + (t[b][2] - h[b][2]) * k as f32 / 10.0;
+            for j in 0..12 {
+                let a = j as f32 / 12.0 * std::f32::consts::TAU;
+                points.push([0.22 * a.cos(), 0.15 * a.sin(), z]);
+                owners.push(b as i32);
+            }
+        }
+    }
+    // and the hips' skin down to the thighs' middle, as wide
+    for k in 0..=10 {
+        for j in 0..12 {
+            let a = j as f32 / 12.0 * std::f32::consts::TAU;
+            points.push([0.22 * a.cos(), 0.15 * a.sin(), 0.75 + 0.025 * k as f32]);
+            owners.push(trunk[0] as i32);
+        }
+    }
+    let wide = Skin { points: &points, bones: &owners };
+    for motion in [Motion::Walk, Motion::Run] {
+        for (clear, a) in [
+            (0.2, run((names.clone(), h.clone(), t.clone(), p.clone()), motion)),
+            (0.22, run_on(t_pose_biped(), motion, &wide)),
+        ] {
+            for (f, (ph, pt)) in posed_clip(&a).iter().enumerate() {
+                for s in ["L", "R"] {
+                    let [upper, fore, hand] =
+                        ["upper_arm", "forearm", "hand"].map(|n| bone(&names, &format!("{n}.{s}")));
+                    let d = Vec3::from(pt[upper]) - Vec3::from(ph[upper]);
+                    let hang = d.angle_between(Vec3::NEG_Z).to_degrees();
+                    assert!(hang <= 30.0, "{motion:?} frame {f} {s}: the upper arm is {hang} degrees from hanging");
+                    for end in [pt[fore], ph[hand], pt[hand]] {
+                        assert!(end[0].abs() >= clear, "{motion:?} frame {f} {s}: the hand at {end:?} is in the body");
+                    }
+                }
+            }
+        }
     }
 }
 
@@ -470,10 +605,10 @@ fn the_body_travels_as_fast_as_the_feet_push_it() {
         let a = run(biped(), motion);
         let (roles, clip) = (&a.5, &a.6);
         let posed = posed_clip(&a);
-        // A biped's timing (motion::gait): one stride is 1.3 leg lengths walking and 2.6
-        // running, a foot is on the ground for the first 0.6 (walk) or 0.35 (run) of its cycle,
+        // A biped's timing (motion::gait): one stride is 1.3 leg lengths walking and 1.7
+        // running, a foot is on the ground for the first 0.6 (walk) or 0.4 (run) of its cycle,
         // the left foot's cycle starts at 0 and the right's half a cycle later.
-        let (legs_per_stride, duty) = if motion == Motion::Run { (2.6, 0.35) } else { (1.3, 0.6) };
+        let (legs_per_stride, duty) = if motion == Motion::Run { (1.7, 0.4) } else { (1.3, 0.6) };
         let stride = legs_per_stride * roles.leg_length;
         let fpc = clip.frames_per_cycle;
         let fwd = Vec3::from(roles.forward);
@@ -531,24 +666,24 @@ fn head_shake_moves_head_not_feet() {
 fn bad_params() {
     let (_, h, t, p, rest, roles) = prepare(creature());
     let bad = GaitParams { fps: 0.0, ..Default::default() };
-    assert!(motion_clip(&h, &t, &p, &rest, &roles, &bad).is_err());
+    assert!(motion_clip(&h, &t, &p, &rest, &roles, &bad, &Skin::NONE).is_err());
     for motion in [Motion::HeadShake, Motion::Walk] {
         let nan = GaitParams { motion, amplitude: f32::NAN, ..Default::default() };
-        let err = motion_clip(&h, &t, &p, &rest, &roles, &nan).unwrap_err().to_string();
+        let err = motion_clip(&h, &t, &p, &rest, &roles, &nan, &Skin::NONE).unwrap_err().to_string();
         assert!(err.contains("amplitude"), "{err}");
     }
     // roles from another rig: every role is checked, not only the head and the legs
     let mut stale = roles.clone();
     stale.tail.push(h.len());
-    let err = motion_clip(&h, &t, &p, &rest, &stale, &GaitParams::default()).unwrap_err().to_string();
+    let err = motion_clip(&h, &t, &p, &rest, &stale, &GaitParams::default(), &Skin::NONE).unwrap_err().to_string();
     assert!(err.contains("not in the arrays"), "{err}");
-    assert!(motion_clip(&h, &t, &p, &rest[1..], &roles, &GaitParams::default()).is_err());
+    assert!(motion_clip(&h, &t, &p, &rest[1..], &roles, &GaitParams::default(), &Skin::NONE).is_err());
     // A NaN rest frame (one entry is enough) is refused, not keyed as NaN.
     for motion in [Motion::HeadShake, Motion::Walk] {
         let mut nan = rest.clone();
         nan[roles.head][4] = f32::NAN;
         let params = GaitParams { motion, ..Default::default() };
-        let err = motion_clip(&h, &t, &p, &nan, &roles, &params).unwrap_err().to_string();
+        let err = motion_clip(&h, &t, &p, &nan, &roles, &params, &Skin::NONE).unwrap_err().to_string();
         assert!(err.contains("1 rest matrix(s) have NaN"), "{err}");
     }
     // Clips past Blender's last frame are refused before anything is allocated.
@@ -556,7 +691,7 @@ fn bad_params() {
         [(Motion::HeadShake, 1e9, 1e9, 1.0), (Motion::HeadShake, 1e30, 1e30, 1.0), (Motion::Walk, 24.0, 2.0, 1e12)]
     {
         let long = GaitParams { motion, fps, duration, cycles, ..Default::default() };
-        let err = motion_clip(&h, &t, &p, &rest, &roles, &long).unwrap_err().to_string();
+        let err = motion_clip(&h, &t, &p, &rest, &roles, &long, &Skin::NONE).unwrap_err().to_string();
         assert!(err.contains("frames"), "{err}");
     }
 }
@@ -573,7 +708,7 @@ fn a_head_shake_turns_neck_and_head_by_the_amplitude_and_its_cycle_is_one_shake(
     // with no neck, the head turns alone by the whole amplitude
     let neckless = Roles { neck: Vec::new(), ..roles.clone() };
     let params = GaitParams { motion: Motion::HeadShake, ..Default::default() };
-    let alone = motion_clip(&h, &t, &p, &rest, &neckless, &params).unwrap();
+    let alone = motion_clip(&h, &t, &p, &rest, &neckless, &params, &Skin::NONE).unwrap();
     assert!((most_turned(&alone, roles.head) - amp).abs() < 0.05 * amp);
 }
 
@@ -638,8 +773,8 @@ fn sheared_rest_frames_give_the_motion_of_their_orthonormal_frames() {
             Mat3::from_cols(m.x_axis + 0.4 * m.y_axis, m.y_axis * 1.7, m.z_axis).transpose().to_cols_array()
         })
         .collect();
-    let a = motion_clip(&h, &t, &p, &rest, &roles, &GaitParams::default()).unwrap();
-    let b = motion_clip(&h, &t, &p, &sheared, &roles, &GaitParams::default()).unwrap();
+    let a = motion_clip(&h, &t, &p, &rest, &roles, &GaitParams::default(), &Skin::NONE).unwrap();
+    let b = motion_clip(&h, &t, &p, &sheared, &roles, &GaitParams::default(), &Skin::NONE).unwrap();
     for (x, y) in a.rotations.iter().zip(&b.rotations) {
         assert!(q(*x).dot(q(*y)).abs() > 1.0 - 1e-5, "{x:?} {y:?}");
     }
@@ -650,11 +785,11 @@ fn any_fps_and_stride_give_a_whole_finite_cycle() {
     let (_, h, t, p, rest, roles) = prepare(creature());
     // a slideshow of 2 frames a second still has 8 frames a step cycle
     let slow = GaitParams { fps: 2.0, ..Default::default() };
-    assert!(motion_clip(&h, &t, &p, &rest, &roles, &slow).unwrap().frames_per_cycle >= 8.0);
+    assert!(motion_clip(&h, &t, &p, &rest, &roles, &slow, &Skin::NONE).unwrap().frames_per_cycle >= 8.0);
     // a stride longer than the legs can take swings them as far as they go, not to NaN
     for motion in [Motion::Walk, Motion::Run] {
         let long = GaitParams { motion, stride: 5.0, ..Default::default() };
-        let clip = motion_clip(&h, &t, &p, &rest, &roles, &long).unwrap();
+        let clip = motion_clip(&h, &t, &p, &rest, &roles, &long, &Skin::NONE).unwrap();
         assert!(clip.rotations.iter().flatten().all(|v| v.is_finite()));
         assert!(clip.root_offset.iter().flatten().all(|v| v.is_finite()));
     }

@@ -3,9 +3,11 @@
 
 mod common;
 
-use common::rigs::{biped, biped_bones, bone, creature, ik_biped, rest_of, skeleton_of, spot, BoneSpec, Skeleton};
+use common::rigs::{
+    biped, biped_bones, bone, creature, ik_biped, ik_quadruped, rest_of, skeleton_of, spot, BoneSpec, Skeleton,
+};
 use glam::Vec3;
-use miniskeleton_core::motion::{detect_roles, motion_clip, BodyPlan, GaitParams, Motion, Roles, Side};
+use miniskeleton_core::motion::{detect_roles, motion_clip, BodyPlan, GaitParams, Motion, Roles, Side, Skin};
 use miniskeleton_core::Error;
 
 #[test]
@@ -286,8 +288,9 @@ fn rigs_with_feet_on_their_legs_have_no_riders() {
     for (names, h, t, p) in [biped(), creature(), spot()] {
         assert!(detect_roles(&h, &t, &p, &names).unwrap().riders.is_empty());
     }
-    // a narrow biped, arms out, whose feet hang off the hips level with the shins' ends:
-    // the only leaf end above a foot is the head's, too high to be a leg's
+    // a narrow biped, arms out, whose feet hang off the hips (the root) level with the shins'
+    // ends: they ride on their shins, and nothing on the head, whose end is too high to be a
+    // leg's
     let mut b: Vec<BoneSpec> = vec![
         ("hips".into(), [0.0, 0.0, 1.0], [0.0, 0.0, 1.2], None),
         ("spine".into(), [0.0, 0.0, 1.2], [0.0, 0.0, 1.5], Some("hips".into())),
@@ -306,8 +309,35 @@ fn rigs_with_feet_on_their_legs_have_no_riders() {
     }
     let (names, h, t, p) = skeleton_of(&b);
     let r = detect_roles(&h, &t, &p, &names).unwrap();
-    assert!(r.riders.is_empty(), "{:?}", r.riders);
+    let mut riders: Vec<[String; 2]> = r.riders.iter().map(|&[a, b]| [names[a].clone(), names[b].clone()]).collect();
+    riders.sort();
+    assert_eq!(riders, [["foot.L", "shin.L"], ["foot.R", "shin.R"]].map(|r| r.map(String::from)));
     assert_eq!(names[r.head], "head");
+}
+
+/// A quadruped exported from an IK set-up: its feet start at the hock and wrist off the ground
+/// root, beside IK targets and before knee poles also off the root, and its shins' tails are
+/// invented. The feet ride on their shins and forearms (not the IK targets at the same joints,
+/// nor the tail), so the hind legs are legs, not arms.
+#[test]
+fn an_ik_exported_quadrupeds_feet_ride_on_their_legs() {
+    let (names, h, t, p) = ik_quadruped();
+    let r = detect_roles(&h, &t, &p, &names).unwrap();
+    assert_eq!(r.plan, BodyPlan::Quadruped, "{:?}", r.legs);
+    assert!(r.arms.is_empty(), "{:?}", r.arms);
+    for s in ["L", "R"] {
+        let side = if s == "L" { Side::Left } else { Side::Right };
+        assert_eq!(
+            leg(&names, &r, side, 0),
+            ["UpperArm", "ForeArm", "FrontFoot", "FrontToe"].map(|n| format!("{n}.{s}"))
+        );
+        assert_eq!(leg(&names, &r, side, 1), ["Thigh", "Shin", "HindFoot", "HindToe"].map(|n| format!("{n}.{s}")));
+    }
+    let mut riders: Vec<String> = r.riders.iter().map(|&[a, _]| names[a].clone()).collect();
+    riders.sort();
+    assert_eq!(riders, ["FrontFoot.L", "FrontFoot.R", "HindFoot.L", "HindFoot.R"]);
+    assert_eq!(names[r.head], "Head");
+    assert_eq!(names[r.tail[0]], "Tail");
 }
 
 #[test]
@@ -372,11 +402,11 @@ fn a_legless_body_shakes_its_head_but_does_not_walk() {
     let rest = rest_of(&h, &t);
     for motion in [Motion::Walk, Motion::Run] {
         let params = GaitParams { motion, ..GaitParams::default() };
-        let err = motion_clip(&h, &t, &parents, &rest, &r, &params).unwrap_err();
+        let err = motion_clip(&h, &t, &parents, &rest, &r, &params, &Skin::NONE).unwrap_err();
         assert!(err.to_string().contains("no legs"), "{err}");
     }
     let params = GaitParams { motion: Motion::HeadShake, ..GaitParams::default() };
-    let clip = motion_clip(&h, &t, &parents, &rest, &r, &params).unwrap();
+    let clip = motion_clip(&h, &t, &parents, &rest, &r, &params, &Skin::NONE).unwrap();
     assert!(clip.animated.contains(&r.head));
     let turn = (0..clip.frames).map(|f| clip.rotation(f, r.head)[0].abs()).fold(1.0f32, f32::min);
     assert!(turn < 0.995, "the head turns (half of 30 degrees): min |w| {turn}");
@@ -444,7 +474,7 @@ fn a_tail_the_hierarchy_starts_from_is_no_spine() {
     // the walk turns no tail bone: each carries the whole body
     let rest = rest_of(&h, &t);
     let params = GaitParams { motion: Motion::Walk, ..Default::default() };
-    let clip = motion_clip(&h, &t, &p, &rest, &r, &params).unwrap();
+    let clip = motion_clip(&h, &t, &p, &rest, &r, &params, &Skin::NONE).unwrap();
     assert!(!tail.iter().any(|b| clip.animated.contains(b)), "{:?}", named(&names, &clip.animated));
 }
 

@@ -4,7 +4,7 @@
 use crate::convert::{from_rows, indices, rows, Indices};
 use crate::error::guarded;
 use miniskeleton_core::motion::{detect_roles as core_detect, BodyPlan, Limb, Roles, Side};
-use miniskeleton_core::motion::{motion_clip, GaitParams, Motion};
+use miniskeleton_core::motion::{motion_clip, GaitParams, Motion, Skin};
 use numpy::ndarray::Array3;
 use numpy::{AllowTypeChange, IntoPyArray, PyArray1, PyArrayLike2};
 use pyo3::exceptions::PyValueError;
@@ -103,11 +103,14 @@ pub fn detect_roles<'py>(
 /// `pose_bone.location` times the armature's scale; zero but for `located`), located (j,)
 /// int32 (the roles' riders), moves_root, frames, frames_per_cycle, roles (as detect_roles).
 /// joint_tails: the tails are an importer's invention; roles and motion read tails made from
-/// the joints instead (`skeleton::joint_tails`).
+/// the joints instead (`skeleton::joint_tails`). skin_points (p, 3) and skin_bones (p,) int32:
+/// the character's skin at rest in the same space and the bone weighing most on each point (-1:
+/// none); the feet stand on the ground its soles rest on (a body that does not stand level is
+/// settled first) and arms hang clear of its body. Without them the bones alone are read.
 #[pyfunction]
 #[pyo3(signature = (bone_heads, bone_tails, parents, rest_matrices, motion="WALK", *, names=None,
                     fps=24.0, cycles=2.0, duration=2.0, amplitude=0.5236, stride=1.0, speed=1.0,
-                    root_motion=true, joint_tails=false))]
+                    root_motion=true, joint_tails=false, skin_points=None, skin_bones=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn make_motion<'py>(
     py: Python<'py>,
@@ -125,8 +128,12 @@ pub fn make_motion<'py>(
     speed: f32,
     root_motion: bool,
     joint_tails: bool,
+    skin_points: Option<F32Rows<'py>>,
+    skin_bones: Option<Indices<'py>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let mut s = skeleton(&bone_heads, &bone_tails, &parents, names)?;
+    let skin_points = skin_points.as_ref().map(|p| rows::<f32, 3>(p, "skin_points")).transpose()?.unwrap_or_default();
+    let skin_bones = skin_bones.as_ref().map(|b| indices::<i32>(b, "skin_bones")).transpose()?.unwrap_or_default();
     let motion = match motion.to_ascii_uppercase().as_str() {
         "HEAD_SHAKE" => Motion::HeadShake,
         "WALK" => Motion::Walk,
@@ -152,7 +159,8 @@ pub fn make_motion<'py>(
             s.tails = miniskeleton_core::skeleton::joint_tails(&s.heads, &s.tails, &s.parents);
         }
         let roles = core_detect(&s.heads, &s.tails, &s.parents, &s.names)?;
-        let clip = motion_clip(&s.heads, &s.tails, &s.parents, &rest, &roles, &params)?;
+        let skin = Skin { points: &skin_points, bones: &skin_bones };
+        let clip = motion_clip(&s.heads, &s.tails, &s.parents, &rest, &roles, &params, &skin)?;
         Ok((roles, clip))
     })?;
     let flat: Vec<f32> = clip.rotations.iter().flat_map(|q| q.iter().copied()).collect();

@@ -10,12 +10,19 @@
 //! stride and root motion agree. Without root motion the same feet slide back under a body
 //! that stays (walking on the spot).
 //!
+//! Ground. A stance foot stands on the ground: its ankle at the ground's height plus the ankle's
+//! rest height above the foot's sole (the lowest skin point of the leg, `skin.rs`; without skin,
+//! above the ankle's own rest height, so the foot keeps it). A body whose feet do not all rest
+//! on one ground is settled first (`settle.rs`), and the feet stand where the settled body puts
+//! them. The ground is a level plane at the lowest sole; [`foot_target`] is where a foot goes for
+//! a given ground height, the one place that reads it.
+//!
 //! Body height. Each leg allows the hip to be at most its reach above its foot target at the
-//! target's horizontal distance; the body goes as high as every leg allows, never above rest
-//! and never lower than a few per cent of a leg's reach.
+//! target's horizontal distance; the body goes as high as every leg allows, never above the
+//! settled rest height and never lower than a few per cent of a leg's reach.
 //! Reach is the leg's rest hip-ankle distance, or 98 % of its two bones when they are bent at
-//! rest. So stance feet stay on the ground the rest pose stands on, neither floating nor
-//! sinking, and the body dips where the feet are far apart.
+//! rest. So stance feet stay on the ground, neither floating nor sinking, and the body dips
+//! where the feet are far apart.
 //!
 //! Legs. Each leg's two bones above its foot (thigh and shin; an upper arm and forearm; an
 //! insect's femur and tibia) are solved by two-bone IK ([`crate::posing::two_bone_ik`]) from its
@@ -23,10 +30,13 @@
 //! (turned with the pelvis). The bones below the ankle keep their rest orientation in the world,
 //! in stance and in swing: toes and paws stay level with the ground, and a lifted foot is all
 //! above the ground (a foot pitched about its ankle in swing dips its heel or its toe below the
-//! ground when the ankle is lifted less than the foot is long). A leg without two such bones is
-//! left to the swing-based posing of `gait.rs`.
+//! ground when the ankle is lifted less than the foot is long). An upright foot under a high
+//! ankle (a cannon bone above a hoof, a hind paw's long foot) leans with the leg about its toe's
+//! head instead, and folds back in swing ([`leaning_foot`]), its toe level: the thigh then
+//! swings less. A leg without two such bones is left to the swing-based posing of `gait.rs`.
 
 use crate::motion::roles::{Limb, Roles};
+use crate::motion::settle::Settle;
 use crate::posing::{frame_turn, two_bone_ik};
 use glam::{Quat, Vec3};
 use std::f32::consts::PI;
@@ -39,10 +49,17 @@ pub(crate) struct PlantedLeg {
     pub lower: usize,
     /// The bone whose head is the ankle (a foot, or a foot riding on the root), if any.
     pub foot: Option<usize>,
+    /// An upright foot's toe (a hoof below a cannon bone, a paw below a hind foot) and the toe's
+    /// rest head: the foot turns about it as the leg swings (`FOOT_TILT`), the toe staying level.
+    pub toe: Option<(usize, Vec3)>,
     /// Rest hip, knee and ankle.
     pub hip: Vec3,
     pub knee: Vec3,
     pub ankle: Vec3,
+    /// Where the ankle stands at rest once the body is settled (`settle.rs`), and its height
+    /// above the ground it stands on ([`stand_on`]; until then above its own rest height).
+    pub stand: Vec3,
+    pub ankle_height: f32,
     /// Bone lengths and the reach that sets the body's height.
     pub l1: f32,
     pub l2: f32,
@@ -72,6 +89,10 @@ pub(crate) fn planted_legs(
         .collect()
 }
 
+/// The shorter bone of a leg's IK pair is at least this share of the longer one, or the next
+/// pair down is taken ([`plan_leg`]).
+const BALANCED_PAIR: f32 = 0.4;
+
 fn plan_leg(
     limb: &Limb,
     i0: usize,
@@ -86,7 +107,7 @@ fn plan_leg(
     // whose first bone pointing down is its forearm or shin (the upper arm above it slopes)
     // takes the bone above and keeps the last as its foot; a leg with one bone below its rising
     // first bone (an insect's femur then tibia) uses that pair, footless.
-    let (i, j) = if bones.len() >= i0 + 3 {
+    let (mut i, mut j) = if bones.len() >= i0 + 3 {
         (i0, i0 + 1)
     } else if i0 >= 1 {
         (i0 - 1, i0)
@@ -95,6 +116,17 @@ fn plan_leg(
     } else {
         return None;
     };
+    // A pair with one bone much shorter than the other (a horse's short shoulder blade above
+    // its upper arm) swings the short one through half a turn as the leg reaches: the next pair
+    // down takes its place when it is less lopsided.
+    let span = |k: usize| match bones.get(k + 1) {
+        Some(&next) => (hv(next) - hv(bones[k])).length(),
+        None => (Vec3::from(tails[bones[k]]) - hv(bones[k])).length(),
+    };
+    let balance = |k: usize| span(k).min(span(k + 1)) / span(k).max(span(k + 1)).max(f32::MIN_POSITIVE);
+    if balance(i) < BALANCED_PAIR && j + 1 < bones.len() && balance(j) > balance(i) {
+        (i, j) = (j, j + 1);
+    }
     let (upper, lower) = (bones[i], bones[j]);
     let rider = roles.riders.iter().find(|r| r[1] == lower).map(|r| r[0]);
     let foot = bones.get(j + 1).copied().or(rider);
@@ -120,7 +152,96 @@ fn plan_leg(
         p.try_normalize()?
     };
     let reach = span.max(0.98 * (l1 + l2)).min(l1 + l2);
-    Some(PlantedLeg { upper, lower, foot, hip, knee, ankle, l1, l2, reach, pole })
+    // an upright foot (a cannon bone standing on its hoof, under a hock well off the ground)
+    // turns about its toe's head
+    let toe = match (foot, bones.get(j + 2)) {
+        (Some(_), Some(&toe)) => {
+            let down = hv(toe) - ankle;
+            let upright = -down.z >= UPRIGHT * down.length() && down.length() > 1e-6 * roles.height;
+            (upright && ankle.z - roles.ground >= HIGH_ANKLE * roles.height).then_some((toe, hv(toe)))
+        }
+        _ => None,
+    };
+    Some(PlantedLeg { upper, lower, foot, toe, hip, knee, ankle, stand: ankle, ankle_height: 0.0, l1, l2, reach, pole })
+}
+
+/// A foot is upright when its toe's head lies below its ankle within 45 degrees of straight down
+/// (a cannon bone, a dog's hind foot) and its ankle stands this share of the height off the
+/// ground or more (a hock, a horse's knee); a human foot is not, whose ball lies forward of its
+/// ankle, or, in a rig whose toe joint sits under the ankle (CesiumMan's), whose ankle is low:
+/// leaning about the ball, its heel would go into the ground.
+const UPRIGHT: f32 = 0.7;
+const HIGH_ANKLE: f32 = 0.15;
+
+/// How much of a leg's swing about the hip (the angle of the hip-to-toe line, from its rest
+/// angle) an upright foot takes, turning about its toe: the cannon bone leans with the leg, so
+/// the thigh swings less than a leg whose foot stays upright, and folds the hip's skin less.
+const FOOT_TILT: f32 = 0.6;
+/// How much of a swinging foot's lift an upright foot takes by folding back at the ankle (the
+/// hock or the wrist flexing), the rest lifting the ankle: a leg that lifted its hoof by the
+/// ankle alone folds the knee up and swings the thigh far forward (a horse's femur through 80
+/// degrees in a gallop).
+const FOOT_FOLD: f32 = 0.7;
+
+/// Where a planted leg's ankle goes when its upright foot stands on its toe's head (the toe's
+/// rest head carried as the ankle is to `ankle_at`): the foot leans with the leg from the posed
+/// hip `hip` ([`FOOT_TILT`]) and, lifted `lift` in swing, folds back ([`FOOT_FOLD`]); and the
+/// foot's world turn. A leg with no upright foot: `ankle_at` as it is, and no turn.
+/// `(fwd, right)`: the body's axes.
+pub(crate) fn leaning_foot(
+    leg: &PlantedLeg,
+    hip: Vec3,
+    (ankle_at, lift): (Vec3, f32),
+    (fwd, right): (Vec3, Vec3),
+) -> (Vec3, Quat) {
+    let Some((_, toe)) = leg.toe else { return (ankle_at, Quat::IDENTITY) };
+    let toe_at = ankle_at + (toe - leg.ankle);
+    let angle = |d: Vec3| d.dot(fwd).atan2(-d.z);
+    let length = (leg.ankle - toe).length().max(f32::MIN_POSITIVE);
+    let fold = (1.0 - FOOT_FOLD * lift.max(0.0) / length).clamp(-1.0, 1.0).acos();
+    let lean = FOOT_TILT * (angle(toe_at - hip) - angle(toe - leg.hip));
+    let turn = Quat::from_axis_angle(right, lean - fold);
+    (toe_at + turn * (leg.ankle - toe), turn)
+}
+
+/// Stand `legs` (of `limbs`, one each) on a level ground at height `ground`, the body settled
+/// by `settle`: each ankle stands where the settled body carries it, at its rest height above
+/// its leg's sole (`soles`, per leg; None: the ankle keeps its own rest height). Along `fwd`,
+/// each leg stands as far ahead of its hip as the legs of its group do on average: a scan in
+/// mid-stride (one front hoof ahead, the other behind) walks from a square stance, and a rig
+/// standing square keeps its own.
+pub(crate) fn stand_on(
+    legs: &mut [PlantedLeg],
+    limbs: &[Limb],
+    soles: &[Option<f32>],
+    (ground, fwd): (f32, Vec3),
+    settle: &Settle,
+) {
+    let ahead = |leg: &PlantedLeg| (leg.ankle - leg.hip).dot(fwd);
+    let groups = limbs.iter().map(|l| l.group).max().map_or(0, |g| g + 1);
+    let mut mean = vec![(0.0f32, 0usize); groups];
+    for (leg, limb) in legs.iter().zip(limbs) {
+        mean[limb.group].0 += ahead(leg);
+        mean[limb.group].1 += 1;
+    }
+    for ((leg, limb), sole) in legs.iter_mut().zip(limbs).zip(soles) {
+        let (sum, count) = mean[limb.group];
+        let square = leg.ankle + fwd * (sum / count.max(1) as f32 - ahead(leg));
+        leg.stand = settle.apply(square);
+        leg.ankle_height = match sole {
+            Some(sole) => leg.ankle.z - sole,
+            None => leg.ankle.z - ground,
+        };
+    }
+}
+
+/// Where `leg`'s ankle goes on a ground at height `ground` (the one place that reads it): its
+/// standing place moved `ahead` along `fwd`, at its ankle height above the ground, lifted by
+/// `lift` (both from [`foot_offset`]).
+pub(crate) fn foot_target(leg: &PlantedLeg, ground: f32, (ahead, lift): (f32, f32), fwd: Vec3) -> Vec3 {
+    let mut p = leg.stand + fwd * ahead;
+    p.z = ground + leg.ankle_height + lift;
+    p
 }
 
 /// Where a foot's ankle is at leg phase `ph`, relative to its rest place, for a body that has
@@ -142,14 +263,13 @@ pub(crate) fn foot_offset(ph: f32, duty: f32, stride: f32, lift: f32, travel: f3
 const MAX_DROP: f32 = 0.06;
 
 /// How far the body may go up (negative: down) so that every leg reaches its target, each leg
-/// lowering it by at most [`MAX_DROP`] of its reach: `hips` are the posed hips before any
-/// offset, `targets` the ankles, `travel` the body's forward offset. Never above 0 (the rest
+/// lowering it by at most [`MAX_DROP`] of its reach: the legs with their posed hips (the body
+/// settled and carried forward) and their ankles' targets. Never above 0 (the settled rest
 /// height).
-pub(crate) fn body_drop(legs: &[(&PlantedLeg, Vec3, Vec3)], fwd: Vec3, travel: f32) -> f32 {
+pub(crate) fn body_drop(legs: &[(&PlantedLeg, Vec3, Vec3)]) -> f32 {
     legs.iter()
         .map(|(leg, hip, target)| {
-            let hip = *hip + fwd * travel;
-            let mut flat = *target - hip;
+            let mut flat = *target - *hip;
             flat.z = 0.0;
             let h2 = leg.reach * leg.reach - flat.length_squared();
             let allowed = if h2 > 0.0 { target.z + h2.sqrt() } else { target.z };
@@ -205,19 +325,22 @@ mod tests {
             hip: Vec3::new(0.0, 0.0, 1.0),
             knee: Vec3::new(0.0, 0.0, 0.5),
             ankle: Vec3::ZERO,
+            toe: None,
+            stand: Vec3::ZERO,
+            ankle_height: 0.0,
             l1: 0.5,
             l2: 0.5,
             reach: 1.0,
             pole: Vec3::X,
         };
         let hip = leg.hip;
-        assert_eq!(body_drop(&[(&leg, hip, Vec3::ZERO)], Vec3::X, 0.0), 0.0);
-        let drop = body_drop(&[(&leg, hip, Vec3::new(0.3, 0.0, 0.0))], Vec3::X, 0.0);
+        assert_eq!(body_drop(&[(&leg, hip, Vec3::ZERO)]), 0.0);
+        let drop = body_drop(&[(&leg, hip, Vec3::new(0.3, 0.0, 0.0))]);
         assert!((drop - ((1.0f32 - 0.09).sqrt() - 1.0)).abs() < 1e-5, "{drop}");
         // A foot far out lowers the body by at most MAX_DROP of the reach.
-        let drop = body_drop(&[(&leg, hip, Vec3::new(0.6, 0.0, 0.0))], Vec3::X, 0.0);
+        let drop = body_drop(&[(&leg, hip, Vec3::new(0.6, 0.0, 0.0))]);
         assert!((drop + MAX_DROP).abs() < 1e-6, "{drop}");
-        // Travel carries the hip over the foot.
-        assert!(body_drop(&[(&leg, hip, Vec3::new(0.3, 0.0, 0.0))], Vec3::X, 0.3).abs() < 1e-6);
+        // A hip carried over the foot needs no drop.
+        assert!(body_drop(&[(&leg, hip + Vec3::new(0.3, 0.0, 0.0), Vec3::new(0.3, 0.0, 0.0))]).abs() < 1e-6);
     }
 }

@@ -32,10 +32,14 @@
 //!   0.1, front R 0.45, front L 0.55); more legs alternate by group (tripod-like).
 //! - Cycle period from the leg length (pendulum scaling): walk 1.05 s · √(L / 0.9 m), run
 //!   0.6 s · √(L / 0.9 m), the root clamped to [0.6, 1.6] (rigs not in metres), divided by
-//!   `speed`; stride per cycle 1.3 L (walk) or 2.6 L (run) times `stride`.
+//!   `speed`; stride per cycle 1.3 L (biped walk), 1.1 L (quadruped walk), 1.7 L (biped run)
+//!   or 1.8 L (gallop) times `stride`, a run's duty factor such that a foot is down at least
+//!   75 % of the cycle.
 //! - Body: spine yaw/roll sway (walk), pitch flexion (quadruped run) or twist and lean (biped
-//!   run); neck/head bob at the step rate with the head steadied; tail sway with a lag; biped
-//!   arms swing against the legs.
+//!   run); neck/head bob at the step rate with the head steadied; tail sway with a lag; arms
+//!   held out at rest hang clear of the body's skin (`skin`) and swing against the legs.
+//! - Ground: every stance foot stands on the level ground of the lowest sole of the skin
+//!   (`skin`), a body whose soles do not all rest on it settled first (`settle`).
 //! - Root: forward travel (optional) and the body's height from the planted legs' reach (with
 //!   swinging legs only: the offset that keeps every foot at or above its own rest height and
 //!   the lowest one on it); a tail carried below its rest height turns up at its base.
@@ -43,15 +47,15 @@
 //!   fade in and out (starts and ends at rest), the head taking half; ears and other head
 //!   children swing after it with 35 % of the amplitude and a lag.
 //!
-//! Known limitations: feet are planted by their bones, not the mesh, each at its own rest height:
-//! a rig whose feet do not rest on one ground keeps them apart (spot_rig's hind hooves rest 7 %
-//! of its size above its front ones, so in a gallop's hind-only stance nothing touches the
-//! ground the front hooves stood on); rotations are about world-up-based axes, so a character
-//! lying down is animated as if standing.
+//! Known limitations: the ground is a level plane; without a skin each foot keeps its own rest
+//! height; rotations are about world-up-based axes, so a character lying down is animated as if
+//! standing.
 
 use crate::error::{Error, Result};
-use crate::motion::footfalls::{body_drop, foot_offset, leg_turns, planted_legs};
+use crate::motion::footfalls::{body_drop, foot_offset, foot_target, leaning_foot, leg_turns, planted_legs, stand_on};
 use crate::motion::roles::{no_legs_message, BodyPlan, Limb, Roles, Side};
+use crate::motion::settle::{settle, Settle};
+use crate::motion::skin::{arm_radius, elbow_clearance, hang_angle, leg_soles, Body, Hanging, Skin};
 use crate::skeleton::validate_parents;
 use glam::{Mat3, Quat, Vec3};
 use std::f32::consts::{PI, TAU};
@@ -251,6 +255,18 @@ impl Poser {
         self.q[b] *= Quat::from_axis_angle(local.normalize(), angle);
         self.touched[b] = true;
     }
+
+    /// Set bone `b`'s turn relative to its parent to `world` (in the rest pose's axes).
+    fn turn(&mut self, b: usize, world: Quat) {
+        self.q[b] = (self.rest[b].inverse() * world * self.rest[b]).normalize();
+        self.touched[b] = true;
+    }
+
+    /// Turn bone `b` by `world` (in the rest pose's axes) after its own turn.
+    fn pre_turn(&mut self, b: usize, world: Quat) {
+        self.q[b] = (self.rest[b].inverse() * world * self.rest[b] * self.q[b]).normalize();
+        self.touched[b] = true;
+    }
 }
 
 /// +1 or -1: the rotation about `axis` of bone `b` that brings its tail closer to `pivot`.
@@ -374,7 +390,8 @@ fn check(
     Ok(())
 }
 
-/// Make the motion (see the module doc).
+/// Make the motion (see the module doc), reading the character's `skin` for its soles and its
+/// body's width beside the arms ([`Skin::NONE`]: the bones alone).
 pub fn motion_clip(
     heads: &[[f32; 3]],
     tails: &[[f32; 3]],
@@ -382,12 +399,14 @@ pub fn motion_clip(
     rest: &[[f32; 9]],
     roles: &Roles,
     params: &GaitParams,
+    skin: &Skin,
 ) -> Result<Clip> {
     check(heads, tails, parents, rest, roles, params)?;
+    skin.check(heads.len())?;
     match params.motion {
         Motion::HeadShake => head_shake(heads, tails, rest, roles, params),
         Motion::Walk | Motion::Run if roles.legs.is_empty() => Err(Error::NoBones(no_legs_message())),
-        Motion::Walk | Motion::Run => gait(heads, tails, parents, rest, roles, params),
+        Motion::Walk | Motion::Run => gait(heads, tails, parents, rest, roles, params, skin),
     }
 }
 
@@ -488,13 +507,24 @@ fn cadence(roles: &Roles, p: &GaitParams) -> Result<Cadence> {
     let period = if run { 0.6 } else { 1.05 } * pendulum / p.speed;
     let fpc = (period * p.fps).round().max(8.0);
     let frames = frame_count(p.cycles * fpc, 1.0)?;
+    // A run keeps a foot on the ground at least 75 % of the cycle: a gallop's four feet in
+    // stance 0.3 of it each cover 0.8; two or six feet take turns, in stance 0.4 each. Its
+    // stride is what the legs reach in that time with the body no lower than `MAX_DROP`. A
+    // quadruped's legs sweep less than a biped's (a horse's or a cow's thigh turns the skin of
+    // its flank and chest with it).
     let duty = match (run, quad) {
         (false, true) => 0.65,
         (false, false) => 0.6,
         (true, true) => 0.3,
-        (true, false) => 0.3,
+        (true, false) => 0.4,
     };
-    let stride = if run { 2.6 } else { 1.3 } * l * p.stride;
+    let stride = match (run, quad) {
+        (false, true) => 1.1,
+        (false, false) => 1.3,
+        (true, true) => 1.8,
+        (true, false) => 1.7,
+    } * l
+        * p.stride;
     Ok(Cadence {
         fpc,
         frames,
@@ -519,10 +549,16 @@ struct LegJoints {
     lift: Option<(usize, f32)>,
 }
 
-/// An arm's swinging bone, its elbow (bone, flex sign) if any, and its side.
+/// An arm as it hangs and swings: its upper arm and forearm, the turn that lowers the upper arm
+/// from rest to hanging (`lower`, in the body's axes), the forearm's turn that then lines it up
+/// with the upper arm (`straighten`, relative to the upper arm), the least bend of its elbow
+/// (`bend`, radians: a long arm's hand kept off the ground), and its side.
 struct ArmJoints {
-    swing: usize,
-    elbow: Option<(usize, f32)>,
+    upper: usize,
+    fore: Option<usize>,
+    lower: Quat,
+    straighten: Quat,
+    bend: f32,
     side: Side,
 }
 
@@ -555,22 +591,88 @@ fn leg_joints(heads: &[[f32; 3]], tails: &[[f32; 3]], roles: &Roles, (fwd, right
 /// insect's body; not a pelvis or a shoulder blade, which slope down or lie along the body).
 const RISING: f32 = 0.2;
 
-/// The joints that swing in each arm: the longer of its first two bones, each measured to the
+/// How each arm hangs: its upper arm is the longer of its first two bones, each measured to the
 /// next bone's head (an imported rig's tails are stubs of one length, so the clavicle-or-upper-
-/// arm choice went by rounding, and by scale), and the elbow below it.
-fn arm_joints(heads: &[[f32; 3]], tails: &[[f32; 3]], roles: &Roles, right: Vec3) -> Vec<ArmJoints> {
+/// arm choice went by rounding, and by scale), the elbow the next. The arm is lowered from its
+/// rest pose (a T- or A-pose) to hang from the shoulder straight, at the least angle from
+/// straight down that keeps it, as thick as its skin, clear of the body (`skin::hang_angle`);
+/// an arm whose hand would then come lower than [`HAND_LIFT`] above the `ground` bends its elbow
+/// forward until it does not (`skin::elbow_clearance`).
+fn arm_joints(
+    heads: &[[f32; 3]],
+    tails: &[[f32; 3]],
+    roles: &Roles,
+    (skin, ground): (&Skin, f32),
+    (up, fwd, right): (Vec3, Vec3, Vec3),
+) -> Vec<ArmJoints> {
     let hv = |b: usize| Vec3::from(heads[b]);
+    let upper_of = |a: &Limb| {
+        let span = |k: usize| (hv(a.bones[k + 1]) - hv(a.bones[k])).length();
+        if a.bones.len() >= 3 && span(0) < span(1) {
+            1
+        } else {
+            0
+        }
+    };
+    let body = Body::of(skin, roles, heads, tails);
+    let shoulders: Vec<Vec3> = roles.arms.iter().map(|a| hv(a.bones[upper_of(a)])).collect();
+    let mid = match shoulders.len() {
+        0 | 1 => hv(roles.root),
+        k => shoulders.iter().copied().sum::<Vec3>() / k as f32,
+    };
+    let left = up.cross(fwd).normalize_or(-right);
     roles
         .arms
         .iter()
         .map(|a| {
-            let span = |k: usize| (hv(a.bones[k + 1]) - hv(a.bones[k])).length();
-            let i0 = if a.bones.len() >= 3 && span(0) < span(1) { 1 } else { 0 };
-            let elbow = a.bones.get(i0 + 1).map(|&b| (b, flex_sign(heads, tails, b, hv(a.bones[i0]), right, 1.0)));
-            ArmJoints { swing: a.bones[i0], elbow, side: a.side }
+            let i0 = upper_of(a);
+            let (upper, fore) = (a.bones[i0], a.bones.get(i0 + 1).copied());
+            let shoulder = hv(upper);
+            let elbow = fore.map_or(Vec3::from(tails[upper]), hv);
+            let wrist = match (fore, a.bones.get(i0 + 2)) {
+                (_, Some(&hand)) => hv(hand),
+                (Some(f), None) => Vec3::from(tails[f]),
+                (None, None) => elbow,
+            };
+            let chain = &a.bones[i0..];
+            let reach = chain
+                .iter()
+                .flat_map(|&b| [hv(b), Vec3::from(tails[b])])
+                .map(|p| (p - shoulder).length())
+                .fold(0.0, f32::max);
+            let tip = chain.last().map_or(wrist, |&b| Vec3::from(tails[b]));
+            let mut owners = vec![false; heads.len()];
+            for &b in &a.bones[i0 + 1..] {
+                owners[b] = true;
+            }
+            let radius = arm_radius(skin, &owners, &[shoulder, elbow, wrist, tip]).min(0.1 * roles.height);
+            let out = if a.side == Side::Left { left } else { -left };
+            let hanging = Hanging { shoulder, reach, radius, out };
+            let (slab, margin) = (HANG_SLAB * roles.height, HANG_MARGIN * roles.height);
+            let angle = hang_angle(&body, &hanging, mid, (up, fwd), slab, margin);
+            let hang = -up * angle.cos() + out * angle.sin();
+            let lower = Quat::from_rotation_arc((elbow - shoulder).normalize_or(hang), hang);
+            let straighten = fore.map_or(Quat::IDENTITY, |_| {
+                let along = lower * (wrist - elbow).normalize_or(elbow - shoulder);
+                lower.inverse() * Quat::from_rotation_arc(along.normalize_or(hang), hang) * lower
+            });
+            let fore_reach = chain.iter().skip(1).flat_map(|&b| [hv(b), Vec3::from(tails[b])]);
+            let fore_reach = fore_reach.map(|p| (p - elbow).length()).fold(0.0, f32::max);
+            let lowest = ground + HAND_LIFT * roles.height + radius;
+            let arm_lengths = ((elbow - shoulder).length(), fore_reach);
+            let bend = fore.map_or(0.0, |_| elbow_clearance(shoulder.z, angle, arm_lengths, lowest));
+            ArmJoints { upper, fore, lower, straighten, bend, side: a.side }
         })
         .collect()
 }
+
+/// A hanging arm is tested against the body's skin within this share of the height above and
+/// below each point along it, and kept this share of the height clear of it (`skin::hang_angle`);
+/// its hand's skin no lower than this share of the height above the ground (a long-armed
+/// character's fingers would drag).
+const HANG_SLAB: f32 = 0.03;
+const HANG_MARGIN: f32 = 0.01;
+const HAND_LIFT: f32 = 0.06;
 
 /// Pose the legs at cycle fraction `phi`: stance (hip sweeps back, knee barely bends) then
 /// swing (hip forward, knee and ankle lift), the ankle keeping the foot level. Returns the
@@ -616,14 +718,18 @@ fn pose_legs(
     (left_hip, right_hip)
 }
 
-/// Arms swing against the leg of their side (`hips`: left, right), elbows bent.
+/// Arms hang (`ArmJoints::lower`) and swing about the right axis against the leg of their side
+/// (`hips`: the left and right legs' swing angles), the elbow bent forward: a little walking,
+/// about a right angle running, and at least as far as keeps a long arm's hand off the ground.
 fn pose_arms(poser: &mut Poser, arms: &[ArmJoints], (left_hip, right_hip): (f32, f32), run: bool, right: Vec3) {
     for arm in arms {
         let leg = if arm.side == Side::Left { left_hip } else { right_hip };
-        poser.rotate(arm.swing, right, -if run { 0.8 } else { 0.6 } * leg);
-        if let Some((b, sign)) = arm.elbow {
-            let flex = if run { 70f32 } else { 12.0 }.to_radians();
-            poser.rotate(b, right, sign * (flex + 0.3 * leg.abs()));
+        let swing = -if run { 0.8 } else { 0.6 } * leg;
+        let upper = Quat::from_axis_angle(right, swing) * arm.lower;
+        poser.turn(arm.upper, upper);
+        if let Some(fore) = arm.fore {
+            let flex = if run { 75f32 } else { 12.0 }.to_radians().max(arm.bend) + 0.3 * leg.abs();
+            poser.turn(fore, arm.lower.inverse() * Quat::from_axis_angle(right, flex) * arm.lower * arm.straighten);
         }
     }
 }
@@ -678,8 +784,8 @@ fn pose_body(
 }
 
 /// A walk or run cycle (see the module doc): legs, arms and body posed frame by frame, the
-/// body lifted so that no foot goes below its rest height, feet riding on the root carried by
-/// their legs.
+/// body settled onto one ground and lifted so that no foot goes below it, feet riding on the
+/// root carried by their legs.
 fn gait(
     heads: &[[f32; 3]],
     tails: &[[f32; 3]],
@@ -687,6 +793,7 @@ fn gait(
     rest: &[[f32; 9]],
     roles: &Roles,
     p: &GaitParams,
+    skin: &Skin,
 ) -> Result<Clip> {
     let n = heads.len();
     let run = p.motion == Motion::Run;
@@ -697,7 +804,6 @@ fn gait(
     let c = cadence(roles, p)?;
     let phases = leg_phases(roles, p.motion);
     let legs = leg_joints(heads, tails, roles, (fwd, right));
-    let arms = arm_joints(heads, tails, roles, right);
     // spine bones that sway: all but the root when there are others
     let sway: Vec<usize> = if roles.spine.len() > 1 {
         roles.spine.iter().copied().filter(|&b| b != roles.root).collect()
@@ -710,7 +816,45 @@ fn gait(
     let knee_signs: Vec<f32> = legs.iter().map(|j| j.knee.map_or(-1.0, |k| k.1)).collect();
     let planted = planted_legs(heads, tails, roles, &swing_at, &knee_signs, right);
     let planted: Option<Vec<_>> = planted.into_iter().collect();
-    let planted = planted.filter(|legs| !legs.is_empty());
+    let mut planted = planted.filter(|legs| !legs.is_empty());
+    // The ground is the lowest sole; a body whose soles rest above it is settled onto it.
+    let soles = leg_soles(skin, roles, parents);
+    let ground = soles.iter().flatten().copied().reduce(f32::min);
+    let settled = match (&planted, ground) {
+        (Some(plant), Some(ground)) => {
+            let hips: Vec<Vec3> = plant.iter().map(|l| l.hip).collect();
+            let gaps: Vec<f32> = soles.iter().map(|s| s.map_or(0.0, |s| s - ground)).collect();
+            settle(&hips, &gaps, (fwd, up.cross(fwd)), roles.height)
+        }
+        _ => Settle::NONE,
+    };
+    let ground = ground.unwrap_or(roles.ground);
+    if let Some(plant) = &mut planted {
+        stand_on(plant, &roles.legs, &soles, (ground, fwd), &settled);
+    }
+    let arms = arm_joints(heads, tails, roles, (skin, ground), (up, fwd, right));
+    // The settle turns every tree the roles lie in about its root: the main root through the
+    // root offset, the others (a rig of several trees) through their location.
+    let mut tree_roots: Vec<usize> = Vec::new();
+    if !settled.is_none() {
+        let real_root = |mut b: usize| {
+            while parents[b] >= 0 {
+                b = parents[b] as usize;
+            }
+            b
+        };
+        let role_bones = roles.spine.iter().chain(&roles.neck).chain(&roles.tail).chain([&roles.head]);
+        for b in
+            role_bones.chain(roles.legs.iter().flat_map(|l| &l.bones)).chain(roles.arms.iter().flat_map(|a| &a.bones))
+        {
+            let r = real_root(*b);
+            if !tree_roots.contains(&r) {
+                tree_roots.push(r);
+            }
+        }
+    }
+    let settle_shift = |b: usize| settled.apply(hv(b)) - hv(b);
+    let root_settle = settle_shift(roles.root);
     let tail_reach = roles.tail.first().map_or(0.0, |&base| {
         roles.tail.iter().map(|&b| (Vec3::from(tails[b]) - hv(base)).length()).fold(0.0, f32::max)
     });
@@ -725,9 +869,16 @@ fn gait(
     for &[r, e] in &roles.riders {
         carried[r] = e as i32;
     }
-    // Each foot's lowest point; the body rises or sinks so that no foot goes below its own
-    // rest height and the lowest one stays on it (feet need not end at one height: the Fox's
-    // front leg bones end at the wrist, 6 units above its hind feet's).
+    // the other trees' roots, moved with the main one's by the settle
+    let mut settle_at = vec![[0.0f32; 3]; n];
+    let mut located: Vec<usize> = roles.riders.iter().map(|&[r, _]| r).collect();
+    for &r in tree_roots.iter().filter(|&&r| r != roles.root) {
+        settle_at[r] = (poser.rest[r].inverse() * (settle_shift(r) - root_settle)).to_array();
+        located.push(r);
+    }
+    // Each foot's lowest point; without planted legs the body rises or sinks so that no foot
+    // goes below its own rest height and the lowest one stays on it (feet need not end at one
+    // height: the Fox's front leg bones end at the wrist, 6 units above its hind feet's).
     let feet: Vec<usize> = roles.legs.iter().map(|l| *l.bones.last().unwrap()).collect();
     let rest_low: Vec<f32> = feet.iter().map(|&b| heads[b][2].min(tails[b][2])).collect();
     for k in 0..c.frames {
@@ -744,14 +895,18 @@ fn gait(
                         poser.q[b] = Quat::IDENTITY;
                     }
                 }
-                let ctx = Planting { heads, carried: &carried, fwd, up };
-                let offset = plant_legs(&mut poser, &ctx, plant, &phases, &c, phi, travel);
+                for &r in &tree_roots {
+                    poser.pre_turn(r, settled.turn);
+                }
+                let ctx = Planting { heads, carried: &carried, locations: &settle_at, fwd, ground };
+                let offset = plant_legs(&mut poser, &ctx, plant, &phases, &c, phi, fwd * travel + root_settle);
                 // A tail that the body's dip and the spine's flexion carry below its own rest
                 // height (a hanging tail nearly touches the ground) turns up at its base by the
                 // angle that lifts it back.
                 if let (Some(&base), true) = (roles.tail.first(), tail_reach > 0.0) {
                     let local: Vec<[f32; 4]> = poser.q.iter().map(|&q| to_wxyz(q)).collect();
-                    let (turns, posed) = posed_frames(heads, &carried, &poser.rest, &local, &[], offset.to_array());
+                    let (turns, posed) =
+                        posed_frames(heads, &carried, &poser.rest, &local, &settle_at, offset.to_array());
                     let low = roles
                         .tail
                         .iter()
@@ -777,20 +932,22 @@ fn gait(
         };
         root_offset.push(offset.to_array());
         let mut local: Vec<[f32; 4]> = poser.q.iter().map(|&q| to_wxyz(q)).collect();
-        let on_legs = posed_frames(heads, &carried, &poser.rest, &local, &[], [0.0; 3]);
+        let frame_locations = &mut locations[k * n..(k + 1) * n];
+        frame_locations.copy_from_slice(&settle_at);
         if !roles.riders.is_empty() {
-            let real = posed_frames(heads, parents, &poser.rest, &local, &[], [0.0; 3]);
+            let on_legs = posed_frames(heads, &carried, &poser.rest, &local, &settle_at, [0.0; 3]);
+            let real = posed_frames(heads, parents, &poser.rest, &local, &settle_at, [0.0; 3]);
             for &[r, _] in &roles.riders {
                 let (q, loc) = rider_pose(r, heads, parents, &poser.rest, (&on_legs.0, &on_legs.1), (&real.0, &real.1));
                 local[r] = to_wxyz(q);
-                locations[k * n + r] = loc.to_array();
+                frame_locations[r] = loc.to_array();
             }
         }
         rotations.extend(local);
     }
     let mut animated: Vec<usize> = (0..n).filter(|&b| poser.touched[b]).collect();
-    let mut located: Vec<usize> = roles.riders.iter().map(|&[r, _]| r).collect();
     located.sort_unstable();
+    located.dedup();
     animated.extend(&located);
     animated.sort_unstable();
     animated.dedup();
@@ -808,17 +965,19 @@ fn gait(
 }
 
 /// What planting the legs reads besides the pose: the rest heads, the hierarchy with riding
-/// feet on their legs, and the body axes.
+/// feet on their legs, the locations that move other trees' roots with the settled body, the
+/// forward axis and the ground's height.
 struct Planting<'a> {
     heads: &'a [[f32; 3]],
     carried: &'a [i32],
+    locations: &'a [[f32; 3]],
     fwd: Vec3,
-    up: Vec3,
+    ground: f32,
 }
 
 /// Plant the legs at cycle fraction `phi` (see `footfalls`): each ankle's target, the body's
-/// offset (forward `travel`, and down as far as the legs need), then each leg's two bones by
-/// IK and its foot level (stance) or pitched (swing). Returns the root offset.
+/// offset (`base`: forward travel and the settle, then down as far as the legs need), then each
+/// leg's two bones by IK and its foot level. Returns the root offset.
 fn plant_legs(
     poser: &mut Poser,
     ctx: &Planting,
@@ -826,24 +985,26 @@ fn plant_legs(
     phases: &[f32],
     c: &Cadence,
     phi: f32,
-    travel: f32,
+    base: Vec3,
 ) -> Vec3 {
     let fk = |poser: &Poser, offset: Vec3| {
         let local: Vec<[f32; 4]> = poser.q.iter().map(|&q| to_wxyz(q)).collect();
-        posed_frames(ctx.heads, ctx.carried, &poser.rest, &local, &[], offset.to_array())
+        posed_frames(ctx.heads, ctx.carried, &poser.rest, &local, ctx.locations, offset.to_array())
     };
-    let phs: Vec<f32> = phases.iter().map(|o| (phi + o).fract()).collect();
-    let targets: Vec<Vec3> = legs
+    let travel = base.dot(ctx.fwd);
+    let (_, hips0) = fk(poser, base);
+    let right = ctx.fwd.cross(Vec3::Z).normalize();
+    let (targets, leans): (Vec<Vec3>, Vec<Quat>) = legs
         .iter()
-        .zip(&phs)
-        .map(|(leg, &ph)| {
-            let (ahead, lift) = foot_offset(ph, c.duty, c.stride, c.foot_lift, travel);
-            leg.ankle + ctx.fwd * ahead + ctx.up * lift
+        .zip(phases)
+        .map(|(leg, o)| {
+            let step = foot_offset((phi + o).fract(), c.duty, c.stride, c.foot_lift, travel);
+            let at = foot_target(leg, ctx.ground, step, ctx.fwd);
+            leaning_foot(leg, hips0[leg.upper], (at, step.1), (ctx.fwd, right))
         })
-        .collect();
-    let (_, hips0) = fk(poser, Vec3::ZERO);
+        .unzip();
     let reach: Vec<_> = legs.iter().zip(&targets).map(|(leg, &t)| (leg, hips0[leg.upper], t)).collect();
-    let offset = ctx.fwd * travel + ctx.up * body_drop(&reach, ctx.fwd, travel);
+    let offset = base + Vec3::Z * body_drop(&reach);
     let turn_to = |poser: &mut Poser, b: usize, world: Quat, parent_turn: Quat| {
         let rq = poser.rest[b];
         poser.q[b] = (rq.inverse() * parent_turn.inverse() * world * rq).normalize();
@@ -853,7 +1014,7 @@ fn plant_legs(
         p if p >= 0 => turns[p as usize],
         _ => Quat::IDENTITY,
     };
-    for (leg, &target) in legs.iter().zip(&targets) {
+    for ((leg, &target), &lean) in legs.iter().zip(&targets).zip(&leans) {
         let (turns, posed) = fk(poser, offset);
         let pelvis = parent_turn(&turns, leg.upper);
         let (upper, lower) = leg_turns(leg, posed[leg.upper], target, pelvis);
@@ -862,7 +1023,11 @@ fn plant_legs(
         turn_to(poser, leg.lower, lower, parent_turn(&turns, leg.lower));
         if let Some(foot) = leg.foot {
             let (turns, _) = fk(poser, offset);
-            turn_to(poser, foot, Quat::IDENTITY, parent_turn(&turns, foot));
+            turn_to(poser, foot, lean, parent_turn(&turns, foot));
+        }
+        if let Some((toe, _)) = leg.toe {
+            let (turns, _) = fk(poser, offset);
+            turn_to(poser, toe, Quat::IDENTITY, parent_turn(&turns, toe));
         }
     }
     offset

@@ -12,10 +12,29 @@ use glam::Vec3;
 /// A leaf bone ending this low (fraction of the height above the lowest point) is a foot.
 pub(crate) const GROUND_FRACTION: f32 = 0.2;
 
-/// How far a foot riding on the root may lie from the end of its leg chain, as fractions of the
-/// height: horizontally, and below it (RobotExpressive's shins end at the knee, 0.3 above).
-const RIDER_REACH: f32 = 0.1;
-const RIDER_LIFT: f32 = 0.5;
+/// Where a foot riding on the root may lie, as fractions of the height: within `reach`
+/// horizontally and `lift` below the end of its leg chain (RobotExpressive's shins end at the
+/// knee, 0.3 above), or below the head of the chain's last bone (its knee or stifle, whose tail an
+/// importer invented) by at least `drop` and at most `lift`, sloping no more than `slope`
+/// sideways per unit down (a hock behind the stifle slopes 1); its chain starts at most `top`
+/// above the lowest point and reaches within `ground` of it (a foot stands on the ground; a
+/// tabard's flap or an IK target at the ankle does not).
+const RIDER: Rider = Rider { reach: 0.1, lift: 0.5, drop: 0.05, slope: 1.2, top: 0.35, ground: 0.05 };
+/// A foot riding on the root whose chain ends this far (per unit of the height) above the
+/// lowest point counts this much further from its leg: a foot chain down to the toes rides
+/// before an IK target at the ankle.
+const RIDER_LOW_COST: f32 = 0.5;
+
+/// The rider thresholds ([`RIDER`]), fractions of the height or, for `slope`, a ratio.
+#[derive(Clone, Copy)]
+struct Rider {
+    reach: f32,
+    lift: f32,
+    drop: f32,
+    slope: f32,
+    top: f32,
+    ground: f32,
+}
 
 /// The main tree of a hierarchy (`build_tree`).
 pub(crate) struct Tree {
@@ -49,8 +68,7 @@ pub(crate) fn joined_hierarchy(heads: &[[f32; 3]], tails: &[[f32; 3]], parents: 
         .map(|b| !has_child[b] && heads[b][2].min(tails[b][2]) - zmin <= GROUND_FRACTION * (zmax - zmin))
         .collect();
     let mut joined = joined_parents(heads, tails, parents, &ground_leaf, 1e-3 * (hi - lo).length());
-    let low_z = zmin + GROUND_FRACTION * (zmax - zmin);
-    let riders = foot_riders(heads, tails, &joined, low_z, (RIDER_REACH * (zmax - zmin), RIDER_LIFT * (zmax - zmin)));
+    let riders = foot_riders(heads, tails, &joined, (zmin, zmax - zmin));
     for &[r, e] in &riders {
         joined[r] = e as i32;
     }
@@ -105,18 +123,18 @@ fn joined_parents(heads: &[[f32; 3]], tails: &[[f32; 3]], parents: &[i32], groun
 }
 
 /// Feet that ride on the root: game rigs exported from an IK set-up (Quaternius characters,
-/// RobotExpressive) parent each foot to the ground root bone, and their leg chain stops at the
-/// ankle (or, with an invented tail, at the knee). A bone hanging off a root (or a root itself)
-/// whose whole subtree lies at or below `low_z` rides on the leaf bone of another branch whose
-/// tail is above its head: horizontally within `reach`, and at most `lift` higher (not the head
-/// of a narrow character). Returns (rider, carrier) pairs, nearest first, each bone used once.
-fn foot_riders(
-    heads: &[[f32; 3]],
-    tails: &[[f32; 3]],
-    parents: &[i32],
-    low_z: f32,
-    (reach, lift): (f32, f32),
-) -> Vec<[usize; 2]> {
+/// RobotExpressive, a quadruped whose hind feet start at the hock) parent each foot, and often
+/// its IK target and pole, to the ground root bone; their leg chain stops at the ankle or hock
+/// (or, with an invented tail, at the knee). A bone hanging off a root (or a root itself) whose
+/// subtree reaches the ground (the lowest point `zmin`) and starts low ([`RIDER`]'s `ground`
+/// and `top`) rides on the leaf bone of another branch that comes down as a leg
+/// does (it, or its parent's head to its own, points down) and is itself not off a root: the
+/// foot lies below that leaf's tail, or below its head ([`Rider`]). Pairs are taken cheapest
+/// first, each bone once: the cost is the distance from the leaf's tail or from its head (a
+/// shin's knee before a tail's root at the hips), whichever is less, plus [`RIDER_LOW_COST`]
+/// times how high the rider's chain ends (a foot before its IK target). `height` is the rig's.
+/// Returns (rider, carrier) pairs.
+fn foot_riders(heads: &[[f32; 3]], tails: &[[f32; 3]], parents: &[i32], (zmin, height): (f32, f32)) -> Vec<[usize; 2]> {
     let n = parents.len();
     let tree = build_tree(parents);
     let kids = &tree.children;
@@ -129,35 +147,50 @@ fn foot_riders(
         }
         false
     };
+    let off_root = |b: usize| parents[b] < 0 || parents[parents[b] as usize] < 0;
+    // a leg's last bone points down, or its parent comes down to it (an invented tail may point
+    // anywhere); a tail or an ear does neither
+    let down = |d: Vec3| -d.z >= 0.5 * d.length() && d.length() > 0.0;
+    let comes_down = |e: usize| {
+        down(v(tails[e]) - v(heads[e])) || (parents[e] >= 0 && down(v(heads[e]) - v(heads[parents[e] as usize])))
+    };
+    let r = RIDER;
+    let tol = 1e-3 * height;
     let mut cands: Vec<(f32, usize, usize)> = Vec::new();
-    for r in 0..n {
-        if parents[r] >= 0 && parents[parents[r] as usize] >= 0 {
-            continue; // not off a root
-        }
-        let below = subtree(kids, r);
-        if below.iter().any(|&b| heads[b][2].max(tails[b][2]) > low_z) {
+    for rider in (0..n).filter(|&b| off_root(b)) {
+        let below = subtree(kids, rider);
+        let zs = below.iter().flat_map(|&b| [heads[b][2], tails[b][2]]);
+        let (low, high) = zs.fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), z| (lo.min(z), hi.max(z)));
+        if low - zmin > r.ground * height || high - zmin > r.top * height {
             continue;
         }
-        let foot = v(heads[r]);
+        let foot = v(heads[rider]);
         for e in 0..n {
-            if !kids[e].is_empty() || parents[e] < 0 || below.contains(&e) || ancestor_of(e, r) {
+            if !kids[e].is_empty() || off_root(e) || below.contains(&e) || ancestor_of(e, rider) || !comes_down(e) {
                 continue;
             }
-            let end = v(tails[e]);
-            let d = end - foot;
-            if d.z > 0.0 && d.z <= lift && d.truncate().length() <= reach {
-                cands.push((d.length(), r, e));
-            }
+            let d = v(tails[e]) - foot;
+            let by_tail = d.z >= -tol && d.z <= r.lift * height && d.truncate().length() <= r.reach * height;
+            let k = foot - v(heads[e]);
+            let flat = k.truncate().length();
+            let by_head = -k.z >= r.drop * height && -k.z <= r.lift * height && flat <= r.slope * -k.z;
+            let cost = match (by_tail, by_head) {
+                (true, true) => d.length().min(k.length()),
+                (true, false) => d.length(),
+                (false, true) => k.length(),
+                (false, false) => continue,
+            };
+            cands.push((cost + RIDER_LOW_COST * (low - zmin), rider, e));
         }
     }
     cands.sort_by(|a, b| a.0.partial_cmp(&b.0).unwrap_or(std::cmp::Ordering::Equal));
     let mut used = vec![false; n];
     let mut out = Vec::new();
-    for (_, r, e) in cands {
-        if !used[r] && !used[e] {
-            used[r] = true;
+    for (_, rider, e) in cands {
+        if !used[rider] && !used[e] {
+            used[rider] = true;
             used[e] = true;
-            out.push([r, e]);
+            out.push([rider, e]);
         }
     }
     out
@@ -227,10 +260,42 @@ mod tests {
     #[test]
     fn each_leg_carries_one_foot() {
         let heads =
-            [[0.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.1, 0.0, 1.0], [-0.1, 0.0, 1.0], [0.1, 0.0, 0.0], [0.05, 0.0, 0.0]];
+            [[0.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.1, 0.0, 1.0], [-0.1, 0.0, 1.0], [0.1, 0.0, 0.0], [0.01, 0.0, 0.0]];
         let tails =
-            [[0.0, 0.2, 0.0], [0.0, 0.0, 1.2], [0.1, 0.0, 0.1], [-0.1, 0.0, 0.1], [0.1, -0.1, 0.0], [0.05, -0.1, 0.0]];
+            [[0.0, 0.2, 0.0], [0.0, 0.0, 1.2], [0.1, 0.0, 0.1], [-0.1, 0.0, 0.1], [0.1, -0.1, 0.0], [0.01, -0.1, 0.0]];
         let parents = [-1, 0, 1, 1, 0, 0];
-        assert_eq!(foot_riders(&heads, &tails, &parents, 0.05, (0.3, 0.5)), [[4, 2], [5, 3]]);
+        assert_eq!(foot_riders(&heads, &tails, &parents, (0.0, 1.2)), [[4, 2], [5, 3]]);
+    }
+
+    /// A quadruped's hind foot that starts at the hock, behind and below the stifle where its
+    /// shin's invented tail does not reach, rides on the shin; its IK target at the hock, off
+    /// the root as well, does not take the shin from it (the foot reaches the ground).
+    #[test]
+    fn a_foot_at_the_hock_rides_before_its_ik_target() {
+        // root, hips, thigh (hip -> stifle), shin (stifle, tail invented along the thigh),
+        // foot (hock -> fetlock) off the root, toe, IK target at the hock off the root, and a
+        // tail on the hips, nearer the foot than the knee is horizontally
+        let heads = [
+            [0.0, 0.0, 0.0],
+            [0.0, 0.3, 0.55],
+            [0.12, 0.3, 0.5],
+            [0.12, 0.2, 0.32],
+            [0.12, 0.36, 0.16],
+            [0.12, 0.34, 0.03],
+            [0.12, 0.36, 0.16],
+            [0.0, 0.42, 0.5],
+        ];
+        let tails = [
+            [0.0, 0.2, 0.0],
+            [0.0, 0.05, 0.57],
+            [0.12, 0.2, 0.32],
+            [0.12, 0.15, 0.23],
+            [0.12, 0.34, 0.03],
+            [0.12, 0.27, 0.0],
+            [0.12, 0.46, 0.16],
+            [0.0, 0.65, 0.4],
+        ];
+        let parents = [-1, 0, 1, 2, 0, 4, 0, 1];
+        assert_eq!(foot_riders(&heads, &tails, &parents, (0.0, 0.8)), [[4, 3]]);
     }
 }

@@ -4,14 +4,18 @@
 //! - [`detect_roles`]: legs, spine, neck, head and tail from the joints' layout and the bones'
 //!   names, with the joint tree it reads private in `hierarchy`;
 //! - [`motion_clip`]: per-frame bone rotations (and root motion) of a clip, with the feet
-//!   planted by its private stage `footfalls`.
+//!   planted by its private stage `footfalls` on the ground the character's [`Skin`] stands on,
+//!   a body that does not stand level first settled (`settle`).
 
 mod footfalls;
 pub mod gait;
 mod hierarchy;
 pub mod roles;
+mod settle;
+pub mod skin;
 
 /// The side a bone name states; the rule lives with the other name rules in `skeleton`.
 pub use crate::skeleton::name_side;
 pub use gait::{motion_clip, posed_points, Clip, GaitParams, Motion};
 pub use roles::{detect_roles, BodyPlan, Limb, Roles, Side};
+pub use skin::Skin;

@@ -258,3 +258,87 @@ pub fn rest_of(h: &[[f32; 3]], t: &[[f32; 3]]) -> Vec<[f32; 9]> {
         })
         .collect()
 }
+
+/// [`biped`] in a T-pose: clavicles, arms and hands held out level along X.
+pub fn t_pose_biped() -> Skeleton {
+    let mut b = biped_bones();
+    for bone in b.iter_mut() {
+        let x = if bone.0.ends_with(".L") { 1.0 } else { -1.0 };
+        let at = |r: f32| [r * x, 0.0, 1.45];
+        match bone.0.trim_end_matches(".L").trim_end_matches(".R") {
+            "shoulder" => (bone.1, bone.2) = (at(0.02), at(0.18)),
+            "upper_arm" => (bone.1, bone.2) = (at(0.18), at(0.46)),
+            "forearm" => (bone.1, bone.2) = (at(0.46), at(0.71)),
+            "hand" => (bone.1, bone.2) = (at(0.71), at(0.88)),
+            _ => {}
+        }
+    }
+    skeleton_of(&b)
+}
+
+/// A game-style quadruped exported from an IK set-up (the structure of the held-out rigs of
+/// this kind, not their data): a ground root carrying each foot (from the hock or the wrist
+/// down, with its toe), an IK target at each hock and wrist and a pole before each knee; the
+/// leg chains stop at the hock and wrist, and every leaf's tail continues its parent's line for
+/// half its span (the tails an importer invents, read through `skeleton::joint_tails`). Faces
+/// -Y, Z up, about 0.8 tall.
+pub fn ik_quadruped() -> Skeleton {
+    let mut b: Vec<BoneSpec> = vec![
+        ("Root".into(), [0.0, 0.0, 0.0], [0.0, 0.2, 0.0], None),
+        ("Hips".into(), [0.0, 0.30, 0.55], [0.0, 0.05, 0.57], Some("Root".into())),
+        ("Spine".into(), [0.0, 0.05, 0.57], [0.0, -0.20, 0.58], Some("Hips".into())),
+        ("Chest".into(), [0.0, -0.20, 0.58], [0.0, -0.30, 0.62], Some("Spine".into())),
+        ("Neck".into(), [0.0, -0.30, 0.62], [0.0, -0.42, 0.78], Some("Chest".into())),
+        ("Head".into(), [0.0, -0.42, 0.78], [0.0, -0.60, 0.74], Some("Neck".into())),
+        ("Tail".into(), [0.0, 0.42, 0.56], [0.0, 0.65, 0.45], Some("Hips".into())),
+    ];
+    for (s, x) in [("L", 0.12f32), ("R", -0.12)] {
+        let f = |n: &str| format!("{n}.{s}");
+        let leaf = |parent_head: [f32; 3], head: [f32; 3]| {
+            let (p, h) = (Vec3::from(parent_head), Vec3::from(head));
+            (h + (h - p) * 0.5).to_array()
+        };
+        let (hip, stifle, hock) = ([x, 0.30, 0.50], [x, 0.20, 0.32], [x, 0.36, 0.16]);
+        let (shoulder, elbow, wrist) = ([x, -0.22, 0.50], [x, -0.16, 0.30], [x, -0.22, 0.12]);
+        b.extend([
+            (f("Thigh"), hip, stifle, Some("Hips".into())),
+            (f("Shin"), stifle, leaf(hip, stifle), Some(f("Thigh"))),
+            (f("HindFoot"), hock, [x, 0.34, 0.03], Some("Root".into())),
+            (f("HindToe"), [x, 0.34, 0.03], [x, 0.27, 0.0], Some(f("HindFoot"))),
+            (f("UpperArm"), shoulder, elbow, Some("Chest".into())),
+            (f("ForeArm"), elbow, leaf(shoulder, elbow), Some(f("UpperArm"))),
+            (f("FrontFoot"), wrist, [x, -0.22, 0.03], Some("Root".into())),
+            (f("FrontToe"), [x, -0.22, 0.03], [x, -0.30, 0.0], Some(f("FrontFoot"))),
+            (f("IK_Hind"), hock, [x, 0.46, 0.16], Some("Root".into())),
+            (f("IK_Front"), wrist, [x, -0.12, 0.12], Some("Root".into())),
+            (f("Pole_Hind"), [x, -0.05, 0.32], [x, -0.10, 0.32], Some("Root".into())),
+            (f("Pole_Front"), [x, 0.10, 0.30], [x, 0.15, 0.30], Some("Root".into())),
+        ]);
+    }
+    skeleton_of(&b)
+}
+
+/// Skin points along every bone of a rig, `per_bone` of them from head to tail, each owned by
+/// its bone, and one `below` under each leaf bone's tail (a sole or a hoof), owned by that leaf:
+/// points and owners for `motion::Skin`.
+pub fn bone_skin(
+    h: &[[f32; 3]],
+    t: &[[f32; 3]],
+    parents: &[i32],
+    per_bone: usize,
+    below: f32,
+) -> (Vec<[f32; 3]>, Vec<i32>) {
+    let (mut points, mut owners) = (Vec::new(), Vec::new());
+    for b in 0..h.len() {
+        for k in 0..per_bone {
+            let s = k as f32 / (per_bone.max(2) - 1) as f32;
+            points.push((Vec3::from(h[b]).lerp(Vec3::from(t[b]), s)).to_array());
+            owners.push(b as i32);
+        }
+        if !parents.contains(&(b as i32)) {
+            points.push([t[b][0], t[b][1], t[b][2] - below]);
+            owners.push(b as i32);
+        }
+    }
+    (points, owners)
+}
