@@ -75,6 +75,8 @@ test-rust:
 
 test-python: .build/core/.installed
 	$(VPY) -m ruff check --quiet
+	PYTHONPATH=.build/core $(VPY) -m mypy.stubtest miniskeleton_core \
+	    --allowlist rust/python/stubtest-allowlist.txt
 	PYTHONPATH=.build/core $(VPY) -m pytest -q tests
 
 ## Each platform's zip and wheel: tags, imports / load commands, panic strategy, contents,
