@@ -5,9 +5,13 @@ SHELL      := /bin/bash
 PYTHON     ?= $(shell command -v python3.11 || command -v python3)
 VENV       ?= .venv
 VPY        := $(VENV)/bin/python
-VERSION    := 0.1.0
-WHEEL      := addon/wheels/miniskeleton_core-$(VERSION)-cp311-abi3-manylinux_2_28_x86_64.whl
-EXT_ZIP    := dist/miniskeleton-$(VERSION)-linux_x64.zip
+BUILD      := $(PYTHON) scripts/platforms/build.py
+# The platforms and wheels are the manifest's (addon/blender_manifest.toml); HOST is this machine.
+PLATFORMS  := $(shell $(BUILD) platforms)
+HOST       := linux-x64
+WHEEL      := $(shell $(BUILD) wheels $(HOST))
+EXT_ZIP    := $(shell $(BUILD) zips $(HOST))
+ALL_ZIPS   := $(shell $(BUILD) zips)
 BPY_42     ?= 4.2.23
 BPY_45     ?= 4.5.15
 MODEL      ?=
@@ -18,7 +22,8 @@ export MINISKELETON_EXTENSION_ZIP := $(abspath $(EXT_ZIP))
 RUST_SRC   := $(shell find rust -name '*.rs' -o -name Cargo.toml) Cargo.toml Cargo.lock pyproject.toml
 ADDON_SRC  := $(shell find addon -name '*.py' -o -name '*.toml')
 
-.PHONY: all demo test test-rust test-python test-blender test-blender-4.2 test-blender-4.5 extension wheel venv bench clean
+.PHONY: all demo test test-rust test-python test-platforms test-blender test-blender-4.2 test-blender-4.5 \
+    extension wheel venv bench clean
 
 all: extension
 
@@ -30,44 +35,55 @@ $(VENV)/.installed: requirements-dev.txt
 	$(VPY) -m pip install --quiet -r requirements-dev.txt
 	touch $@
 
-## Release wheel of the Rust core (abi3-py311, manylinux_2_28) into addon/wheels/.
-wheel: $(WHEEL)
-$(WHEEL): $(VENV)/.installed $(RUST_SRC) miniskeleton_core.pyi
-	rm -f addon/wheels/*.whl
-	# zig (PyPI's ziglang) links against glibc 2.28 so the wheel really is manylinux_2_28.
-	PATH=$(abspath $(VENV))/bin:$$PATH maturin build --release --zig --quiet --out addon/wheels --interpreter $(VPY)
-	test -f $@
-	# tests/ import it from .build/core; the venv itself never has it, so Blender tests can only
-	# find the copy bundled in the installed extension.
-	rm -rf .build/core
-	$(VPY) -m pip install --quiet --no-deps --target .build/core $@
+## The core's wheel for each platform into addon/wheels/ (abi3-py311): this machine's with
+## rustup's toolchain and zig (manylinux_2_28), Windows and macOS cross-built with Debian's
+## rustc-web and -Zbuild-std (scripts/platforms/toolchain.sh installs the pinned packages).
+## One zip per platform in dist/, built by Blender's own builder (--split-platforms).
+## `make demo` and the test-* targets below need only this machine's wheel and zip.
+define PLATFORM_RULES
+$(shell $(BUILD) wheels $(1)): $(VENV)/.installed $(RUST_SRC) miniskeleton_core.pyi scripts/platforms/build.py \
+    $(if $(filter $(1),$(HOST)),,scripts/platforms/toolchain.sh)
+	$(VPY) scripts/platforms/build.py wheel $(1)
+$(shell $(BUILD) zips $(1)): $(shell $(BUILD) wheels $(1)) $(ADDON_SRC) scripts/platforms/build.py
+	$(VPY) scripts/platforms/build.py pack $(1)
+endef
+$(foreach p,$(PLATFORMS),$(eval $(call PLATFORM_RULES,$(p))))
 
-## The installable Blender extension, built with Blender's own extension builder.
-extension: $(EXT_ZIP)
-$(EXT_ZIP): $(WHEEL) $(ADDON_SRC)
-	mkdir -p dist
-	rm -f dist/miniskeleton-*.zip
-	$(VPY) "$$(ls $(VENV)/lib/python3.11/site-packages/bpy/*/scripts/addons_core/bl_pkg/cli/blender_ext.py | head -1)" \
-	    build --source-dir addon --output-dir dist --split-platforms
-	test -f $@
+wheel: $(WHEEL)
+extension: $(ALL_ZIPS)
+
+## tests/ import this machine's core from .build/core; the venv itself never has it, so the
+## Blender tests can only find the copy bundled in the installed extension.
+.build/core/.installed: $(WHEEL)
+	rm -rf .build/core
+	$(VPY) -m pip install --quiet --no-deps --target .build/core $<
+	touch $@
 
 ## Headless demo: Spot the cow's bare mesh (assets/spot) auto-rigged, bound, animated, rendered
 ## (or MODEL=path: any mesh the same way, or a model with its armature; PUPPET=five-rod: puppets).
 demo: $(EXT_ZIP)
 	$(VPY) scripts/demo.py --out out $(if $(MODEL),--model $(MODEL)) $(if $(PUPPET),--puppet $(PUPPET))
 
-## All tests: Rust, Python API, then Blender (installing the extension zip like a user) on
-## 5.0.1 and on the oldest release the manifest allows, 4.2 LTS.
-test: test-rust test-python test-blender test-blender-4.2
+## All tests: Rust, Python API, every platform's build, then Blender (installing the extension
+## zip like a user) on 5.0.1 and on the oldest release the manifest allows, 4.2 LTS.
+test: test-rust test-python test-platforms test-blender test-blender-4.2
 
 test-rust:
 	cargo fmt --all -- --check  # rustfmt.toml: 120 columns, as the code was written
 	cargo clippy --all-targets --release -- -D warnings
 	cargo test -p miniskeleton-core --release
 
-test-python: $(WHEEL)
+test-python: .build/core/.installed
 	$(VPY) -m ruff check --quiet
+	PYTHONPATH=.build/core $(VPY) -m mypy.stubtest miniskeleton_core \
+	    --allowlist rust/python/stubtest-allowlist.txt
 	PYTHONPATH=.build/core $(VPY) -m pytest -q tests
+
+## Each platform's zip and wheel: tags, imports / load commands, panic strategy, contents,
+## Blender's `extension validate`, and a repository index over all zips (release_tests/).
+test-platforms: $(ALL_ZIPS)
+	scripts/platforms/toolchain.sh
+	$(VPY) -m pytest -q release_tests
 
 test-blender: $(EXT_ZIP)
 	$(VPY) -m pytest -q blender_tests

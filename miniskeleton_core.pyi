@@ -18,6 +18,9 @@ __version__: str
 class Cancelled(Exception):
     """A progress callback returned False."""
 
+def _raise_test_panic() -> None:
+    """Panic inside the core's boundary on purpose; raises RuntimeError on every platform."""
+
 ArrayLike = npt.ArrayLike
 Influences = Tuple[npt.NDArray[np.int32], npt.NDArray[np.float32]]
 

@@ -39,3 +39,11 @@ pub fn guarded<T: Send>(py: Python<'_>, f: impl FnOnce() -> Result<T, Error> + S
         Err(panic) => Err(internal(&panic_message(&*panic))),
     }
 }
+
+/// Panic on purpose inside `guarded`: every platform's build must give `RuntimeError` back
+/// (the release profile unwinds and each binary carries its unwinder), never abort the process
+/// that loaded the module. Called by the Python API tests and the Blender tests.
+#[pyfunction]
+pub fn _raise_test_panic(py: Python<'_>) -> PyResult<()> {
+    guarded(py, || -> Result<(), Error> { panic!("a test panic, raised on purpose") })
+}

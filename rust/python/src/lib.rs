@@ -20,6 +20,7 @@ use pyo3::prelude::*;
 fn miniskeleton_core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add("Cancelled", m.py().get_type::<error::Cancelled>())?;
+    m.add_function(wrap_pyfunction!(error::_raise_test_panic, m)?)?;
     mesh::register(m)?;
     weights::register(m)?;
     skeleton::register(m)?;
