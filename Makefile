@@ -103,6 +103,7 @@ bench: $(EXT_ZIP)
 	$(VPY) bench/bench_weights.py
 	$(VPY) bench/eval_weights.py
 	$(VPY) bench/heat_ceiling.py
+	$(VPY) bench/heat_memory.py
 	$(VPY) bench/bench_fit.py
 	$(VPY) bench/bench_autorig.py
 	$(VPY) bench/bench_keys.py
