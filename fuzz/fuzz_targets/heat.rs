@@ -9,7 +9,7 @@ use miniskeleton_core::mesh::Symmetry;
 use miniskeleton_core::weights::{heat_sources, heat_weights, heat_weights_many, heat_weights_with_sources};
 use miniskeleton_core::weights::{BoneCurves, HeatOptions, Influences, MeshRef};
 use miniskeleton_core::Error;
-use miniskeleton_fuzz::{bones, mesh, number, or_default, point, Bones};
+use miniskeleton_fuzz::{bones, check_rows, mesh, number, or_default, point, Bones};
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 fn options(u: &mut Unstructured, b: &Bones) -> Result<HeatOptions> {
@@ -54,26 +54,6 @@ fn options(u: &mut Unstructured, b: &Bones) -> Result<HeatOptions> {
     })
 }
 
-/// What every successful call promises: one row per vertex, bones in range, weights in
-/// [0, 1] summing to 1 on every row (`empty_ok`: rows may be empty, as `heat_sources`' are).
-fn check(inf: &Influences, n: usize, b: usize, empty_ok: bool) {
-    assert_eq!(inf.n(), n, "rows");
-    for v in 0..n {
-        let (idx, w) = inf.row(v);
-        let mut sum = 0.0f32;
-        for (&j, &x) in idx.iter().zip(w) {
-            assert!(j >= -1 && (j as i64) < b as i64, "vertex {v}: bone {j} of {b}");
-            assert!(x.is_finite() && (0.0..=1.0 + 1e-6).contains(&x), "vertex {v}: weight {x}");
-            if j >= 0 {
-                sum += x;
-            }
-        }
-        if !(empty_ok && idx[0] < 0) {
-            assert!((sum - 1.0).abs() < 1e-3, "vertex {v}: weights sum to {sum} ({idx:?} {w:?})");
-        }
-    }
-}
-
 fn run(u: &mut Unstructured) -> Result<()> {
     let m = mesh(u)?;
     let b = bones(u, &m)?;
@@ -89,14 +69,14 @@ fn run(u: &mut Unstructured) -> Result<()> {
                 calls.fetch_add(1, Ordering::Relaxed) + 1 != stop
             };
             match heat_weights(v, t, &b.heads, &b.tails, &opts, Some(&progress)) {
-                Ok((inf, _)) => check(&inf, v.len(), nb, false),
+                Ok((inf, _)) => check_rows(&inf, v.len(), nb, false),
                 Err(Error::Cancelled) => assert!(stop > 0, "cancelled without being asked"),
                 Err(Error::Internal(e)) => panic!("internal error: {e}"),
                 Err(_) => {}
             }
         }
         1 => match heat_sources(v, t, &b.heads, &b.tails, &opts) {
-            Ok(inf) => check(&inf, v.len(), nb, true),
+            Ok(inf) => check_rows(&inf, v.len(), nb, true),
             Err(Error::Internal(e)) => panic!("internal error: {e}"),
             Err(_) => {}
         },
@@ -111,7 +91,7 @@ fn run(u: &mut Unstructured) -> Result<()> {
                 sources.weights[i] = or_default(u, 1.0, number)?;
             }
             match heat_weights_with_sources(v, t, &b.heads, &b.tails, &sources, &opts, None) {
-                Ok((inf, _)) => check(&inf, v.len(), nb, false),
+                Ok((inf, _)) => check_rows(&inf, v.len(), nb, false),
                 Err(Error::Internal(e)) => panic!("internal error: {e}"),
                 Err(_) => {}
             }
@@ -121,7 +101,7 @@ fn run(u: &mut Unstructured) -> Result<()> {
             let meshes: Vec<MeshRef> = vec![(v, &t[..cut]), (v, &t[cut..]), (&v[..v.len() / 2], &[])];
             for (r, (mv, _)) in heat_weights_many(&meshes, &b.heads, &b.tails, &opts).iter().zip(&meshes) {
                 match r {
-                    Ok((inf, _)) => check(inf, mv.len(), nb, false),
+                    Ok((inf, _)) => check_rows(inf, mv.len(), nb, false),
                     Err(Error::Internal(e)) => panic!("internal error: {e}"),
                     Err(_) => {}
                 }

@@ -10,6 +10,7 @@
 
 use arbitrary::{Result, Unstructured};
 use miniskeleton_core::primitives::{bone_chain, capped_cylinder};
+use miniskeleton_core::weights::Influences;
 
 /// A coordinate or a parameter: mostly a multiple of 1/8 in [-4, 4], sometimes a power of ten
 /// up to 1e±38 (either sign), sometimes any `f32` bit pattern (NaN, infinity, subnormal).
@@ -296,4 +297,24 @@ pub fn names(u: &mut Unstructured, n: usize) -> Result<Vec<String>> {
             Ok(format!("{}{}", u.choose(&WORDS)?, u.choose(&SIDES)?))
         })
         .collect()
+}
+
+/// What every successful call promises: one row per vertex, bones in range, weights in
+/// [0, 1] summing to 1 on every row (`empty_ok`: rows may be empty, as `heat_sources`' are).
+pub fn check_rows(inf: &Influences, n: usize, b: usize, empty_ok: bool) {
+    assert_eq!(inf.n(), n, "rows");
+    for v in 0..n {
+        let (idx, w) = inf.row(v);
+        let mut sum = 0.0f32;
+        for (&j, &x) in idx.iter().zip(w) {
+            assert!(j >= -1 && (j as i64) < b as i64, "vertex {v}: bone {j} of {b}");
+            assert!(x.is_finite() && (0.0..=1.0 + 1e-6).contains(&x), "vertex {v}: weight {x}");
+            if j >= 0 {
+                sum += x;
+            }
+        }
+        if !(empty_ok && idx[0] < 0) {
+            assert!((sum - 1.0).abs() < 1e-3, "vertex {v}: weights sum to {sum} ({idx:?} {w:?})");
+        }
+    }
 }
