@@ -23,7 +23,7 @@ RUST_SRC   := $(shell find rust -name '*.rs' -o -name Cargo.toml) Cargo.toml Car
 ADDON_SRC  := $(shell find addon -name '*.py' -o -name '*.toml')
 
 .PHONY: all demo test test-rust test-python test-platforms test-blender test-blender-4.2 test-blender-4.5 \
-    extension wheel venv bench clean
+    extension wheel venv bench fuzz clean
 
 all: extension
 
@@ -119,11 +119,25 @@ bench: $(EXT_ZIP)
 	$(VPY) bench/bench_weights.py
 	$(VPY) bench/eval_weights.py
 	$(VPY) bench/heat_ceiling.py
+	$(VPY) bench/heat_memory.py
 	$(VPY) bench/bench_fit.py
 	$(VPY) bench/bench_autorig.py
 	$(VPY) bench/bench_keys.py
 	$(VPY) bench/motion_corpus.py
 	$(VPY) bench/bench_video.py
+
+## Coverage-guided fuzzing (cargo-fuzz, libFuzzer; fuzz/ is a crate outside the workspace, so
+## `make test` and the cross builds never see it): each target in turn for FUZZ_SECONDS under
+## nice, the committed seed corpus fuzz/corpus/T read, what it finds kept in .build/fuzz/T.
+## A finding stops the run and is left in fuzz/artifacts/T.
+FUZZ_SECONDS ?= 60
+FUZZ_TARGETS ?= heat weights autorig fit motion ik2d mesh
+fuzz:
+	@for t in $(FUZZ_TARGETS); do \
+	    mkdir -p .build/fuzz/$$t fuzz/corpus/$$t; \
+	    (cd fuzz && RUSTC_BOOTSTRAP=1 nice -n 19 cargo fuzz run $$t ../.build/fuzz/$$t corpus/$$t -- \
+	        -max_total_time=$(FUZZ_SECONDS) -rss_limit_mb=2048 -timeout=20 -print_final_stats=1) || exit 1; \
+	done
 
 clean:
 	rm -rf dist addon/wheels out .build

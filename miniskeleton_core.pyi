@@ -95,6 +95,11 @@ def heat_weights_report(
     (with bone_mirror: vertices with a mirror twin or on the plane, the only ones averaged), regularized,
     factorization_failed, timings (stage -> seconds)."""
 
+def heat_peak_bytes(vertices: int, bones: int) -> int:
+    """Estimated peak memory in bytes of one heat solve of that many vertices and bones (the Laplacian,
+    its Cholesky factor, one block of the bones' right-hand sides), fitted on meshes up to 1M vertices;
+    callers refuse a solve that would not fit before it starts."""
+
 def heat_weights_many(
     meshes: Sequence[Tuple[ArrayLike, ArrayLike]], bone_heads: ArrayLike, bone_tails: ArrayLike,
     **options: Unpack[HeatOptions],

@@ -50,6 +50,8 @@ def compute_weights(core, settings: dict, bones, inputs, progress):
         raise WeightsError(f"Meshes {name_list([name for _, name, _, _ in inputs])}: {err}; "
                            "nothing was changed") from err
     sizes = [sum(len(inputs[m][2]) for m in members) for members in groups]
+    if settings["method"] == "HEAT":
+        refuse_past_memory(core, max(sizes), len(bones.heads), settings.get("memory_limit"))
     batched = settings["method"] == "HEAT" and len(groups) > 1
     g = 0
     while g < len(groups):
@@ -65,6 +67,47 @@ def compute_weights(core, settings: dict, bones, inputs, progress):
                 results, notes)
         g += 1
     return results, notes
+
+
+def machine_memory() -> int | None:
+    """This computer's physical memory in bytes, or None where it cannot be read."""
+    import os
+    import sys
+
+    if sys.platform == "win32":
+        import ctypes
+
+        class Status(ctypes.Structure):
+            _fields_ = [("length", ctypes.c_ulong), ("load", ctypes.c_ulong), ("total", ctypes.c_ulonglong),
+                        ("avail", ctypes.c_ulonglong), ("page_total", ctypes.c_ulonglong),
+                        ("page_avail", ctypes.c_ulonglong), ("virtual_total", ctypes.c_ulonglong),
+                        ("virtual_avail", ctypes.c_ulonglong), ("extended", ctypes.c_ulonglong)]
+        status = Status(length=ctypes.sizeof(Status))
+        return int(status.total) if ctypes.windll.kernel32.GlobalMemoryStatusEx(ctypes.byref(status)) else None
+    try:
+        return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    except (ValueError, OSError, AttributeError):
+        return None
+
+
+# With no Memory Limit set, a Heat solve may take this share of the computer's memory.
+MEMORY_SHARE = 0.75
+
+
+def refuse_past_memory(core, vertices: int, bones: int, limit_gb: float | None):
+    """Raise ``WeightsError`` (nothing computed) when a Heat solve's estimated peak
+    (``core.heat_peak_bytes``) exceeds ``limit_gb`` (0 or None: ``MEMORY_SHARE`` of this
+    computer's memory)."""
+    need = core.heat_peak_bytes(vertices, bones)
+    limit = limit_gb * 2**30 if limit_gb else MEMORY_SHARE * (machine_memory() or float("inf"))
+    if need > limit:
+        raise WeightsError(f"Heat on {vertices} vertices and {bones} bones needs about {_size(need)} of memory, "
+                           f"over the limit of {_size(limit)}; nothing was changed (raise Memory Limit, "
+                           "decimate the mesh, or use Nearest Bones)")
+
+
+def _size(b: float) -> str:
+    return f"{b / 2**30:.1f} GB" if b >= 2**30 else f"{b / 2**20:.1f} MB" if b >= 2**20 else f"{b / 2**10:.0f} KB"
 
 
 # Heat solves seam groups of at most this many vertices each in calls of this many vertices in

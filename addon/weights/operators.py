@@ -57,6 +57,10 @@ class MINISKELETON_OT_auto_weights(bpy.types.Operator):
         name="Symmetry", default="NONE",
         items=[("NONE", "None", "No symmetrization"),
                ("X", "X", "Average mirrored vertices in mirrored bones (.L/.R naming)")])
+    memory_limit: FloatProperty(
+        name="Memory Limit", default=0.0, min=0.0, soft_max=256.0,
+        description="Refuse a Heat solve whose estimated peak memory is over this many GB "
+        "(0: three quarters of this computer's memory)")
     visibility: BoolProperty(
         name="Visibility Test", default=True,
         description="A bone heats a vertex only if the straight line to it stays inside the mesh")
@@ -95,6 +99,7 @@ class MINISKELETON_OT_auto_weights(bpy.types.Operator):
             layout.prop(self, "symmetry")
             layout.prop(self, "visibility")
             layout.prop(self, "bone_extent")
+            layout.prop(self, "memory_limit")
         elif self.method == "IDW":
             layout.prop(self, "power")
         else:
@@ -197,6 +202,7 @@ class MINISKELETON_OT_auto_weights(bpy.types.Operator):
         return dict(method=self.method, k=self.max_influences, power=self.power, nearest=self.nearest,
                     falloff="gaussian" if self.falloff == "GAUSSIAN" else "inverse_power",
                     sigma=self.sigma if self.sigma > 0 else None, visibility=self.visibility,
+                    memory_limit=self.memory_limit,
                     mirror=bone_mirror_indices(bones.names) if self.symmetry == "X" else None,
                     parents=bones.parents if self._reach_children(bones) else None)
 

@@ -54,6 +54,25 @@ fn assert_within_limits(chain: &Chain2d) {
     }
 }
 
+/// Fuzz finding (`fuzz/`, target ik2d): limits beyond ±pi saturate at both ends, so a joint
+/// limited to `[3.5, 3.5]` (beyond pi) ends at pi, the saturated bound, whatever the solver.
+/// Before, the lower bound was left at 3.5 above the saturated upper one, and the angle came
+/// out at pi or at 3.5 - 2 pi depending on which bound was nearer the start.
+#[test]
+fn limits_beyond_pi_saturate_at_both_ends() {
+    assert_eq!(clamp_to_limits(0.0, [3.5, 3.5]), PI);
+    assert_eq!(clamp_to_limits(-3.0, [-9.0, -4.0]), PI);
+    let solvers: [Solver; 4] = [solve_ccd, solve_ccd_pure, solve_fabrik, solve_ccd_classic3d];
+    for (k, solve) in solvers.iter().enumerate() {
+        for target in [[1.0, 0.5], [-0.5, -0.3], [0.0, 2.0]] {
+            let mut c = Chain2d::straight([0.0, 0.0], 0.0, vec![1.0, 1.0]);
+            c.limits[0] = [3.5, 3.5];
+            solve(&mut c, target, SolveOptions::default()).unwrap();
+            assert_eq!(c.angles[0], PI, "solver {k}, target {target:?}");
+        }
+    }
+}
+
 #[test]
 fn forward_kinematics_known_pose() {
     let mut c = Chain2d::straight([1.0, 2.0], PI / 2.0, vec![1.0, 2.0, 0.5]);

@@ -355,7 +355,15 @@ pub fn heat_weights_from_sources<'py>(
     Ok((i, w, report_dict(py, &report)?))
 }
 
+/// Estimated peak bytes of one heat solve of `vertices` vertices and `bones` bones
+/// (`weights::heat::heat_peak_bytes`), for refusing one that would not fit before it starts.
+#[pyfunction]
+pub fn heat_peak_bytes(vertices: usize, bones: usize) -> u64 {
+    miniskeleton_core::weights::heat::heat_peak_bytes(vertices, bones)
+}
+
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_function(wrap_pyfunction!(heat_peak_bytes, m)?)?;
     m.add_function(wrap_pyfunction!(idw_weights, m)?)?;
     m.add_function(wrap_pyfunction!(bilinear_weights, m)?)?;
     m.add_function(wrap_pyfunction!(heat_weights, m)?)?;

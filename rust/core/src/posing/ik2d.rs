@@ -131,8 +131,10 @@ pub fn wrap_angle(a: f64) -> f64 {
 /// circle (so `-170 deg` with limits `[0, 150] deg` becomes `150 deg`, not `0`).
 pub fn clamp_to_limits(angle: f64, limits: [f64; 2]) -> f64 {
     let a = wrap_angle(angle);
-    let lo = limits[0].max(-PI);
-    let hi = limits[1].min(PI);
+    // Both bounds saturate at ±pi: `[3.5, 3.5]` is `[pi, pi]` (a lower bound left above pi
+    // made the interval empty and the answer depend on which bound was nearer).
+    let lo = limits[0].clamp(-PI, PI);
+    let hi = limits[1].clamp(-PI, PI);
     if lo <= -PI && hi >= PI {
         return a;
     }

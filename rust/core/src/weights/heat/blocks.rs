@@ -27,7 +27,7 @@ pub const BLOCK_BYTES: usize = 512 << 20;
 /// [`BLOCK_BYTES`], at least `threads`), in increasing order; with `mirror`, a bone and its
 /// mirror partner share a block (symmetry averages their columns).
 pub(crate) fn bone_blocks(b: usize, nw: usize, cap: usize, threads: usize, mirror: Option<&[i32]>) -> Vec<Vec<usize>> {
-    let cap = if cap > 0 { cap } else { (BLOCK_BYTES / (8 * nw.max(1))).max(threads).max(1) };
+    let cap = if cap > 0 { cap } else { block_width(nw, threads) };
     let mut blocks: Vec<Vec<usize>> = Vec::new();
     let mut placed = vec![false; b];
     for j in 0..b {
@@ -48,6 +48,12 @@ pub(crate) fn bone_blocks(b: usize, nw: usize, cap: usize, threads: usize, mirro
         block.sort_unstable();
     }
     blocks
+}
+
+/// Bones in a block by default: as many `nw`-vertex columns as fit in [`BLOCK_BYTES`], at
+/// least `threads` (one column per thread).
+pub(crate) fn block_width(nw: usize, threads: usize) -> usize {
+    (BLOCK_BYTES / (8 * nw.max(1))).max(threads).max(1)
 }
 
 /// The right-hand sides `M H P` of the bones in `block`, column-major `(n, block.len())`:

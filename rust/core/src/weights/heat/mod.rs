@@ -10,6 +10,7 @@
 
 mod blocks;
 mod cholesky;
+mod memory;
 mod pieces;
 pub(crate) mod reach;
 mod sources;
@@ -24,6 +25,7 @@ use crate::weights::influence::Influences;
 use crate::weights::symmetry::validate_bone_mirror;
 use crate::{Error, Result};
 pub use blocks::BLOCK_BYTES;
+pub use memory::heat_peak_bytes;
 use rayon::prelude::*;
 use stages::{run, sources_found, Inputs};
 
