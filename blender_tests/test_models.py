@@ -136,8 +136,8 @@ def test_fit_leaves_the_robots_knees_where_the_artist_put_them_and_it_still_walk
 @pytest.mark.parametrize("name", scan_rig.SCANS)
 def test_rough_rig_on_unrigged_scans_fits_inside_and_binds_each_hoof_to_its_leg(name):
     """The scans (the horse is 0.2 units across, 97k triangles) with the rough quadruped a
-    rigger blocks in (scan_rig: joints at fixed fractions of the height, some outside): Fit puts
-    every joint inside, then Heat weights every vertex and each hoof goes to its own shin. The
+    rigger blocks in (scan_rig: joints at fixed fractions of the height, some outside) and Max
+    Move 15 %: Fit puts every joint inside, then Heat weights every vertex and each hoof goes to its own shin. The
     fitted rig walks as a quadruped, front and back pairs by name: the horse stands in mid-stride,
     its rough hips over its feet, and was a "multiped" with a front-right "middle" leg."""
     path = need(name)
@@ -154,7 +154,9 @@ def test_rough_rig_on_unrigged_scans_fits_inside_and_binds_each_hoof_to_its_leg(
         return np.array([p for b in arm.data.bones for p in (b.head_local, b.tail_local)], dtype=np.float32)
 
     assert not core.points_inside(verts, tris, joints()).all()  # the rough rig sticks out ...
-    assert bench_fit.fit(bpy, arm, [ob], tails="AUTO", symmetry="NONE")[0]
+    # ... farther than 5 % of the diagonal (the horse's head tip), where Fit keeps a joint in place
+    # as an artist's root on the ground: a rig this rough needs a Max Move to match.
+    assert bench_fit.fit(bpy, arm, [ob], tails="AUTO", symmetry="NONE", max_move=15.0)[0]
     assert core.points_inside(verts, tris, joints()).all()  # ... the fitted one does not
     bones = [b.name for b in arm.data.bones]
     assert eval_weights.bind(bpy, arm, [ob], ours=True)[1] == {"FINISHED"}
