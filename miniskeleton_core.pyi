@@ -211,14 +211,17 @@ def fit_joints(vertices: ArrayLike, triangles: ArrayLike, joints: ArrayLike, bon
     indices; movable (j,) bool; with symmetry_axis, joint_mirror (j,) pairs end exactly mirrored,
     centre joints (mirror = itself) on the plane, joints with mirror -1 are free, and so are centre
     joints farther than max_move from the plane (a side joint whose name has no side; counted in
-    the report's off_plane_centre) (ValueError when
+    the report's off_plane_centre); joints that start farther than max_move outside keep their
+    place (counted in kept_outside), and joints keep their place where their lines are not trusted
+    (the core's do-no-harm FitOptions, at their defaults) (ValueError when
     the joints would move more than 10 % of the diagonal on average to meet their mirror images:
     not the rig's mirror plane). max_move caps a
     joint's fitting move (fraction of the bbox diagonal). A bone leaving a junction (a joint of 3+ bones)
     whose thinnest section's radius exceeds stub_ratio times its length (pelvis to hip) gives no
     centre line; 0 disables. A bone with fewer than min_sections usable sections (one pins a point,
     not a direction) gives no centre line either, nor does one whose sections' line runs more than
-    60 degrees from the bone (slices of unrelated parts). Report: outside_before/after (+ _mask), rounds, max_move,
+    60 degrees from the bone (slices of unrelated parts). Report: outside_before/after (+ _mask), kept_outside,
+    rounds, max_move,
     open_edges, nonmanifold_edges, pieces, mirrored_surface (with symmetry: share of the vertices whose
     mirror image lies within 1 % of the diagonal of the surface, else None), off_plane_centre."""
 

@@ -1,9 +1,10 @@
 """Real rigged models from ../shared/models/ (skipped, and reported as skipped, when the folder
 or a file is absent; never copied here): Auto Weights (Heat) leaves no vertex unweighted, and
-Fit Skeleton leaves no real joint outside the mesh and lowers the error of a displaced skeleton;
-the unrigged scans (cow, horse) get a rough skeleton that is fitted and bound. The quality and
-fitting *scores* are measured by bench/eval_weights.py and bench/bench_fit.py, whose scene
-helpers these tests reuse."""
+Fit Skeleton does no harm to a displaced skeleton (no group of joints ends farther, none ends
+outside; also on the creature and the rigs of scripts/rig_corpus.py); the unrigged scans (cow,
+horse) get a rough skeleton that is fitted and bound. The quality and fitting *scores* are
+measured by bench/eval_weights.py and bench/bench_fit.py, whose scene helpers these tests
+reuse."""
 
 import importlib
 import sys
@@ -66,16 +67,25 @@ def test_fox_snout_follows_the_head():
     assert (ours[snout].argmax(axis=1) == head).mean() > 0.9
 
 
-@pytest.mark.parametrize("name", ["Fox.glb", "CesiumMan.gltf", "spot_rig.glb"])
-def test_fit_real_models_leaves_no_joint_outside(name):
-    need(name)
+@pytest.mark.parametrize("name", ["creature"] + bench_fit.RIGGED + bench_fit.CORPUS)
+def test_fit_does_no_harm(name):
+    """bench_fit.py's do-no-harm table: from every joint displaced within 5 % of the diagonal
+    (the bench's 10 seeds), no group of joints (limbs, junctions, spine, ends) ends farther from
+    the artist's joints on average than it started, no joint that started inside the mesh ends
+    outside, the whole skeleton ends nearer, and joints outside within reach come back in (only
+    the artist's own joints far outside, a root on the ground, stay out). The creature and the
+    rigs of scripts/rig_corpus.py are built here; the shared models skip when absent."""
+    if "." in name:
+        need(name)
     import miniskeleton_core as core
 
-    r = bench_fit.run(bpy, name, 2, core, tails="AUTO", symmetry="NONE")
+    r = bench_fit.run(bpy, name, 10, core, tails="AUTO", symmetry="NONE")
     assert r is not None, name
-    assert r["out_before"] > 0  # the displacement pushes some joints out ...
-    assert r["out_after"] == 0  # ... and the fit brings every one back in
-    assert r["after"] < r["before"], r  # lower on every model (halved only on some: bench_fit)
+    for group, (n, before, after) in r["groups"].items():
+        assert not bench_fit.worse(before, after), f"{name} {group} ({n}): {before:.2f} -> {after:.2f} %"
+    assert r["in_to_out"] == 0, r["in_to_out"]
+    assert r["after"] < r["before"], r
+    assert r["out_after"] <= r["out_orig"], r  # at most the artist's own joints far outside stay out
 
 
 def fit_artist_rig(name):
@@ -126,8 +136,8 @@ def test_fit_leaves_the_robots_knees_where_the_artist_put_them_and_it_still_walk
 @pytest.mark.parametrize("name", scan_rig.SCANS)
 def test_rough_rig_on_unrigged_scans_fits_inside_and_binds_each_hoof_to_its_leg(name):
     """The scans (the horse is 0.2 units across, 97k triangles) with the rough quadruped a
-    rigger blocks in (scan_rig: joints at fixed fractions of the height, some outside): Fit puts
-    every joint inside, then Heat weights every vertex and each hoof goes to its own shin. The
+    rigger blocks in (scan_rig: joints at fixed fractions of the height, some outside) and Max
+    Move 15 %: Fit puts every joint inside, then Heat weights every vertex and each hoof goes to its own shin. The
     fitted rig walks as a quadruped, front and back pairs by name: the horse stands in mid-stride,
     its rough hips over its feet, and was a "multiped" with a front-right "middle" leg."""
     path = need(name)
@@ -144,7 +154,9 @@ def test_rough_rig_on_unrigged_scans_fits_inside_and_binds_each_hoof_to_its_leg(
         return np.array([p for b in arm.data.bones for p in (b.head_local, b.tail_local)], dtype=np.float32)
 
     assert not core.points_inside(verts, tris, joints()).all()  # the rough rig sticks out ...
-    assert bench_fit.fit(bpy, arm, [ob], tails="AUTO", symmetry="NONE")[0]
+    # ... farther than 5 % of the diagonal (the horse's head tip), where Fit keeps a joint in place
+    # as an artist's root on the ground: a rig this rough needs a Max Move to match.
+    assert bench_fit.fit(bpy, arm, [ob], tails="AUTO", symmetry="NONE", max_move=15.0)[0]
     assert core.points_inside(verts, tris, joints()).all()  # ... the fitted one does not
     bones = [b.name for b in arm.data.bones]
     assert eval_weights.bind(bpy, arm, [ob], ours=True)[1] == {"FINISHED"}

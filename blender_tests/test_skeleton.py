@@ -87,14 +87,15 @@ def creature_setup(seed=1, scale=0.05):
     return body, arm, ends, joints, moved, diag
 
 
-def fit_one_joint(arm, body, bone, end):
-    """Fit Skeleton in Edit Mode with only ``bone``'s ``end`` ('select_head' / 'select_tail') selected."""
+def fit_one_joint(arm, body, bone, end, **op):
+    """Fit Skeleton in Edit Mode with only ``bone``'s ``end`` ('select_head' / 'select_tail') selected
+    (``op``: the operator's options)."""
     builders.set_active(arm, selected=[body])
     bpy.ops.object.mode_set(mode="EDIT")
     for eb in arm.data.edit_bones:
         eb.select = eb.select_head = eb.select_tail = False
     setattr(arm.data.edit_bones[bone], end, True)
-    bpy.ops.armature.miniskeleton_fit_skeleton()
+    bpy.ops.armature.miniskeleton_fit_skeleton(**op)
     bpy.ops.object.mode_set(mode="OBJECT")
 
 
@@ -242,11 +243,12 @@ def test_fit_reads_bone_parented_parts_in_the_rest_pose():
     bone moved (Blender would carry it along); Restore Original Skeleton keeps it there too."""
     from mathutils import Euler
 
-    ob = builders.cylinder("Body", radius=0.5, height=4.0, rings=24, segments=16)
+    # A limb (radius under 5 % of the diagonal): Fit centres its joints fully, unlike a body's.
+    ob = builders.cylinder("Body", radius=0.2, height=4.0, rings=24, segments=16)
     arm = builders.chain("Rig", count=4)
     names, h, t, parents, conn = bone_arrays(arm)
     joints, ends = skeleton_joints.joint_graph(h, t, parents, conn, 1e-6)
-    moved = joints + np.array([0.2, -0.15, 0.0])
+    moved = joints + np.array([0.12, -0.09, 0.0])
     set_joints(arm, moved, ends)
     builders.select_for_parenting([ob], arm)
     assert bpy.ops.armature.miniskeleton_fit_skeleton() == {"FINISHED"}
@@ -288,11 +290,11 @@ def test_fit_and_restore_keep_a_constrained_bone_child_in_place():
     empty's turn) stays where it is while Fit and Restore move its bone. Before, its new parent
     inverse was solved from the world matrix with the constraint in it, and the part moved by
     0.08 units on this cylinder."""
-    ob = builders.cylinder("Body", radius=0.5, height=4.0, rings=24, segments=16)
+    ob = builders.cylinder("Body", radius=0.2, height=4.0, rings=24, segments=16)  # a limb
     arm = builders.chain("Rig", count=4)
     names, h, t, parents, conn = bone_arrays(arm)
     joints, ends = skeleton_joints.joint_graph(h, t, parents, conn, 1e-6)
-    set_joints(arm, joints + np.array([0.2, -0.15, 0.0]), ends)
+    set_joints(arm, joints + np.array([0.12, -0.09, 0.0]), ends)
     arm.data.bones.active = arm.data.bones["Bone0"]
     builders.select_for_parenting([ob], arm)
     assert bpy.ops.object.parent_set(type="BONE", keep_transform=True) == {"FINISHED"}
@@ -306,7 +308,7 @@ def test_fit_and_restore_keep_a_constrained_bone_child_in_place():
     builders.select_for_parenting([ob], arm)
     assert bpy.ops.armature.miniskeleton_fit_skeleton() == {"FINISHED"}
     bpy.context.view_layer.update()
-    assert np.abs(joints_of(arm, ends) - joints).max() < 0.05  # Bone0 moved back in ...
+    assert np.abs(joints_of(arm, ends) - joints)[:, :2].max() < 0.05  # Bone0 moved back in ...
     np.testing.assert_allclose(builders.evaluated_world_vertices(ob), rest, atol=1e-5)  # ... the body did not
     builders.set_active(arm)
     assert bpy.ops.armature.miniskeleton_restore_skeleton() == {"FINISHED"}
@@ -554,10 +556,17 @@ def test_fit_keeps_control_bones_outside_the_mesh_where_they_are(capfd):
     for name, state in alone.items():
         np.testing.assert_allclose(after[name][0] + after[name][1], state[0] + state[1], atol=1e-6, err_msg=name)
 
-    fit_one_joint(arm, body, "knee_pole.L", "select_head")
+    # Selected, the pole (1.0 in front of the knee, farther than Max Move outside) keeps its place
+    # as any joint that far out; with Max Move past its distance it is pulled in.
     v, t = mesh_arrays(body)
-    head = np.array(arm.matrix_world @ arm.data.bones["knee_pole.L"].head_local, dtype=np.float32)
-    assert core.points_inside(v, t, head[None])[0]
+
+    def pole_head():
+        return np.array(arm.matrix_world @ arm.data.bones["knee_pole.L"].head_local, dtype=np.float32)
+
+    fit_one_joint(arm, body, "knee_pole.L", "select_head")
+    assert not core.points_inside(v, t, pole_head()[None])[0]
+    fit_one_joint(arm, body, "knee_pole.L", "select_head", max_move=40.0)
+    assert core.points_inside(v, t, pole_head()[None])[0]
 
 
 def test_joint_graph_merges_ends_within_the_tolerance_and_takes_any_bone_order():
@@ -1138,7 +1147,7 @@ def test_bad_inputs_are_reported(capfd):
 def test_bones_just_made_in_edit_mode_are_fitted_and_kept():
     """A new armature's bones are only edit bones until Edit Mode ends: Fit and Keep Current
     as Original see them and work in Edit Mode, which stays on."""
-    body = builders.cylinder("Body")
+    body = builders.cylinder("Body", radius=0.2)  # a limb: its joints are centred
     data = bpy.data.armatures.new("New")
     arm = bpy.data.objects.new("New", data)
     bpy.context.scene.collection.objects.link(arm)
@@ -1147,7 +1156,7 @@ def test_bones_just_made_in_edit_mode_are_fitted_and_kept():
     prev = None
     for i, (z0, z1) in enumerate(((0.3, 1.5), (1.5, 2.8), (2.8, 3.7))):
         eb = data.edit_bones.new(f"B{i}")
-        eb.head, eb.tail = (0.15, 0.0, z0), (0.15, 0.0, z1)
+        eb.head, eb.tail = (0.1, 0.0, z0), (0.1, 0.0, z1)
         eb.select = eb.select_head = eb.select_tail = False
         if prev is not None:
             eb.parent, eb.use_connect = prev, True
@@ -1273,7 +1282,7 @@ def test_fit_an_imported_rig_through_its_parent_child_links():
     err = np.linalg.norm(now - orig[heads], axis=1)
     before = np.linalg.norm(moved[heads] - orig[heads], axis=1)
     leaves = [i for i, b in enumerate(arm.data.bones) if not b.children]
-    assert err.mean() <= 0.5 * before.mean()             # 0.48 (0.91 without the links)
+    assert err.mean() <= 0.55 * before.mean()            # 0.51 (0.48 before do no harm; 0.91 without the links)
     assert err[leaves].max() < before[leaves].max()      # 3.1 % of 4.5 % (6.2 % sent to the tips)
     assert all(b.tail_local[1] - b.head_local[1] == pytest.approx(0.02 * diag, abs=1e-5) for b in arm.data.bones)
 
@@ -1329,5 +1338,7 @@ def test_fit_of_a_tiny_or_huge_rig_is_the_fit_at_unit_size_scaled():
         body.data.transform(Matrix.Scale(factor, 4))
         builders.select_for_parenting([body], arm)
         assert bpy.ops.armature.miniskeleton_fit_skeleton() == {"FINISHED"}
-        np.testing.assert_allclose(joints_of(arm, ends) / factor, reference, atol=1e-5 * diag)
+        # The do-no-harm rules are thresholds: rounding at another scale may tip one (a joint
+        # moved 1e-4 of the diagonal), never more.
+        np.testing.assert_allclose(joints_of(arm, ends) / factor, reference, atol=3e-4 * diag)
         body.data.transform(Matrix.Scale(1.0 / factor, 4))

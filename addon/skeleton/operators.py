@@ -341,13 +341,16 @@ class MINISKELETON_OT_fit_skeleton(bpy.types.Operator):
                         "X = 0 plane, but their bones' names carry no side (.L/.R, _L/_R, Left/Right): they were "
                         "fitted without a mirror partner instead of being pulled onto the plane; name the sides "
                         "to mirror them")
-        level = {"WARNING"} if after else {"INFO"}
+        far = int(rep.get("kept_outside", 0))
+        level = {"WARNING"} if after > far else {"INFO"}
         fitted = len(movable)
         extra = f" ({joints - fitted} invented tails followed their bones)" if fitted < joints else ""
         controls_note = (f"; {int(kept.sum())} joints of non-deform bones (controls such as IK and pole "
                          "targets) kept in place: select them to fit them too") if kept.any() else ""
+        far_note = (f" ({far} farther than Max Move outside kept their place, as a root on the ground or a "
+                    "pole target: raise Max Move to pull them in)") if far else ""
         self.report(level, f"Fitted {int(movable.sum())} of {fitted} joints{extra}: outside the mesh "
-                    f"before {before}, after {after}{controls_note}")
+                    f"before {before}, after {after}{far_note}{controls_note}")
 
 
 class MINISKELETON_OT_restore_skeleton(bpy.types.Operator):

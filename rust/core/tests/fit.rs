@@ -123,7 +123,10 @@ fn straight_tube_centres_perpendicular() {
     let truth: Vec<[f32; 3]> = (0..5).map(|i| [0.0, 0.0, 0.4 + 0.8 * i as f32]).collect();
     let mut rng = Rng(7);
     let start: Vec<[f32; 3]> = truth.iter().map(|p| [p[0] + 0.3 * rng.next(), p[1] + 0.3 * rng.next(), p[2]]).collect();
-    let (out, rep) = fit_joints(&v, &t, &start, &chain_bones(5), &[true; 5], &FitOptions::default()).unwrap();
+    // Radius 12 % of the diagonal is a body by default (a_joint_inside_a_body_is_not_dragged_to_its_centre);
+    // here it is a limb.
+    let opts = FitOptions { body_radius: f64::INFINITY, ..FitOptions::default() };
+    let (out, rep) = fit_joints(&v, &t, &start, &chain_bones(5), &[true; 5], &opts).unwrap();
     for o in &out {
         assert!(o[0].abs() < 0.02 && o[1].abs() < 0.02, "not centred: {o:?}");
     }
@@ -142,7 +145,7 @@ fn max_move_caps_the_fit() {
     let (v, t) = capped_cylinder(0.5, 4.0, 40, 32);
     let diag = (1.0f32 + 1.0 + 16.0).sqrt();
     let start: Vec<[f32; 3]> = (0..5).map(|i| [0.3, 0.0, 0.4 + 0.8 * i as f32]).collect();
-    let opts = FitOptions { max_move: 0.02, tip: false, ..FitOptions::default() };
+    let opts = FitOptions { max_move: 0.02, tip: false, body_radius: f64::INFINITY, ..FitOptions::default() };
     // A loose vertex far away (no face uses it) does not widen the diagonal the cap is a
     // fraction of.
     let mut stray = v.clone();
@@ -176,7 +179,9 @@ fn bent_tube_corner() {
                 [p[0] + d[0], p[1] + d[1], p[2] + d[2]]
             })
             .collect();
-        let (out, rep) = fit_joints(&v, &t, &start, &bones, &[true; 3], &FitOptions::default()).unwrap();
+        // Radius 7 % of the diagonal is a body by default; here it is a limb.
+        let opts = FitOptions { body_radius: f64::INFINITY, ..FitOptions::default() };
+        let (out, rep) = fit_joints(&v, &t, &start, &bones, &[true; 3], &opts).unwrap();
         assert_eq!(rep.count_outside_after(), 0, "seed {seed}: {out:?}");
         before += dist(start[1], truth[1]);
         after += dist(out[1], truth[1]);
@@ -186,7 +191,8 @@ fn bent_tube_corner() {
 
 /// Shoulders inside a torso: the chest-to-shoulder stubs (shorter than the torso is wide,
 /// leaving the chest junction) give no centre line, so each shoulder stays on its arm's axis
-/// instead of being dragged toward the torso's middle; with the stub rule off they are dragged.
+/// instead of being dragged toward the torso's middle; with the stub rule and the do-no-harm rules
+/// (FitOptions) off they are dragged.
 #[test]
 fn stub_bone_does_not_drag_its_joint() {
     let mut mesh = tube(&[[0.0, 0.0, 0.0], [0.0, 0.0, 2.0]], 0.5, 20, 32);
@@ -212,7 +218,14 @@ fn stub_bone_does_not_drag_its_joint() {
     for j in [1, 4] {
         assert!(dist(out[j], start[j]) < 0.01, "shoulder {j} moved: {:?}", out[j]);
     }
-    let off = FitOptions { stub_ratio: 0.0, ..FitOptions::default() };
+    let off = FitOptions {
+        stub_ratio: 0.0,
+        thick_ratio: 0.0,
+        agreement: 0.0,
+        flat_ratio: 0.0,
+        body_radius: f64::INFINITY,
+        ..FitOptions::default()
+    };
     let (dragged, _) = fit_joints(&v, &t, &start, &bones, &movable, &off).unwrap();
     assert!(dist(dragged[1], start[1]) > 0.05, "without the rule the torso drags it: {:?}", dragged[1]);
 }
@@ -262,7 +275,8 @@ fn parts_pushed_into_each_other_are_one_solid() {
     let in_overlap = [0.0, 0.0, 1.75];
     assert!(points_inside(&v, &t, &[in_overlap]).unwrap()[0]);
     let start = vec![[0.2, 0.1, 0.5], [0.15, -0.2, 1.75], [-0.1, 0.2, 3.0]];
-    let opts = FitOptions { tip: false, ..FitOptions::default() };
+    // A limb this thick (radius 13 % of the diagonal) is a body by default: centre it fully.
+    let opts = FitOptions { tip: false, body_radius: f64::INFINITY, ..FitOptions::default() };
     let (out, rep) = fit_joints(&v, &t, &start, &chain_bones(3), &[true; 3], &opts).unwrap();
     assert_eq!(rep.pieces, 2);
     assert_eq!((rep.count_outside_before(), rep.count_outside_after()), (0, 0));
@@ -272,18 +286,75 @@ fn parts_pushed_into_each_other_are_one_solid() {
     }
 }
 
-/// Joints far outside come back inside; fixed joints never move.
+/// Joints outside within reach of the surface come back inside; a joint farther outside than
+/// `max_move` (a root on the ground, a pole target) and fixed joints keep their place.
 #[test]
-fn outside_pulled_in_and_fixed_stay() {
+fn outside_pulled_in_far_outside_and_fixed_stay() {
     let (v, t) = capped_cylinder(0.5, 4.0, 40, 32);
-    let start = vec![[0.9, 0.0, 0.5], [0.0, -1.2, 2.0], [0.7, 0.7, 3.5]];
-    let (out, rep) = fit_joints(&v, &t, &start, &chain_bones(3), &[true; 3], &FitOptions::default()).unwrap();
-    assert_eq!(rep.count_outside_before(), 3);
+    let diag = (1.0f32 + 1.0 + 16.0).sqrt();
+    // 0.3, 0.3 and 0.22 outside: 7 % of the diagonal or less; then 1.5 (35 %) below the base.
+    let start = vec![[0.8, 0.0, 0.5], [0.0, -0.8, 2.0], [0.5, 0.5, 3.5], [0.0, 0.0, -1.5]];
+    let bones = [[0, 1], [1, 2], [3, 0]];
+    let (out, rep) = fit_joints(&v, &t, &start, &bones, &[true; 4], &FitOptions::default()).unwrap();
+    assert_eq!(rep.count_outside_before(), 4);
+    assert_eq!(rep.outside_after, vec![false, false, false, true], "{out:?}");
+    assert_eq!(rep.kept_outside, vec![false, false, false, true]);
+    assert_eq!(out[3], start[3]);
+    assert!(points_inside(&v, &t, &out[..3]).unwrap().iter().all(|&b| b));
+    // With a cap past its distance, it is pulled in too.
+    let far = FitOptions { max_move: 0.5, ..FitOptions::default() };
+    let (out, rep) = fit_joints(&v, &t, &start, &bones, &[true; 4], &far).unwrap();
     assert_eq!(rep.count_outside_after(), 0, "{out:?}");
-    assert!(points_inside(&v, &t, &out).unwrap().iter().all(|&b| b));
-    let movable = [true, false, true];
-    let (out, _) = fit_joints(&v, &t, &start, &chain_bones(3), &movable, &FitOptions::default()).unwrap();
+    assert!(dist(out[3], start[3]) > 0.1 * diag);
+    let movable = [true, false, true, true];
+    let (out, _) = fit_joints(&v, &t, &start, &bones, &movable, &FitOptions::default()).unwrap();
     assert_eq!(out[1], start[1]);
+}
+
+/// A wing (a section 15 times as wide as thick) with its bone along the leading edge: the fit
+/// centres the bone across the wing's thickness but keeps it where the artist put it along the
+/// wing's width; with the flat rule off, the bone is dragged toward the middle of the wing.
+#[test]
+fn flat_section_places_its_bone_across_it_only() {
+    let (v, t) = capped_cylinder(1.0, 4.0, 40, 48);
+    let v: Vec<[f32; 3]> = v.iter().map(|p| [1.5 * p[0], 0.1 * p[1], p[2]]).collect();
+    let start = vec![[0.8, 0.05, 0.5], [0.8, -0.04, 2.0], [0.8, 0.04, 3.5]];
+    let opts = FitOptions { tip: false, ..FitOptions::default() };
+    let (out, _) = fit_joints(&v, &t, &start, &chain_bones(3), &[true; 3], &opts).unwrap();
+    for (o, s) in out.iter().zip(&start) {
+        assert!(o[1].abs() < 0.01, "not centred across the wing: {o:?}");
+        assert!((o[0] - s[0]).abs() < 0.02 && (o[2] - s[2]).abs() < 0.02, "moved along the wing: {o:?}");
+    }
+    let off = FitOptions { flat_ratio: 0.0, ..opts };
+    let (dragged, _) = fit_joints(&v, &t, &start, &chain_bones(3), &[true; 3], &off).unwrap();
+    assert!(dragged[1][0] < 0.8 - 0.1, "without the rule the wing's middle drags it: {:?}", dragged[1]);
+}
+
+/// Inside a body (a section radius above `body_radius`) a joint off the centre (a hip in a
+/// belly) keeps its place when it is within (radius - `body_radius`) of the centre, and moves
+/// only that near when it is farther; in a limb (`body_radius` past the radius) it is centred.
+#[test]
+fn a_joint_inside_a_body_is_not_dragged_to_its_centre() {
+    let (v, t) = capped_cylinder(0.35, 4.0, 40, 48);
+    let diag = (0.35f32 * 0.35 * 8.0 + 16.0).sqrt();
+    // Radius 0.35 is 0.085 of the diagonal: joints within (0.085 - 0.05) * diag = 0.144 stay.
+    let slack = 0.35 - 0.05 * diag;
+    let near = vec![[0.1, 0.0, 0.5], [0.1, 0.05, 2.0], [0.1, 0.0, 3.5]];
+    let opts = FitOptions { tip: false, ..FitOptions::default() };
+    let (out, _) = fit_joints(&v, &t, &near, &chain_bones(3), &[true; 3], &opts).unwrap();
+    for (o, s) in out.iter().zip(&near) {
+        assert!(dist(*o, *s) < 1e-5, "moved inside the body: {s:?} -> {o:?}");
+    }
+    let far = vec![[0.3, 0.0, 0.5], [0.3, 0.0, 2.0], [0.3, 0.0, 3.5]];
+    let (out, _) = fit_joints(&v, &t, &far, &chain_bones(3), &[true; 3], &opts).unwrap();
+    for o in &out {
+        assert!((o[0] - slack).abs() < 0.03 && o[1].abs() < 0.01, "not moved to {slack} off the centre: {o:?}");
+    }
+    let limb = FitOptions { body_radius: f64::INFINITY, ..opts };
+    let (out, _) = fit_joints(&v, &t, &near, &chain_bones(3), &[true; 3], &limb).unwrap();
+    for o in &out {
+        assert!(o[0].abs() < 0.02 && o[1].abs() < 0.02, "not centred: {o:?}");
+    }
 }
 
 /// A tube of radius 0.3 along `path` and its mirror image across x = 0 (two pieces).

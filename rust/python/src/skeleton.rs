@@ -50,14 +50,26 @@ pub fn fit_joints<'py>(
         (Some(axis), Some(m)) => Some(Symmetry { axis, plane: symmetry_plane, mirror: indices(&m, "joint_mirror")? }),
         _ => return Err(PyValueError::new_err("symmetry_axis and joint_mirror go together")),
     };
-    let opts =
-        FitOptions { symmetry, rays, samples, rounds, tolerance, stiffness, tip, max_move, stub_ratio, min_sections };
+    let opts = FitOptions {
+        symmetry,
+        rays,
+        samples,
+        rounds,
+        tolerance,
+        stiffness,
+        tip,
+        max_move,
+        stub_ratio,
+        min_sections,
+        ..FitOptions::default()
+    };
     let (out, rep) = guarded(py, move || skeleton::fit_joints(&v, &t, &j, &b, &mv, &opts))?;
     let d = PyDict::new(py);
     d.set_item("outside_before", rep.count_outside_before())?;
     d.set_item("outside_after", rep.count_outside_after())?;
     d.set_item("outside_before_mask", PyArray1::from_vec(py, rep.outside_before.clone()))?;
     d.set_item("outside_after_mask", PyArray1::from_vec(py, rep.outside_after.clone()))?;
+    d.set_item("kept_outside", rep.kept_outside.iter().filter(|&&k| k).count())?;
     d.set_item("rounds", rep.rounds)?;
     d.set_item("max_move", rep.max_move)?;
     d.set_item("open_edges", rep.open_edges)?;

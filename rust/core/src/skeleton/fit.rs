@@ -13,6 +13,14 @@
 //! and a stub bone leaving a junction (shorter than its sections are wide: pelvis to hip, chest
 //! to shoulder) has no centre line at all, since its sections are slices of the body it lies in.
 //!
+//! Do no harm: a rough joint must not end farther from its place than it started. So a joint
+//! moves only where its lines are trustworthy: a bone far shorter than its part is thick has no
+//! line (`thick_ratio`), a flat section places its bone across its short axis only
+//! (`flat_ratio`), a junction needs lines from two of its bones, two or more lines must agree
+//! on a point (`agreement`), in a body (radius above `body_radius`) a joint moves only until it
+//! is within (radius - `body_radius`) of its lines' point, and a joint farther than `max_move`
+//! outside the mesh (a root on the ground, a pole target) keeps its place.
+//!
 //! Inside/outside is decided by ray parity (crossings of the union of the pieces along
 //! several fixed directions, majority vote), so it is reliable on closed pieces and
 //! approximate on open ones. Joints still outside at the end are pulled to the middle of the
@@ -82,6 +90,29 @@ pub struct FitOptions {
     /// are slices of another part (an upper leg whose top runs into a torso), following the
     /// bone's own direction through that one point lets its joints drift round after round.
     pub min_sections: usize,
+    /// A cross-section more than this many times as long as it is wide (a wing, a flat tail, a
+    /// flattened body) places its bone across its short axis only: along the long axis its centre
+    /// is the middle of the whole flat part (a wing's middle, not its leading-edge bone), so the
+    /// bone keeps its offset there. 0 disables. Default 3.
+    pub flat_ratio: f64,
+    /// Any bone (not only a stub leaving a junction, see `stub_ratio`) whose thinnest
+    /// cross-section has a radius above this multiple of its length gives no centre line: a short
+    /// bone deep in a thick part (a spine link in a belly, a jaw in a head) is cut into slices of
+    /// the whole part, whose centre is not where the artist puts the bone. 0 disables.
+    /// Default 1.5.
+    pub thick_ratio: f64,
+    /// A joint with two or more centre lines moves only when the point nearest to them lies
+    /// within this many local radii of each line (the lines agree on a place); lines that miss
+    /// each other by more come from sections of different parts (a hip's thigh line and a
+    /// belly's spine line), and the joint keeps its place. 0 disables. Default 1.
+    pub agreement: f64,
+    /// Parts whose radius is above this (fraction of the bounding-box diagonal) are bodies (a
+    /// torso, a head): there the artist's joint may lie off the centre of the sections (a hip
+    /// in a belly, a shoulder in a chest), so a joint moves toward its lines' point only until
+    /// it is within (radius - `body_radius`) of it, and a joint already that near keeps its
+    /// place. Limbs thinner than this are centred fully. `f64::INFINITY` disables. Default 0.05
+    /// (a human's torso and head are bodies, its arms and legs limbs).
+    pub body_radius: f64,
 }
 
 impl Default for FitOptions {
@@ -97,6 +128,10 @@ impl Default for FitOptions {
             stub_ratio: 0.5,
             max_move: 0.12,
             min_sections: 2,
+            flat_ratio: 3.0,
+            thick_ratio: 1.5,
+            agreement: 1.0,
+            body_radius: 0.05,
         }
     }
 }
@@ -107,6 +142,9 @@ pub struct FitReport {
     /// `(j,)` joint was outside the mesh before / after fitting (ray parity).
     pub outside_before: Vec<bool>,
     pub outside_after: Vec<bool>,
+    /// `(j,)` movable joint that started farther than `max_move` outside the mesh and kept its
+    /// place (a root on the ground, a pole target).
+    pub kept_outside: Vec<bool>,
     /// Rounds run.
     pub rounds: usize,
     /// Largest joint displacement, input units.
@@ -224,7 +262,9 @@ pub fn points_inside(vertices: &[[f32; 3]], triangles: &[[u32; 3]], points: &[[f
 /// * `opts`: see [`FitOptions`].
 ///
 /// Output: `(joints (j, 3), report)`. Joints end at the point nearest the centre lines of their
-/// bones; joints outside the mesh at the end are pulled to the middle of the nearest chord;
+/// bones (see the module's "do no harm" rules for when they keep their place); joints outside
+/// the mesh at the end are pulled to the middle of the nearest chord, except those that
+/// started farther than `opts.max_move` outside ([`FitReport::kept_outside`]);
 /// with symmetry, mirrored pairs are exact mirror images and centre-line joints lie on the
 /// plane, except centre-line joints farther than `opts.max_move` from it, which are fitted on
 /// their own ([`FitReport::off_plane_centre`]). Fitting an already fitted skeleton changes it
@@ -262,13 +302,29 @@ pub fn fit_joints(
     }
 
     let mirrored_surface = sym.as_ref().map(|m| mirrored_share(&rm.rays, &unit, m.axis, m.plane));
-    let outside_before: Vec<bool> = p.par_iter().map(|q| !inside(&rm, *q)).collect();
-    let start = p.clone();
     let mut incident: Vec<Vec<usize>> = vec![Vec::new(); nj];
     for (e, b) in bones.iter().enumerate() {
         incident[b[0] as usize].push(e);
         incident[b[1] as usize].push(e);
     }
+    let outside_before: Vec<bool> = p.par_iter().map(|q| !inside(&rm, *q)).collect();
+    // A joint farther outside than a rough joint can be from its place (`max_move` from the
+    // nearest point inside) was put there on purpose (a root on the ground, a pole target, a
+    // tail tip past the mesh): it keeps its place.
+    let kept_outside: Vec<bool> = (0..nj)
+        .into_par_iter()
+        .map(|j| {
+            if !outside_before[j] || !movable[j] {
+                return false;
+            }
+            let others = incident[j].iter().map(|&e| p[(bones[e][0] + bones[e][1]) as usize - j]);
+            pull_inside(&rm, p[j], None, &toward(&unit_v, p[j], others))
+                .is_none_or(|c| (c - p[j]).length() > opts.max_move)
+        })
+        .collect();
+    let movable_in: Vec<bool> = movable.iter().zip(&kept_outside).map(|(&m, &f)| m && !f).collect();
+    let movable = &movable_in[..];
+    let start = p.clone();
     let symmetrize = |p: &mut Vec<DVec3>| {
         if let Some(m) = &sym {
             m.symmetrize(p, movable);
@@ -281,6 +337,8 @@ pub fn fit_joints(
         samples: opts.samples,
         stub_ratio: opts.stub_ratio,
         tip: opts.tip,
+        flat_ratio: opts.flat_ratio,
+        thick_ratio: opts.thick_ratio,
     };
     let fractions: Vec<f64> = (0..opts.samples)
         .map(|s| if opts.samples == 1 { 0.5 } else { 0.2 + 0.6 * s as f64 / (opts.samples - 1) as f64 })
@@ -312,8 +370,13 @@ pub fn fit_joints(
         let mut next = p.clone();
         for j in (0..nj).filter(|&j| movable[j]) {
             let free_end = incident[j].len() == 1 && bones[incident[j][0]][1] as usize == j;
-            let mine = incident[j].iter().filter_map(|&e| lines[e].as_ref());
-            if let Some(c) = place_joint(p[j], mine, free_end, opts.stiffness) {
+            let mine: Vec<&Line> = incident[j].iter().filter_map(|&e| lines[e].as_ref()).collect();
+            // A junction (3 or more bones) held by one line would follow a single limb into the
+            // body part it joins.
+            if incident[j].len() >= 3 && mine.len() < 2 {
+                continue;
+            }
+            if let Some(c) = place_joint(p[j], &mine, free_end, opts) {
                 next[j] = c;
             }
         }
@@ -377,6 +440,7 @@ pub fn fit_joints(
     let report = FitReport {
         outside_before,
         outside_after,
+        kept_outside,
         rounds,
         max_move,
         open_edges,
@@ -424,10 +488,14 @@ fn validate(
         || !(opts.tolerance > 0.0)
         || !(opts.max_move > 0.0)
         || !(opts.stub_ratio >= 0.0)
+        || !(opts.flat_ratio >= 0.0)
+        || !(opts.thick_ratio >= 0.0)
+        || !(opts.agreement >= 0.0)
+        || !(opts.body_radius >= 0.0)
     {
         return Err(Error::InvalidArgument(format!(
             "fit options: rays 3..={MAX_RAYS}, samples 1..={MAX_SAMPLES}, stiffness > 0, tolerance > 0, \
-                 max_move > 0 and stub_ratio >= 0"
+                 max_move > 0, stub_ratio, flat_ratio, thick_ratio, agreement and body_radius >= 0"
         )));
     }
     Ok(())
@@ -518,40 +586,49 @@ impl Mirror {
 }
 
 /// Where a joint at `p` goes: least squares to its bones' centre `lines`, only along the
-/// directions they pin down (eigenvalue of the summed projectors above `stiffness`); along the
-/// others (a straight limb) it keeps its place, which makes the fit a fixed point
-/// (idempotent). A limb's `free_end` (a bone's tail and nothing else) goes to its line's tip
-/// when there is one. `None` without a line, or for a non-finite result.
-fn place_joint<'l>(p: DVec3, lines: impl Iterator<Item = &'l Line>, free_end: bool, stiffness: f64) -> Option<DVec3> {
+/// directions they pin down (eigenvalue of the summed projectors above `opts.stiffness`); along
+/// the others (a straight limb) it keeps its place, which makes the fit a fixed point
+/// (idempotent). Two or more lines must agree: the point must lie within `opts.agreement` local
+/// radii of each. In a part thicker than `opts.body_radius` the joint moves only until it is
+/// within (radius - `body_radius`) of that point: in a body the artist's joint may lie that
+/// far off the centre of the sections (a hip in a belly, a shoulder in a chest). A limb's `free_end` (a bone's tail and nothing
+/// else) goes to its line's tip when there is one. `None` without a line, when the lines
+/// disagree, or for a non-finite result.
+fn place_joint(p: DVec3, lines: &[&Line], free_end: bool, opts: &FitOptions) -> Option<DVec3> {
     let mut m = DMat3::ZERO;
     let mut rhs = DVec3::ZERO;
-    let mut used = 0;
-    let mut tip = None;
     for line in lines {
         let u = line.dir;
         let proj = DMat3::IDENTITY - DMat3::from_cols(u * u.x, u * u.y, u * u.z);
         m += proj;
         rhs += proj * line.head;
-        used += 1;
-        tip = line.tip;
     }
-    if used == 0 {
-        return None;
-    }
+    let last = lines.last()?;
     let g = rhs - m * p;
     let (vals, vecs) = sym_eigen(m)?;
     let mut c = p;
     for k in 0..3 {
-        if vals[k] > stiffness {
+        if vals[k] > opts.stiffness {
             c += vecs[k] * (vecs[k].dot(g) / vals[k]);
         }
     }
-    if free_end {
-        if let Some(t) = tip {
-            c = t;
-        }
+    if opts.agreement > 0.0 && lines.len() >= 2 && lines.iter().any(|l| off_line(c, l) > opts.agreement * l.radius) {
+        return None;
+    }
+    let thick = lines.iter().map(|l| l.radius).fold(0.0, f64::max);
+    let slack = (thick - opts.body_radius).max(0.0);
+    let d = c - p;
+    c = if d.length() <= slack { p } else { p + d * (1.0 - slack / d.length()) };
+    if let (true, Some(t)) = (free_end, last.tip) {
+        c = t;
     }
     c.is_finite().then_some(c)
+}
+
+/// Distance of `c` from the line `l`.
+fn off_line(c: DVec3, l: &Line) -> f64 {
+    let rel = c - l.head;
+    (rel - l.dir * rel.dot(l.dir)).length()
 }
 
 /// Points a joint at `p` outside the mesh may be pulled toward: the 24 nearest vertices

@@ -39,6 +39,12 @@ pub(crate) struct LineOptions {
     pub stub_ratio: f64,
     /// Find where a free end's rounded tip stops.
     pub tip: bool,
+    /// A section longer than this times its width places the bone across its short axis only;
+    /// 0 turns the test off.
+    pub flat_ratio: f64,
+    /// Any bone whose thinnest section is wider than this times its length has no line; 0 turns
+    /// the test off.
+    pub thick_ratio: f64,
 }
 
 /// Where the ray from `p` along `dir` enters or leaves the mesh (the union of its pieces).
@@ -144,6 +150,42 @@ fn centre_in_plane(rm: &Solid, q0: DVec3, d: DVec3, lines: usize, reach: f64) ->
     Some((q, radius))
 }
 
+/// The long axis of the section through `c` (normal `d`, unit) and its elongation, by `lines`
+/// chords through `c`: the eigenvectors of the second moment of the chords' ends (`sum l^2 w
+/// w^T`, `l^2` the squared distances to the surface both ways along `w`), the elongation the
+/// square root of the eigenvalues' ratio (3 for an ellipse three times as long as wide).
+/// `None` when a direction has no chord (a degenerate section).
+fn section_shape(rm: &Solid, c: DVec3, d: DVec3, lines: usize) -> Option<(DVec3, f64)> {
+    let (u, v) = basis(d);
+    let (mut m11, mut m12, mut m22) = (0.0, 0.0, 0.0);
+    for k in 0..lines {
+        let a = std::f64::consts::PI * (k as f64 + 0.5) / lines as f64;
+        let (wu, wv) = (a.cos(), a.sin());
+        let w = u * wu + v * wv;
+        let (Some(&hf), Some(&hb)) = (hits(rm, c, w).first(), hits(rm, c, -w).first()) else { continue };
+        let l2 = (hf as f64).powi(2) + (hb as f64).powi(2);
+        m11 += l2 * wu * wu;
+        m12 += l2 * wu * wv;
+        m22 += l2 * wv * wv;
+    }
+    let tr = 0.5 * (m11 + m22);
+    let disc = (0.25 * (m11 - m22).powi(2) + m12 * m12).sqrt();
+    let (big, small) = (tr + disc, tr - disc);
+    if !(small > 1e-18) {
+        return None;
+    }
+    // Eigenvector of the larger eigenvalue, in (u, v).
+    let e = if m12.abs() > 1e-18 {
+        (big - m22, m12)
+    } else if m11 >= m22 {
+        (1.0, 0.0)
+    } else {
+        (0.0, 1.0)
+    };
+    let long = (u * e.0 + v * e.1).normalize_or_zero();
+    Some((long, (big / small).sqrt()))
+}
+
 /// Nearest point inside the mesh: middle of the nearest chord along rays over the sphere (or,
 /// with `plane = Some(axis)`, over the circle of directions with no `axis` component).
 pub(crate) fn pull_inside(rm: &Solid, p: DVec3, plane: Option<usize>, toward: &[DVec3]) -> Option<DVec3> {
@@ -213,6 +255,9 @@ pub(crate) struct Line {
     pub dir: DVec3,
     /// Where the medial axis of a free end's rounded tip stops.
     pub tip: Option<DVec3>,
+    /// The local radius of the limb around the line (unit frame): its sections' radii, weighted
+    /// as the line's fit weighs them.
+    pub radius: f64,
 }
 
 /// The centre line of the bone from joint `a` to joint `t` (unit frame): cross-sections at
@@ -241,7 +286,16 @@ pub(crate) fn centre_line(
         let q = a + axis * s;
         if let Some((c, r)) = centre_in_plane(rm, q, d, opts.rays, reach) {
             let off = c - q;
-            let off = off - d * off.dot(d);
+            let mut off = off - d * off.dot(d);
+            // A flat section (a wing, a flat tail) says where the bone lies across it, not
+            // along it: the middle of its long axis is the middle of the whole flat part.
+            if opts.flat_ratio > 0.0 {
+                if let Some((long, aspect)) = section_shape(rm, c, d, opts.rays) {
+                    if aspect > opts.flat_ratio {
+                        off -= long * off.dot(long);
+                    }
+                }
+            }
             if off.length() > reach {
                 continue; // a section of some other part of the body
             }
@@ -257,6 +311,11 @@ pub(crate) fn centre_line(
     // sections are slices of that body, so it has no centre line.
     let thinnest = pts.iter().map(|x| x.2).fold(f64::INFINITY, f64::min);
     if junction && opts.stub_ratio > 0.0 && thinnest > opts.stub_ratio * len {
+        return None;
+    }
+    // Any bone far shorter than its part is thick (a spine link in a belly, a jaw in a head):
+    // its sections are slices of the whole part, whose centre is not the bone's place.
+    if opts.thick_ratio > 0.0 && thinnest > opts.thick_ratio * len {
         return None;
     }
     let ws: Vec<f64> = pts.iter().map(|x| 1.0 / (x.2 * x.2).max(1e-8)).collect();
@@ -281,7 +340,8 @@ pub(crate) fn centre_line(
     }
     let s_last = pts.last().map(|x| x.0).unwrap_or(0.0);
     let tip = if opts.tip && s_last >= 0.5 { free_tip(rm, head, tail, dir, s_last, opts.rays) } else { None };
-    Some(Line { head, dir, tip })
+    let radius = pts.iter().zip(&ws).map(|(x, w)| x.2 * w).sum::<f64>() / wsum;
+    Some(Line { head, dir, tip, radius })
 }
 
 /// Free end: from the centre of the section at `s_last` along the line `head` -> `tail`, the
