@@ -1,8 +1,10 @@
-"""Quality: MiniSkeleton's Auto Weights (Heat) and Blender's own ``parent_set(type='ARMATURE_AUTO')``
-against the artist's weights of real rigged models, in one process.
+"""Quality: MiniSkeleton's Auto Weights (Heat and Geodesic Voxel) and Blender's own
+``parent_set(type='ARMATURE_AUTO')`` against the artist's weights of real rigged models, in one
+process.
 
     .venv/bin/python bench/eval_weights.py [--models Fox,CesiumMan] [--no-blender] [--detail 5] [--symmetry X]
         [--clips 3] [--frames 20] [--actions ThumbsUp,Wave] [--bone-extent AUTO|TAIL|CHILDREN]
+        [--resolution 64] [--falloff 0.02]
 
 Models are read from ``../shared/models/`` relative to the project root (never copied into the
 repository); a missing folder or file is skipped with a message. For each model the glTF is
@@ -28,6 +30,9 @@ Per model (all skinned meshes together, every split vertex counted):
   numpy skinning is checked against Blender's evaluated mesh for the artist weights (and ours)
   on one frame: the max difference is printed.
 - time s: the whole operator call.
+
+Sides: "heat" (our Heat), "voxel" (our Geodesic Voxel, ``--resolution``, ``--falloff``),
+"Blender".
 
 Writes the markdown table (and the per-model details) to stdout and to out/eval_weights.md.
 Nothing is asserted: tests check correctness, this measures quality.
@@ -102,19 +107,24 @@ def strip(meshes, bones):
 
 SYMMETRY = {"value": "NONE"}  # our operator's Symmetry option (--symmetry)
 BONE_EXTENT = {"value": "AUTO"}  # our operator's Bone Extent option (--bone-extent)
+VOXEL = {"resolution": 64, "voxel_falloff": 0.02}  # our Geodesic Voxel's options (--resolution, --falloff)
+# The sides of a rebinding: our methods and Blender's.
+SIDES = {"ours": "HEAT", "voxel": "VOXEL", "Blender": None}
 
 
-def bind(bpy, arm, meshes, ours):
-    """Ctrl+P-style selection, then our operator or Blender's; returns (seconds, result)."""
+def bind(bpy, arm, meshes, method):
+    """Ctrl+P-style selection, then our operator with ``method`` ("HEAT", "VOXEL") or Blender's
+    (None); returns (seconds, result)."""
     for ob in bpy.context.view_layer.objects:
         ob.select_set(ob in meshes or ob == arm)
     bpy.context.view_layer.objects.active = arm
     arm.data.pose_position = "REST"  # bind in rest pose whatever frame the import left
     bpy.context.view_layer.update()
     t = time.perf_counter()
-    if ours:
-        res = bpy.ops.object.miniskeleton_auto_weights(method="HEAT", symmetry=SYMMETRY["value"],
-                                                        bone_extent=BONE_EXTENT["value"])
+    if method is not None:
+        extra = VOXEL if method == "VOXEL" else {}
+        res = bpy.ops.object.miniskeleton_auto_weights(method=method, symmetry=SYMMETRY["value"],
+                                                        bone_extent=BONE_EXTENT["value"], **extra)
     else:
         res = bpy.ops.object.parent_set(type="ARMATURE_AUTO", keep_transform=True)
     secs = time.perf_counter() - t
@@ -319,7 +329,7 @@ class Side:
         self.w = np.concatenate(parts)
 
 
-def rebind(bpy, path, ours, args, poses=None):
+def rebind(bpy, path, side, args, poses=None):
     """Fresh import, artist weights kept, groups stripped, rebound; poses are sampled when not given."""
     arm, meshes, rigid = import_model(bpy, path)
     if arm is None or not meshes:
@@ -341,13 +351,12 @@ def rebind(bpy, path, ours, args, poses=None):
         assign_action(arm, None)
         bpy.context.scene.frame_set(0)
     strip(meshes, bones)
-    secs, res = bind(bpy, arm, meshes, ours)
+    secs, res = bind(bpy, arm, meshes, SIDES[side])
     after = np.concatenate([world_rest(ob) for ob in meshes])
     moved = 100.0 * float(np.abs(after - before).max()) / diag
     parts = [read_weights(ob, bones) for ob in meshes]
     check = lbs_check(bpy, arm, basis, bones, meshes, poses or ctx["poses"], diag)
-    side = Side("ours" if ours else "Blender", secs, res, parts, check, moved)
-    return ctx, side
+    return ctx, Side(side, secs, res, parts, check, moved)
 
 
 def dominant(w):
@@ -356,17 +365,17 @@ def dominant(w):
 
 def evaluate(model, path, bpy, args):
     t0 = time.perf_counter()
-    ctx, ours = rebind(bpy, path, True, args)
+    ctx, ours = rebind(bpy, path, "ours", args)
     if not ctx["meshes"]:
         print(f"[eval] {model}: nothing to compare ({ctx['reason']}), skipped", flush=True)
         return None
     sides = [ours]
-    if not args.no_blender:
-        ctx2, theirs = rebind(bpy, path, False, args, poses=ctx["poses"])
+    for name in [s for s in SIDES if s != "ours" and not (s == "Blender" and args.no_blender)]:
+        ctx2, other = rebind(bpy, path, name, args, poses=ctx["poses"])
         same = all(np.allclose(a, b) for a, b in zip(ctx["locals"], ctx2["locals"]))
         if not same or len(ctx2["meshes"]) != len(ctx["meshes"]):
-            raise RuntimeError(f"{model}: second import differs from the first")
-        sides.append(theirs)
+            raise RuntimeError(f"{model}: another import differs from the first")
+        sides.append(other)
     poses, bones = ctx["poses"], ctx["bones"]
     art_parts = [normalized(w) for w in ctx["artist"]]
     art = np.concatenate(art_parts)
@@ -390,8 +399,9 @@ def evaluate(model, path, bpy, args):
             max_deform=100.0 * float(dist.max()) / diag,
             per_clip={c: 100.0 * float(dist[[p[0] == c for p in poses]].mean()) / diag for c in row["clips"]},
             secs=side.secs, result=side.result,
-            check=side.check, moved=side.moved, w=w)
+            check=side.check, moved=side.moved, w=w, parts=side.parts)
     row["art"] = art
+    row["poses"], row["diag"] = poses, diag
     row["bone_names"] = bones
     row["mesh_sizes"] = [len(x) for x in ctx["locals"]]
     row["total_s"] = time.perf_counter() - t0
@@ -401,27 +411,32 @@ def evaluate(model, path, bpy, args):
 # ---------------------------------------------------------------------------- report
 
 def pair(row, key, fmt):
-    vals = [row["sides"][s][key] for s in ("ours", "Blender") if s in row["sides"]]
-    return " / ".join(fmt(v) for v in vals) if len(vals) > 1 else fmt(vals[0]) + " / -"
+    """The values of every side of ``row`` for ``key``, "heat / voxel / Blender"."""
+    return " / ".join(fmt(row["sides"][s][key]) if s in row["sides"] else "-" for s in SIDES)
 
 
 def table(rows):
-    lines = ["| model | verts | bones | unweighted ours/Blender | L1 ours/Blender | precision ours/Blender "
-             "| recall ours/Blender | deform % ours/Blender | time s ours/Blender |",
-             "|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
+    names = "/".join("heat" if s == "ours" else s for s in SIDES)
+    lines = [f"| model | verts | bones | unweighted {names} | L1 {names} | precision {names} "
+             f"| recall {names} | deform % {names} | voxel / heat | voxel / Blender | time s {names} |",
+             "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
     for r in rows:
+        d = {s: r["sides"][s]["deform"] for s in r["sides"]}
+
+        def ratio(a, b, d=d):
+            return f"{d[a] / d[b]:.2f}" if a in d and b in d and d[b] > 0 else "-"
         lines.append(
             f"| {r['model']} | {r['verts']} | {r['bones']} | {pair(r, 'unweighted', str)} "
             f"| {pair(r, 'l1', '{:.3f}'.format)} | {pair(r, 'precision', '{:.3f}'.format)} "
-            f"| {pair(r, 'recall', '{:.3f}'.format)} | {pair(r, 'deform', '{:.2f}'.format)} "
-            f"| {pair(r, 'secs', '{:.3f}'.format)} |")
+            f"| {pair(r, 'recall', '{:.3f}'.format)} | {pair(r, 'deform', '{:.3f}'.format)} "
+            f"| {ratio('voxel', 'ours')} | {ratio('voxel', 'Blender')} | {pair(r, 'secs', '{:.3f}'.format)} |")
     return lines
 
 
 def details(r, top):
     """Where the auto weights differ: per mesh, and grouped by the artist's dominant bone."""
     names = r["bone_names"]
-    sides = [s for s in ("ours", "Blender") if s in r["sides"]]
+    sides = [s for s in SIDES if s in r["sides"]]
     out = [f"### {r['model']}", ""]
     raw = np.concatenate(r["raw_sum"]).sum(axis=1)
     out.append(f"- skinned meshes: {', '.join(f'{m} ({n} v)' for m, n in zip(r['meshes'], r['mesh_sizes']))}"
@@ -513,10 +528,13 @@ def main(argv=None):
                          "(e.g. RobotExpressive's fingers only move in ThumbsUp,Wave)")
     ap.add_argument("--frames", type=int, default=20, help="frames sampled per action")
     ap.add_argument("--detail", type=int, default=5, help="rows in the per-model detail lists")
+    ap.add_argument("--resolution", type=int, default=64, help="our Geodesic Voxel's Resolution")
+    ap.add_argument("--falloff", type=float, default=0.02, help="our Geodesic Voxel's Falloff")
     ap.add_argument("--out", default=str(ROOT / "out" / "eval_weights.md"))
     args = ap.parse_args(argv)
     SYMMETRY["value"] = args.symmetry
     BONE_EXTENT["value"] = args.bone_extent
+    VOXEL.update(resolution=args.resolution, voxel_falloff=args.falloff)
 
     folder = Path(args.models_dir)
     if not folder.is_dir():

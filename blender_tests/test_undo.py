@@ -221,6 +221,8 @@ CASES = {
                  {"objects", "meshes", "armatures"}),
     "auto_weights": (lambda tmp: _creature() and {}, lambda: bpy.ops.object.miniskeleton_auto_weights,
                      {"meshes", "objects"}),
+    "voxel_weights": (lambda tmp: _creature() and dict(method="VOXEL"),
+                      lambda: bpy.ops.object.miniskeleton_auto_weights, {"meshes", "objects"}),
     "fit": (lambda tmp: _creature() and {}, lambda: bpy.ops.armature.miniskeleton_fit_skeleton, {"armatures"}),
     "restore": (lambda tmp: _creature_fitted() or {}, lambda: bpy.ops.armature.miniskeleton_restore_skeleton,
                 {"armatures"}),

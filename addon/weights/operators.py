@@ -1,4 +1,4 @@
-"""Weights operators: Auto Weights (Heat / nearest-bone bilinear / inverse distance).
+"""Weights operators: Auto Weights (Heat / Voxel / nearest-bone bilinear / inverse distance).
 
 Context like Blender's Ctrl+P > With Automatic Weights: the selected meshes and the active
 armature (in Weight Paint mode, like Assign Automatic from Bones: the painted mesh and its
@@ -30,6 +30,9 @@ METHODS = [
     ("HEAT", "Auto Weights (Heat)",
      "Bone heat diffusion on the welded surface (Baran & Popovic 2007); works on meshes in "
      "many pieces, at any scale and with split seams"),
+    ("VOXEL", "Geodesic Voxel",
+     "Every selected mesh voxelized as one solid, bones found by geodesic distance through it "
+     "(Dionne & de Lasa 2013); for meshes in many pieces, open or self-intersecting"),
     ("BILINEAR", "Nearest Bones (Bilinear)",
      "Nearest bone segments with a radial falloff, blended with the neighbouring bone across "
      "the nearer joint"),
@@ -52,7 +55,7 @@ class MINISKELETON_OT_auto_weights(bpy.types.Operator):
         name="Selected Bones Only", default=False, options={"SKIP_SAVE"},
         description="Write groups only for selected deform bones; the others still take part. "
         "On by default in Weight Paint mode when bones are selected, as Assign Automatic from Bones")
-    # Heat
+    # Heat and Voxel
     symmetry: EnumProperty(
         name="Symmetry", default="NONE",
         items=[("NONE", "None", "No symmetrization"),
@@ -68,6 +71,15 @@ class MINISKELETON_OT_auto_weights(bpy.types.Operator):
                ("CHILDREN", "To Children", "A bone whose children start away from its tail reaches "
                 "their heads (the segments that lie inside the mesh), and a bone with no children "
                 "continues its parent's line; importers invent tails, often pointing out of the limb")])
+    # Voxel
+    resolution: IntProperty(
+        name="Resolution", default=64, min=16, max=1024,
+        description="Voxels along the longest side of the meshes; parts closer than a voxel merge "
+        "(the time grows with the cube of it)")
+    voxel_falloff: FloatProperty(
+        name="Falloff", default=0.02, min=0.0, max=1.0, precision=3,
+        description="How far a vertex shares its weight with bones farther than its nearest one, "
+        "relative to its distance (0: the nearest bone alone, then smoothed)")
     # IDW
     power: FloatProperty(name="Power", default=2.0, min=0.1, max=16.0,
                          description="Inverse-distance exponent p")
@@ -91,10 +103,14 @@ class MINISKELETON_OT_auto_weights(bpy.types.Operator):
         layout.prop(self, "method")
         layout.prop(self, "max_influences")
         layout.prop(self, "selected_bones_only")
-        if self.method == "HEAT":
+        if self.method in ("HEAT", "VOXEL"):
             layout.prop(self, "symmetry")
-            layout.prop(self, "visibility")
+            if self.method == "HEAT":
+                layout.prop(self, "visibility")
             layout.prop(self, "bone_extent")
+            if self.method == "VOXEL":
+                layout.prop(self, "resolution")
+                layout.prop(self, "voxel_falloff")
         elif self.method == "IDW":
             layout.prop(self, "power")
         else:
@@ -187,7 +203,7 @@ class MINISKELETON_OT_auto_weights(bpy.types.Operator):
             return None
         arm, meshes, bones = checked
         try:
-            return read_inputs(arm, meshes, bones, heat=self.method == "HEAT")
+            return read_inputs(arm, meshes, bones, heat=self.method in ("HEAT", "VOXEL"))
         except WeightsError as err:
             self.report({"ERROR"}, str(err))
             return None
@@ -198,7 +214,8 @@ class MINISKELETON_OT_auto_weights(bpy.types.Operator):
                     falloff="gaussian" if self.falloff == "GAUSSIAN" else "inverse_power",
                     sigma=self.sigma if self.sigma > 0 else None, visibility=self.visibility,
                     mirror=bone_mirror_indices(bones.names) if self.symmetry == "X" else None,
-                    parents=bones.parents if self._reach_children(bones) else None)
+                    parents=bones.parents if self._reach_children(bones) else None,
+                    resolution=self.resolution, voxel_falloff=self.voxel_falloff)
 
     def _reach_children(self, bones) -> bool:
         """Bones reach their children's heads (Bone Extent; Auto: on imported rigs)."""
@@ -216,7 +233,7 @@ class MINISKELETON_OT_auto_weights(bpy.types.Operator):
         label = dict((m[0], m[1]) for m in METHODS)[self.method]
         msg = (f"{label}: {nverts} vertices in {len(inputs)} mesh(es), {int(write.sum())} bones, "
                f"{secs:.2f} s")
-        if self.method == "HEAT" and self._reach_children(bones):
+        if self.method in ("HEAT", "VOXEL") and self._reach_children(bones):
             msg += "; bones reach their children (imported rig, see Bone Extent)"
         if partial:
             msg += "; re-weighted " + ", ".join(partial)
@@ -267,7 +284,8 @@ class MINISKELETON_OT_auto_weights(bpy.types.Operator):
         prepared = self._prepare(context)
         if prepared is None:
             return {"CANCELLED"}
-        if sum(len(v) for _, _, v, _ in prepared.inputs) < BACKGROUND_VERTICES:
+        # Voxel's time follows the solid's volume, not the vertex count: always on the worker.
+        if self.method != "VOXEL" and sum(len(v) for _, _, v, _ in prepared.inputs) < BACKGROUND_VERTICES:
             return self._run_blocking(context, core, prepared)
         self._start_job(context, core, prepared)
         context.window_manager.modal_handler_add(self)

@@ -29,6 +29,7 @@ class MINISKELETON_PT_weights(SidebarPanel, bpy.types.Panel):
         col = layout.column(align=True)
         col.label(text="Select meshes, then the armature")
         for method, text, icon in (("HEAT", "Auto Weights (Heat)", "MOD_ARMATURE"),
+                                   ("VOXEL", "Geodesic Voxel", "MESH_CUBE"),
                                    ("BILINEAR", "Nearest Bones (Bilinear)", "BONE_DATA"),
                                    ("IDW", "Inverse Distance", "DRIVER_DISTANCE")):
             op = col.operator(WEIGHTS_OP, text=text, icon=icon)
