@@ -1,8 +1,8 @@
-//! Geodesic voxel binding on generated meshes: every vertex weighted, the
+//! Geodesic voxel binding and weight transfer on generated meshes: every vertex weighted, the
 //! right bones, pieces of all kinds bound without repair, cancellation, scale, bad input.
 
 use miniskeleton_core::primitives::{bone_chain, capped_cylinder};
-use miniskeleton_core::weights::{voxel_weights, Influences, VoxelOptions};
+use miniskeleton_core::weights::{transfer_weights, voxel_weights, Influences, TransferOptions, VoxelOptions};
 use miniskeleton_core::Error;
 
 /// A closed box `[lo, hi]`, 12 triangles wound outward, appended to `(v, t)`.
@@ -128,4 +128,41 @@ fn progress_false_cancels_and_bad_options_are_errors() {
     let mut nan = v.clone();
     nan[3][1] = f32::NAN;
     assert!(matches!(voxel_weights(&nan, &t, &h, &tl, &VoxelOptions::default(), None), Err(Error::NonFinite { .. })));
+}
+
+/// A sleeve just over a weighted cylinder takes its weights where it lies on it; a ring far
+/// from it (in the same garment, connected) is inpainted; a separate piece away from the body
+/// takes its nearest point's weights.
+#[test]
+fn transfer_copies_where_the_garment_lies_and_inpaints_the_rest() {
+    let (bv, bt) = capped_cylinder(0.3, 4.0, 41, 16);
+    let (h, tl, _) = bone_chain(4.0, 4);
+    let (body, _) = voxel_weights(&bv, &bt, &h, &tl, &VoxelOptions::default(), None).unwrap();
+    // The garment: a cylinder of radius 0.32 over the body, its top ring flared out to 1.0.
+    let (mut gv, gt) = capped_cylinder(0.32, 3.0, 31, 16);
+    let rings = 31;
+    for p in gv.iter_mut().take(rings * 16).skip((rings - 3) * 16) {
+        p[0] *= 3.0;
+        p[1] *= 3.0;
+    }
+    let (inf, report) = transfer_weights(&bv, &bt, &body, &gv, &gt, &TransferOptions::default()).unwrap();
+    rows_sum_to_one(&inf);
+    assert!(report.matched > 400 && report.inpainted >= 32 && report.nearest == 0, "{report:?}");
+    // Matched vertices carry the body's strongest bone at their height.
+    for (i, p) in gv.iter().enumerate().take(20 * 16) {
+        let along = ((p[2] - 0.1) / 0.95).floor().clamp(0.0, 3.0) as i32;
+        let frac = (p[2] - 0.1) / 0.95 - along as f32;
+        if (0.3..0.7).contains(&frac) {
+            assert_eq!(inf.row(i).0[0], along, "z = {}", p[2]);
+        }
+    }
+    // A separate box far away: its nearest point's weights (the bottom bone).
+    let (mut fv, mut ft) = (Vec::new(), Vec::new());
+    add_box(&mut fv, &mut ft, [3.0, 3.0, -1.0], [3.2, 3.2, -0.8]);
+    let (far, report) = transfer_weights(&bv, &bt, &body, &fv, &ft, &TransferOptions::default()).unwrap();
+    assert_eq!((report.matched, report.nearest), (0, 8));
+    assert!((0..8).all(|i| far.row(i).0[0] == 0));
+    // Body weights of another length are an error.
+    let short = Influences::empty(3, 4);
+    assert!(matches!(transfer_weights(&bv, &bt, &short, &gv, &gt, &TransferOptions::default()), Err(Error::Shape(_))));
 }

@@ -5,6 +5,7 @@
 //! - [`idw_weights`]: inverse distance to the bone segments;
 //! - [`voxel_weights`]: geodesic voxel binding (Dionne & de Lasa 2013), with its stages private
 //!   in `voxel/`;
+//! - [`transfer_weights`]: a body's weights copied onto the clothes over it, the rest inpainted;
 //! - [`Influences`]: the top-k rows all methods return, and the small-weight ramp;
 //! - [`symmetry`]: left/right averaging of weights.
 
@@ -13,6 +14,7 @@ pub mod heat;
 pub mod idw;
 pub mod influence;
 pub mod symmetry;
+pub mod transfer;
 pub mod voxel;
 
 pub use bilinear::{bilinear_weights, BilinearOptions, Falloff};
@@ -20,4 +22,5 @@ pub use heat::{heat_sources, heat_weights, heat_weights_many, heat_weights_with_
 pub use heat::{BoneCurves, HeatOptions, HeatReport, MeshRef};
 pub use idw::{idw_weights, IdwOptions};
 pub use influence::{top_k_normalized, weight_limit, Influences};
+pub use transfer::{transfer_weights, TransferOptions, TransferReport};
 pub use voxel::{voxel_distances, voxel_weights, VoxelDistances, VoxelOptions, VoxelReport};
