@@ -158,6 +158,18 @@ def voxel_distances(
     solid: (indices (n,k) int32, -1 unused; geodesic and straight distances (n,k) float32 in bbox
     diagonals; cosines (n,k) between the vertex normal and the direction from the bone)."""
 
+def transfer_weights(
+    body_vertices: ArrayLike, body_triangles: ArrayLike, body_indices: ArrayLike, body_weights: ArrayLike,
+    vertices: ArrayLike, triangles: ArrayLike, *, max_distance: float = 0.05, max_angle: float = 30.0,
+    flipped: bool = True, max_influences: int = 4,
+) -> Tuple[npt.NDArray[np.int32], npt.NDArray[np.float32], dict]:
+    """Robust skin weights transfer (Abdrashitov et al. 2023): a body's top-k weights (body_indices,
+    body_weights (nb,k)) onto a garment in the same space. A garment vertex within max_distance
+    (fraction of the body's bbox diagonal) of the body, its normal within max_angle degrees of the
+    body's (or of its opposite, flipped), takes the body's weights there; the others are
+    inpainted by a Laplacian solve; a piece with no such vertex takes its nearest points'
+    weights. Returns (indices, weights, report: matched, inpainted, nearest, regularized)."""
+
 def touching_meshes(vertices: ArrayLike, mesh_of: ArrayLike, meshes: int, *,
                     triangles: Optional[ArrayLike] = None, tolerance: float = 1e-5,
                     min_shared: int = 3) -> npt.NDArray[np.int32]:

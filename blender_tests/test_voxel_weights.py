@@ -1,11 +1,12 @@
-"""Auto Weights' Geodesic Voxel method in real Blender: a character in many pieces bound
-without repair, its options, and Esc."""
+"""Auto Weights' Geodesic Voxel method and Transfer Weights in real Blender: a character in
+many pieces bound without repair, Esc, and garments dressed from a skinned body."""
 
 import importlib
 import time
 
 import bpy
 import numpy as np
+import pytest
 
 import builders as B
 from test_auto_weights import NAMES, Event, _half_weighted_cylinder, _scene_state, _tick
@@ -118,3 +119,98 @@ def test_esc_stops_a_voxel_run_and_leaves_the_scene_as_it_was(monkeypatch, capfd
     assert bpy.ops.object.miniskeleton_auto_weights(method="VOXEL") == {"CANCELLED"}
     assert seen["job"].cancelled and "cancelled; nothing was changed" in capfd.readouterr().out
     assert _scene_state(ob) == before and not arm.children
+
+
+# ---------------------------------------------------------------- Transfer Weights
+
+
+def _skinned_body():
+    body, arm = B.cylinder(name="Body"), B.chain(count=4)
+    B.select_for_parenting([body], arm)
+    assert bpy.ops.object.miniskeleton_auto_weights(method="HEAT") == {"FINISHED"}
+    return body, arm
+
+
+def _transfer(garments, body, **options):
+    B.set_active(body, [*garments, body])
+    return bpy.ops.object.miniskeleton_transfer_weights(**options)
+
+
+def test_a_sleeve_takes_the_bodys_weights_where_it_lies_on_it(capfd):
+    """An open sleeve just over the body: every vertex matches, and its weights are the body's
+    at its nearest point; a longer sleeve reaching past the body's side inpaints the rest
+    smoothly. The garment gets the Armature modifier and the parent, as Auto Weights writes."""
+    body, arm = _skinned_body()
+    sleeve = _sleeve("Sleeve", 0.52, 0.8, 3.2, rings=24)
+    capfd.readouterr()
+    assert _transfer([sleeve], body) == {"FINISHED"}
+    assert "took the body's weights" in capfd.readouterr().out
+    ws, wb = B.weights_matrix(sleeve, NAMES), B.weights_matrix(body, NAMES)
+    np.testing.assert_allclose(ws.sum(1), 1.0, atol=1e-5)
+    sv, bv = B.world_vertices(sleeve), B.world_vertices(body)
+    nearest = np.linalg.norm(sv[:, None] - bv[None], axis=2).argmin(1)
+    assert np.abs(ws - wb[nearest]).sum(1).mean() < 0.1
+    assert sleeve.parent == arm and [m.type for m in sleeve.modifiers] == ["ARMATURE"]
+    # A flared skirt: its hem stands off the body by more than Max Distance and is inpainted.
+    skirt = _sleeve("Skirt", 0.52, 0.3, 1.8, rings=12)
+    for v in skirt.data.vertices:
+        s = max(0.0, 1.0 - v.co.z) * 1.5
+        v.co.x *= 1 + s
+        v.co.y *= 1 + s
+    capfd.readouterr()
+    assert _transfer([skirt], body, max_distance=0.03) == {"FINISHED"}
+    out = capfd.readouterr().out
+    inpainted = int(out.split("took the body's weights, ")[1].split(" were inpainted")[0])
+    assert inpainted > 50
+    w = B.weights_matrix(skirt, NAMES)
+    np.testing.assert_allclose(w.sum(1), 1.0, atol=1e-5)
+    assert (w.argmax(1) <= 1).all()  # the hem follows the bottom bones, as the body there
+
+
+def test_a_prop_and_a_mesh_away_from_the_body_are_bound_directly(capfd):
+    """A small box held against the body's side (holds no bone, touches it with a corner) and a
+    box far away: both bound with Heat as Auto Weights would, each named in the report."""
+    body, arm = _skinned_body()
+    # A rod pushed into the body's side by its end (x from 0.45 to 1.45).
+    prop = B.cylinder(name="Prop", radius=0.06, height=1.0, rings=10, segments=8, location=(0.45, 0.0, 2.7),
+                      rotation=(0.0, np.pi / 2, 0.0))
+    fv, ff = _box_arrays((5.0, 5.0, 0.0), (5.5, 5.5, 0.5))
+    far = B.mesh_object("Far", fv, ff)
+    capfd.readouterr()
+    assert _transfer([prop, far], body) == {"FINISHED"}
+    out = capfd.readouterr().out
+    assert "'Prop': it holds no bone" in out and "'Far': no vertex of it lies on the body" in out
+    for ob in (prop, far):
+        w = B.weights_matrix(ob, NAMES)
+        np.testing.assert_allclose(w.sum(1), 1.0, atol=1e-5)
+        assert w.max(1).min() > 0.999  # rigid, as a prop alone under Auto Weights (Heat)
+
+
+def test_transfer_refuses_an_unweighted_body_and_nothing_selected(capfd):
+    body, arm = B.cylinder(name="Body"), B.chain(count=4)
+    body.modifiers.new("Armature", "ARMATURE").object = arm
+    sleeve = _sleeve("Sleeve", 0.52, 1.0, 2.0)
+    with pytest.raises(RuntimeError, match="has no weights in the bones"):
+        _transfer([sleeve], body)
+    assert len(sleeve.vertex_groups) == 0 and not sleeve.modifiers and sleeve.parent is None
+    B.set_active(body, [body])
+    with pytest.raises(RuntimeError, match="No garment selected"):
+        bpy.ops.object.miniskeleton_transfer_weights()
+
+
+def test_transfer_does_not_depend_on_the_scale():
+    """Max Distance is relative to the body's size: the same garment at any scale (the armature
+    and, with it, its child the body scaled, and the garment) gets the same weights."""
+    import blender_session
+
+    seen = {}
+    for scale in (1.0, 1e-3, 1e3):
+        blender_session.reset_scene()
+        body, arm = _skinned_body()
+        sleeve = _sleeve("Sleeve", 0.52, 0.8, 3.2, rings=12)
+        arm.scale = sleeve.scale = (scale,) * 3
+        bpy.context.view_layer.update()
+        assert _transfer([sleeve], body) == {"FINISHED"}
+        seen[scale] = B.weights_matrix(sleeve, NAMES)
+    for scale in (1e-3, 1e3):
+        np.testing.assert_allclose(seen[scale], seen[1.0], atol=1e-4, err_msg=f"scale {scale}")

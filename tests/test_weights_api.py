@@ -443,7 +443,7 @@ def test_heat_blends_across_a_joint_over_a_width_set_by_the_limbs_thickness(radi
     assert radius <= width <= 2.5 * radius, width / radius
 
 
-# ---------------------------------------------------------------- geodesic voxel
+# ---------------------------------------------------------------- geodesic voxel, transfer
 
 
 def test_voxel_weights_follow_the_chain_and_report_the_solid(cyl):
@@ -480,3 +480,17 @@ def test_voxel_weights_bad_input_is_a_value_error(cyl):
     with pytest.raises(msc.Cancelled):
         msc.voxel_weights(v, t, h, tl, progress=lambda f: False)
 
+
+def test_transfer_weights_copy_onto_a_sleeve(cyl):
+    v, t, h, tl, p = cyl
+    idx, w = msc.heat_weights(v, t, h, tl)
+    gv, gt = msc.capped_cylinder(0.52, 2.0, 21, 24)
+    gv = gv + np.array([0, 0, 1.0], np.float32)
+    gi, gw, report = msc.transfer_weights(v, t, idx, w, gv, gt)
+    check_influences(gi, gw, len(gv), 4, 4)
+    assert report["matched"] > 0.9 * len(gv) and report["nearest"] == 0
+    # Each sleeve vertex carries the weights of the body vertex nearest to it (within a blend).
+    near = np.linalg.norm(gv[:, None] - v[None], axis=2).argmin(1)
+    assert np.abs(dense(gi, gw, 4) - dense(idx, w, 4)[near]).sum(1).mean() < 0.15
+    with pytest.raises(ValueError, match="body weights"):
+        msc.transfer_weights(v, t, idx[:5], w[:5], gv, gt)

@@ -22,7 +22,7 @@ from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty
 from ..common.armatures import armature_bones, find_armature
 from ..common.mirror import bone_mirror_indices
 from ..common.reports import in_edit_mode, name_list, read_only, unplaced
-from ..common.transforms import extent
+from ..common.transforms import extent, to_armature_frame
 from .binding import find_meshes, read_inputs, write_weights
 from .compute import BACKGROUND_VERTICES, WeightsError, WeightsJob, compute_weights
 
@@ -339,4 +339,87 @@ class MINISKELETON_OT_auto_weights(bpy.types.Operator):
             context.workspace.status_text_set(None)
 
 
-classes = (MINISKELETON_OT_auto_weights,)
+class MINISKELETON_OT_transfer_weights(bpy.types.Operator):
+    """Copy the active skinned body's weights onto the selected garments where they lie on it,
+    inpainting the rest (Robust Skin Weights Transfer, Abdrashitov et al. 2023)"""
+
+    bl_idname = "object.miniskeleton_transfer_weights"
+    bl_label = "MiniSkeleton Transfer Weights"
+    bl_options = {"REGISTER", "UNDO"}
+
+    max_distance: FloatProperty(
+        name="Max Distance", default=0.05, min=0.0, max=1.0, precision=3,
+        description="A garment vertex takes the body's weights where the body is at most this far, "
+        "as a fraction of the body's size")
+    max_angle: FloatProperty(
+        name="Max Angle", default=30.0, min=0.0, max=180.0,
+        description="... and where their normals differ by at most this many degrees (either way round)")
+    max_influences: IntProperty(
+        name="Max Influences", default=4, min=1, max=16,
+        description="Bones kept per vertex (the strongest), then renormalized")
+
+    def _validate(self, context):
+        """Return (armature, body, garments, bones) or report and return None."""
+        body = context.active_object
+        if body is None or body.type != "MESH":
+            self.report({"ERROR"}, "Make the skinned body the active object, with the garments selected")
+            return None
+        garments = [ob for ob in context.selected_objects if ob.type == "MESH" and ob != body]
+        if not garments:
+            self.report({"ERROR"}, f"No garment selected: select the meshes to dress, then the body '{body.name}'")
+            return None
+        arm = find_armature(context)
+        if arm is None:
+            self.report({"ERROR"}, f"The body '{body.name}' has no armature (no Armature modifier or "
+                        "armature parent): bind it first with Auto Weights")
+            return None
+        empty = [ob.name for ob in garments if len(ob.data.vertices) == 0]
+        if empty:
+            self.report({"ERROR"}, f"Mesh(es) without vertices: {name_list(empty)}; nothing was changed")
+            return None
+        problem = (read_only(*[b for ob in garments for b in (ob, ob.data)]) or in_edit_mode([body, *garments])
+                   or unplaced(arm, body, *garments))
+        if problem:
+            self.report({"ERROR"}, problem + "; nothing was changed")
+            return None
+        bones = armature_bones(arm, min_length=1e-6 * max(extent(arm), 1e-30))
+        if not bones.names:
+            self.report({"ERROR"}, f"Armature '{arm.name}' has no deform bones")
+            return None
+        return arm, body, garments, bones
+
+    def execute(self, context):
+        import miniskeleton_core as core
+
+        from .binding import Prepared, write_weights
+        from .transfer import body_rows, read_mesh, transfer
+
+        checked = self._validate(context)
+        if checked is None:
+            return {"CANCELLED"}
+        arm, body, garments, bones = checked
+        start = time.perf_counter()
+        bones = dataclasses.replace(bones, heads=to_armature_frame(arm, bones.heads),
+                                    tails=to_armature_frame(arm, bones.tails))
+        try:
+            weights = body_rows(body, arm, bones.names)
+            body_mesh = read_mesh(arm, body)
+            inputs = [(ob, ob.name, *read_mesh(arm, ob)) for ob in garments]
+            settings = dict(max_distance=self.max_distance, max_angle=self.max_angle, k=self.max_influences,
+                            parents=bones.parents if bones.imported else None)
+            results, notes = transfer(core, body_mesh, weights, inputs, bones, settings)
+        except WeightsError as err:
+            self.report({"ERROR"}, str(err))
+            return {"CANCELLED"}
+        prepared = Prepared(arm, bones, inputs, [], {})
+        written, _, kept_locked = write_weights(prepared, results, np.ones(len(bones.names), bool))
+        if kept_locked:
+            written.append(f"locked groups kept: {name_list(sorted(kept_locked))}")
+        for note in notes + written:
+            self.report({"INFO"} if "took the body" in note else {"WARNING"}, note)
+        self.report({"INFO"}, f"Transfer Weights from '{body.name}': {len(garments)} mesh(es), "
+                    f"{time.perf_counter() - start:.2f} s")
+        return {"FINISHED"}
+
+
+classes = (MINISKELETON_OT_auto_weights, MINISKELETON_OT_transfer_weights)

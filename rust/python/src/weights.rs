@@ -11,6 +11,7 @@ use miniskeleton_core::weights::{
     heat_weights_many as core_heat_many, heat_weights_with_sources as core_heat_from_sources,
 };
 use miniskeleton_core::weights::{idw_weights as core_idw, IdwOptions};
+use miniskeleton_core::weights::{transfer_weights as core_transfer, TransferOptions};
 use miniskeleton_core::weights::{
     voxel_distances as core_voxel_distances, voxel_weights as core_voxel, VoxelOptions, VoxelReport,
 };
@@ -475,8 +476,61 @@ pub fn voxel_distances<'py>(
 type VoxelQuad<'py> =
     (Bound<'py, PyArray2<i32>>, Bound<'py, PyArray2<f32>>, Bound<'py, PyArray2<f32>>, Bound<'py, PyArray2<f32>>);
 
+/// Robust skin weights transfer (Abdrashitov et al. 2023): a body's weights onto a garment.
+/// `body_indices` / `body_weights` (nb,k): the body's top-k weights. Returns (indices, weights,
+/// report: matched, inpainted, nearest, regularized).
+#[pyfunction]
+#[pyo3(signature = (body_vertices, body_triangles, body_indices, body_weights, vertices, triangles, *,
+                    max_distance=0.05, max_angle=30.0, flipped=true, max_influences=4))]
+#[allow(clippy::too_many_arguments)]
+pub fn transfer_weights<'py>(
+    py: Python<'py>,
+    body_vertices: F32Rows<'py>,
+    body_triangles: IndexRows<'py>,
+    body_indices: IndexRows<'py>,
+    body_weights: F32Rows<'py>,
+    vertices: F32Rows<'py>,
+    triangles: IndexRows<'py>,
+    max_distance: f32,
+    max_angle: f32,
+    flipped: bool,
+    max_influences: usize,
+) -> PyResult<PairAndReport<'py>> {
+    let bv = rows::<f32, 3>(&body_vertices, "body_vertices")?;
+    let bt = index_rows::<u32, 3>(&body_triangles, "body_triangles")?;
+    let v = rows::<f32, 3>(&vertices, "vertices")?;
+    let t = index_rows::<u32, 3>(&triangles, "triangles")?;
+    let (shape, k) = (body_indices.as_array().dim(), body_weights.as_array().dim());
+    if shape != k {
+        return Err(PyValueError::new_err(format!(
+            "body_indices and body_weights must have one shape, got {shape:?} and {k:?}"
+        )));
+    }
+    let body = Influences {
+        k: shape.1,
+        indices: index_matrix::<i32>(&body_indices, "body_indices")?,
+        weights: body_weights.as_array().iter().copied().collect(),
+    };
+    let opts = TransferOptions {
+        max_distance,
+        max_angle,
+        flipped,
+        max_influences: positive_k(max_influences)?,
+        ..Default::default()
+    };
+    let (inf, r) = guarded(py, || core_transfer(&bv, &bt, &body, &v, &t, &opts))?;
+    let (i, w) = to_pair(py, inf)?;
+    let d = PyDict::new(py);
+    d.set_item("matched", r.matched)?;
+    d.set_item("inpainted", r.inpainted)?;
+    d.set_item("nearest", r.nearest)?;
+    d.set_item("regularized", r.regularized)?;
+    Ok((i, w, d))
+}
+
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(voxel_weights, m)?)?;
+    m.add_function(wrap_pyfunction!(transfer_weights, m)?)?;
     m.add_function(wrap_pyfunction!(voxel_distances, m)?)?;
     m.add_function(wrap_pyfunction!(idw_weights, m)?)?;
     m.add_function(wrap_pyfunction!(bilinear_weights, m)?)?;
