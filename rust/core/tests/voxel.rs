@@ -46,6 +46,23 @@ fn a_cylinder_chain_follows_its_bones() {
     }
 }
 
+/// A mesh with no faces (a point cloud) has no solid: each vertex takes its nearest bone by the
+/// straight line.
+#[test]
+fn a_mesh_without_faces_takes_the_straight_distances() {
+    let (v, _) = capped_cylinder(0.3, 4.0, 41, 16);
+    let (h, tl, _) = bone_chain(4.0, 4);
+    let (inf, _) = voxel_weights(&v, &[], &h, &tl, &VoxelOptions::default(), None).unwrap();
+    rows_sum_to_one(&inf);
+    for (p, i) in v.iter().zip(0..) {
+        let along = (p[2] - 0.1) / 0.95;
+        let frac = along - along.floor();
+        if (0.25..0.75).contains(&frac) && (0.0..4.0).contains(&along) {
+            assert_eq!(inf.row(i).0[0], along.floor() as i32, "vertex at z = {}", p[2]);
+        }
+    }
+}
+
 /// A body (a box standing up) in several objects: a hat above it that does not touch it, an
 /// eye inside it, an open sleeve around it, and two boxes pushed into each other across its
 /// foot. Every vertex weighted; the hat and eye rigid on the top bone.

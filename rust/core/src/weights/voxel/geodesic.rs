@@ -70,6 +70,11 @@ impl Labels {
         Labels { k: k.clamp(1, MAX_LABELS), row_of, rows: vec![EMPTY_ROW; count as usize] }
     }
 
+    /// No labels over `voxels` (a mesh with no solid).
+    pub fn none(voxels: usize) -> Labels {
+        Labels::new(voxels, 1, &[])
+    }
+
     /// The settled labels of voxel `v` as `(bone, distance)`, in no order.
     pub fn of(&self, v: usize) -> impl Iterator<Item = (u32, f32)> + '_ {
         let r = self.row_of[v];

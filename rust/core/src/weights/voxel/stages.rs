@@ -66,7 +66,12 @@ pub(super) fn solid(
         tris.iter().flatten().fold((DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)), |(l, h), &i| {
             (l.min(prep.wpos[i as usize]), h.max(prep.wpos[i as usize]))
         });
-    let (lo, hi) = if lo.x <= hi.x { (lo, hi) } else { (DVec3::ZERO, DVec3::ZERO) };
+    if tris.is_empty() {
+        // No faces, no solid: every vertex takes its straight distances (`vertex_distances`).
+        let grid = Grid::new(DVec3::ZERO, DVec3::ONE, 1);
+        let labels = Labels::none(grid.len());
+        return Ok(Solid { grid, labels });
+    }
     let grid = Grid::new(lo, hi, resolution);
     let state = voxelize(&grid, &prep.wpos, &tris, rays);
     report.grid = grid.dims;
