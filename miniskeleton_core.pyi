@@ -143,6 +143,41 @@ def heat_weights_from_sources(
     its own source (as heat_sources finds it); rigid pieces and symmetry are as in heat_weights.
     With the sources of heat_sources, the weights of heat_weights_report, bit for bit."""
 
+def voxel_weights(
+    vertices: ArrayLike, triangles: ArrayLike, bone_heads: ArrayLike, bone_tails: ArrayLike, *,
+    progress: Optional[Callable[[float], Optional[bool]]] = None, resolution: int = 64, falloff: float = 0.02,
+    max_influences: int = 4, bone_mirror: Optional[ArrayLike] = None, symmetry_axis: int = 0,
+    parents: Optional[ArrayLike] = None, curve_points: Optional[ArrayLike] = None,
+    curve_bones: Optional[ArrayLike] = None, objects: Optional[ArrayLike] = None,
+) -> Tuple[npt.NDArray[np.int32], npt.NDArray[np.float32], dict]:
+    """Geodesic voxel binding (Dionne & de Lasa 2013) of a whole character (every mesh stacked;
+    objects (n,) the object of each vertex: one that holds no bone is a prop, bound rigidly).
+    resolution: voxels along the longest side (16-1024); falloff (0-1): how far a vertex shares
+    its heat with bones farther than its nearest, relative to the distance. Other keywords as
+    heat_weights. Returns (indices, weights, report): heat_weights_report's report plus grid
+    (3 ints), solid_voxels, outside_bones, and the voxel stages in timings."""
+
+def voxel_distances(
+    vertices: ArrayLike, triangles: ArrayLike, bone_heads: ArrayLike, bone_tails: ArrayLike, *,
+    k: int = 8, resolution: int = 64, parents: Optional[ArrayLike] = None,
+    curve_points: Optional[ArrayLike] = None, curve_bones: Optional[ArrayLike] = None,
+) -> Tuple[npt.NDArray[np.int32], npt.NDArray[np.float32], npt.NDArray[np.float32], npt.NDArray[np.float32]]:
+    """Debug and evaluation: each vertex's k nearest bones by geodesic distance through the voxel
+    solid: (indices (n,k) int32, -1 unused; geodesic and straight distances (n,k) float32 in bbox
+    diagonals; cosines (n,k) between the vertex normal and the direction from the bone)."""
+
+def transfer_weights(
+    body_vertices: ArrayLike, body_triangles: ArrayLike, body_indices: ArrayLike, body_weights: ArrayLike,
+    vertices: ArrayLike, triangles: ArrayLike, *, max_distance: float = 0.05, max_angle: float = 30.0,
+    flipped: bool = True, max_influences: int = 4,
+) -> Tuple[npt.NDArray[np.int32], npt.NDArray[np.float32], dict]:
+    """Robust skin weights transfer (Abdrashitov et al. 2023): a body's top-k weights (body_indices,
+    body_weights (nb,k)) onto a garment in the same space. A garment vertex within max_distance
+    (fraction of the body's bbox diagonal) of the body, its normal within max_angle degrees of the
+    body's (or of its opposite, flipped), takes the body's weights there; the others are
+    inpainted by a Laplacian solve; a piece with no such vertex takes its nearest points'
+    weights. Returns (indices, weights, report: matched, inpainted, nearest, regularized)."""
+
 def touching_meshes(vertices: ArrayLike, mesh_of: ArrayLike, meshes: int, *,
                     triangles: Optional[ArrayLike] = None, tolerance: float = 1e-5,
                     min_shared: int = 3) -> npt.NDArray[np.int32]:

@@ -1,4 +1,4 @@
-"""Speed: MiniSkeleton's Auto Weights (Heat) operator vs Blender's own
+"""Speed: MiniSkeleton's Auto Weights (Heat and Geodesic Voxel) operator vs Blender's own
 ``parent_set(type='ARMATURE_AUTO')`` on the same mesh and bones, in one process: generated
 capped cylinders with a bone chain, and the unrigged scans of ../shared/models/ (cow, horse;
 skipped when absent) with scan_rig's rough quadruped skeleton, fitted first.
@@ -18,8 +18,9 @@ weights, write groups; median of --repeats runs), ratio, and the core's own spli
 repeats): total against factor+solve, the latter both as numeric factor + solves ("f+s") and
 with the symbolic analysis (AMD ordering, elimination tree, supernodes) that is part of any
 sparse factorization, as in SciPy's SuperLU figure the issue compares with ("sym+f+s"; our
-symbolic step runs while the BVH is built, so it is not on the critical path). Also IDW and
-BILINEAR. ``--parts``: a figure kit-built of that many small separate objects (86-vertex
+symbolic step runs while the BVH is built, so it is not on the critical path). Also VOXEL (the
+whole operator, median of --repeats, at its default Resolution; "voxel / heat" is its time over
+HEAT's), IDW and BILINEAR. ``--parts``: a figure kit-built of that many small separate objects (86-vertex
 capped cylinders along a 20-bone chain), where the cost is in writing groups to many objects,
 not in the solve. Nothing is asserted: tests check correctness, this measures speed.
 """
@@ -99,13 +100,13 @@ def timed(fn):
     return time.perf_counter() - t, out
 
 
-def ours_heat(bpy, mesh, rig, repeats):
-    """Median seconds of our Heat operator over ``repeats`` runs, each from unbound mesh(es)."""
+def ours_heat(bpy, mesh, rig, repeats, method="HEAT"):
+    """Median seconds of our operator (``method``) over ``repeats`` runs, each from unbound mesh(es)."""
     runs = []
     for _ in range(max(repeats, 1)):
         unbind(mesh)
         select(bpy, mesh, rig)
-        secs, res = timed(lambda: bpy.ops.object.miniskeleton_auto_weights(method="HEAT"))
+        secs, res = timed(lambda: bpy.ops.object.miniskeleton_auto_weights(method=method))
         assert res == {"FINISHED"}
         runs.append(secs)
     return float(np.median(runs))
@@ -127,14 +128,15 @@ def measure(bpy, core, label, mesh, rig, v, t, heads, tails, args):
                           for _ in range(max(args.repeats, 1))), key=lambda r: r[0])
     fs = sum(s for k, s in report["timings"].items() if k in ("factor", "solve"))
     sfs = fs + report["timings"].get("symbolic", 0.0)
-    extra = {}
+    extra = {"VOXEL": ours_heat(bpy, mesh, rig, args.repeats, "VOXEL")}
+    extra["VOXEL missing"] = unweighted(mesh)
     for method in ("BILINEAR", "IDW"):
         unbind(mesh)
         select(bpy, mesh, rig)
         extra[method], _ = timed(lambda method=method: bpy.ops.object.miniskeleton_auto_weights(method=method))
     print(f"done {label} {n} vertices", flush=True)
     return (label, n, len(heads), blender_s, blender_missing, ours_s, ours_missing, core_s, fs, sfs,
-            extra["BILINEAR"], extra["IDW"], report["timings"])
+            extra["BILINEAR"], extra["IDW"], report["timings"], extra["VOXEL"], extra["VOXEL missing"])
 
 
 def measure_parts(bpy, core, count, args):
@@ -215,16 +217,18 @@ def main(argv=None):
     print()
     print("| shape rings x segments | vertices | bones | Blender ARMATURE_AUTO s | unweighted | ours HEAT s "
           "| unweighted | speed-up | core heat s | f+s s | core / (f+s) | sym+f+s s | core / (sym+f+s) "
-          "| ours BILINEAR s | ours IDW s |")
-    print("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
-    for shape, n, b, bs, bm, os_, om, cs, fs, sfs, bil, idw, _ in rows:
+          "| ours VOXEL s | unweighted | voxel / heat | Blender / voxel | ours BILINEAR s | ours IDW s |")
+    print("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
+    for shape, n, b, bs, bm, os_, om, cs, fs, sfs, bil, idw, _, vs, vm in rows:
         ratio = f"{bs / os_:.1f}x" if bs else "-"
+        vratio = f"{bs / vs:.1f}x" if bs else "-"
         print(f"| {shape} | {n} | {b} | {bs if bs is None else f'{bs:.2f}'} | {bm if bm is not None else '-'} "
               f"| {os_:.3f} | {om} | {ratio} | {cs:.3f} | {fs:.3f} | {cs / max(fs, 1e-9):.2f} "
               f"| {sfs:.3f} | {cs / max(sfs, 1e-9):.2f} "
-              f"| {bil:.3f} | {idw:.3f} |")
+              f"| {vs:.3f} | {vm} | {vs / os_:.2f} | {vratio} | {bil:.3f} | {idw:.3f} |")
     print()
-    for shape, n, *_, timings in rows:
+    for shape, n, *rest in rows:
+        timings = rest[-3]
         print(f"core stages, {shape}, {n}: " + ", ".join(f"{k} {s:.3f}" for k, s in timings.items()))
     parts = [measure_parts(bpy, core, int(c), args) for c in args.parts.split(",") if c]
     if parts:

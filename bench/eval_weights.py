@@ -1,8 +1,10 @@
-"""Quality: MiniSkeleton's Auto Weights (Heat) and Blender's own ``parent_set(type='ARMATURE_AUTO')``
-against the artist's weights of real rigged models, in one process.
+"""Quality: MiniSkeleton's Auto Weights (Heat and Geodesic Voxel) and Blender's own
+``parent_set(type='ARMATURE_AUTO')`` against the artist's weights of real rigged models, in one
+process; and Transfer Weights onto the other skinned meshes of a model and onto a shell around it.
 
     .venv/bin/python bench/eval_weights.py [--models Fox,CesiumMan] [--no-blender] [--detail 5] [--symmetry X]
         [--clips 3] [--frames 20] [--actions ThumbsUp,Wave] [--bone-extent AUTO|TAIL|CHILDREN]
+        [--resolution 64] [--falloff 0.02] [--no-transfer]
 
 Models are read from ``../shared/models/`` relative to the project root (never copied into the
 repository); a missing folder or file is skipped with a message. For each model the glTF is
@@ -29,6 +31,17 @@ Per model (all skinned meshes together, every split vertex counted):
   on one frame: the max difference is printed.
 - time s: the whole operator call.
 
+Sides: "heat" (our Heat), "voxel" (our Geodesic Voxel, ``--resolution``, ``--falloff``),
+"Blender". Transfer (``transfer_rows``), two tables:
+- the models with more than one skinned mesh: the largest keeps the artist's weights, the
+  others are stripped and dressed from it by Transfer Weights; deform % of those meshes, beside
+  binding them directly (heat, voxel, as in the first table), and the paper's transfer alone
+  (``core.transfer_weights`` without the operator's prop and nowhere rules);
+- every model's skinned meshes copied as a shell pushed out along the normals by 1 % of the
+  diagonal (a tight garment whose truth is the artist's weights of the vertices it came from):
+  Transfer Weights from the artist-weighted model, and the shell bound directly with Heat and
+  with Geodesic Voxel (alone, its model hidden).
+
 Writes the markdown table (and the per-model details) to stdout and to out/eval_weights.md.
 Nothing is asserted: tests check correctness, this measures quality.
 """
@@ -36,6 +49,7 @@ Nothing is asserted: tests check correctness, this measures quality.
 from __future__ import annotations
 
 import argparse
+import importlib
 import sys
 import time
 from pathlib import Path
@@ -102,19 +116,24 @@ def strip(meshes, bones):
 
 SYMMETRY = {"value": "NONE"}  # our operator's Symmetry option (--symmetry)
 BONE_EXTENT = {"value": "AUTO"}  # our operator's Bone Extent option (--bone-extent)
+VOXEL = {"resolution": 64, "voxel_falloff": 0.02}  # our Geodesic Voxel's options (--resolution, --falloff)
+# The sides of a rebinding: our methods and Blender's.
+SIDES = {"ours": "HEAT", "voxel": "VOXEL", "Blender": None}
 
 
-def bind(bpy, arm, meshes, ours):
-    """Ctrl+P-style selection, then our operator or Blender's; returns (seconds, result)."""
+def bind(bpy, arm, meshes, method):
+    """Ctrl+P-style selection, then our operator with ``method`` ("HEAT", "VOXEL") or Blender's
+    (None); returns (seconds, result)."""
     for ob in bpy.context.view_layer.objects:
         ob.select_set(ob in meshes or ob == arm)
     bpy.context.view_layer.objects.active = arm
     arm.data.pose_position = "REST"  # bind in rest pose whatever frame the import left
     bpy.context.view_layer.update()
     t = time.perf_counter()
-    if ours:
-        res = bpy.ops.object.miniskeleton_auto_weights(method="HEAT", symmetry=SYMMETRY["value"],
-                                                        bone_extent=BONE_EXTENT["value"])
+    if method is not None:
+        extra = VOXEL if method == "VOXEL" else {}
+        res = bpy.ops.object.miniskeleton_auto_weights(method=method, symmetry=SYMMETRY["value"],
+                                                        bone_extent=BONE_EXTENT["value"], **extra)
     else:
         res = bpy.ops.object.parent_set(type="ARMATURE_AUTO", keep_transform=True)
     secs = time.perf_counter() - t
@@ -319,7 +338,7 @@ class Side:
         self.w = np.concatenate(parts)
 
 
-def rebind(bpy, path, ours, args, poses=None):
+def rebind(bpy, path, side, args, poses=None):
     """Fresh import, artist weights kept, groups stripped, rebound; poses are sampled when not given."""
     arm, meshes, rigid = import_model(bpy, path)
     if arm is None or not meshes:
@@ -341,13 +360,12 @@ def rebind(bpy, path, ours, args, poses=None):
         assign_action(arm, None)
         bpy.context.scene.frame_set(0)
     strip(meshes, bones)
-    secs, res = bind(bpy, arm, meshes, ours)
+    secs, res = bind(bpy, arm, meshes, SIDES[side])
     after = np.concatenate([world_rest(ob) for ob in meshes])
     moved = 100.0 * float(np.abs(after - before).max()) / diag
     parts = [read_weights(ob, bones) for ob in meshes]
     check = lbs_check(bpy, arm, basis, bones, meshes, poses or ctx["poses"], diag)
-    side = Side("ours" if ours else "Blender", secs, res, parts, check, moved)
-    return ctx, side
+    return ctx, Side(side, secs, res, parts, check, moved)
 
 
 def dominant(w):
@@ -356,17 +374,17 @@ def dominant(w):
 
 def evaluate(model, path, bpy, args):
     t0 = time.perf_counter()
-    ctx, ours = rebind(bpy, path, True, args)
+    ctx, ours = rebind(bpy, path, "ours", args)
     if not ctx["meshes"]:
         print(f"[eval] {model}: nothing to compare ({ctx['reason']}), skipped", flush=True)
         return None
     sides = [ours]
-    if not args.no_blender:
-        ctx2, theirs = rebind(bpy, path, False, args, poses=ctx["poses"])
+    for name in [s for s in SIDES if s != "ours" and not (s == "Blender" and args.no_blender)]:
+        ctx2, other = rebind(bpy, path, name, args, poses=ctx["poses"])
         same = all(np.allclose(a, b) for a, b in zip(ctx["locals"], ctx2["locals"]))
         if not same or len(ctx2["meshes"]) != len(ctx["meshes"]):
-            raise RuntimeError(f"{model}: second import differs from the first")
-        sides.append(theirs)
+            raise RuntimeError(f"{model}: another import differs from the first")
+        sides.append(other)
     poses, bones = ctx["poses"], ctx["bones"]
     art_parts = [normalized(w) for w in ctx["artist"]]
     art = np.concatenate(art_parts)
@@ -390,8 +408,9 @@ def evaluate(model, path, bpy, args):
             max_deform=100.0 * float(dist.max()) / diag,
             per_clip={c: 100.0 * float(dist[[p[0] == c for p in poses]].mean()) / diag for c in row["clips"]},
             secs=side.secs, result=side.result,
-            check=side.check, moved=side.moved, w=w)
+            check=side.check, moved=side.moved, w=w, parts=side.parts)
     row["art"] = art
+    row["poses"], row["diag"] = poses, diag
     row["bone_names"] = bones
     row["mesh_sizes"] = [len(x) for x in ctx["locals"]]
     row["total_s"] = time.perf_counter() - t0
@@ -401,27 +420,32 @@ def evaluate(model, path, bpy, args):
 # ---------------------------------------------------------------------------- report
 
 def pair(row, key, fmt):
-    vals = [row["sides"][s][key] for s in ("ours", "Blender") if s in row["sides"]]
-    return " / ".join(fmt(v) for v in vals) if len(vals) > 1 else fmt(vals[0]) + " / -"
+    """The values of every side of ``row`` for ``key``, "heat / voxel / Blender"."""
+    return " / ".join(fmt(row["sides"][s][key]) if s in row["sides"] else "-" for s in SIDES)
 
 
 def table(rows):
-    lines = ["| model | verts | bones | unweighted ours/Blender | L1 ours/Blender | precision ours/Blender "
-             "| recall ours/Blender | deform % ours/Blender | time s ours/Blender |",
-             "|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
+    names = "/".join("heat" if s == "ours" else s for s in SIDES)
+    lines = [f"| model | verts | bones | unweighted {names} | L1 {names} | precision {names} "
+             f"| recall {names} | deform % {names} | voxel / heat | voxel / Blender | time s {names} |",
+             "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
     for r in rows:
+        d = {s: r["sides"][s]["deform"] for s in r["sides"]}
+
+        def ratio(a, b, d=d):
+            return f"{d[a] / d[b]:.2f}" if a in d and b in d and d[b] > 0 else "-"
         lines.append(
             f"| {r['model']} | {r['verts']} | {r['bones']} | {pair(r, 'unweighted', str)} "
             f"| {pair(r, 'l1', '{:.3f}'.format)} | {pair(r, 'precision', '{:.3f}'.format)} "
-            f"| {pair(r, 'recall', '{:.3f}'.format)} | {pair(r, 'deform', '{:.2f}'.format)} "
-            f"| {pair(r, 'secs', '{:.3f}'.format)} |")
+            f"| {pair(r, 'recall', '{:.3f}'.format)} | {pair(r, 'deform', '{:.3f}'.format)} "
+            f"| {ratio('voxel', 'ours')} | {ratio('voxel', 'Blender')} | {pair(r, 'secs', '{:.3f}'.format)} |")
     return lines
 
 
 def details(r, top):
     """Where the auto weights differ: per mesh, and grouped by the artist's dominant bone."""
     names = r["bone_names"]
-    sides = [s for s in ("ours", "Blender") if s in r["sides"]]
+    sides = [s for s in SIDES if s in r["sides"]]
     out = [f"### {r['model']}", ""]
     raw = np.concatenate(r["raw_sum"]).sum(axis=1)
     out.append(f"- skinned meshes: {', '.join(f'{m} ({n} v)' for m, n in zip(r['meshes'], r['mesh_sizes']))}"
@@ -496,6 +520,143 @@ def details(r, top):
     return out
 
 
+# ---------------------------------------------------------------------------- transfer
+
+def _deform_of(ctx, parts, which):
+    """Deform % of the meshes ``which`` (indices into ctx["meshes"]) with weights ``parts``
+    (per mesh, dense (n, b)), over ctx's poses, against the artist's."""
+    art_parts = [normalized(w) for w in ctx["artist"]]
+    x_art = deformed(ctx["locals"], ctx["poses"], art_parts)
+    x = deformed(ctx["locals"], ctx["poses"], [normalized(w) for w in parts])
+    dist = np.linalg.norm(x - x_art, axis=2)
+    starts = np.cumsum([0] + [len(v) for v in ctx["locals"]])
+    cols = np.concatenate([np.arange(starts[m], starts[m + 1]) for m in which])
+    return 100.0 * float(dist[:, cols].mean()) / ctx["diag"]
+
+
+def _transfer_op(bpy, body, garments):
+    for ob in bpy.context.view_layer.objects:
+        ob.select_set(ob in garments or ob == body)
+    bpy.context.view_layer.objects.active = body
+    t = time.perf_counter()
+    res = bpy.ops.object.miniskeleton_transfer_weights()
+    return time.perf_counter() - t, res
+
+
+def _rows_of(weights):
+    """Dense (n, b) weights as top-8 rows for core.transfer_weights."""
+    order = np.argsort(-weights, axis=1)[:, :8]
+    w = np.take_along_axis(weights, order, axis=1).astype(np.float32)
+    return np.where(w > 0, order, -1).astype(np.int32), w
+
+
+def transfer_rows(model, path, bpy, args, row):
+    """Transfer Weights onto the other skinned meshes of a model (see the module doc): one row
+    per dressed mesh, or [] for a model with one skinned mesh."""
+    import miniskeleton_core as core
+
+    arm, meshes, _ = import_model(bpy, path)
+    if arm is None or len(meshes) < 2:
+        return []
+    bones = deform_bones(arm)
+    body = max(meshes, key=lambda ob: len(ob.data.vertices))
+    garments = [ob for ob in meshes if ob is not body]
+    artist = [read_weights(ob, bones) for ob in meshes]
+    ctx = dict(artist=artist, locals=[np.array([v.co for v in ob.data.vertices]) for ob in meshes],
+               poses=row["poses"], diag=row["diag"])
+    # The paper's transfer alone, in world space (the core directly).
+    tri = importlib.import_module(blender_session.ADDON_MODULE + ".common.meshes")
+    bv, bt = world_rest(body), tri.mesh_triangles(body)
+    alone = [w.copy() for w in artist]
+    for g in garments:
+        i, w, _ = core.transfer_weights(bv, bt, *_rows_of(normalized(artist[meshes.index(body)])),
+                                        world_rest(g), tri.mesh_triangles(g))
+        dense = np.zeros_like(artist[meshes.index(g)])
+        for k in range(i.shape[1]):
+            ok = i[:, k] >= 0
+            dense[np.nonzero(ok)[0], i[ok, k]] += w[ok, k]
+        alone[meshes.index(g)] = dense
+    strip(garments, bones)
+    arm.data.pose_position = "REST"
+    bpy.context.view_layer.update()
+    secs, res = _transfer_op(bpy, body, garments)
+    arm.data.pose_position = "POSE"
+    bpy.context.view_layer.update()
+    parts = [read_weights(ob, bones) for ob in meshes]
+    out = []
+    for g in garments:
+        m = meshes.index(g)
+        direct = {s: _deform_of(ctx, [row["sides"][s]["parts"][k] if k == m else artist[k] for k in range(len(meshes))],
+                                [m]) for s in ("ours", "voxel") if s in row["sides"]}
+        out.append(dict(model=model, mesh=g.name, body=body.name, verts=len(g.data.vertices), result=res, secs=secs,
+                        transfer=_deform_of(ctx, [parts[k] if k == m else artist[k] for k in range(len(meshes))], [m]),
+                        alone=_deform_of(ctx, [alone[k] if k == m else artist[k] for k in range(len(meshes))], [m]),
+                        unweighted=int((parts[m].max(axis=1, initial=0) <= 0).sum()), **direct))
+    return out
+
+
+def shell_rows(model, path, bpy, args, row):
+    """A shell around the model's skinned meshes (see the module doc): Transfer Weights from the
+    artist-weighted model, and the shell bound directly with Heat and with Geodesic Voxel."""
+    arm, meshes, _ = import_model(bpy, path)
+    if arm is None or not meshes:
+        return None
+    bones = deform_bones(arm)
+    artist = [read_weights(ob, bones) for ob in meshes]
+    shells = []
+    for ob in meshes:
+        sh = ob.copy()
+        sh.data = ob.data.copy()
+        sh.name = ob.name + ".shell"
+        sh.vertex_groups.clear()
+        bpy.context.scene.collection.objects.link(sh)
+        n = np.empty(len(sh.data.vertices) * 3)
+        sh.data.vertices.foreach_get("normal", n)
+        co = np.empty(len(sh.data.vertices) * 3)
+        sh.data.vertices.foreach_get("co", co)
+        m3 = np.array(sh.matrix_world)[:3, :3]
+        local = 0.01 * row["diag"] / max(float(np.cbrt(abs(np.linalg.det(m3)))), 1e-12)
+        sh.data.vertices.foreach_set("co", co + local * n)
+        sh.data.update()
+        shells.append(sh)
+    ctx = dict(artist=artist, locals=[np.array([v.co for v in sh.data.vertices]) for sh in shells],
+               poses=row["poses"], diag=row["diag"])
+    which = list(range(len(shells)))
+    out = dict(model=model, verts=sum(len(sh.data.vertices) for sh in shells))
+    arm.data.pose_position = "REST"
+    bpy.context.view_layer.update()
+    # Transfer from the largest artist-weighted mesh (a body dressed from one mesh).
+    body = max(meshes, key=lambda ob: len(ob.data.vertices))
+    out["secs"], out["result"] = _transfer_op(bpy, body, shells)
+    out["transfer"] = _deform_of(ctx, [read_weights(sh, bones) for sh in shells], which)
+    for side, method in (("ours", "HEAT"), ("voxel", "VOXEL")):
+        for ob in meshes:
+            ob.hide_set(True)
+        strip(shells, bones)
+        bind(bpy, arm, shells, method)
+        for ob in meshes:
+            ob.hide_set(False)
+        out[side] = _deform_of(ctx, [read_weights(sh, bones) for sh in shells], which)
+    arm.data.pose_position = "POSE"
+    return out
+
+
+def transfer_tables(rows, shells):
+    lines = ["| model | dressed mesh (from body) | verts | Transfer Weights % | paper's transfer alone % "
+             "| direct heat % | direct voxel % | unweighted | time s |",
+             "|---|---|---:|---:|---:|---:|---:|---:|---:|"]
+    for r in rows:
+        lines.append(f"| {r['model']} | {r['mesh']} ({r['body']}) | {r['verts']} | {r['transfer']:.3f} | "
+                     f"{r['alone']:.3f} | {r.get('ours', float('nan')):.3f} | {r.get('voxel', float('nan')):.3f} "
+                     f"| {r['unweighted']} | {r['secs']:.3f} |")
+    lines += ["", "| model (shell 1 % out) | verts | Transfer Weights % | direct heat % | direct voxel % | time s |",
+              "|---|---:|---:|---:|---:|---:|"]
+    for r in shells:
+        lines.append(f"| {r['model']} | {r['verts']} | {r['transfer']:.3f} | {r['ours']:.3f} | {r['voxel']:.3f} "
+                     f"| {r['secs']:.3f} |")
+    return lines
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser()
     ap.add_argument("--models", default=",".join(Path(m).stem for m in MODELS),
@@ -513,10 +674,14 @@ def main(argv=None):
                          "(e.g. RobotExpressive's fingers only move in ThumbsUp,Wave)")
     ap.add_argument("--frames", type=int, default=20, help="frames sampled per action")
     ap.add_argument("--detail", type=int, default=5, help="rows in the per-model detail lists")
+    ap.add_argument("--resolution", type=int, default=64, help="our Geodesic Voxel's Resolution")
+    ap.add_argument("--falloff", type=float, default=0.02, help="our Geodesic Voxel's Falloff")
+    ap.add_argument("--no-transfer", action="store_true", help="skip the Transfer Weights tables")
     ap.add_argument("--out", default=str(ROOT / "out" / "eval_weights.md"))
     args = ap.parse_args(argv)
     SYMMETRY["value"] = args.symmetry
     BONE_EXTENT["value"] = args.bone_extent
+    VOXEL.update(resolution=args.resolution, voxel_falloff=args.falloff)
 
     folder = Path(args.models_dir)
     if not folder.is_dir():
@@ -540,13 +705,18 @@ def main(argv=None):
         return
 
     bpy = blender_session.start()
-    rows = []
+    rows, dressed, shells = [], [], []
     for model, path in wanted:
         print(f"[eval] {model} ...", flush=True)
         row = evaluate(model, path, bpy, args)
         if row is None:
             continue
         rows.append(row)
+        if not args.no_transfer:
+            dressed += transfer_rows(model, path, bpy, args, row)
+            shell = shell_rows(model, path, bpy, args, row)
+            if shell is not None:
+                shells.append(shell)
         chk, note = row["artist_check"]
         chk = "-" if chk is None else f"{chk:.2e}"
         print(f"[eval] {model}: {row['total_s']:.1f} s; numpy LBS vs Blender's Armature modifier "
@@ -560,6 +730,8 @@ def main(argv=None):
              f"the animation, % of the rest bounding-box diagonal; Blender = parent_set ARMATURE_AUTO "
              f"(keep_transform).", ""]
     lines += table(rows) + [""]
+    if not args.no_transfer:
+        lines += ["## Transfer Weights", ""] + transfer_tables(dressed, shells) + [""]
     for r in rows:
         lines += details(r, args.detail)
     text = "\n".join(lines)

@@ -14,7 +14,7 @@ import creature
 
 common_groups = importlib.import_module("bl_ext.user_default.miniskeleton.common.groups")
 
-METHODS = ["HEAT", "BILINEAR", "IDW"]
+METHODS = ["HEAT", "VOXEL", "BILINEAR", "IDW"]
 NAMES = [f"Bone{i}" for i in range(4)]
 
 
@@ -134,7 +134,8 @@ def test_weights_on_cylinder_chain(method):
      dict(falloff="inverse_power", power=3.0, nearest=2)),
     ("BILINEAR", dict(falloff="GAUSSIAN", sigma=0.03), dict(falloff="gaussian", sigma=0.03)),
     ("HEAT", dict(visibility=False), dict(visibility=False)),
-], ids=["IDW power", "BILINEAR inverse power", "BILINEAR sigma", "HEAT no visibility"])
+    ("VOXEL", dict(resolution=32, voxel_falloff=0.2), dict(resolution=32, falloff=0.2)),
+], ids=["IDW power", "BILINEAR inverse power", "BILINEAR sigma", "HEAT no visibility", "VOXEL resolution falloff"])
 def test_each_option_reaches_the_core(method, options, core_kw):
     """An option of Auto Weights gives the weights the core gives with that argument, which on
     the creature differ from the defaults' (so an option that is dropped on the way shows)."""
@@ -151,6 +152,8 @@ def test_each_option_reaches_the_core(method, options, core_kw):
             return core.idw_weights(v, bones.heads, bones.tails, **kw)
         if method == "BILINEAR":
             return core.bilinear_weights(v, bones.heads, bones.tails, bones.parents, **kw)
+        if method == "VOXEL":
+            return core.voxel_weights(v, t, bones.heads, bones.tails, **kw)[:2]
         return core.heat_weights(v, t, bones.heads, bones.tails, **kw)
 
     assert bind([body], arm, method=method, **options) == {"FINISHED"}

@@ -181,6 +181,23 @@ def _creature_posed():
     bpy.ops.object.mode_set(mode="POSE")
 
 
+def _creature_dressed():
+    """The creature bound, and a coat over it (its surface pushed out by 2 % of its size, a
+    separate object) selected with the body active, for Transfer Weights."""
+    body, arm = _creature()
+    assert bpy.ops.object.miniskeleton_auto_weights() == {"FINISHED"}
+    coat = body.copy()
+    coat.data = body.data.copy()
+    coat.name = "Coat"
+    coat.vertex_groups.clear()
+    coat.modifiers.clear()
+    bpy.context.scene.collection.objects.link(coat)
+    size = max(body.dimensions)
+    for v in coat.data.vertices:
+        v.co += v.normal * 0.02 * size
+    B.set_active(body, [coat, body])
+
+
 def _creature_fitted():
     _creature()
     assert bpy.ops.armature.miniskeleton_fit_skeleton() == {"FINISHED"}
@@ -221,6 +238,10 @@ CASES = {
                  {"objects", "meshes", "armatures"}),
     "auto_weights": (lambda tmp: _creature() and {}, lambda: bpy.ops.object.miniskeleton_auto_weights,
                      {"meshes", "objects"}),
+    "voxel_weights": (lambda tmp: _creature() and dict(method="VOXEL"),
+                      lambda: bpy.ops.object.miniskeleton_auto_weights, {"meshes", "objects"}),
+    "transfer_weights": (lambda tmp: _creature_dressed() or {}, lambda: bpy.ops.object.miniskeleton_transfer_weights,
+                         {"meshes", "objects"}),
     "fit": (lambda tmp: _creature() and {}, lambda: bpy.ops.armature.miniskeleton_fit_skeleton, {"armatures"}),
     "restore": (lambda tmp: _creature_fitted() or {}, lambda: bpy.ops.armature.miniskeleton_restore_skeleton,
                 {"armatures"}),

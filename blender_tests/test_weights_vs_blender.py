@@ -1,7 +1,8 @@
 """Quality guard: on every rigged model of ../shared/models/ (skipped when the folder or the file
-is absent; never copied here), Auto Weights (Heat) leaves no vertex unweighted and deforms no
-worse than Blender's own bone heat (Ctrl+P > With Automatic Weights) against the artist's
-weights, both bound in the same run and posed with the same frames of the model's own clips.
+is absent; never copied here), Auto Weights (Heat and Geodesic Voxel) leaves no vertex unweighted
+and deforms no worse than Blender's own bone heat (Ctrl+P > With Automatic Weights) against the
+artist's weights, all bound in the same run and posed with the same frames of the model's own
+clips.
 
 The measure is ``bench/eval_weights.py``'s deform error (mean distance to the artist-weighted
 mesh, % of the bounding-box diagonal), on fewer frames to stay quick; the full table is that
@@ -28,9 +29,12 @@ def test_auto_weights_no_worse_than_blenders(name):
         pytest.skip(f"{path} not present")
     row = eval_weights.evaluate(Path(name).stem, path, bpy, ARGS)
     assert row is not None, f"{name}: nothing to compare"
-    ours, theirs = row["sides"]["ours"], row["sides"]["Blender"]
-    assert ours["result"] == {"FINISHED"} and theirs["result"] == {"FINISHED"}
-    assert ours["unweighted"] == 0, f"{name}: {ours['unweighted']} vertices unweighted"
-    # Equal weights (RiggedSimple's two bones) give equal errors up to rounding.
-    assert ours["deform"] <= theirs["deform"] * (1 + 1e-6) + 1e-9, (
-        f"{name}: deform {ours['deform']:.4f} % against Blender's {theirs['deform']:.4f} %")
+    theirs = row["sides"]["Blender"]
+    assert theirs["result"] == {"FINISHED"}
+    for side in ("ours", "voxel"):
+        ours = row["sides"][side]
+        assert ours["result"] == {"FINISHED"}, side
+        assert ours["unweighted"] == 0, f"{name} {side}: {ours['unweighted']} vertices unweighted"
+        # Equal weights (RiggedSimple's two bones) give equal errors up to rounding.
+        assert ours["deform"] <= theirs["deform"] * (1 + 1e-6) + 1e-9, (
+            f"{name} {side}: deform {ours['deform']:.4f} % against Blender's {theirs['deform']:.4f} %")

@@ -441,3 +441,56 @@ def test_heat_blends_across_a_joint_over_a_width_set_by_the_limbs_thickness(radi
     z, a = v[side, 2], lower[side]
     width = z[a > 0.1].max() - z[a < 0.9].min()
     assert radius <= width <= 2.5 * radius, width / radius
+
+
+# ---------------------------------------------------------------- geodesic voxel, transfer
+
+
+def test_voxel_weights_follow_the_chain_and_report_the_solid(cyl):
+    v, t, h, tl, p = cyl
+    idx, w, report = msc.voxel_weights(v, t, h, tl, resolution=32)
+    check_influences(idx, w, len(v), 4, 4)
+    # Mid-bone vertices take the bone at their height (bones 0.95 long from z = 0.1).
+    along = (v[:, 2] - 0.1) / 0.95
+    mid = (np.abs(along - np.floor(along) - 0.5) < 0.2) & (along < 4)
+    assert (idx[mid, 0] == np.floor(along[mid])).all()
+    assert len(report["grid"]) == 3 and report["solid_voxels"] > 0 and report["outside_bones"] == 0
+    assert {"voxelize", "geodesic", "falloff", "total"} <= set(report["timings"])
+
+
+def test_voxel_weights_objects_bind_a_prop_rigidly(cyl):
+    """A box beside the cylinder as a second object, holding no bone: one rigid body."""
+    v, t, h, tl, p = cyl
+    bv = np.array([[x, y, z] for z in (2.0, 2.3) for y in (-0.1, 0.1) for x in (0.6, 0.9)], np.float32)
+    bt = np.array([[0, 2, 3], [0, 3, 1], [4, 5, 7], [4, 7, 6], [0, 1, 5], [0, 5, 4], [2, 6, 7], [2, 7, 3],
+                   [0, 4, 6], [0, 6, 2], [1, 3, 7], [1, 7, 5]], np.uint32) + len(v)
+    objects = np.repeat(np.array([0, 1], np.uint32), [len(v), 8])
+    idx, w, _ = msc.voxel_weights(np.vstack([v, bv]), np.vstack([t, bt]), h, tl, objects=objects)
+    assert (w[len(v):, 0] == 1.0).all() and len(set(idx[len(v):, 0])) == 1
+
+
+def test_voxel_weights_bad_input_is_a_value_error(cyl):
+    v, t, h, tl, p = cyl
+    with pytest.raises(ValueError, match="resolution"):
+        msc.voxel_weights(v, t, h, tl, resolution=4)
+    with pytest.raises(ValueError, match="falloff"):
+        msc.voxel_weights(v, t, h, tl, falloff=-1.0)
+    with pytest.raises(ValueError, match="objects"):
+        msc.voxel_weights(v, t, h, tl, objects=np.zeros(3, np.uint32))
+    with pytest.raises(msc.Cancelled):
+        msc.voxel_weights(v, t, h, tl, progress=lambda f: False)
+
+
+def test_transfer_weights_copy_onto_a_sleeve(cyl):
+    v, t, h, tl, p = cyl
+    idx, w = msc.heat_weights(v, t, h, tl)
+    gv, gt = msc.capped_cylinder(0.52, 2.0, 21, 24)
+    gv = gv + np.array([0, 0, 1.0], np.float32)
+    gi, gw, report = msc.transfer_weights(v, t, idx, w, gv, gt)
+    check_influences(gi, gw, len(gv), 4, 4)
+    assert report["matched"] > 0.9 * len(gv) and report["nearest"] == 0
+    # Each sleeve vertex carries the weights of the body vertex nearest to it (within a blend).
+    near = np.linalg.norm(gv[:, None] - v[None], axis=2).argmin(1)
+    assert np.abs(dense(gi, gw, 4) - dense(idx, w, 4)[near]).sum(1).mean() < 0.15
+    with pytest.raises(ValueError, match="body weights"):
+        msc.transfer_weights(v, t, idx[:5], w[:5], gv, gt)

@@ -1,8 +1,8 @@
 """Computing skin weights without touching Blender data: each mesh with the chosen method
-(Heat, Bilinear, IDW from the Rust core), meshes that meet along a seam solved as one surface,
-many small seam groups solved together in one call to the core, and a worker-thread job that
-the Auto Weights operator's modal loop watches (Esc cancels it). Nothing here writes to
-Blender."""
+(Heat, Voxel, Bilinear, IDW from the Rust core), meshes that meet along a seam solved as one
+surface (Voxel: every mesh in one solid), many small seam groups solved together in one call to
+the core, and a worker-thread job that the Auto Weights operator's modal loop watches (Esc
+cancels it). Nothing here writes to Blender."""
 
 from __future__ import annotations
 
@@ -24,14 +24,19 @@ def mesh_weights(core, settings: dict, verts, tris, bones, progress):
             verts, bones.heads, bones.tails, bones.parents, max_influences=k, nearest=settings["nearest"],
             falloff=settings["falloff"], sigma=settings["sigma"], power=settings["power"])
         return i, w, None
+    if settings["method"] == "VOXEL":
+        return core.voxel_weights(verts, tris, bones.heads, bones.tails, progress=progress,
+                                  resolution=settings["resolution"], falloff=settings["voxel_falloff"],
+                                  objects=settings.get("objects"), **_rig_options(settings, bones))
     return core.heat_weights_report(verts, tris, bones.heads, bones.tails, progress=progress,
-                                    **_heat_options(settings, bones))
+                                    visibility=settings["visibility"], **_rig_options(settings, bones))
 
 
-def _heat_options(settings: dict, bones) -> dict:
-    """The keyword arguments of ``core.heat_weights_report`` and ``core.heat_weights_many``."""
-    return dict(max_influences=settings["k"], visibility=settings["visibility"], bone_mirror=settings["mirror"],
-                parents=settings["parents"], curve_points=bones.curve_points, curve_bones=bones.curve_bones)
+def _rig_options(settings: dict, bones) -> dict:
+    """The keyword arguments Heat (``core.heat_weights_report``, ``core.heat_weights_many``) and
+    Voxel (``core.voxel_weights``) share."""
+    return dict(max_influences=settings["k"], bone_mirror=settings["mirror"], parents=settings["parents"],
+                curve_points=bones.curve_points, curve_bones=bones.curve_bones)
 
 
 def compute_weights(core, settings: dict, bones, inputs, progress):
@@ -44,6 +49,14 @@ def compute_weights(core, settings: dict, bones, inputs, progress):
     each other (a figure kit-built of separate objects) go to the core together
     (``_solve_batch``); ``progress`` is called from this thread only, between calls."""
     results, notes = [], []
+    if settings["method"] == "VOXEL":
+        # One solid of every mesh: geodesic distances cross from one object into the next.
+        members = list(range(len(inputs)))
+        settings = dict(settings, objects=np.repeat(np.arange(len(inputs), dtype=np.uint32),
+                                                    [len(v) for _, _, v, _ in inputs]))
+        _gather(inputs, members, _solve_group(core, settings, bones, inputs, members, progress), settings,
+                results, notes)
+        return results, notes
     try:
         groups = seam_groups(core, inputs) if settings["method"] == "HEAT" else [[m] for m in range(len(inputs))]
     except (ValueError, RuntimeError) as err:
@@ -127,8 +140,8 @@ def _solve_group(core, settings: dict, bones, inputs, members: list[int], progre
 
 
 def _stacked(inputs, members: list[int], settings: dict):
-    """A seam group's vertices and (Heat only) triangles, its meshes one after the other."""
-    if settings["method"] == "HEAT":
+    """A seam group's vertices and (Heat and Voxel) triangles, its meshes one after the other."""
+    if settings["method"] in ("HEAT", "VOXEL"):
         return stack_meshes((inputs[m][2], inputs[m][3]) for m in members)
     return np.concatenate([inputs[m][2] for m in members]), None
 
@@ -147,7 +160,8 @@ def _solve_batch(core, settings: dict, bones, inputs, groups: list[list[int]], s
         total += sizes[end]
         end += 1
     solved = core.heat_weights_many([_stacked(inputs, members, settings) for members in groups[start:end]],
-                                    bones.heads, bones.tails, **_heat_options(settings, bones))
+                                    bones.heads, bones.tails, visibility=settings["visibility"],
+                                    **_rig_options(settings, bones))
     for members, out in zip(groups[start:end], solved):
         if isinstance(out, Exception):
             raise WeightsError(f"Mesh '{_group_name(inputs, members)}': {out}; nothing was changed") from out

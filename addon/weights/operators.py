@@ -1,4 +1,4 @@
-"""Weights operators: Auto Weights (Heat / nearest-bone bilinear / inverse distance).
+"""Weights operators: Auto Weights (Heat / Voxel / nearest-bone bilinear / inverse distance).
 
 Context like Blender's Ctrl+P > With Automatic Weights: the selected meshes and the active
 armature (in Weight Paint mode, like Assign Automatic from Bones: the painted mesh and its
@@ -22,7 +22,7 @@ from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty
 from ..common.armatures import armature_bones, find_armature
 from ..common.mirror import bone_mirror_indices
 from ..common.reports import in_edit_mode, name_list, read_only, unplaced
-from ..common.transforms import extent
+from ..common.transforms import extent, to_armature_frame
 from .binding import find_meshes, read_inputs, write_weights
 from .compute import BACKGROUND_VERTICES, WeightsError, WeightsJob, compute_weights
 
@@ -30,6 +30,9 @@ METHODS = [
     ("HEAT", "Auto Weights (Heat)",
      "Bone heat diffusion on the welded surface (Baran & Popovic 2007); works on meshes in "
      "many pieces, at any scale and with split seams"),
+    ("VOXEL", "Geodesic Voxel",
+     "Every selected mesh voxelized as one solid, bones found by geodesic distance through it "
+     "(Dionne & de Lasa 2013); for meshes in many pieces, open or self-intersecting"),
     ("BILINEAR", "Nearest Bones (Bilinear)",
      "Nearest bone segments with a radial falloff, blended with the neighbouring bone across "
      "the nearer joint"),
@@ -52,7 +55,7 @@ class MINISKELETON_OT_auto_weights(bpy.types.Operator):
         name="Selected Bones Only", default=False, options={"SKIP_SAVE"},
         description="Write groups only for selected deform bones; the others still take part. "
         "On by default in Weight Paint mode when bones are selected, as Assign Automatic from Bones")
-    # Heat
+    # Heat and Voxel
     symmetry: EnumProperty(
         name="Symmetry", default="NONE",
         items=[("NONE", "None", "No symmetrization"),
@@ -72,6 +75,15 @@ class MINISKELETON_OT_auto_weights(bpy.types.Operator):
                ("CHILDREN", "To Children", "A bone whose children start away from its tail reaches "
                 "their heads (the segments that lie inside the mesh), and a bone with no children "
                 "continues its parent's line; importers invent tails, often pointing out of the limb")])
+    # Voxel
+    resolution: IntProperty(
+        name="Resolution", default=64, min=16, max=1024,
+        description="Voxels along the longest side of the meshes; parts closer than a voxel merge "
+        "(the time grows with the cube of it)")
+    voxel_falloff: FloatProperty(
+        name="Falloff", default=0.02, min=0.0, max=1.0, precision=3,
+        description="How far a vertex shares its weight with bones farther than its nearest one, "
+        "relative to its distance (0: the nearest bone alone, then smoothed)")
     # IDW
     power: FloatProperty(name="Power", default=2.0, min=0.1, max=16.0,
                          description="Inverse-distance exponent p")
@@ -95,11 +107,16 @@ class MINISKELETON_OT_auto_weights(bpy.types.Operator):
         layout.prop(self, "method")
         layout.prop(self, "max_influences")
         layout.prop(self, "selected_bones_only")
-        if self.method == "HEAT":
+        if self.method in ("HEAT", "VOXEL"):
             layout.prop(self, "symmetry")
-            layout.prop(self, "visibility")
+            if self.method == "HEAT":
+                layout.prop(self, "visibility")
             layout.prop(self, "bone_extent")
-            layout.prop(self, "memory_limit")
+            if self.method == "HEAT":
+                layout.prop(self, "memory_limit")
+            if self.method == "VOXEL":
+                layout.prop(self, "resolution")
+                layout.prop(self, "voxel_falloff")
         elif self.method == "IDW":
             layout.prop(self, "power")
         else:
@@ -192,7 +209,7 @@ class MINISKELETON_OT_auto_weights(bpy.types.Operator):
             return None
         arm, meshes, bones = checked
         try:
-            return read_inputs(arm, meshes, bones, heat=self.method == "HEAT")
+            return read_inputs(arm, meshes, bones, heat=self.method in ("HEAT", "VOXEL"))
         except WeightsError as err:
             self.report({"ERROR"}, str(err))
             return None
@@ -204,7 +221,8 @@ class MINISKELETON_OT_auto_weights(bpy.types.Operator):
                     sigma=self.sigma if self.sigma > 0 else None, visibility=self.visibility,
                     memory_limit=self.memory_limit,
                     mirror=bone_mirror_indices(bones.names) if self.symmetry == "X" else None,
-                    parents=bones.parents if self._reach_children(bones) else None)
+                    parents=bones.parents if self._reach_children(bones) else None,
+                    resolution=self.resolution, voxel_falloff=self.voxel_falloff)
 
     def _reach_children(self, bones) -> bool:
         """Bones reach their children's heads (Bone Extent; Auto: on imported rigs)."""
@@ -222,7 +240,7 @@ class MINISKELETON_OT_auto_weights(bpy.types.Operator):
         label = dict((m[0], m[1]) for m in METHODS)[self.method]
         msg = (f"{label}: {nverts} vertices in {len(inputs)} mesh(es), {int(write.sum())} bones, "
                f"{secs:.2f} s")
-        if self.method == "HEAT" and self._reach_children(bones):
+        if self.method in ("HEAT", "VOXEL") and self._reach_children(bones):
             msg += "; bones reach their children (imported rig, see Bone Extent)"
         if partial:
             msg += "; re-weighted " + ", ".join(partial)
@@ -273,7 +291,8 @@ class MINISKELETON_OT_auto_weights(bpy.types.Operator):
         prepared = self._prepare(context)
         if prepared is None:
             return {"CANCELLED"}
-        if sum(len(v) for _, _, v, _ in prepared.inputs) < BACKGROUND_VERTICES:
+        # Voxel's time follows the solid's volume, not the vertex count: always on the worker.
+        if self.method != "VOXEL" and sum(len(v) for _, _, v, _ in prepared.inputs) < BACKGROUND_VERTICES:
             return self._run_blocking(context, core, prepared)
         self._start_job(context, core, prepared)
         context.window_manager.modal_handler_add(self)
@@ -327,4 +346,87 @@ class MINISKELETON_OT_auto_weights(bpy.types.Operator):
             context.workspace.status_text_set(None)
 
 
-classes = (MINISKELETON_OT_auto_weights,)
+class MINISKELETON_OT_transfer_weights(bpy.types.Operator):
+    """Copy the active skinned body's weights onto the selected garments where they lie on it,
+    inpainting the rest (Robust Skin Weights Transfer, Abdrashitov et al. 2023)"""
+
+    bl_idname = "object.miniskeleton_transfer_weights"
+    bl_label = "MiniSkeleton Transfer Weights"
+    bl_options = {"REGISTER", "UNDO"}
+
+    max_distance: FloatProperty(
+        name="Max Distance", default=0.05, min=0.0, max=1.0, precision=3,
+        description="A garment vertex takes the body's weights where the body is at most this far, "
+        "as a fraction of the body's size")
+    max_angle: FloatProperty(
+        name="Max Angle", default=30.0, min=0.0, max=180.0,
+        description="... and where their normals differ by at most this many degrees (either way round)")
+    max_influences: IntProperty(
+        name="Max Influences", default=4, min=1, max=16,
+        description="Bones kept per vertex (the strongest), then renormalized")
+
+    def _validate(self, context):
+        """Return (armature, body, garments, bones) or report and return None."""
+        body = context.active_object
+        if body is None or body.type != "MESH":
+            self.report({"ERROR"}, "Make the skinned body the active object, with the garments selected")
+            return None
+        garments = [ob for ob in context.selected_objects if ob.type == "MESH" and ob != body]
+        if not garments:
+            self.report({"ERROR"}, f"No garment selected: select the meshes to dress, then the body '{body.name}'")
+            return None
+        arm = find_armature(context)
+        if arm is None:
+            self.report({"ERROR"}, f"The body '{body.name}' has no armature (no Armature modifier or "
+                        "armature parent): bind it first with Auto Weights")
+            return None
+        empty = [ob.name for ob in garments if len(ob.data.vertices) == 0]
+        if empty:
+            self.report({"ERROR"}, f"Mesh(es) without vertices: {name_list(empty)}; nothing was changed")
+            return None
+        problem = (read_only(*[b for ob in garments for b in (ob, ob.data)]) or in_edit_mode([body, *garments])
+                   or unplaced(arm, body, *garments))
+        if problem:
+            self.report({"ERROR"}, problem + "; nothing was changed")
+            return None
+        bones = armature_bones(arm, min_length=1e-6 * max(extent(arm), 1e-30))
+        if not bones.names:
+            self.report({"ERROR"}, f"Armature '{arm.name}' has no deform bones")
+            return None
+        return arm, body, garments, bones
+
+    def execute(self, context):
+        import miniskeleton_core as core
+
+        from .binding import Prepared, write_weights
+        from .transfer import body_rows, read_mesh, transfer
+
+        checked = self._validate(context)
+        if checked is None:
+            return {"CANCELLED"}
+        arm, body, garments, bones = checked
+        start = time.perf_counter()
+        bones = dataclasses.replace(bones, heads=to_armature_frame(arm, bones.heads),
+                                    tails=to_armature_frame(arm, bones.tails))
+        try:
+            weights = body_rows(body, arm, bones.names)
+            body_mesh = read_mesh(arm, body)
+            inputs = [(ob, ob.name, *read_mesh(arm, ob)) for ob in garments]
+            settings = dict(max_distance=self.max_distance, max_angle=self.max_angle, k=self.max_influences,
+                            parents=bones.parents if bones.imported else None)
+            results, notes = transfer(core, body_mesh, weights, inputs, bones, settings)
+        except WeightsError as err:
+            self.report({"ERROR"}, str(err))
+            return {"CANCELLED"}
+        prepared = Prepared(arm, bones, inputs, [], {})
+        written, _, kept_locked = write_weights(prepared, results, np.ones(len(bones.names), bool))
+        if kept_locked:
+            written.append(f"locked groups kept: {name_list(sorted(kept_locked))}")
+        for note in notes + written:
+            self.report({"INFO"} if "took the body" in note else {"WARNING"}, note)
+        self.report({"INFO"}, f"Transfer Weights from '{body.name}': {len(garments)} mesh(es), "
+                    f"{time.perf_counter() - start:.2f} s")
+        return {"FINISHED"}
+
+
+classes = (MINISKELETON_OT_auto_weights, MINISKELETON_OT_transfer_weights)

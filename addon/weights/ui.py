@@ -8,6 +8,7 @@ import bpy
 from ..common.panels import SidebarPanel
 
 WEIGHTS_OP = "object.miniskeleton_auto_weights"
+TRANSFER_OP = "object.miniskeleton_transfer_weights"
 
 
 def draw_parent_menu(self, context):
@@ -16,6 +17,7 @@ def draw_parent_menu(self, context):
     layout.separator()
     layout.operator_context = "EXEC_REGION_WIN"
     layout.operator_menu_enum(WEIGHTS_OP, "method", text="With MiniSkeleton Weights")
+    layout.operator(TRANSFER_OP, text="Transfer MiniSkeleton Weights")
 
 
 class MINISKELETON_PT_weights(SidebarPanel, bpy.types.Panel):
@@ -29,10 +31,14 @@ class MINISKELETON_PT_weights(SidebarPanel, bpy.types.Panel):
         col = layout.column(align=True)
         col.label(text="Select meshes, then the armature")
         for method, text, icon in (("HEAT", "Auto Weights (Heat)", "MOD_ARMATURE"),
+                                   ("VOXEL", "Geodesic Voxel", "MESH_CUBE"),
                                    ("BILINEAR", "Nearest Bones (Bilinear)", "BONE_DATA"),
                                    ("IDW", "Inverse Distance", "DRIVER_DISTANCE")):
             op = col.operator(WEIGHTS_OP, text=text, icon=icon)
             op.method = method
+        col = layout.column(align=True)
+        col.label(text="Select garments, then the skinned body")
+        col.operator(TRANSFER_OP, text="Transfer Weights", icon="MOD_CLOTH")
 
 
 classes = (MINISKELETON_PT_weights,)

@@ -11,6 +11,10 @@ use miniskeleton_core::weights::{
     heat_weights_many as core_heat_many, heat_weights_with_sources as core_heat_from_sources,
 };
 use miniskeleton_core::weights::{idw_weights as core_idw, IdwOptions};
+use miniskeleton_core::weights::{transfer_weights as core_transfer, TransferOptions};
+use miniskeleton_core::weights::{
+    voxel_distances as core_voxel_distances, voxel_weights as core_voxel, VoxelOptions, VoxelReport,
+};
 use miniskeleton_core::weights::{BoneCurves, HeatOptions, HeatReport, MeshRef};
 use numpy::{AllowTypeChange, PyArray2, PyArrayLike2};
 use pyo3::exceptions::{PyTypeError, PyValueError};
@@ -231,15 +235,24 @@ pub fn heat_weights_report<'py>(
     Ok((i, w, report_dict(py, &report)?))
 }
 
-/// `heat_weights` of the core with a Python progress callable, called with the GIL
-/// re-acquired; returning False cancels. An exception it raises stops the solve too and is
-/// re-raised as itself, not as Cancelled.
+/// `heat_weights` of the core with a Python progress callable (see [`with_progress`]).
 fn solve_heat(
     py: Python<'_>,
     (v, tri, h, t): &MeshAndBones,
     opts: &HeatOptions,
     progress: Option<Py<PyAny>>,
 ) -> PyResult<(Influences, HeatReport)> {
+    with_progress(py, progress, |cb| core_heat(v, tri, h, t, opts, cb))
+}
+
+/// Run `solve` without the GIL, handing it a Python progress callable as a core callback,
+/// called with the GIL re-acquired; returning False cancels. An exception the callable raises
+/// stops the solve too and is re-raised as itself, not as Cancelled.
+fn with_progress<T: Send>(
+    py: Python<'_>,
+    progress: Option<Py<PyAny>>,
+    solve: impl FnOnce(Option<&(dyn Fn(f32) -> bool + Sync)>) -> miniskeleton_core::Result<T> + Send,
+) -> PyResult<T> {
     if let Some(cb) = &progress {
         if !cb.bind(py).is_callable() {
             return Err(PyTypeError::new_err("progress must be a callable taking the fraction done"));
@@ -258,8 +271,7 @@ fn solve_heat(
             })
         }
     });
-    let solved =
-        guarded(py, || core_heat(v, tri, h, t, opts, callback.as_ref().map(|c| c as &(dyn Fn(f32) -> bool + Sync))));
+    let solved = guarded(py, || solve(callback.as_ref().map(|c| c as &(dyn Fn(f32) -> bool + Sync))));
     if let Some(e) = raised.into_inner().unwrap_or_else(|p| p.into_inner()) {
         return Err(e);
     }
@@ -362,7 +374,171 @@ pub fn heat_peak_bytes(vertices: usize, bones: usize) -> u64 {
     miniskeleton_core::weights::heat::heat_peak_bytes(vertices, bones)
 }
 
+/// Geodesic voxel binding (Dionne & de Lasa 2013): (indices, weights, report). `objects` (n,):
+/// the object of each vertex when several meshes are stacked (an object whose pieces hold no
+/// bone is a prop, bound rigidly); `bone_mirror` and `symmetry_axis` as for `heat_weights`.
+#[pyfunction]
+#[pyo3(signature = (vertices, triangles, bone_heads, bone_tails, *, progress=None, resolution=64, falloff=0.02,
+                    max_influences=4, bone_mirror=None, symmetry_axis=0, parents=None, curve_points=None,
+                    curve_bones=None, objects=None))]
+#[allow(clippy::too_many_arguments)]
+pub fn voxel_weights<'py>(
+    py: Python<'py>,
+    vertices: F32Rows<'py>,
+    triangles: IndexRows<'py>,
+    bone_heads: F32Rows<'py>,
+    bone_tails: F32Rows<'py>,
+    progress: Option<Py<PyAny>>,
+    resolution: usize,
+    falloff: f32,
+    max_influences: usize,
+    bone_mirror: Option<Indices<'py>>,
+    symmetry_axis: usize,
+    parents: Option<Indices<'py>>,
+    curve_points: Option<F32Rows<'py>>,
+    curve_bones: Option<Indices<'py>>,
+    objects: Option<Indices<'py>>,
+) -> PyResult<PairAndReport<'py>> {
+    let (v, tri, h, t) = mesh_and_bones(&vertices, &triangles, &bone_heads, &bone_tails)?;
+    if symmetry_axis > 2 {
+        return Err(PyValueError::new_err("symmetry_axis must be 0, 1 or 2"));
+    }
+    let opts = VoxelOptions {
+        resolution,
+        falloff,
+        max_influences: positive_k(max_influences)?,
+        symmetry: bone_mirror
+            .map(|m| Ok::<_, PyErr>(Symmetry { axis: symmetry_axis, plane: 0.0, mirror: indices(&m, "bone_mirror")? }))
+            .transpose()?,
+        parents: parents.map(|p| indices(&p, "parents")).transpose()?,
+        curves: bone_curves(curve_points, curve_bones)?,
+        objects: objects.map(|o| indices(&o, "objects")).transpose()?,
+        ..Default::default()
+    };
+    let (inf, report) = with_progress(py, progress, |cb| core_voxel(&v, &tri, &h, &t, &opts, cb))?;
+    let (i, w) = to_pair(py, inf)?;
+    Ok((i, w, voxel_report_dict(py, &report)?))
+}
+
+/// Bent bones from the optional `curve_points` / `curve_bones` pair.
+fn bone_curves(points: Option<F32Rows<'_>>, bones: Option<Indices<'_>>) -> PyResult<Option<BoneCurves>> {
+    match (points, bones) {
+        (None, None) => Ok(None),
+        (Some(p), Some(b)) => {
+            Ok(Some(BoneCurves { points: rows::<f32, 3>(&p, "curve_points")?, bone: indices(&b, "curve_bones")? }))
+        }
+        _ => Err(PyValueError::new_err("curve_points and curve_bones go together")),
+    }
+}
+
+fn voxel_report_dict<'py>(py: Python<'py>, r: &VoxelReport) -> PyResult<Bound<'py, PyDict>> {
+    let d = report_dict(py, &r.heat)?;
+    d.set_item("grid", r.grid.to_vec())?;
+    d.set_item("solid_voxels", r.solid_voxels)?;
+    d.set_item("outside_bones", r.outside_bones)?;
+    let t = d.get_item("timings")?.expect("report_dict sets timings");
+    let t = t.cast::<PyDict>()?;
+    for (name, secs) in &r.timings {
+        t.set_item(*name, *secs)?;
+    }
+    Ok(d)
+}
+
+/// Debug and evaluation: each vertex's k nearest bones by geodesic distance through the voxel
+/// solid: (indices (n,k) int32, -1 unused; geodesic, straight distances (n,k) float32, bbox
+/// diagonals; cosines (n,k) float32 of the vertex normal and the direction from the bone).
+#[pyfunction]
+#[pyo3(signature = (vertices, triangles, bone_heads, bone_tails, *, k=8, resolution=64, parents=None,
+                    curve_points=None, curve_bones=None))]
+#[allow(clippy::too_many_arguments)]
+pub fn voxel_distances<'py>(
+    py: Python<'py>,
+    vertices: F32Rows<'py>,
+    triangles: IndexRows<'py>,
+    bone_heads: F32Rows<'py>,
+    bone_tails: F32Rows<'py>,
+    k: usize,
+    resolution: usize,
+    parents: Option<Indices<'py>>,
+    curve_points: Option<F32Rows<'py>>,
+    curve_bones: Option<Indices<'py>>,
+) -> PyResult<VoxelQuad<'py>> {
+    let (v, tri, h, t) = mesh_and_bones(&vertices, &triangles, &bone_heads, &bone_tails)?;
+    let opts = VoxelOptions {
+        resolution,
+        parents: parents.map(|p| indices(&p, "parents")).transpose()?,
+        curves: bone_curves(curve_points, curve_bones)?,
+        ..Default::default()
+    };
+    let out = guarded(py, || core_voxel_distances(&v, &tri, &h, &t, k, &opts))?;
+    let n = out.bones.len() / k.max(1);
+    Ok((
+        matrix(py, out.bones, n, k)?,
+        matrix(py, out.geodesic, n, k)?,
+        matrix(py, out.euclid, n, k)?,
+        matrix(py, out.cos, n, k)?,
+    ))
+}
+
+type VoxelQuad<'py> =
+    (Bound<'py, PyArray2<i32>>, Bound<'py, PyArray2<f32>>, Bound<'py, PyArray2<f32>>, Bound<'py, PyArray2<f32>>);
+
+/// Robust skin weights transfer (Abdrashitov et al. 2023): a body's weights onto a garment.
+/// `body_indices` / `body_weights` (nb,k): the body's top-k weights. Returns (indices, weights,
+/// report: matched, inpainted, nearest, regularized).
+#[pyfunction]
+#[pyo3(signature = (body_vertices, body_triangles, body_indices, body_weights, vertices, triangles, *,
+                    max_distance=0.05, max_angle=30.0, flipped=true, max_influences=4))]
+#[allow(clippy::too_many_arguments)]
+pub fn transfer_weights<'py>(
+    py: Python<'py>,
+    body_vertices: F32Rows<'py>,
+    body_triangles: IndexRows<'py>,
+    body_indices: IndexRows<'py>,
+    body_weights: F32Rows<'py>,
+    vertices: F32Rows<'py>,
+    triangles: IndexRows<'py>,
+    max_distance: f32,
+    max_angle: f32,
+    flipped: bool,
+    max_influences: usize,
+) -> PyResult<PairAndReport<'py>> {
+    let bv = rows::<f32, 3>(&body_vertices, "body_vertices")?;
+    let bt = index_rows::<u32, 3>(&body_triangles, "body_triangles")?;
+    let v = rows::<f32, 3>(&vertices, "vertices")?;
+    let t = index_rows::<u32, 3>(&triangles, "triangles")?;
+    let (shape, k) = (body_indices.as_array().dim(), body_weights.as_array().dim());
+    if shape != k {
+        return Err(PyValueError::new_err(format!(
+            "body_indices and body_weights must have one shape, got {shape:?} and {k:?}"
+        )));
+    }
+    let body = Influences {
+        k: shape.1,
+        indices: index_matrix::<i32>(&body_indices, "body_indices")?,
+        weights: body_weights.as_array().iter().copied().collect(),
+    };
+    let opts = TransferOptions {
+        max_distance,
+        max_angle,
+        flipped,
+        max_influences: positive_k(max_influences)?,
+        ..Default::default()
+    };
+    let (inf, r) = guarded(py, || core_transfer(&bv, &bt, &body, &v, &t, &opts))?;
+    let (i, w) = to_pair(py, inf)?;
+    let d = PyDict::new(py);
+    d.set_item("matched", r.matched)?;
+    d.set_item("inpainted", r.inpainted)?;
+    d.set_item("nearest", r.nearest)?;
+    d.set_item("regularized", r.regularized)?;
+    Ok((i, w, d))
+}
+
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_function(wrap_pyfunction!(voxel_weights, m)?)?;
+    m.add_function(wrap_pyfunction!(transfer_weights, m)?)?;
+    m.add_function(wrap_pyfunction!(voxel_distances, m)?)?;
     m.add_function(wrap_pyfunction!(heat_peak_bytes, m)?)?;
     m.add_function(wrap_pyfunction!(idw_weights, m)?)?;
     m.add_function(wrap_pyfunction!(bilinear_weights, m)?)?;

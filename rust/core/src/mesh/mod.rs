@@ -12,6 +12,7 @@
 //! - [`segment`]: point-to-segment distance (a bone is a segment);
 //! - [`visibility`]: a BVH of triangles for segment and ray queries;
 //! - [`solid`]: the inside test of a mesh in several pieces;
+//! - [`facing`]: inside by the faces seen along the axes (open and nested pieces);
 //! - [`catmull_clark`]: limit positions of a subdivision surface;
 //! - [`seams`]: which meshes touch along a seam.
 
@@ -20,6 +21,7 @@ mod input;
 
 pub mod catmull_clark;
 pub mod cotan;
+pub mod facing;
 pub mod islands;
 pub mod mirror;
 pub mod orient;

@@ -117,9 +117,30 @@ pub fn orient_faces(n: usize, triangles: &[[u32; 3]]) -> (Vec<[u32; 3]>, usize) 
 }
 
 /// Unit area-weighted vertex normals (zero for vertices in no triangle), oriented outward
-/// per piece: a piece whose signed volume is negative has its normals flipped.
+/// per piece: a piece whose signed volume is negative ([`piece_volumes`]) has its normals
+/// flipped.
 pub(crate) fn vertex_normals(wpos: &[DVec3], tris: &[[u32; 3]], labels: &[u32], npieces: usize) -> Vec<DVec3> {
     let mut n = vec![DVec3::ZERO; wpos.len()];
+    for t in tris {
+        let [a, b, c] = t.map(|i| wpos[i as usize]);
+        let f = (b - a).cross(c - a);
+        for &i in t {
+            n[i as usize] += f;
+        }
+    }
+    let vol = piece_volumes(wpos, tris, labels, npieces);
+    n.par_iter_mut().zip(labels.par_iter()).with_min_len(4096).for_each(|(n, &l)| {
+        let s = if vol[l as usize] < 0.0 { -1.0 } else { 1.0 };
+        *n = (*n * s).normalize_or_zero();
+    });
+    n
+}
+
+/// Six times the signed volume each piece's triangles enclose (`labels` `(nw,)`: the piece of
+/// each vertex, `< npieces`), about the corner of the piece's bounding box (exact for a closed
+/// piece; for an open one it depends on that corner): positive when the triangles wind
+/// outward.
+pub(crate) fn piece_volumes(wpos: &[DVec3], tris: &[[u32; 3]], labels: &[u32], npieces: usize) -> Vec<f64> {
     let mut vol = vec![0.0f64; npieces];
     let mut lo = vec![DVec3::splat(f64::INFINITY); npieces];
     for (v, &l) in labels.iter().enumerate() {
@@ -127,18 +148,10 @@ pub(crate) fn vertex_normals(wpos: &[DVec3], tris: &[[u32; 3]], labels: &[u32], 
     }
     for t in tris {
         let [a, b, c] = t.map(|i| wpos[i as usize]);
-        let f = (b - a).cross(c - a);
-        for &i in t {
-            n[i as usize] += f;
-        }
         let r = lo[labels[t[0] as usize] as usize];
         vol[labels[t[0] as usize] as usize] += (a - r).dot((b - r).cross(c - r));
     }
-    n.par_iter_mut().zip(labels.par_iter()).with_min_len(4096).for_each(|(n, &l)| {
-        let s = if vol[l as usize] < 0.0 { -1.0 } else { 1.0 };
-        *n = (*n * s).normalize_or_zero();
-    });
-    n
+    vol
 }
 
 #[cfg(test)]

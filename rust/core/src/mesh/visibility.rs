@@ -21,7 +21,7 @@ use glam::Vec3;
 use parry3d::bounding_volume::Aabb;
 use parry3d::partitioning::{Bvh, BvhBuildStrategy, BvhNode, TraversalAction};
 use parry3d::query::details::local_ray_intersection_with_triangle;
-use parry3d::query::{PointQuery, Ray};
+use parry3d::query::{PointQuery, PointQueryWithLocation, Ray};
 use parry3d::shape::Triangle;
 use rayon::prelude::*;
 
@@ -242,6 +242,38 @@ impl RayMesh {
             TraversalAction::Continue
         });
         near
+    }
+
+    /// The point of the mesh nearest to `p`, if one lies within `max_dist` (mesh unit):
+    /// `(input triangle, distance, barycentric coordinates of the point on that triangle)`.
+    /// The BVH prunes every box farther than the best so far; triangles count grown by
+    /// [`GROW`], so the coordinates may stray outside `[0, 1]` by that much (they sum to 1).
+    pub fn nearest_point(&self, p: Vec3, max_dist: f32) -> Option<(u32, f32, [f32; 3])> {
+        if self.tris.is_empty() || !p.is_finite() || !(max_dist >= 0.0) {
+            return None;
+        }
+        let mut best: Option<(u32, f32, [f32; 3])> = None;
+        let mut limit = max_dist;
+        self.bvh.traverse(|node| {
+            let gap = (node.mins() - p).max(p - node.maxs()).max(Vec3::ZERO);
+            if gap.length() > limit {
+                return TraversalAction::Prune;
+            }
+            if let Some(leaf) = node.leaf_data() {
+                for i in self.leaf(leaf) {
+                    let [a, b, c] = self.tris[i as usize];
+                    let (proj, loc) = Triangle::new(a, b, c).project_local_point_and_get_location(p, false);
+                    let d = (proj.point - p).length();
+                    if d <= limit && best.is_none_or(|x| d < x.1) {
+                        let bary = loc.barycentric_coordinates().unwrap_or([1.0 / 3.0; 3]);
+                        best = Some((self.orig[i as usize], d, bary));
+                        limit = d;
+                    }
+                }
+            }
+            TraversalAction::Continue
+        });
+        best
     }
 
     /// parry's two-sided ray/triangle test on kept triangle `i`, `t in [0, tmax]` (units of

@@ -9,12 +9,12 @@
 //! [`crate::mesh::orient`] (winding and outward normals).
 
 mod blocks;
-mod cholesky;
+pub(crate) mod cholesky;
 mod memory;
-mod pieces;
+pub(crate) mod pieces;
 pub(crate) mod reach;
 mod sources;
-mod stages;
+pub(crate) mod stages;
 
 use crate::error::caught;
 pub use crate::mesh::mirror::Symmetry;
@@ -27,7 +27,7 @@ use crate::{Error, Result};
 pub use blocks::BLOCK_BYTES;
 pub use memory::heat_peak_bytes;
 use rayon::prelude::*;
-use stages::{run, sources_found, Inputs};
+use stages::{run, sources_found, Given, Inputs};
 
 /// Options of [`heat_weights`].
 #[derive(Debug, Clone, PartialEq)]
@@ -217,7 +217,7 @@ pub fn heat_weights(
     opts: &HeatOptions,
     progress: Option<&(dyn Fn(f32) -> bool + Sync)>,
 ) -> Result<(Influences, HeatReport)> {
-    run(&Inputs { vertices, triangles, heads, tails }, None, opts, progress)
+    run(&Inputs { vertices, triangles, heads, tails, objects: None }, Given::Found, opts, progress)
 }
 
 /// [`heat_weights`] with the heat sources given by the caller: a debug and evaluation entry
@@ -240,7 +240,7 @@ pub fn heat_weights_with_sources(
     opts: &HeatOptions,
     progress: Option<&(dyn Fn(f32) -> bool + Sync)>,
 ) -> Result<(Influences, HeatReport)> {
-    run(&Inputs { vertices, triangles, heads, tails }, Some(sources), opts, progress)
+    run(&Inputs { vertices, triangles, heads, tails, objects: None }, Given::Rows(sources), opts, progress)
 }
 
 /// The heat sources [`heat_weights`] finds, for [`heat_weights_with_sources`] (debug and
@@ -254,7 +254,7 @@ pub fn heat_sources(
     tails: &[[f32; 3]],
     opts: &HeatOptions,
 ) -> Result<Influences> {
-    sources_found(&Inputs { vertices, triangles, heads, tails }, opts)
+    sources_found(&Inputs { vertices, triangles, heads, tails, objects: None }, opts)
 }
 
 /// A mesh by reference: (vertices, triangles).
@@ -316,20 +316,40 @@ fn validate(
             "weight limits must satisfy 0 <= end <= start < 1, got start {ls}, end {le}"
         )));
     }
-    let b = heads.len();
-    if let Some(s) = &opts.symmetry {
+    validate_rig(
+        vertices.len(),
+        heads.len(),
+        opts.symmetry.as_ref(),
+        opts.mirror_tolerance,
+        opts.parents.as_deref(),
+        opts.curves.as_ref(),
+    )
+}
+
+/// Check the options that describe the rig, shared by heat and [`crate::weights::voxel`]: the
+/// symmetry (bone mirror map, axis, plane, tolerance), the parents and the bent bones' curves
+/// of `b` bones; `n` vertices and `b` bones must fit in `u32`.
+pub(crate) fn validate_rig(
+    n: usize,
+    b: usize,
+    symmetry: Option<&Symmetry>,
+    mirror_tolerance: f32,
+    parents: Option<&[i32]>,
+    curves: Option<&BoneCurves>,
+) -> Result<()> {
+    if let Some(s) = symmetry {
         validate_bone_mirror(&s.mirror, b)?;
         if s.axis > 2 || !s.plane.is_finite() {
             return Err(Error::InvalidArgument("symmetry axis must be 0..=2 and its plane finite".into()));
         }
-        if !(opts.mirror_tolerance.is_finite() && opts.mirror_tolerance >= 0.0) {
+        if !(mirror_tolerance.is_finite() && mirror_tolerance >= 0.0) {
             return Err(Error::InvalidArgument("mirror tolerance must be >= 0".into()));
         }
     }
-    if let Some(parents) = &opts.parents {
+    if let Some(parents) = parents {
         validate_parents(parents, b)?;
     }
-    if let Some(c) = &opts.curves {
+    if let Some(c) = curves {
         if c.points.len() != c.bone.len() {
             return Err(Error::Shape(format!("{} curve points but {} curve bones", c.points.len(), c.bone.len())));
         }
@@ -341,7 +361,7 @@ fn validate(
             return Err(Error::NonFinite { what: "curve point", count: bad });
         }
     }
-    if u32::try_from(b).is_err() || u32::try_from(vertices.len()).is_err() {
+    if u32::try_from(b).is_err() || u32::try_from(n).is_err() {
         return Err(Error::InvalidArgument("too many bones or vertices (limit 2^32 - 1)".into()));
     }
     Ok(())

@@ -213,7 +213,10 @@ fn owned_shares(rigid: &[Option<Ties>], labels: &[u32], sources: &[Source], area
 }
 
 /// The bone(s) each piece is bound to rigidly, `None` for pieces solved by heat (the rules
-/// are in the module doc). `accessories`: apply the accessory rules
+/// are in the module doc; `groups` `(pieces,)` is the object of each piece, a prop being an
+/// object whose pieces hold no bone, or with `holds` `(pieces,)`, whose pieces' object holds
+/// none; one object when all are equal). `accessories`: apply the
+/// accessory rules
 /// (`inside[i]`: piece `i` holds a bone; `labels`, `sources` and `area()`, per welded vertex
 /// its piece, its sources and its area, for the owner test); with or without them, a piece
 /// that sees no bone and is no larger than its nearest bone (`bone_len`, per bone) is rigid
@@ -229,6 +232,8 @@ pub(crate) fn rigid_pieces(
     labels: &[u32],
     sources: &[Source],
     area: &dyn Fn() -> Vec<f64>,
+    groups: &[u32],
+    holds: Option<&[bool]>,
 ) -> (Vec<Option<Ties>>, PieceCounts) {
     let npieces = pieces.len();
     let mut rigid: Vec<Option<Ties>> = vec![None; npieces];
@@ -243,28 +248,39 @@ pub(crate) fn rigid_pieces(
         let active: Vec<usize> = (0..npieces).filter(|&i| pieces[i].active).collect();
         counts.boneless = active.iter().filter(|&&i| !inside[i]).count();
         let largest = active.iter().copied().max_by(|&a, &b| pieces[a].area.total_cmp(&pieces[b].area));
-        let union = active.iter().fold(PieceStats::default(), |u, &i| u.merged(&pieces[i]));
-        if !active.is_empty() && active.iter().all(|&i| !inside[i]) && union.size() <= max_size {
-            // A prop (the whole mesh holds no bone): one rigid body on one bone.
-            let ties = nearest_bones(union.centre(), segs).owned(owner);
-            for &i in &active {
-                rigid[i] = Some(ties);
+        // Props: objects whose pieces all hold no bone, one rigid body each.
+        let mut objects: Vec<u32> = active.iter().map(|&i| groups[i]).collect();
+        objects.sort_unstable();
+        objects.dedup();
+        let mut prop = vec![false; npieces];
+        for g in objects {
+            let members: Vec<usize> = active.iter().copied().filter(|&i| groups[i] == g).collect();
+            let union = members.iter().fold(PieceStats::default(), |u, &i| u.merged(&pieces[i]));
+            let boneless = match holds {
+                Some(h) => members.iter().all(|&i| !h[i]),
+                None => members.iter().all(|&i| !inside[i]),
+            };
+            if boneless && union.size() <= max_size {
+                let ties = nearest_bones(union.centre(), segs).owned(owner);
+                for &i in &members {
+                    rigid[i] = Some(ties);
+                    prop[i] = true;
+                }
             }
-        } else {
-            let candidates: Vec<usize> = (active.iter().copied())
-                .filter(|&i| !inside[i] && Some(i) != largest && pieces[i].size() <= max_size)
-                .collect();
+        }
+        let candidates: Vec<usize> = (active.iter().copied())
+            .filter(|&i| !prop[i] && !inside[i] && Some(i) != largest && pieces[i].size() <= max_size)
+            .collect();
+        for &i in &candidates {
+            rigid[i] = Some(nearest_bones(pieces[i].centre(), segs).owned(owner));
+        }
+        if !candidates.is_empty() {
+            // Rigid only when that bone owns the piece; one spanning several bones is solved.
+            let share = owned_shares(&rigid, labels, sources, &area());
             for &i in &candidates {
-                rigid[i] = Some(nearest_bones(pieces[i].centre(), segs).owned(owner));
-            }
-            if !candidates.is_empty() {
-                // Rigid only when that bone owns the piece; one spanning several bones is solved.
-                let share = owned_shares(&rigid, labels, sources, &area());
-                for &i in &candidates {
-                    if share[i] < OWNED_SHARE {
-                        rigid[i] = None;
-                        counts.spanning += 1;
-                    }
+                if share[i] < OWNED_SHARE {
+                    rigid[i] = None;
+                    counts.spanning += 1;
                 }
             }
         }

@@ -32,9 +32,10 @@ use super::sources::{vertex_sources, Shares, Source, Ties, MAX_TIES};
 use super::{BoneCurves, HeatOptions, HeatReport, HEAT_SCALE, MIN_DISTANCE, REGULARIZATION};
 use crate::mesh::bones_in_frame;
 use crate::mesh::cotan::{cotan_laplacian, stiffness_lower_csc, triangle_cotangents, LowerCsc};
+use crate::mesh::facing::inside_by_faces;
 use crate::mesh::islands::connected_components;
 use crate::mesh::mirror::{mirror_map, Symmetry};
-use crate::mesh::orient::{orient_faces, vertex_normals};
+use crate::mesh::orient::{orient_faces, piece_volumes, vertex_normals};
 use crate::mesh::visibility::RayMesh;
 use crate::mesh::weld::weld;
 use crate::mesh::Frame;
@@ -48,12 +49,40 @@ use rayon::prelude::*;
 use std::borrow::Cow;
 use std::time::Instant;
 
-/// The inputs of one solve: the mesh and the bones, in input units.
-pub(super) struct Inputs<'a> {
+/// The inputs of one solve: the mesh and the bones, in input units; `objects`, per input
+/// vertex, the object it belongs to (a mesh of several objects: an object whose pieces hold no
+/// bone is a prop, see `pieces`), `None` for one object.
+pub(crate) struct Inputs<'a> {
     pub vertices: &'a [[f32; 3]],
     pub triangles: &'a [[u32; 3]],
     pub heads: &'a [[f32; 3]],
     pub tails: &'a [[f32; 3]],
+    pub objects: Option<&'a [u32]>,
+}
+
+/// Where the heat sources come from.
+#[derive(Clone, Copy)]
+pub(crate) enum Given<'a> {
+    /// Found here: each vertex's nearest visible bones.
+    Found,
+    /// The caller's rows, per input vertex ([`super::heat_weights_with_sources`]).
+    Rows(&'a Influences),
+    /// Another method's ([`crate::weights::voxel`]): from the prepared mesh, what the rays
+    /// found, and a progress tick (fraction of its own work), per welded vertex the bones that
+    /// share its heat and the distance in its heat term.
+    Provided(&'a Provider<'a>),
+}
+
+/// See [`Given::Provided`].
+pub(crate) type Provider<'a> =
+    dyn Fn(&Prepared, &Visibility, &dyn Fn(f32) -> Result<()>) -> Result<Provided> + Sync + 'a;
+
+/// What a [`Provider`] gives, per welded vertex: `rows`, the bones that share its heat and
+/// their amounts (fractions of the row's sum; an empty row holds no heat); `dist`, the
+/// distance in its heat term `H = HEAT_SCALE c / dist^2` (unit frame).
+pub(crate) struct Provided {
+    pub rows: Influences,
+    pub dist: Vec<f64>,
 }
 
 /// Progress callback: called with the fraction done, `false` cancels.
@@ -61,9 +90,9 @@ pub(super) type Progress<'a> = Option<&'a (dyn Fn(f32) -> bool + Sync)>;
 
 /// Bone heat weights of `inputs`, with each vertex's heat sources found here or, when `given`,
 /// taken from the caller (see [`super::heat_weights_with_sources`]).
-pub(super) fn run(
+pub(crate) fn run(
     inputs: &Inputs,
-    given: Option<&Influences>,
+    given: Given,
     opts: &HeatOptions,
     progress: Progress,
 ) -> Result<(Influences, HeatReport)> {
@@ -80,8 +109,17 @@ pub(super) fn run(
     report.timings.extend([("bvh", bvh), ("rays", rays), ("laplacian", laplacian), ("symbolic", symbolic)]);
     report.flipped_faces = vis.flipped;
     clock.tick(0.2)?;
-    let rigid = bind_pieces(&mut vis, &prep, inputs.heads.len(), &opts, &mut report);
-    let heat = assemble(&prep, &vis, &matrix.mass, given, &opts, &mut report);
+    let rigid = bind_pieces(&mut vis, &prep, inputs, &opts, &mut report);
+    let provided = match given {
+        Given::Provided(provide) => {
+            let tick = |f: f32| clock.tick(0.2 + 0.1 * f.clamp(0.0, 1.0));
+            let out = provide(&prep, &vis, &tick)?;
+            clock.lap(&mut report, "provided");
+            Some(out)
+        }
+        _ => None,
+    };
+    let heat = assemble(&prep, &vis, &matrix.mass, given, provided.as_ref(), &opts, &mut report);
     clock.lap(&mut report, "assemble");
     clock.tick(0.3)?;
     let Matrix { mass, csc, symbolic, .. } = matrix;
@@ -111,10 +149,8 @@ pub(super) fn run(
 /// top-k rows; a vertex that is no heat source has an empty row.
 pub(super) fn sources_found(inputs: &Inputs, opts: &HeatOptions) -> Result<Influences> {
     let mut report = HeatReport::default();
-    let opts = resolve(inputs, None, opts, &mut report)?;
-    let prep = prepare(inputs, &opts, &mut report);
-    let mut vis = visibility(&prep, &opts);
-    bind_pieces(&mut vis, &prep, inputs.heads.len(), &opts, &mut report);
+    let (prep, mut vis) = prepared_and_seen(inputs, opts)?;
+    bind_pieces(&mut vis, &prep, inputs, opts, &mut report);
     let mut welded = Influences::empty(vis.sources.len(), MAX_TIES);
     for (v, s) in vis.sources.iter().enumerate() {
         let n = s.count as usize;
@@ -122,6 +158,16 @@ pub(super) fn sources_found(inputs: &Inputs, opts: &HeatOptions) -> Result<Influ
         welded.weights[v * MAX_TIES..v * MAX_TIES + n].fill(1.0 / n as f32);
     }
     Ok(unweld(&welded, &prep.map))
+}
+
+/// The first stages of [`run`] alone: the inputs checked, the mesh prepared, and what the rays
+/// found (for debugging and evaluation).
+pub(crate) fn prepared_and_seen(inputs: &Inputs, opts: &HeatOptions) -> Result<(Prepared, Visibility)> {
+    let mut report = HeatReport::default();
+    let opts = resolve(inputs, Given::Found, opts, &mut report)?;
+    let prep = prepare(inputs, &opts, &mut report);
+    let vis = visibility(&prep, &opts);
+    Ok((prep, vis))
 }
 
 /// Wall-clock timings of the stages and the progress callback.
@@ -177,14 +223,21 @@ impl<'a> Clock<'a> {
 /// (counted in the report).
 fn resolve<'o>(
     inputs: &Inputs,
-    given: Option<&Influences>,
+    given: Given,
     opts: &'o HeatOptions,
     report: &mut HeatReport,
 ) -> Result<Cow<'o, HeatOptions>> {
-    let Inputs { vertices, triangles, heads, tails } = *inputs;
+    let Inputs { vertices, triangles, heads, tails, objects } = *inputs;
     super::validate(vertices, triangles, heads, tails, opts)?;
-    if let Some(g) = given {
+    if let Given::Rows(g) = given {
         super::validate_sources(g, vertices.len(), heads.len())?;
+    }
+    if objects.is_some_and(|o| o.len() != vertices.len()) {
+        return Err(Error::Shape(format!(
+            "objects has {} entries for {} vertices",
+            objects.map_or(0, |o| o.len()),
+            vertices.len()
+        )));
     }
     let Some(s) = &opts.symmetry else { return Ok(Cow::Borrowed(opts)) };
     let (bone_mirror, paired, alone) = pair_side_bones_by_place(heads, tails, &s.mirror, s.axis, s.plane)?;
@@ -194,29 +247,42 @@ fn resolve<'o>(
     Ok(Cow::Owned(HeatOptions { symmetry, ..opts.clone() }))
 }
 
-/// The mesh ready for the solve, in the unit frame.
-struct Prepared {
-    frame: Frame,
+/// The mesh ready for a solve, in the unit frame (shared with [`crate::weights::voxel`]).
+pub(crate) struct Prepared {
+    pub(crate) frame: Frame,
     /// `(b,)` head -> tail of every bone.
-    bones: Vec<(DVec3, DVec3)>,
+    pub(crate) bones: Vec<(DVec3, DVec3)>,
     /// `(n,)` the welded vertex of each input vertex.
-    map: Vec<u32>,
+    pub(crate) map: Vec<u32>,
     /// `(nw,)` welded positions.
-    wpos: Vec<DVec3>,
+    pub(crate) wpos: Vec<DVec3>,
     /// The triangles on welded vertices that have an area.
-    tris: Vec<[u32; 3]>,
+    pub(crate) tris: Vec<[u32; 3]>,
 }
 
 /// Normalize, weld, and keep the triangles that are not degenerate once welded.
 fn prepare(inputs: &Inputs, opts: &HeatOptions, report: &mut HeatReport) -> Prepared {
-    let frame = Frame::of_mesh(inputs.vertices, inputs.triangles);
-    let pos = frame.normalize(inputs.vertices);
-    let bones = bones_in_frame(&frame, inputs.heads, inputs.tails);
-    let (map, wpos) = weld(&pos, opts.weld_tolerance as f64);
+    let prep = prepare_mesh(inputs.vertices, inputs.triangles, inputs.heads, inputs.tails, opts.weld_tolerance);
+    report.welded_vertices = inputs.vertices.len() - prep.wpos.len();
+    prep
+}
+
+/// The unit frame of the mesh ([`Frame::of_mesh`]), its vertices welded within
+/// `weld_tolerance` (unit frame), the triangles that are not degenerate once welded, and the
+/// bones in that frame.
+pub(crate) fn prepare_mesh(
+    vertices: &[[f32; 3]],
+    triangles: &[[u32; 3]],
+    heads: &[[f32; 3]],
+    tails: &[[f32; 3]],
+    weld_tolerance: f32,
+) -> Prepared {
+    let frame = Frame::of_mesh(vertices, triangles);
+    let pos = frame.normalize(vertices);
+    let bones = bones_in_frame(&frame, heads, tails);
+    let (map, wpos) = weld(&pos, weld_tolerance as f64);
     drop(pos);
-    report.welded_vertices = inputs.vertices.len() - wpos.len();
-    let tris: Vec<[u32; 3]> = inputs
-        .triangles
+    let tris: Vec<[u32; 3]> = triangles
         .par_iter()
         .with_min_len(2048)
         .filter_map(|t| {
@@ -231,18 +297,23 @@ fn prepare(inputs: &Inputs, opts: &HeatOptions, report: &mut HeatReport) -> Prep
 }
 
 /// What the rays found: pieces, segments and every welded vertex's heat source.
-struct Visibility {
+pub(crate) struct Visibility {
     /// The BVH of the triangles, when rays are needed (visibility, accessories or parents).
-    ray_mesh: Option<RayMesh>,
+    pub(crate) ray_mesh: Option<RayMesh>,
     /// `(nw,)` piece of each vertex.
-    labels: Vec<u32>,
+    pub(crate) labels: Vec<u32>,
+    /// The triangles consistently wound per patch ([`orient_faces`]; the same order as the
+    /// prepared ones).
+    pub(crate) oriented: Vec<[u32; 3]>,
+    /// `(nw,)` outward unit vertex normals (zero when not needed, or off the faces).
+    pub(crate) normals: Vec<DVec3>,
     /// Triangles wound against their neighbours.
     flipped: usize,
     pieces: Vec<PieceStats>,
     /// The segments standing for the bones (several per bone on imported and bent bones), and
     /// each one's bone.
-    segs: Vec<(DVec3, DVec3)>,
-    owner: Vec<u32>,
+    pub(crate) segs: Vec<(DVec3, DVec3)>,
+    pub(crate) owner: Vec<u32>,
     /// Per piece: does it hold a bone (computed when accessories or a second look need it).
     inside: Vec<bool>,
     /// `(nw,)` nearest visible bone(s) of each vertex, in bones.
@@ -253,7 +324,7 @@ struct Visibility {
 
 /// The BVH, pieces, normals, segments, inside tests and every vertex's nearest visible bone.
 fn visibility(prep: &Prepared, opts: &HeatOptions) -> Visibility {
-    let Prepared { frame, bones, wpos, tris, .. } = prep;
+    let Prepared { wpos, tris, .. } = prep;
     let nw = wpos.len();
     let s = Instant::now();
     let need_rays = opts.visibility || opts.rigid_accessories || opts.parents.is_some();
@@ -268,15 +339,8 @@ fn visibility(prep: &Prepared, opts: &HeatOptions) -> Visibility {
     let normals =
         if opts.normal_distance { vertex_normals(wpos, &oriented, &labels, npieces) } else { vec![DVec3::ZERO; nw] };
     let pieces = piece_stats(&labels, npieces, wpos, &oriented);
-    drop(oriented);
-    let (segs, owner) = match (&opts.parents, ray_mesh.as_ref()) {
-        (Some(parents), Some(rm)) => reach_segments(rm, bones, parents, &pieces, &labels, tris),
-        _ => (bones.clone(), (0..bones.len() as u32).collect()),
-    };
-    let (segs, owner) = match &opts.curves {
-        Some(c) if !c.points.is_empty() => bend(segs, owner, bones, c, frame),
-        _ => (segs, owner),
-    };
+    let (segs, owner) =
+        bone_segments(prep, ray_mesh.as_ref(), &pieces, &labels, opts.parents.as_deref(), opts.curves.as_ref());
     // Which pieces hold a bone: for rigid accessories, and on a mesh in several pieces for the
     // second look through a vertex's own piece (see `sources`).
     let rays = ray_mesh.as_ref().filter(|_| opts.visibility);
@@ -290,7 +354,7 @@ fn visibility(prep: &Prepared, opts: &HeatOptions) -> Visibility {
     let tri_piece: Option<Vec<u32>> = (npieces > 1).then(|| tris.iter().map(|t| labels[t[0] as usize]).collect());
     let sources = vertex_sources(wpos, &normals, &labels, &segs, &owner, rays, tri_piece.as_deref(), &inside);
     let secs = (t_bvh, s.elapsed().as_secs_f64());
-    Visibility { ray_mesh, labels, flipped, pieces, segs, owner, inside, sources, secs }
+    Visibility { ray_mesh, labels, oriented, normals, flipped, pieces, segs, owner, inside, sources, secs }
 }
 
 /// The matrix side of the system.
@@ -324,11 +388,21 @@ fn matrix(prep: &Prepared) -> Matrix {
 fn bind_pieces(
     vis: &mut Visibility,
     prep: &Prepared,
-    nb: usize,
+    inputs: &Inputs,
     opts: &HeatOptions,
     report: &mut HeatReport,
 ) -> Vec<Option<Ties>> {
-    let (wpos, tris) = (&prep.wpos, &prep.tris);
+    let (wpos, tris, nb) = (&prep.wpos, &prep.tris, inputs.heads.len());
+    // The object of each piece: that of its first input vertex.
+    let mut groups = vec![u32::MAX; vis.pieces.len()];
+    if let Some(objects) = inputs.objects {
+        for (i, &w) in prep.map.iter().enumerate() {
+            let g = &mut groups[vis.labels[w as usize] as usize];
+            if *g == u32::MAX {
+                *g = objects[i];
+            }
+        }
+    }
     mark_sources(&mut vis.pieces, &vis.labels, &vis.sources);
     let mut bone_len = vec![0.0f64; nb];
     for ((h, t), &o) in vis.segs.iter().zip(&vis.owner) {
@@ -336,9 +410,11 @@ fn bind_pieces(
     }
     let accessories = opts.rigid_accessories && vis.ray_mesh.is_some();
     let area = || vertex_areas(wpos, tris);
+    // Several objects (the voxel bind): pieces and objects hold bones by the faces seen.
+    let held = inputs.objects.and_then(|_| held_by_faces(vis, prep, &groups));
     let (rigid, counts) = rigid_pieces(
         &vis.pieces,
-        &vis.inside,
+        held.as_ref().map_or(&vis.inside, |h| &h.0),
         &vis.segs,
         &vis.owner,
         &bone_len,
@@ -346,6 +422,8 @@ fn bind_pieces(
         &vis.labels,
         &vis.sources,
         &area,
+        &groups,
+        held.as_ref().map(|h| &h.1[..]),
     );
     report.pieces = counts.pieces;
     report.fallback_pieces = counts.fallback;
@@ -361,6 +439,72 @@ fn bind_pieces(
         }
     });
     rigid
+}
+
+/// A piece or object holds bones when their segments inside it are at least this fraction of
+/// its size long ([`held_by_faces`]).
+const HELD_LENGTH: f64 = 0.25;
+
+/// Which pieces and which objects hold bones by the faces seen ([`inside_by_faces`], which
+/// open sleeves and nested pieces pass, where parity does not): per piece, (does it, does its
+/// object). A piece or object holds bones when the length of the bones' segments inside its
+/// triangles (9 points along each) is at least [`HELD_LENGTH`] of its size: a sleeve across
+/// an elbow holds half of two bones, a carrot held in a fist only the fingertips. `groups`
+/// `(pieces,)` is the object of each piece. `None` without rays.
+fn held_by_faces(vis: &Visibility, prep: &Prepared, groups: &[u32]) -> Option<(Vec<bool>, Vec<bool>)> {
+    let rays = vis.ray_mesh.as_ref()?;
+    let volumes = piece_volumes(&prep.wpos, &vis.oriented, &vis.labels, groups.len());
+    let normals: Vec<DVec3> = vis
+        .oriented
+        .iter()
+        .map(|t| {
+            let [a, b, c] = t.map(|i| prep.wpos[i as usize]);
+            let s = if volumes[vis.labels[t[0] as usize] as usize] < 0.0 { -1.0 } else { 1.0 };
+            (b - a).cross(c - a) * s
+        })
+        .collect();
+    let tri_piece: Vec<u32> = prep.tris.iter().map(|t| vis.labels[t[0] as usize]).collect();
+    let tri_object: Vec<u32> = tri_piece.iter().map(|&p| groups[p as usize]).collect();
+    // Per key (a piece or an object) of the triangles: does it hold a bone?
+    let holds = |key_of: &[u32]| -> Vec<(u32, bool)> {
+        let mut boxes: Vec<(u32, DVec3, DVec3)> = Vec::new();
+        let mut keys: Vec<u32> = key_of.to_vec();
+        keys.sort_unstable();
+        keys.dedup();
+        for &k in &keys {
+            boxes.push((k, DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)));
+        }
+        for (t, &k) in prep.tris.iter().zip(key_of) {
+            let b = &mut boxes[keys.binary_search(&k).unwrap_or(0)];
+            for &i in t {
+                b.1 = b.1.min(prep.wpos[i as usize]);
+                b.2 = b.2.max(prep.wpos[i as usize]);
+            }
+        }
+        boxes
+            .par_iter()
+            .map(|&(k, lo, hi)| {
+                let mut length = 0.0;
+                for &(h, t) in &vis.segs {
+                    let inside = (0..9).filter(|&s| {
+                        let p = h + (t - h) * (s as f64 / 8.0);
+                        p.cmpge(lo).all()
+                            && p.cmple(hi).all()
+                            && inside_by_faces(rays, &normals, p, 2.0, |tri| key_of[tri as usize] == k)
+                    });
+                    length += inside.count() as f64 / 9.0 * h.distance(t);
+                }
+                (k, length >= HELD_LENGTH * (hi - lo).length())
+            })
+            .collect()
+    };
+    let pieces = holds(&tri_piece);
+    let objects = holds(&tri_object);
+    let find = |list: &[(u32, bool)], k: u32| list.binary_search_by_key(&k, |e| e.0).is_ok_and(|i| list[i].1);
+    Some((
+        (0..groups.len() as u32).map(|p| find(&pieces, p)).collect(),
+        groups.iter().map(|&g| find(&objects, g)).collect(),
+    ))
 }
 
 /// `(nw,)` each welded vertex's share of the area of its triangles (a third of each).
@@ -384,28 +528,40 @@ struct Heat {
 }
 
 /// Each vertex's heat `M_ii H_ii = M_ii HEAT_SCALE c / d_i^2` and the bones that share it:
-/// its own sources, or the `given` ones summed over the input vertices welded together. `d_i`
-/// is the distance to the vertex's own source (to its nearest bone when it has none); a vertex
-/// with no mass or no source bone has no heat. Counts the isolated vertices.
+/// its own sources, the `given` ones summed over the input vertices welded together, or the
+/// `provided` ones. `d_i` is the distance to the vertex's own source (to its nearest bone when
+/// it has none), or the provided one; a vertex with no mass or no source bone has no heat.
+/// Counts the isolated vertices.
 fn assemble(
     prep: &Prepared,
     vis: &Visibility,
     mass: &[f64],
-    given: Option<&Influences>,
+    given: Given,
+    provided: Option<&Provided>,
     opts: &HeatOptions,
     report: &mut HeatReport,
 ) -> Heat {
     report.isolated_vertices = prep.map.iter().filter(|&&w| mass[w as usize] <= 0.0).count();
-    let shares = match given {
-        Some(g) => Shares::given(g, &prep.map, prep.wpos.len()),
-        None => Shares::of_sources(&vis.sources),
+    let nw = prep.wpos.len();
+    let identity: Vec<u32>;
+    let shares = match (given, provided) {
+        (Given::Rows(g), _) => Shares::given(g, &prep.map, nw),
+        (_, Some(p)) => {
+            identity = (0..nw as u32).collect();
+            Shares::given(&p.rows, &identity, nw)
+        }
+        _ => Shares::of_sources(&vis.sources),
     };
     let c = HEAT_SCALE * opts.heat_constant as f64;
     let heat: Vec<f64> = (vis.sources.par_iter().enumerate())
         .zip(mass.par_iter())
         .with_min_len(4096)
         .map(|((v, s), &m)| {
-            let d = if s.count > 0 { s.dist } else { s.nearest_dist };
+            let d = match provided {
+                Some(p) => p.dist[v],
+                None if s.count > 0 => s.dist,
+                None => s.nearest_dist,
+            };
             if m > 0.0 && shares.is_source(v) {
                 m * c / d.max(MIN_DISTANCE).powi(2)
             } else {
@@ -506,6 +662,29 @@ fn unweld(welded: &Influences, map: &[u32]) -> Influences {
         },
     );
     out
+}
+
+/// The segments standing for the bones, and the bone of each: head -> tail, or with `parents`
+/// (and the mesh's rays `rm`) the spans of imported rigs' bones ([`reach_segments`]); then
+/// with `curves` the polylines of bent bones ([`bend`]). `pieces` and `labels` are the welded
+/// mesh's pieces (for the inside test of the spans).
+pub(crate) fn bone_segments(
+    prep: &Prepared,
+    rm: Option<&RayMesh>,
+    pieces: &[PieceStats],
+    labels: &[u32],
+    parents: Option<&[i32]>,
+    curves: Option<&BoneCurves>,
+) -> (Vec<(DVec3, DVec3)>, Vec<u32>) {
+    let bones = &prep.bones;
+    let (segs, owner) = match (parents, rm) {
+        (Some(parents), Some(rm)) => reach_segments(rm, bones, parents, pieces, labels, &prep.tris),
+        _ => (bones.clone(), (0..bones.len() as u32).collect()),
+    };
+    match curves {
+        Some(c) if !c.points.is_empty() => bend(segs, owner, bones, c, &prep.frame),
+        _ => (segs, owner),
+    }
 }
 
 /// `segs` / `owner` with every bent bone's segments replaced by its polyline head -> points
