@@ -40,7 +40,7 @@ def test_heat_weights_every_vertex_of_real_models(name):
     bones = eval_weights.deform_bones(arm)
     others = {ob.name: sorted(g.name for g in ob.vertex_groups if g.name not in bones) for ob in meshes}
     eval_weights.strip(meshes, bones)
-    _, result = eval_weights.bind(bpy, arm, meshes, ours=True)
+    _, result = eval_weights.bind(bpy, arm, meshes, "HEAT")
     assert result == {"FINISHED"}
     for ob in meshes:
         w = eval_weights.read_weights(ob, bones)
@@ -58,7 +58,7 @@ def test_fox_snout_follows_the_head():
     bones = eval_weights.deform_bones(arm)
     artist = np.concatenate([eval_weights.normalized(eval_weights.read_weights(ob, bones)) for ob in meshes])
     eval_weights.strip(meshes, bones)
-    assert eval_weights.bind(bpy, arm, meshes, ours=True)[1] == {"FINISHED"}
+    assert eval_weights.bind(bpy, arm, meshes, "HEAT")[1] == {"FINISHED"}
     ours = np.concatenate([eval_weights.normalized(eval_weights.read_weights(ob, bones)) for ob in meshes])
     head = bones.index("b_Head_05")
     snout = artist[:, head] > 0.99
@@ -159,7 +159,7 @@ def test_rough_rig_on_unrigged_scans_fits_inside_and_binds_each_hoof_to_its_leg(
     assert bench_fit.fit(bpy, arm, [ob], tails="AUTO", symmetry="NONE", max_move=15.0)[0]
     assert core.points_inside(verts, tris, joints()).all()  # ... the fitted one does not
     bones = [b.name for b in arm.data.bones]
-    assert eval_weights.bind(bpy, arm, [ob], ours=True)[1] == {"FINISHED"}
+    assert eval_weights.bind(bpy, arm, [ob], "HEAT")[1] == {"FINISHED"}
     w = eval_weights.read_weights(ob, bones)
     assert (w.max(axis=1) > 0).all()
     np.testing.assert_allclose(w.sum(axis=1), 1.0, atol=1e-4)
