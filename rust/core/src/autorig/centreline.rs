@@ -212,7 +212,7 @@ fn neighbours(vox: &Voxels, v: usize) -> impl Iterator<Item = (usize, f64)> + '_
         if x < 0 || y < 0 || z < 0 || x >= d[0] as isize || y >= d[1] as isize || z >= d[2] as isize {
             return None;
         }
-        let w = vox.index(x as usize, y as usize, z as usize);
+        let w = vox.index([x as usize, y as usize, z as usize]);
         vox.inside[w].then(|| (w, ((di * di + dj * dj + dk * dk) as f64).sqrt()))
     })
 }
@@ -264,7 +264,7 @@ fn cover(vox: &Voxels, v: usize, covered: &mut [bool]) {
                 if x < 0 || x >= d[0] as isize || ((di * di + dj * dj + dk * dk) as f64) > r * r {
                     continue;
                 }
-                covered[vox.index(x as usize, y as usize, z as usize)] = true;
+                covered[vox.index([x as usize, y as usize, z as usize])] = true;
             }
         }
     }

@@ -17,6 +17,7 @@
 //!
 //! Known limits: a part thinner than a voxel may vanish (no voxel centre inside it).
 
+use crate::mesh::lattice::Lattice;
 use crate::mesh::solid::Solid;
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
@@ -26,35 +27,21 @@ const MAX_GAP: usize = 4;
 
 /// A regular grid over the unit frame.
 pub(crate) struct Voxels {
-    pub dims: [usize; 3],
-    /// Centre of voxel (0, 0, 0).
-    pub origin: DVec3,
-    /// Side of a voxel (unit frame).
-    pub step: f64,
+    /// Dims, origin and step (unit frame); its addressing is the voxels' (through `Deref`).
+    pub grid: Lattice,
     pub inside: Vec<bool>,
     /// Distance to the nearest outside voxel, in voxels (0 outside).
     pub depth: Vec<f32>,
 }
 
+impl std::ops::Deref for Voxels {
+    type Target = Lattice;
+    fn deref(&self) -> &Lattice {
+        &self.grid
+    }
+}
+
 impl Voxels {
-    #[inline]
-    pub fn index(&self, i: usize, j: usize, k: usize) -> usize {
-        (k * self.dims[1] + j) * self.dims[0] + i
-    }
-
-    #[inline]
-    pub fn coords(&self, v: usize) -> [usize; 3] {
-        let i = v % self.dims[0];
-        let j = (v / self.dims[0]) % self.dims[1];
-        [i, j, v / (self.dims[0] * self.dims[1])]
-    }
-
-    #[inline]
-    pub fn centre(&self, v: usize) -> DVec3 {
-        let [i, j, k] = self.coords(v);
-        self.origin + DVec3::new(i as f64, j as f64, k as f64) * self.step
-    }
-
     /// Is the voxel holding `p` inside (false off the grid)?
     pub fn inside_at(&self, p: DVec3) -> bool {
         let c = ((p - self.origin) / self.step).round();
@@ -62,7 +49,7 @@ impl Voxels {
             return false;
         }
         let (i, j, k) = (c.x as usize, c.y as usize, c.z as usize);
-        i < self.dims[0] && j < self.dims[1] && k < self.dims[2] && self.inside[self.index(i, j, k)]
+        i < self.dims[0] && j < self.dims[1] && k < self.dims[2] && self.inside[self.index([i, j, k])]
     }
 
     /// How far the solid goes on from `p` along the unit direction `dir`: the distance to the
@@ -124,7 +111,7 @@ impl Voxels {
         let mut inside: Vec<bool> = votes.iter().map(|&v| v >= 2).collect();
         bridge_gaps(&mut inside, dims, MAX_GAP);
         let depth = distance_transform(&inside, dims);
-        Voxels { dims, origin, step, inside, depth }
+        Voxels { grid: Lattice { dims, origin, step }, inside, depth }
     }
 }
 

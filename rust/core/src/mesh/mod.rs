@@ -6,6 +6,7 @@
 //! - `frame`: the unit frame (bounding box centred, diagonal 1) all tolerances live in;
 //! - [`weld`]: coincident vertices merged (split seams);
 //! - [`islands`]: connected pieces;
+//! - `lattice`: a regular grid of voxels and its addressing;
 //! - [`orient`]: consistent winding and outward vertex normals;
 //! - [`cotan`]: cotangent Laplacian and lumped mass;
 //! - [`mirror`]: the mirror plane and which points are each other's images;
@@ -23,6 +24,7 @@ pub mod catmull_clark;
 pub mod cotan;
 pub mod facing;
 pub mod islands;
+pub(crate) mod lattice;
 pub mod mirror;
 pub mod orient;
 pub mod seams;

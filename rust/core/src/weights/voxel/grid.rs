@@ -35,14 +35,8 @@ pub(super) const SURFACE: u8 = 2;
 /// Empty voxels all round the geometry's bounding box.
 const PADDING: usize = 2;
 
-/// A regular grid over the unit frame: voxel `(i, j, k)` is the cube of side `step` centred on
-/// `origin + (i, j, k) step`, stored at `(k ny + j) nx + i`.
-#[derive(Debug, Clone)]
-pub(super) struct Grid {
-    pub dims: [usize; 3],
-    pub origin: DVec3,
-    pub step: f64,
-}
+/// The lattice of the character's voxels, in the unit frame.
+pub(super) use crate::mesh::lattice::Lattice as Grid;
 
 impl Grid {
     /// The grid over the box `lo..hi` with `resolution` voxels along its longest side and
@@ -53,28 +47,6 @@ impl Grid {
         let dims = [0, 1, 2].map(|a| (size[a] / step).ceil() as usize + 1 + 2 * PADDING);
         let origin = lo - DVec3::splat(PADDING as f64 * step);
         Grid { dims, origin, step }
-    }
-
-    pub fn len(&self) -> usize {
-        self.dims[0] * self.dims[1] * self.dims[2]
-    }
-
-    #[inline]
-    pub fn index(&self, c: [usize; 3]) -> usize {
-        (c[2] * self.dims[1] + c[1]) * self.dims[0] + c[0]
-    }
-
-    #[inline]
-    pub fn coords(&self, v: usize) -> [usize; 3] {
-        let i = v % self.dims[0];
-        let j = (v / self.dims[0]) % self.dims[1];
-        [i, j, v / (self.dims[0] * self.dims[1])]
-    }
-
-    #[inline]
-    pub fn centre(&self, v: usize) -> DVec3 {
-        let [i, j, k] = self.coords(v);
-        self.origin + DVec3::new(i as f64, j as f64, k as f64) * self.step
     }
 
     /// Grid coordinates of `p` (voxel centres at whole numbers).
