@@ -7,6 +7,23 @@ use crate::{Error, Result};
 /// A triangle mesh by value: `(vertices (n, 3), triangles (m, 3))`.
 pub type Mesh = (Vec<[f32; 3]>, Vec<[u32; 3]>);
 
+/// A closed box `[lo, hi]` appended to `(v, t)`: 8 vertices and 12 triangles wound outward
+/// (indices offset by the vertices already in `v`), so several boxes make a mesh of pieces.
+pub fn add_box(v: &mut Vec<[f32; 3]>, t: &mut Vec<[u32; 3]>, lo: [f32; 3], hi: [f32; 3]) {
+    let o = v.len() as u32;
+    for k in 0..8 {
+        v.push([
+            if k & 1 == 0 { lo[0] } else { hi[0] },
+            if k & 2 == 0 { lo[1] } else { hi[1] },
+            if k & 4 == 0 { lo[2] } else { hi[2] },
+        ]);
+    }
+    for f in [[0, 2, 3, 1], [4, 5, 7, 6], [0, 1, 5, 4], [2, 6, 7, 3], [0, 4, 6, 2], [1, 3, 7, 5]] {
+        t.push([o + f[0], o + f[1], o + f[2]]);
+        t.push([o + f[0], o + f[2], o + f[3]]);
+    }
+}
+
 /// Closed, watertight capped cylinder along +Z, outward-facing triangles.
 ///
 /// Inputs: `radius`, `height` (any unit; non-finite or non-positive -> 1), `rings` vertex

@@ -1,25 +1,9 @@
 //! Geodesic voxel binding and weight transfer on generated meshes: every vertex weighted, the
 //! right bones, pieces of all kinds bound without repair, cancellation, scale, bad input.
 
-use miniskeleton_core::primitives::{bone_chain, capped_cylinder};
+use miniskeleton_core::primitives::{add_box, bone_chain, capped_cylinder};
 use miniskeleton_core::weights::{transfer_weights, voxel_weights, Influences, TransferOptions, VoxelOptions};
 use miniskeleton_core::Error;
-
-/// A closed box `[lo, hi]`, 12 triangles wound outward, appended to `(v, t)`.
-fn add_box(v: &mut Vec<[f32; 3]>, t: &mut Vec<[u32; 3]>, lo: [f32; 3], hi: [f32; 3]) {
-    let o = v.len() as u32;
-    for k in 0..8 {
-        v.push([
-            if k & 1 == 0 { lo[0] } else { hi[0] },
-            if k & 2 == 0 { lo[1] } else { hi[1] },
-            if k & 4 == 0 { lo[2] } else { hi[2] },
-        ]);
-    }
-    for f in [[0, 2, 3, 1], [4, 5, 7, 6], [0, 1, 5, 4], [2, 6, 7, 3], [0, 4, 6, 2], [1, 3, 7, 5]] {
-        t.push([o + f[0], o + f[1], o + f[2]]);
-        t.push([o + f[0], o + f[2], o + f[3]]);
-    }
-}
 
 fn rows_sum_to_one(inf: &Influences) {
     for v in 0..inf.n() {

@@ -145,30 +145,7 @@ fn merged(sorted: impl Iterator<Item = f32>, merge: f32) -> Vec<f32> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::primitives::{capped_cylinder, split_flat};
-
-    /// Closed box `[lo, hi]`, 12 triangles, outward winding, appended to `(v, t)`.
-    fn add_box(v: &mut Vec<[f32; 3]>, t: &mut Vec<[u32; 3]>, lo: [f32; 3], hi: [f32; 3]) {
-        let o = v.len() as u32;
-        for k in 0..8 {
-            v.push([
-                if k & 1 == 0 { lo[0] } else { hi[0] },
-                if k & 2 == 0 { lo[1] } else { hi[1] },
-                if k & 4 == 0 { lo[2] } else { hi[2] },
-            ]);
-        }
-        for f in [
-            [0, 2, 3, 1], // z = lo
-            [4, 5, 7, 6], // z = hi
-            [0, 1, 5, 4], // y = lo
-            [2, 6, 7, 3], // y = hi
-            [0, 4, 6, 2], // x = lo
-            [1, 3, 7, 5], // x = hi
-        ] {
-            t.push([o + f[0], o + f[1], o + f[2]]);
-            t.push([o + f[0], o + f[2], o + f[3]]);
-        }
-    }
+    use crate::primitives::{add_box, capped_cylinder, split_flat};
 
     #[test]
     fn overlapping_boxes_are_one_solid() {

@@ -208,33 +208,18 @@ mod tests {
     use super::*;
     use crate::mesh::islands::connected_components;
     use crate::mesh::orient::{orient_faces, piece_volumes};
+    use crate::primitives::add_box;
 
-    /// A closed box `[lo, hi]`, 12 triangles wound outward, appended to `(v, t)`.
-    pub(crate) fn add_box(v: &mut Vec<DVec3>, t: &mut Vec<[u32; 3]>, lo: [f64; 3], hi: [f64; 3]) {
-        let o = v.len() as u32;
-        for k in 0..8 {
-            v.push(DVec3::new(
-                if k & 1 == 0 { lo[0] } else { hi[0] },
-                if k & 2 == 0 { lo[1] } else { hi[1] },
-                if k & 4 == 0 { lo[2] } else { hi[2] },
-            ));
-        }
-        for f in [[0, 2, 3, 1], [4, 5, 7, 6], [0, 1, 5, 4], [2, 6, 7, 3], [0, 4, 6, 2], [1, 3, 7, 5]] {
-            t.push([o + f[0], o + f[1], o + f[2]]);
-            t.push([o + f[0], o + f[2], o + f[3]]);
-        }
-    }
-
-    fn solid(v: &[DVec3], t: &[[u32; 3]], resolution: usize) -> (Grid, Vec<u8>) {
+    fn solid(v32: &[[f32; 3]], t: &[[u32; 3]], resolution: usize) -> (Grid, Vec<u8>) {
+        let v: Vec<DVec3> = v32.iter().map(|p| DVec3::from(p.map(f64::from))).collect();
         let (labels, np) = connected_components(v.len(), t);
         let (oriented, _) = orient_faces(v.len(), t);
-        let tris = outward(&oriented, &labels, &piece_volumes(v, &oriented, &labels, np));
+        let tris = outward(&oriented, &labels, &piece_volumes(&v, &oriented, &labels, np));
         let lo = v.iter().fold(DVec3::splat(f64::INFINITY), |a, p| a.min(*p));
         let hi = v.iter().fold(DVec3::splat(f64::NEG_INFINITY), |a, p| a.max(*p));
         let grid = Grid::new(lo, hi, resolution);
-        let v32: Vec<[f32; 3]> = v.iter().map(|p| p.as_vec3().to_array()).collect();
-        let rays = RayMesh::new(&v32, &tris);
-        let state = voxelize(&grid, v, &tris, &rays);
+        let rays = RayMesh::new(v32, &tris);
+        let state = voxelize(&grid, &v, &tris, &rays);
         (grid, state)
     }
 
@@ -290,7 +275,6 @@ mod tests {
         // Drop the caps: triangles using the two pole vertices.
         let poles = [v.len() as u32 - 2, v.len() as u32 - 1];
         let t: Vec<[u32; 3]> = t.into_iter().filter(|x| !x.iter().any(|i| poles.contains(i))).collect();
-        let v: Vec<DVec3> = v.iter().map(|p| DVec3::from(p.map(f64::from))).collect();
         let (grid, state) = solid(&v, &t, 40);
         assert_ne!(state_at(&grid, &state, [0.0, 0.0, 0.5]), EMPTY);
         assert_ne!(state_at(&grid, &state, [0.1, 0.05, 0.2]), EMPTY);
