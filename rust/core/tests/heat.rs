@@ -1,5 +1,7 @@
 //! Integration tests of bone-heat weights (Baran & Popovic 2007) on generated meshes.
 
+mod common;
+use common::assert_rows_sum_to_one;
 use miniskeleton_core::mesh::Symmetry;
 use miniskeleton_core::primitives::{bone_chain, capped_cylinder, split_flat};
 use miniskeleton_core::weights::Influences;
@@ -13,16 +15,6 @@ type Bones = (Vec<[f32; 3]>, Vec<[f32; 3]>);
 
 fn heat(m: &Mesh, b: &Bones, opts: &HeatOptions) -> (Influences, HeatReport) {
     heat_weights(&m.0, &m.1, &b.0, &b.1, opts, None).expect("heat_weights")
-}
-
-fn assert_rows_sum_to_one(inf: &Influences) {
-    for v in 0..inf.n() {
-        let (idx, w) = inf.row(v);
-        assert!(idx[0] >= 0, "vertex {v} has no bone");
-        let s: f32 = w.iter().sum();
-        assert!((s - 1.0).abs() < 1e-5, "vertex {v} sums to {s}");
-        assert!(w.iter().all(|x| x.is_finite() && (0.0..=1.0).contains(x)));
-    }
 }
 
 fn max_abs_diff(a: &[f32], b: &[f32]) -> f32 {

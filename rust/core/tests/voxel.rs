@@ -1,15 +1,21 @@
 //! Geodesic voxel binding and weight transfer on generated meshes: every vertex weighted, the
 //! right bones, pieces of all kinds bound without repair, cancellation, scale, bad input.
 
+mod common;
+use common::assert_rows_sum_to_one;
 use miniskeleton_core::primitives::{add_box, bone_chain, capped_cylinder};
 use miniskeleton_core::weights::{transfer_weights, voxel_weights, Influences, TransferOptions, VoxelOptions};
 use miniskeleton_core::Error;
 
-fn rows_sum_to_one(inf: &Influences) {
-    for v in 0..inf.n() {
-        let (idx, w) = inf.row(v);
-        assert!(idx[0] >= 0, "vertex {v} unweighted");
-        assert!((w.iter().sum::<f32>() - 1.0).abs() < 1e-5, "vertex {v}: {w:?}");
+/// On the 4-bone chain along the cylinder (`bone_chain(4.0, 4)`), away from the joints each
+/// vertex's strongest bone is the one at its height.
+fn strongest_bone_is_the_one_at_its_height(v: &[[f32; 3]], inf: &Influences) {
+    for (p, i) in v.iter().zip(0..) {
+        let along = (p[2] - 0.1) / 0.95;
+        let frac = along - along.floor();
+        if (0.25..0.75).contains(&frac) && (0.0..4.0).contains(&along) {
+            assert_eq!(inf.row(i).0[0], along.floor() as i32, "vertex at z = {}", p[2]);
+        }
     }
 }
 
@@ -18,16 +24,9 @@ fn a_cylinder_chain_follows_its_bones() {
     let (v, t) = capped_cylinder(0.3, 4.0, 41, 16);
     let (h, tl, _) = bone_chain(4.0, 4);
     let (inf, report) = voxel_weights(&v, &t, &h, &tl, &VoxelOptions::default(), None).unwrap();
-    rows_sum_to_one(&inf);
+    assert_rows_sum_to_one(&inf);
     assert!(report.solid_voxels > 0 && report.outside_bones == 0);
-    // Away from the joints the strongest bone is the one at that height.
-    for (p, i) in v.iter().zip(0..) {
-        let along = (p[2] - 0.1) / 0.95;
-        let frac = along - along.floor();
-        if (0.25..0.75).contains(&frac) && (0.0..4.0).contains(&along) {
-            assert_eq!(inf.row(i).0[0], along.floor() as i32, "vertex at z = {}", p[2]);
-        }
-    }
+    strongest_bone_is_the_one_at_its_height(&v, &inf);
 }
 
 /// A mesh with no faces (a point cloud) has no solid: each vertex takes its nearest bone by the
@@ -37,14 +36,8 @@ fn a_mesh_without_faces_takes_the_straight_distances() {
     let (v, _) = capped_cylinder(0.3, 4.0, 41, 16);
     let (h, tl, _) = bone_chain(4.0, 4);
     let (inf, _) = voxel_weights(&v, &[], &h, &tl, &VoxelOptions::default(), None).unwrap();
-    rows_sum_to_one(&inf);
-    for (p, i) in v.iter().zip(0..) {
-        let along = (p[2] - 0.1) / 0.95;
-        let frac = along - along.floor();
-        if (0.25..0.75).contains(&frac) && (0.0..4.0).contains(&along) {
-            assert_eq!(inf.row(i).0[0], along.floor() as i32, "vertex at z = {}", p[2]);
-        }
-    }
+    assert_rows_sum_to_one(&inf);
+    strongest_bone_is_the_one_at_its_height(&v, &inf);
 }
 
 /// A body (a box standing up) in several objects: a hat above it that does not touch it, an
@@ -79,7 +72,7 @@ fn pieces_of_every_kind_bind_without_repair() {
     let (h, tl, parents) = bone_chain(4.0, 4);
     let opts = VoxelOptions { objects: Some(objects.clone()), parents: Some(parents), ..Default::default() };
     let (inf, report) = voxel_weights(&v, &t, &h, &tl, &opts, None).unwrap();
-    rows_sum_to_one(&inf);
+    assert_rows_sum_to_one(&inf);
     assert!(report.heat.rigid_pieces >= 2, "{report:?}");
     for (i, &o) in objects.iter().enumerate() {
         let (idx, w) = inf.row(i);
@@ -147,7 +140,7 @@ fn transfer_copies_where_the_garment_lies_and_inpaints_the_rest() {
         p[1] *= 3.0;
     }
     let (inf, report) = transfer_weights(&bv, &bt, &body, &gv, &gt, &TransferOptions::default()).unwrap();
-    rows_sum_to_one(&inf);
+    assert_rows_sum_to_one(&inf);
     assert!(report.matched > 400 && report.inpainted >= 32 && report.nearest == 0, "{report:?}");
     // Matched vertices carry the body's strongest bone at their height.
     for (i, p) in gv.iter().enumerate().take(20 * 16) {

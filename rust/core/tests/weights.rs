@@ -1,5 +1,7 @@
 //! Integration tests of the closed-form weighting methods (IDW, bilinear) and top-k.
 
+mod common;
+use common::assert_rows_sum_to_one;
 use glam::DVec3;
 use miniskeleton_core::mesh::closest_point_on_segment;
 use miniskeleton_core::primitives::{bone_chain, capped_cylinder};
@@ -7,19 +9,6 @@ use miniskeleton_core::weights::{bilinear_weights, BilinearOptions, Falloff};
 use miniskeleton_core::weights::{idw_weights, IdwOptions};
 use miniskeleton_core::weights::{top_k_normalized, Influences};
 use miniskeleton_core::Error;
-
-fn assert_rows_sum_to_one(inf: &Influences) {
-    for v in 0..inf.n() {
-        let (idx, w) = inf.row(v);
-        assert!(idx[0] >= 0, "vertex {v} has no bone");
-        let s: f32 = w.iter().sum();
-        assert!((s - 1.0).abs() < 1e-5, "vertex {v} sums to {s}");
-        for (&i, &x) in idx.iter().zip(w) {
-            assert!((i < 0) == (x == 0.0) || x == 0.0, "slot mismatch at {v}");
-            assert!((0.0..=1.0).contains(&x));
-        }
-    }
-}
 
 /// Index of the nearest bone segment and the margin to the second nearest.
 fn nearest_bone(p: [f32; 3], heads: &[[f32; 3]], tails: &[[f32; 3]]) -> (usize, f64) {
