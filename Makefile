@@ -72,6 +72,8 @@ test-rust:
 	cargo fmt --all -- --check  # rustfmt.toml: 120 columns, as the code was written
 	cargo clippy --all-targets --release -- -D warnings
 	cargo test -p miniskeleton-core --release
+	cargo fmt --manifest-path fuzz/Cargo.toml -- --check  # the fuzz targets (make fuzz) still build
+	cargo check --quiet --manifest-path fuzz/Cargo.toml --bins
 
 test-python: .build/core/.installed
 	$(VPY) -m ruff check --quiet

@@ -55,6 +55,10 @@ fn run(u: &mut Unstructured) -> Result<()> {
         stub_ratio: or_default(u, d.stub_ratio, |u| Ok(number(u)? as f64))?,
         max_move: or_default(u, d.max_move, |u| Ok(number(u)? as f64))?,
         min_sections: or_default(u, d.min_sections, |u| u.int_in_range(0..=8))?,
+        flat_ratio: or_default(u, d.flat_ratio, |u| Ok(number(u)? as f64))?,
+        thick_ratio: or_default(u, d.thick_ratio, |u| Ok(number(u)? as f64))?,
+        agreement: or_default(u, d.agreement, |u| Ok(number(u)? as f64))?,
+        body_radius: or_default(u, d.body_radius, |u| Ok(number(u)? as f64))?,
     };
     match fit_joints(&m.vertices, &m.triangles, &joints, &pairs, &movable, &opts) {
         Ok((out, report)) => {

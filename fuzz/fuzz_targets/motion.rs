@@ -1,16 +1,16 @@
 //! Add Motion's core: `detect_roles` on any skeleton and names, then `motion_clip` of any
-//! motion and parameters, and `posed_points` of its frames. When they succeed: roles that name
+//! motion, parameters and skin, and `posed_points` of its frames. When they succeed: roles that name
 //! bones of the rig, a clip of finite unit rotations.
 #![no_main]
 
 use arbitrary::{Result, Unstructured};
 use libfuzzer_sys::fuzz_target;
-use miniskeleton_core::motion::{detect_roles, motion_clip, posed_points, GaitParams, Motion};
+use miniskeleton_core::motion::{detect_roles, motion_clip, posed_points, GaitParams, Motion, Skin};
 use miniskeleton_core::Error;
 use miniskeleton_fuzz::{bones, mesh, names, number, or_default};
 
 fn run(u: &mut Unstructured) -> Result<()> {
-    // The bones of a mesh-sized box: the mesh itself is not used.
+    // The bones of a mesh-sized box; the mesh's vertices are the skin.
     let m = mesh(u)?;
     let b = bones(u, &m)?;
     let n = b.heads.len();
@@ -51,7 +51,12 @@ fn run(u: &mut Unstructured) -> Result<()> {
         speed: or_default(u, d.speed, number)?,
         root_motion: u.arbitrary()?,
     };
-    let clip = match motion_clip(&b.heads, &b.tails, &b.parents, &rest, &roles, &params) {
+    // Each skin point owned by a bone of the rig, by none (-1), or rarely by anything.
+    let owners: Vec<i32> = (0..m.vertices.len())
+        .map(|_| if u.ratio(1u8, 32)? { u.arbitrary() } else { Ok(u.int_in_range(-1..=n as i32 - 1)?) })
+        .collect::<Result<_>>()?;
+    let skin = if u.ratio(1u8, 4)? { Skin::NONE } else { Skin { points: &m.vertices, bones: &owners } };
+    let clip = match motion_clip(&b.heads, &b.tails, &b.parents, &rest, &roles, &params, &skin) {
         Ok(c) => c,
         Err(Error::Internal(e)) => panic!("internal error: {e}"),
         Err(_) => return Ok(()),
