@@ -25,6 +25,27 @@ use parry3d::query::{PointQuery, PointQueryWithLocation, Ray};
 use parry3d::shape::Triangle;
 use rayon::prelude::*;
 
+/// For each triangle, whether an earlier one has the same three vertices (in any order): a
+/// repeat adds hits at the distances its first copy already gives (merged by every caller that
+/// counts crossings, ignored by the any-hit test), and a mesh of one triangle repeated a
+/// million times would put them all in one leaf of the hierarchy, every ray testing each.
+fn repeated_triangles(triangles: &[[u32; 3]]) -> Vec<bool> {
+    let sorted = |t: &[u32; 3]| {
+        let mut s = *t;
+        s.sort_unstable();
+        s
+    };
+    let mut order: Vec<u32> = (0..triangles.len() as u32).collect();
+    order.par_sort_unstable_by_key(|&k| (sorted(&triangles[k as usize]), k));
+    let mut repeated = vec![false; triangles.len()];
+    for w in order.windows(2) {
+        if sorted(&triangles[w[0] as usize]) == sorted(&triangles[w[1] as usize]) {
+            repeated[w[1] as usize] = true;
+        }
+    }
+    repeated
+}
+
 /// Relative growth of every triangle about its centroid (and padding of the BVH boxes,
 /// relative to the mesh's bounding-box diagonal), see the module notes.
 pub const GROW: f32 = 1e-5;
@@ -48,12 +69,13 @@ impl RayMesh {
     /// Inputs: `vertices` `(n, 3)` (any unit; queries use the same unit), `triangles` `(m, 3)`.
     pub fn new(vertices: &[[f32; 3]], triangles: &[[u32; 3]]) -> RayMesh {
         let n = vertices.len();
+        let repeated = repeated_triangles(triangles);
         let (tris, orig): (Vec<[Vec3; 3]>, Vec<u32>) = triangles
             .par_iter()
             .enumerate()
             .with_min_len(4096)
             .filter_map(|(k, t)| {
-                if t.iter().any(|&i| i as usize >= n) {
+                if repeated[k] || t.iter().any(|&i| i as usize >= n) {
                     return None;
                 }
                 let [a, b, c] = t.map(|i| Vec3::from_array(vertices[i as usize]));
@@ -357,6 +379,24 @@ pub(crate) mod tests {
         assert_eq!(empty.triangle_count(), 0);
         assert!(!empty.segment_blocked(inside, Vec3::splat(5.0)));
         assert!(empty.ray_hits(inside, Vec3::X, 1.0).is_empty());
+    }
+
+    /// A triangle repeated (in any vertex order) is kept once: the hits are those of the mesh
+    /// without the repeats, and a ray no longer tests every copy.
+    #[test]
+    fn repeated_triangles_are_kept_once() {
+        let (v, t) = unit_cube();
+        let mut many = t.clone();
+        many.extend(std::iter::repeat_n([0, 1, 3], 100_000));
+        many.push([3, 0, 1]);
+        many.push([2, 3, 0]);
+        let (once, rm) = (RayMesh::new(&v, &t), RayMesh::new(&v, &many));
+        assert_eq!(rm.triangle_count(), 12);
+        let (o, d) = (Vec3::new(0.3, 0.2, -1.0), Vec3::new(0.01, 0.02, 1.0));
+        assert_eq!(rm.ray_hits(o, d, 10.0), once.ray_hits(o, d, 10.0));
+        // The first copy stays, with its own index.
+        let tagged = rm.ray_hits_tagged(o, d, 10.0, |_| true);
+        assert!(tagged.iter().all(|&(_, k)| (k as usize) < t.len()), "{tagged:?}");
     }
 
     /// Many random segments against a brute-force answer with the same triangle test.
