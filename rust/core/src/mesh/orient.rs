@@ -61,6 +61,11 @@ pub fn orient_faces(n: usize, triangles: &[[u32; 3]]) -> (Vec<[u32; 3]>, usize) 
                         continue;
                     }
                     count += 1;
+                    if count > 1 {
+                        // Non-manifold already: a triangle repeated many times would make this
+                        // loop quadratic in the repeats.
+                        break;
+                    }
                     let p = ut.iter().position(|&i| i == a).unwrap_or(0);
                     (other, same) = (u, ut[(p + 1) % 3] == b);
                 }
@@ -200,6 +205,22 @@ mod tests {
         let two = [[0, 1, 2], [5, 4, 3], [6, 7, 8], [6, 7, 8]];
         assert_eq!(orient_faces(9, &two).1, 1);
         assert_eq!(orient_faces(0, &[]), (vec![], 0));
+    }
+
+    /// A triangle repeated many times (a fuzz input: 8192 copies made the edge search
+    /// quadratic in the copies) makes its edges non-manifold; the rest orients as before.
+    #[test]
+    fn a_triangle_repeated_many_times_is_left_as_it_is() {
+        let (v, t) = capped_cylinder(0.5, 2.0, 6, 8);
+        let n = v.len();
+        let mut bad = t.clone();
+        bad[5].swap(1, 2);
+        let start = bad.len();
+        bad.extend(std::iter::repeat_n([n as u32, n as u32 + 1, n as u32 + 2], 50_000));
+        let (fixed, flipped) = orient_faces(n + 3, &bad);
+        assert_eq!(&fixed[..start], &t[..]);
+        assert_eq!(&fixed[start..], &bad[start..]);
+        assert_eq!(flipped, 1);
     }
 
     /// An open piece (a bowl, as a hat open at its rim) far from the origin of the frame gets
