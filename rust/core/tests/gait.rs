@@ -696,6 +696,26 @@ fn bad_params() {
     }
 }
 
+/// A rest frame scaled to near f32's limit (a fuzz input) is read as the same frame: scale is
+/// normalised away, and its dot products no longer overflow into NaN keys.
+#[test]
+fn a_rest_frame_near_the_float_limit_keys_the_same_rotations() {
+    let (_, h, t, p, rest, roles) = prepare(creature());
+    for motion in [Motion::HeadShake, Motion::Walk] {
+        let params = GaitParams { motion, ..Default::default() };
+        let plain = motion_clip(&h, &t, &p, &rest, &roles, &params, &Skin::NONE).unwrap();
+        let mut huge = rest.clone();
+        for b in [roles.head, roles.spine[0]] {
+            huge[b] = huge[b].map(|x| x * 3e38);
+        }
+        let clip = motion_clip(&h, &t, &p, &huge, &roles, &params, &Skin::NONE).unwrap();
+        for (a, b) in plain.rotations.iter().zip(&clip.rotations) {
+            assert!(b.iter().all(|c| c.is_finite()), "{motion:?}: {b:?}");
+            assert!(q(*a).angle_between(q(*b)) < 1e-3, "{motion:?}: {a:?} vs {b:?}");
+        }
+    }
+}
+
 #[test]
 fn a_head_shake_turns_neck_and_head_by_the_amplitude_and_its_cycle_is_one_shake() {
     let (_, h, t, p, rest, roles, clip) = run(creature(), Motion::HeadShake);

@@ -135,7 +135,13 @@ impl Clip {
 fn rest_quats(rest: &[[f32; 9]]) -> Vec<Quat> {
     rest.iter()
         .map(|m| {
-            let m = Mat3::from_cols_array(m).transpose(); // row-major in
+            // Row-major in. Entries near f32's limit would overflow the dot products below:
+            // scale them down.
+            let mut m = Mat3::from_cols_array(m).transpose();
+            let largest = m.abs().to_cols_array().into_iter().fold(0.0, f32::max);
+            if largest > 1e18 {
+                m *= 1.0 / largest;
+            }
             let y = m.y_axis.normalize_or(Vec3::Y);
             let mut x = m.x_axis - y * m.x_axis.dot(y);
             if x.length_squared() < 1e-12 {
