@@ -1,7 +1,7 @@
 """Auto Rig against the artists' skeletons of the legged models in ``../shared/models``, and its
 speed on a 50k-vertex scan.
 
-    .venv/bin/python bench/bench_autorig.py [--models Fox,CesiumMan] [--resolution 96] [--no-time] [--dump DIR]
+    .venv/bin/python -m bench.bench_autorig [--models Fox,CesiumMan] [--resolution 96] [--no-time] [--dump DIR]
 
 For each model: import it, take every mesh of the character in its rest pose (world space;
 the armature's modifiers off, the importer's bone-shape objects left out), hand the vertices
@@ -33,7 +33,6 @@ Writes out/bench_autorig.md. Nothing is asserted here; the Blender tests check c
 from __future__ import annotations
 
 import argparse
-import os
 import statistics
 import sys
 import time
@@ -41,18 +40,15 @@ from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "scripts"))
-import blender_session  # noqa: E402
+from testkit import MODELS_DIR, ROOT, blender_session
 
-MODELS_DIR = ROOT.parent / "shared" / "models"
 MODELS = ["Fox.glb", "CesiumMan.gltf", "q_Bunny.glb", "spot_rig.glb", "RobotExpressive.glb"]
 LEGLESS = ["q_Dragon.glb", "q_Orc.glb", "q_Cat.glb"]
 SCANS = ["horse.ply"]
 
 
 def core():
-    sys.path.insert(0, os.environ.get("MINISKELETON_CORE_PATH", str(ROOT / ".build" / "core")))
+    """The core bundled in the installed extension (after ``blender_session.start()``)."""
     import miniskeleton_core
 
     return miniskeleton_core

@@ -23,7 +23,7 @@ import numpy as np
 import pytest
 
 import miniskeleton_core as msc
-from test_posing_api import biped
+from testkit.skeletons import biped
 
 ODD = [0.0, -1.0, 1e-30, 1e30, np.nan, np.inf, -np.inf, 0.5, 2.0]
 

@@ -6,7 +6,6 @@ import numpy as np
 import pytest
 
 import miniskeleton_core as msc
-from test_motion_api import biped  # noqa: F401  (test_bad_input_probe.py imports it from here)
 
 
 def test_lbs_rotation_blend_and_translation():
