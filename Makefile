@@ -62,7 +62,7 @@ extension: $(ALL_ZIPS)
 ## Headless demo: Spot the cow's bare mesh (assets/spot) auto-rigged, bound, animated, rendered
 ## (or MODEL=path: any mesh the same way, or a model with its armature; PUPPET=five-rod: puppets).
 demo: $(EXT_ZIP)
-	$(VPY) scripts/demo.py --out out $(if $(MODEL),--model $(MODEL)) $(if $(PUPPET),--puppet $(PUPPET))
+	$(VPY) -m scripts.demo --out out $(if $(MODEL),--model $(MODEL)) $(if $(PUPPET),--puppet $(PUPPET))
 
 ## All tests: Rust, Python API, every platform's build, then Blender (installing the extension
 ## zip like a user) on 5.0.1 and on the oldest release the manifest allows, 4.2 LTS.
@@ -121,18 +121,19 @@ test-blender-4.2 test-blender-4.5: test-blender-%: $(EXT_ZIP)
 	    fi; [ $$rc -eq 0 ] || status=1; \
 	done; exit $$status
 
-## Benchmarks (speed is measured here, never asserted in tests).
+## Benchmarks (speed is measured here, never asserted in tests), run as modules from the checkout so
+## that they import the helpers package testkit/ (whose measures the tests share) as they are.
 bench: $(EXT_ZIP)
 	cargo bench -p miniskeleton-core
-	$(VPY) bench/bench_weights.py
-	$(VPY) bench/eval_weights.py
-	$(VPY) bench/heat_ceiling.py
-	$(VPY) bench/heat_memory.py
-	$(VPY) bench/bench_fit.py
-	$(VPY) bench/bench_autorig.py
-	$(VPY) bench/bench_keys.py
-	$(VPY) bench/motion_corpus.py
-	$(VPY) bench/bench_video.py
+	$(VPY) -m bench.bench_weights
+	$(VPY) -m testkit.eval_weights
+	$(VPY) -m bench.heat_ceiling
+	$(VPY) -m bench.heat_memory
+	$(VPY) -m testkit.eval_fit
+	$(VPY) -m bench.bench_autorig
+	$(VPY) -m bench.bench_keys
+	$(VPY) -m testkit.motion_corpus
+	$(VPY) -m bench.bench_video
 
 ## Coverage-guided fuzzing (cargo-fuzz, libFuzzer; fuzz/ is a crate outside the workspace, so
 ## `make test` and the cross builds never see it): each target in turn for FUZZ_SECONDS under

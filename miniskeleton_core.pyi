@@ -8,7 +8,7 @@ float32 (n, k), rows summing to 1, with k = min(max_influences, number of bones)
 numbers in range, or ValueError.
 """
 
-from typing import Callable, List, Optional, Sequence, Tuple, TypedDict, Union, Unpack
+from typing import Callable, List, Optional, Sequence, Tuple, TypedDict, Union, Unpack, final
 
 import numpy as np
 import numpy.typing as npt
@@ -213,26 +213,63 @@ def lbs(vertices: ArrayLike, indices: ArrayLike, weights: ArrayLike, bone_matric
     """Linear blend skinning v' = sum_j w_j M_j v. bone_matrices (b,4,4) row-major, rest->posed; rows
     whose weights do not sum to 1 are renormalized, all-zero rows stay at rest."""
 
-def ik2d_solve(lengths: ArrayLike, target: Tuple[float, float], angles: Optional[ArrayLike] = None, *,
-               base: Tuple[float, float] = (0.0, 0.0), base_angle: float = 0.0,
-               limits: Optional[ArrayLike] = None, max_iterations: int = 200,
-               tolerance: Optional[float] = None, method: str = "ccd",
-               ) -> Tuple[npt.NDArray[np.float64], dict]:
-    """Planar IK on one chain (relative joint angles, radians). method: 'ccd' (improved CCD with
-    collinear/unreachable handling), 'ccd_pure', 'ccd_classic3d', 'fabrik'. Tolerance defaults to
-    1e-3 of the chain length. max_iterations is at most 10000 (ValueError above it): the solve
-    runs without the GIL and cannot be interrupted, so the bound keeps a call short.
-    Returns (angles, {'iterations', 'error', 'reached'})."""
+@final
+class Chain2d:
+    """A planar chain (one puppet limb): lengths (b,), relative joint angles (b,) radians (default
+    0), base (x, y), base_angle radians, limits (b, 2) radians (default none)."""
+    def __new__(cls, lengths: ArrayLike, angles: Optional[ArrayLike] = None, *,
+                base: Tuple[float, float] = (0.0, 0.0), base_angle: float = 0.0,
+                limits: Optional[ArrayLike] = None) -> "Chain2d": ...
+    @property
+    def lengths(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def angles(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def base(self) -> Tuple[float, float]: ...
+    @property
+    def base_angle(self) -> float: ...
+    @property
+    def limits(self) -> npt.NDArray[np.float64]: ...
 
-def ik2d_solve_multi(lengths: ArrayLike, effectors: list, angles: Optional[ArrayLike] = None, *,
-                     base: Tuple[float, float] = (0.0, 0.0), base_angle: float = 0.0,
-                     limits: Optional[ArrayLike] = None, max_iterations: int = 200,
-                     tolerance: Optional[float] = None) -> Tuple[npt.NDArray[np.float64], dict]:
-    """Several effectors [(joint 1..b, (x, y), weight)] on one chain (strip puppets).
-    max_iterations is at most 10000, as for ik2d_solve."""
+@final
+class Ik2dOptions:
+    """How to solve: at most max_iterations passes (at most 10000, ValueError above it: the solve
+    runs without the GIL and cannot be interrupted), tolerance (default 1e-3 of the chain's
+    reach), method 'ccd' (improved CCD with collinear/unreachable handling), 'ccd_pure',
+    'ccd_classic3d', 'fabrik'."""
+    def __new__(cls, *, max_iterations: int = 200, tolerance: Optional[float] = None,
+                method: str = "ccd") -> "Ik2dOptions": ...
+    @property
+    def max_iterations(self) -> int: ...
+    @property
+    def tolerance(self) -> Optional[float]: ...
+    @property
+    def method(self) -> str: ...
 
-def ik2d_forward(lengths: ArrayLike, angles: ArrayLike, *, base: Tuple[float, float] = (0.0, 0.0),
-                 base_angle: float = 0.0) -> npt.NDArray[np.float64]:
+@final
+class Ik2dSolution:
+    """What a solve found: relative angles (b,) radians, passes run, the final distance to the
+    target (the largest over the effectors for ik2d_solve_multi), and whether it is within the
+    tolerance."""
+    @property
+    def angles(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def iterations(self) -> int: ...
+    @property
+    def error(self) -> float: ...
+    @property
+    def reached(self) -> bool: ...
+
+def ik2d_solve(chain: Chain2d, target: Tuple[float, float], options: Optional[Ik2dOptions] = None
+               ) -> Ik2dSolution:
+    """Planar IK on one chain, from its angles toward target (x, y)."""
+
+def ik2d_solve_multi(chain: Chain2d, effectors: list, options: Optional[Ik2dOptions] = None
+                     ) -> Ik2dSolution:
+    """Several effectors [(joint 1..b, (x, y), weight)] on one chain (strip puppets), by the
+    improved CCD (options.method must be 'ccd')."""
+
+def ik2d_forward(chain: Chain2d) -> npt.NDArray[np.float64]:
     """Joint positions (b+1, 2): the base, then each bone's tip."""
 
 def fit_joints(vertices: ArrayLike, triangles: ArrayLike, joints: ArrayLike, bones: ArrayLike,
@@ -280,18 +317,46 @@ def bone_mirror_indices(names: list[str]) -> npt.NDArray[np.int32]:
 
 # ---------------------------------------------------------------------------- autorig
 
+@final
+class AutoRig:
+    """Auto Rig's skeleton: template ('BIPED'|'QUADRUPED'|'CHAIN'|'WINGED'), reason (why that
+    template), names (basic_human / basic_quadruped / shark / bird names), heads, tails (k,3)
+    float32 (input units), parents (k,) int64 (-1 root; parents first), connected (k,) bool,
+    forward, left (3,) float32 (left = the .L side), tail (tail bones were built),
+    centre_points (c,3) float32, centre_edges (e,2) uint32 (the centre-line tree the bones
+    follow)."""
+    @property
+    def template(self) -> str: ...
+    @property
+    def reason(self) -> str: ...
+    @property
+    def names(self) -> list[str]: ...
+    @property
+    def heads(self) -> npt.NDArray[np.float32]: ...
+    @property
+    def tails(self) -> npt.NDArray[np.float32]: ...
+    @property
+    def parents(self) -> npt.NDArray[np.int64]: ...
+    @property
+    def connected(self) -> npt.NDArray[np.bool_]: ...
+    @property
+    def forward(self) -> npt.NDArray[np.float32]: ...
+    @property
+    def left(self) -> npt.NDArray[np.float32]: ...
+    @property
+    def tail(self) -> bool: ...
+    @property
+    def centre_points(self) -> npt.NDArray[np.float32]: ...
+    @property
+    def centre_edges(self) -> npt.NDArray[np.uint32]: ...
+
 def auto_rig(vertices: ArrayLike, triangles: ArrayLike, *, template: str = "AUTO",
-             forward: Optional[ArrayLike] = None, resolution: int = 96) -> dict:
+             forward: Optional[ArrayLike] = None, resolution: int = 96) -> AutoRig:
     """A Rigify-metarig skeleton for a bare mesh of a character (+Z up, any pieces, any scale,
     facing any horizontal direction). template "AUTO" (legs that hold the body up: 2 biped, 4
     quadruped; wings spread: winged; no legs: chain) | "BIPED" | "QUADRUPED" | "CHAIN" |
     "WINGED"; forward (3,) overrides the facing found; resolution 16..512 voxels along the
-    longest side. Returns {template ('BIPED'|'QUADRUPED'|'CHAIN'|'WINGED'), reason (str: why that
-    template), names (list of str: basic_human / basic_quadruped / shark / bird names), heads,
-    tails (k,3) float32 (input units), parents (k,) int64 (-1 root; parents first), connected
-    (k,) bool, forward, left (3,) float32 (left = the .L side), tail (bool: tail bones were
-    built), centre_points (c,3) float32, centre_edges (e,2) uint32 (the centre-line tree the
-    bones follow)}. ValueError, saying why, for an empty or non-finite mesh and for a shape the
+    longest side. ValueError, saying why, for an empty or non-finite mesh and for a shape the
     templates do not fit: no enclosed volume, a round blob, too few feet for the template asked,
     no wings for WINGED, no head."""
 

@@ -1,7 +1,7 @@
 """Auto Rig against the artists' skeletons of the legged models in ``../shared/models``, and its
 speed on a 50k-vertex scan.
 
-    .venv/bin/python bench/bench_autorig.py [--models Fox,CesiumMan] [--resolution 96] [--no-time] [--dump DIR]
+    .venv/bin/python -m bench.bench_autorig [--models Fox,CesiumMan] [--resolution 96] [--no-time] [--dump DIR]
 
 For each model: import it, take every mesh of the character in its rest pose (world space;
 the armature's modifiers off, the importer's bone-shape objects left out), hand the vertices
@@ -33,7 +33,6 @@ Writes out/bench_autorig.md. Nothing is asserted here; the Blender tests check c
 from __future__ import annotations
 
 import argparse
-import os
 import statistics
 import sys
 import time
@@ -41,18 +40,15 @@ from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "scripts"))
-import blender_session  # noqa: E402
+from testkit import MODELS_DIR, ROOT, blender_session
 
-MODELS_DIR = ROOT.parent / "shared" / "models"
 MODELS = ["Fox.glb", "CesiumMan.gltf", "q_Bunny.glb", "spot_rig.glb", "RobotExpressive.glb"]
 LEGLESS = ["q_Dragon.glb", "q_Orc.glb", "q_Cat.glb"]
 SCANS = ["horse.ply"]
 
 
 def core():
-    sys.path.insert(0, os.environ.get("MINISKELETON_CORE_PATH", str(ROOT / ".build" / "core")))
+    """The core bundled in the installed extension (after ``blender_session.start()``)."""
     import miniskeleton_core
 
     return miniskeleton_core
@@ -170,12 +166,12 @@ def main(argv=None):
             print(f"[bench_autorig] {name}: refused: {e}")
             continue
         secs = time.perf_counter() - t0
-        heads, tails = rig["heads"].astype(float), rig["tails"].astype(float)
-        print(f"[bench_autorig] {name}: {rig['template']} ({rig['reason']})")
+        heads, tails = rig.heads.astype(float), rig.tails.astype(float)
+        print(f"[bench_autorig] {name}: {rig.template} ({rig.reason})")
         if name in LEGLESS:
             pts = np.concatenate([heads, tails]).astype(np.float32)
             outside = int((~msc.points_inside(v.astype(np.float32), t, pts)).sum())
-            rows.append((name, len(v), "legless", f"{rig['template']} ({rig['reason']})", len(rig["names"]),
+            rows.append((name, len(v), "legless", f"{rig.template} ({rig.reason})", len(rig.names),
                          outside, len(pts), secs))
             continue
         ours_segs = list(zip(heads, tails))
@@ -183,13 +179,13 @@ def main(argv=None):
         cd, a, b = cd_j2b(ours_segs, ours_joints, art_segs, art_joints)
         cd_links = cd_j2b(ours_segs, ours_joints, *character.links)[0]
         # heel.02 lies on the ground under the heel (Rigify's foot-roll marker), outside by design.
-        body = unique_rows(np.concatenate([np.stack([h, tl]) for h, tl, n in zip(heads, tails, rig["names"])
+        body = unique_rows(np.concatenate([np.stack([h, tl]) for h, tl, n in zip(heads, tails, rig.names)
                                            if not n.startswith("heel")]))
         outside = int((~msc.points_inside(v.astype(np.float32), t, body.astype(np.float32))).sum())
         if args.detail:
             worst_b = sorted(((min(point_segment(p, *sg) for sg in ours_segs), lab)
                               for p, lab in zip(art_joints, character.labels)), reverse=True)[:args.detail]
-            ours_lab = [f"{n}.{e}" for n in rig["names"] for e in ("head", "tail")]
+            ours_lab = [f"{n}.{e}" for n in rig.names for e in ("head", "tail")]
             ours_pts = [p for h, t in zip(heads, tails) for p in (h, t)]
             worst_a = sorted(((min(point_segment(p, *sg) for sg in art_segs), lab)
                               for p, lab in zip(ours_pts, ours_lab)), reverse=True)[:args.detail]
@@ -197,12 +193,12 @@ def main(argv=None):
             print("  our joints far from artist's:", ", ".join(f"{lab} {100 * d / diag:.1f}" for d, lab in worst_a))
         if args.dump:
             Path(args.dump).mkdir(parents=True, exist_ok=True)
-            np.savez(Path(args.dump) / f"{path.stem}.npz", heads=heads, tails=tails, names=np.array(rig["names"]),
-                     parents=rig["parents"], art=np.array([np.concatenate(s) for s in art_segs]),
-                     vertices=v, forward=rig["forward"], cp=rig["centre_points"], ce=rig["centre_edges"])
-        rows.append((name, len(v), rig["template"], f"{len(rig['names'])}", 100 * cd / diag, 100 * a / diag,
+            np.savez(Path(args.dump) / f"{path.stem}.npz", heads=heads, tails=tails, names=np.array(rig.names),
+                     parents=rig.parents, art=np.array([np.concatenate(s) for s in art_segs]),
+                     vertices=v, forward=rig.forward, cp=rig.centre_points, ce=rig.centre_edges)
+        rows.append((name, len(v), rig.template, f"{len(rig.names)}", 100 * cd / diag, 100 * a / diag,
                      100 * b / diag, secs, outside, len(body), 100 * cd_links / diag))
-        print(f"[bench_autorig] {name}: {rig['template']} {len(rig['names'])} bones, tail {rig['tail']}, "
+        print(f"[bench_autorig] {name}: {rig.template} {len(rig.names)} bones, tail {rig.tail}, "
               f"CD-J2B {100 * cd / diag:.2f} % (ours->artist {100 * a / diag:.2f}, artist->ours "
               f"{100 * b / diag:.2f}), links {100 * cd_links / diag:.2f} %, {outside} of {len(body)} joints outside, "
               f"{secs:.2f} s")

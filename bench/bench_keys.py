@@ -1,9 +1,9 @@
 """Keying long motions: Add Motion (Walk) and Bake Puppet Animation over growing frame ranges.
 
-    .venv/bin/python bench/bench_keys.py [--cycles 2,10,100] [--rigify-cycles 4] [--frames 250,1000] [--repeats 3]
+    .venv/bin/python -m bench.bench_keys [--cycles 2,10,100] [--rigify-cycles 4] [--frames 250,1000] [--repeats 3]
 
-Add Motion on the generated creature's rig (scripts/creature.py, 22 bones keyed) for each number
-of walk cycles, on the Rigify human control rig (scripts/rig_corpus.py, built once, reset before
+Add Motion on the generated creature's rig (testkit/creature.py, 22 bones keyed) for each number
+of walk cycles, on the Rigify human control rig (testkit/rig_corpus.py, built once, reset before
 each run: the controls solved through Blender's evaluation of their MCH parents), and Bake
 Puppet Animation on a five-rod shadow puppet over each scene range;
 both write every bone's keys as one series (``addon/common/keys.py``). Prints a markdown table of the
@@ -15,15 +15,11 @@ frame by frame).
 from __future__ import annotations
 
 import argparse
-import sys
 import time
-from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path[:0] = [str(ROOT / "scripts")]
-import blender_session  # noqa: E402
+from testkit import ROOT, blender_session
 
 
 def timed(fn) -> tuple[float, object]:
@@ -34,7 +30,7 @@ def timed(fn) -> tuple[float, object]:
 
 def walk(bpy, cycles: float) -> tuple[float, int]:
     """Seconds for Add Motion (Walk, ``cycles``) on a fresh creature rig, and frames keyed."""
-    import creature
+    from testkit import creature
 
     blender_session.reset_scene()
     arm = creature.build_armature()
@@ -50,10 +46,9 @@ _rigify: dict = {}
 
 def rigify_walk(bpy, cycles: float) -> tuple[float, int]:
     """Seconds for Add Motion (Walk, ``cycles``) on the Rigify human rig, and frames keyed."""
-    import rig_corpus
+    from testkit import rig_corpus
 
-    sys.path[:0] = [str(ROOT / "bench")]
-    import motion_corpus
+    from testkit import motion_corpus
 
     if "rig" not in _rigify:
         blender_session.reset_scene()

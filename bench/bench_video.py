@@ -1,6 +1,6 @@
 """Make Video's speed without a GPU: seconds per frame, and where they go.
 
-    .venv/bin/python bench/bench_video.py [--models spot,spot-x16,horse.ply] [--frames 16] [--size 480x320]
+    .venv/bin/python -m bench.bench_video [--models spot,spot-x16,horse.ply] [--frames 16] [--size 480x320]
 
 Models: Spot the cow's bare mesh (``assets/spot``, 2930 vertices), the same subdivided twice
 (``spot-x16``: each triangle cut into 16, 46.9k vertices) and the horse scan (``horse.ply`` from
@@ -29,17 +29,13 @@ from __future__ import annotations
 
 import argparse
 import shutil
-import sys
 import tempfile
 import time
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path[:0] = [str(ROOT / "scripts")]
-import blender_session  # noqa: E402
-import demo  # noqa: E402
+from scripts import demo
+from testkit import MODELS_DIR, ROOT, blender_session
 
-MODELS_DIR = ROOT.parent / "shared" / "models"
 SPOT = ROOT / "assets" / "spot" / "spot.glb"
 
 

@@ -1,12 +1,12 @@
 """Speed: MiniSkeleton's Auto Weights (Heat and Geodesic Voxel) operator vs Blender's own
 ``parent_set(type='ARMATURE_AUTO')`` on the same mesh and bones, in one process: generated
 capped cylinders with a bone chain, and the unrigged scans of ../shared/models/ (cow, horse;
-skipped when absent) with scan_rig's rough quadruped skeleton, fitted first.
+skipped when absent) with the skeleton Auto Rig finds in them (not bound by it).
 
-    .venv/bin/python bench/bench_weights.py [--sizes 6.5k:10,26k:20,103k:40,206k:40]
-                                            [--shapes issue,thin] [--scans cow.obj,horse.ply]
-                                            [--scan-scales 1,10] [--parts 100,400]
-                                            [--repeats 3] [--no-blender]
+    .venv/bin/python -m bench.bench_weights [--sizes 6.5k:10,26k:20,103k:40,206k:40]
+                                                [--shapes issue,thin] [--scans cow.obj,horse.ply]
+                                                [--scan-scales 1,10] [--parts 100,400]
+                                                [--repeats 3] [--no-blender]
 
 Two cylinder shapes per size. Blender's time depends strongly on the proportions (at 103k
 vertices: 5.6 s with 128 segments around, 8.7 s with 256, 18 s with 512), ours hardly:
@@ -29,15 +29,11 @@ from __future__ import annotations
 
 import argparse
 import importlib
-import sys
 import time
-from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "scripts"))
-import blender_session  # noqa: E402
-import scan_rig  # noqa: E402
+from testkit import MODELS_DIR, blender_session, rig_corpus
 
 # (rings, segments) per size and shape.
 SHAPES = {
@@ -64,8 +60,23 @@ def cylinder_object(bpy, core, rings, segments, height):
 def chain_object(bpy, core, height, bones):
     heads, tails, parents = core.bone_chain(height, bones)
     names = [f"Bone{i:02d}" for i in range(len(heads))]
-    ob = scan_rig.armature_object(bpy, "BenchRig", names, heads, tails, parents, parents >= 0)
-    return ob, heads, tails
+    bones = [(n, tuple(map(float, h)), tuple(map(float, t)), names[p] if p >= 0 else None, p >= 0)
+             for n, h, t, p in zip(names, heads, tails, parents)]
+    return rig_corpus.new_armature("BenchRig", bones), heads, tails
+
+
+def scan_object(bpy, path, scale):
+    """The scan at ``path`` (one mesh, +Z up) imported into an empty scene, its mesh data scaled
+    by ``scale``, and Auto Rig's skeleton for it (not bound): (mesh, armature)."""
+    from mathutils import Matrix
+
+    blender_session.reset_scene()
+    _, meshes, _ = blender_session.import_model(path)
+    (mesh,) = meshes
+    mesh.data.transform(Matrix.Scale(scale, 4))
+    rig_corpus.set_active(mesh, selected=[mesh])
+    assert bpy.ops.object.miniskeleton_auto_rig(template="AUTO", forward="AUTO", bind=False) == {"FINISHED"}
+    return mesh, rig_corpus.imported_armature()
 
 
 def select(bpy, mesh, rig):
@@ -175,8 +186,8 @@ def main(argv=None):
     ap = argparse.ArgumentParser()
     ap.add_argument("--sizes", default="6.5k:10,26k:20,103k:40,206k:40")
     ap.add_argument("--shapes", default="issue,thin", help="cylinder proportions: issue, thin")
-    ap.add_argument("--scans", default=",".join(scan_rig.SCANS),
-                    help="unrigged scans from ../shared/models with scan_rig's fitted rough skeleton")
+    ap.add_argument("--scans", default="cow.obj,horse.ply",
+                    help="unrigged scans from ../shared/models with the skeleton Auto Rig finds in them")
     ap.add_argument("--scan-scales", default="1,10",
                     help="each scan at these scales (the horse is 0.2 units across as shipped)")
     ap.add_argument("--parts", default="100,400", help="figures built of this many separate small objects")
@@ -199,17 +210,14 @@ def main(argv=None):
         rows.append(measure(bpy, core, f"{shape} {rings}x{segments}", mesh, rig, v, t, heads, tails, args))
     scans = [(n, float(x)) for n in args.scans.split(",") if n for x in args.scan_scales.split(",")]
     for name, scale in scans:
-        path = scan_rig.MODELS_DIR / name
+        path = MODELS_DIR / name
         if not path.exists():
-            print(f"skipped {name}: not in {scan_rig.MODELS_DIR}")
+            print(f"skipped {name}: not in {MODELS_DIR}")
             continue
-        blender_session.reset_scene()
-        mesh = scan_rig.load_scan(bpy, path, scale)
+        mesh, rig = scan_object(bpy, path, scale)
         v = common_meshes.mesh_world_vertices(mesh)
         t = common_meshes.mesh_triangles(mesh).astype(np.uint32)
-        rig, _ = scan_rig.armature(bpy, v)
-        select(bpy, mesh, rig)  # the rough rig fitted first, as a rigger would
-        assert bpy.ops.armature.miniskeleton_fit_skeleton(tails="AUTO", symmetry="NONE") == {"FINISHED"}
+        select(bpy, mesh, rig)
         heads = np.array([b.head_local for b in rig.data.bones], dtype=np.float32)
         tails = np.array([b.tail_local for b in rig.data.bones], dtype=np.float32)
         rows.append(measure(bpy, core, f"scan {name} x{scale:g}", mesh, rig, v, t, heads, tails, args))

@@ -3,7 +3,7 @@ and the same walk, run and head shake measured (``motion_corpus.folds``: the wor
 change of enclosed volume and share of collapsed triangles, on the largest mesh) with that mesh
 bound three ways.
 
-    .venv/bin/python bench/fold_causes.py [--rigs autorig_horse,autorig_Fox] [--motions WALK,RUN]
+    .venv/bin/python -m bench.fold_causes [--rigs autorig_horse,autorig_Fox] [--motions WALK,RUN]
 
 - ``as built``: the corpus rig's own weights (the auto-rigged rows: Auto Weights' Heat; the
   Fox: its artist's);
@@ -19,13 +19,10 @@ table to stdout and out/fold_causes.md. Rigs default to the auto-rigged ones and
 from __future__ import annotations
 
 import argparse
-import sys
 import time
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path[:0] = [str(ROOT / "scripts"), str(ROOT / "bench")]
-import blender_session  # noqa: E402
+from testkit import ROOT, blender_session
 
 BINDINGS = ["as built", "Blender", "segments"]
 
@@ -38,7 +35,7 @@ def rebind(rig, how: str) -> None:
     """Bind the largest of ``rig``'s meshes to its armature's deform bones ``how``: "Blender" or
     "segments" (its groups and Armature modifiers replaced; the other meshes as they are)."""
     import bpy
-    import rig_corpus
+    from testkit import rig_corpus
 
     arm, body = rig.arm, largest(rig.meshes)
     rig_corpus.unbind(body)
@@ -59,8 +56,8 @@ def main(argv=None) -> None:
     ap.add_argument("--out", default=str(ROOT / "out" / "fold_causes.md"))
     args = ap.parse_args(argv)
     blender_session.start()
-    import motion_corpus as corpus
-    import rig_corpus
+    from testkit import motion_corpus as corpus
+    from testkit import rig_corpus
 
     names = [n for n in args.rigs.split(",") if n] or list(rig_corpus.AUTORIG) + ["Fox"]
     motions = [m.strip().upper() for m in args.motions.split(",") if m.strip()]

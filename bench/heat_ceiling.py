@@ -3,10 +3,10 @@ heat sources: the core's own solve fed with each vertex's nearest visible bone (
 and with the artist's own dominant bone (an oracle no automatic method has), over heat
 constants.
 
-    .venv/bin/python bench/heat_ceiling.py [--models CesiumMan,Fox] [--clips 1] [--constants 0.5,1,2]
+    .venv/bin/python -m bench.heat_ceiling [--models CesiumMan,Fox] [--clips 1] [--constants 0.5,1,2]
 
 For each model (``../shared/models/``, skipped when absent) our operator rebinds it as in
-``bench/eval_weights.py``; the core's inputs of that call (vertices and bones in the armature
+``testkit/eval_weights.py``; the core's inputs of that call (vertices and bones in the armature
 frame, and its keywords) are captured, and the same bone-heat solve of Baran & Popovic 2007 is
 run again through ``miniskeleton_core.heat_weights_from_sources`` (the core's debug entry point:
 the operator's solve, weld, Laplacian, bone segments, ramp and top 4 included), with the heat
@@ -28,15 +28,11 @@ Models solved in more than one core call (several skinned meshes) are skipped.
 from __future__ import annotations
 
 import argparse
-import sys
-from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path[:0] = [str(ROOT / "bench"), str(ROOT / "scripts")]
-import blender_session  # noqa: E402
-import eval_weights as ev  # noqa: E402
+from testkit import MODELS_DIR, blender_session
+from testkit import eval_weights as ev
 
 
 def capture(core) -> list:
@@ -115,16 +111,16 @@ def main(argv=None):
     args = ap.parse_args(argv)
     args.constants = [float(c) for c in args.constants.split(",")]
     args.actions, args.no_blender = "", True
-    if not ev.MODELS_DIR.is_dir():
-        return print(f"[ceiling] no models folder {ev.MODELS_DIR}: nothing to measure")
+    if not MODELS_DIR.is_dir():
+        return print(f"[ceiling] no models folder {MODELS_DIR}: nothing to measure")
     bpy = blender_session.start()
     import miniskeleton_core as core
 
     calls = capture(core)
     for model in (m.strip() for m in args.models.split(",") if m.strip()):
-        hits = sorted(ev.MODELS_DIR.glob(model + ".gl*"))
+        hits = sorted(MODELS_DIR.glob(model + ".gl*"))
         if not hits:
-            print(f"[ceiling] {model}: not in {ev.MODELS_DIR}, skipped")
+            print(f"[ceiling] {model}: not in {MODELS_DIR}, skipped")
             continue
         one_model(bpy, core, calls, model, hits[0], args)
 

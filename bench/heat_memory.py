@@ -3,7 +3,7 @@ bone chain, each size in a fresh process (the peak resident size is per process)
 core's estimate ``core.heat_peak_bytes``, from which the Auto Weights operator refuses a solve
 over its Memory Limit.
 
-    .venv/bin/python bench/heat_memory.py [--sizes 316x316:200,632x632:200,632x632:40,1000x1000:200]
+    .venv/bin/python -m bench.heat_memory [--sizes 316x316:200,632x632:200,632x632:40,1000x1000:200]
 
 Prints a markdown table: vertices, bones, wall and CPU seconds, peak MB (the process, less
 what it held before the call), the estimate in MB and measured / estimate. Run after
@@ -13,6 +13,7 @@ what it held before the call), the estimate in MB and measured / estimate. Run a
 from __future__ import annotations
 
 import argparse
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -20,8 +21,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 
 ONE = """
-import resource, sys, time
-sys.path.insert(0, {core!r})
+import resource, time
 import miniskeleton_core as core
 v, t = core.capped_cylinder(0.5, 4.0, {rings}, {segments})
 heads, tails, _ = core.bone_chain(4.0, {bones})
@@ -42,9 +42,9 @@ def main(argv=None):
     for size in args.sizes.split(","):
         shape, bones = size.split(":")
         rings, segments = shape.split("x")
-        code = ONE.format(core=str(ROOT / ".build" / "core"), rings=int(rings), segments=int(segments),
-                          bones=int(bones))
-        out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+        code = ONE.format(rings=int(rings), segments=int(segments), bones=int(bones))
+        env = {**os.environ, "PYTHONPATH": str(ROOT / ".build" / "core")}
+        out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, env=env).stdout
         n, wall, cpu, peak, est = out.split()
         n, peak, est = int(n), int(peak), int(est)
         print(f"| {n} | {bones} | {float(wall):.1f} | {float(cpu):.1f} | {peak / 2**20:.0f} | {est / 2**20:.0f} "

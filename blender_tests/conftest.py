@@ -6,12 +6,8 @@ way a user installs it. Nothing imports the add-on from the source tree.
 """
 
 import sys
-from pathlib import Path
 
-HERE = Path(__file__).resolve().parent
-sys.path[:0] = [str(HERE), str(HERE.parent / "scripts")]
-
-import blender_session  # noqa: E402
+from testkit import blender_session
 
 blender_session.start()
 

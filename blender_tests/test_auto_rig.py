@@ -11,23 +11,20 @@ from __future__ import annotations
 import importlib
 import math
 import re
-import sys
 
 import bpy
 import numpy as np
 import pytest
 
-import blender_session
-import builders as B
-import creature
-import rig_corpus
-import shapes
-from test_undo import fingerprint
+from testkit import blender_session
+from testkit import builders as B
+from testkit import measures
+from testkit import creature
+from testkit import rig_corpus
+from testkit import shapes
+from testkit.fingerprint import fingerprint
 
-sys_path_bench = str(rig_corpus.ROOT / "bench")
-if sys_path_bench not in sys.path:
-    sys.path.insert(0, sys_path_bench)
-import motion_corpus as corpus  # noqa: E402
+from testkit import motion_corpus as corpus
 
 core = importlib.import_module("miniskeleton_core")
 autorig = importlib.import_module(f"{blender_session.ADDON_MODULE}.skeleton.autorig")
@@ -88,7 +85,7 @@ def quadruped(name="Creature"):
 
 
 def world_surface(meshes):
-    parts = [(B.world_vertices(ob), autorig.shaped_world_mesh(ob)[1]) for ob in meshes]
+    parts = [(measures.world_vertices(ob), autorig.shaped_world_mesh(ob)[1]) for ob in meshes]
     return autorig.stack_meshes(parts)
 
 
@@ -183,7 +180,7 @@ def test_biped_gets_rigify_human_bones_inside_bound_and_rolled(capfd):
     for name in ("upper_arm.L", "forearm.R"):
         assert axis(arm, name, 2).y < -0.9, (name, axis(arm, name, 2))
     # Origin on the ground under the body (Rigify's root control goes there).
-    lo = B.world_vertices(body).min(axis=0)
+    lo = measures.world_vertices(body).min(axis=0)
     assert abs(arm.location.z - lo[2]) < 1e-5
 
 
@@ -238,9 +235,9 @@ def test_the_auto_rig_walks(capfd, template):
     (arm,) = armatures()
     B.set_active(arm)
     assert bpy.ops.pose.miniskeleton_add_motion(motion="WALK", cycles=1) == {"FINISHED"}
-    rest = B.world_vertices(body)
+    rest = measures.world_vertices(body)
     bpy.context.scene.frame_set(bpy.context.scene.frame_start + 6)
-    moved = np.linalg.norm(B.evaluated_world_vertices(body) - rest, axis=1)
+    moved = np.linalg.norm(measures.evaluated_world_vertices(body) - rest, axis=1)
     assert moved.max() > 0.02 * np.ptp(rest, axis=0).max()
 
 
@@ -283,7 +280,7 @@ def test_far_from_the_origin_turned_and_without_bind(capfd):
     (far,) = armatures()
     assert not body.vertex_groups and not body.modifiers and body.parent is None
     _, heads, tails = joints_world(far)
-    size = np.ptp(B.world_vertices(body), axis=0).max()
+    size = np.ptp(measures.world_vertices(body), axis=0).max()
     err = max(np.abs(heads - (heads0 @ turn.T + shift)).max(), np.abs(tails - (tails0 @ turn.T + shift)).max())
     names, _, _ = joints_world(far)
     per = np.maximum(np.abs(heads - (heads0 @ turn.T + shift)).max(1), np.abs(tails - (tails0 @ turn.T + shift)).max(1))

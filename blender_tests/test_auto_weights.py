@@ -9,13 +9,13 @@ import bpy
 import numpy as np
 import pytest
 
-import builders as B
-import creature
+from testkit import builders as B
+from testkit import creature, measures, modal
+from testkit.builders import CHAIN_NAMES as NAMES
 
 common_groups = importlib.import_module("bl_ext.user_default.miniskeleton.common.groups")
 
 METHODS = ["HEAT", "VOXEL", "BILINEAR", "IDW"]
-NAMES = [f"Bone{i}" for i in range(4)]
 
 
 def bind(meshes, arm, **props):
@@ -99,7 +99,7 @@ def test_weights_on_cylinder_chain(method):
     np.testing.assert_allclose(w.sum(1), 1.0, atol=1e-5)
 
     # Strongest bone = nearest segment, wherever the nearest is unambiguous.
-    verts = B.world_vertices(ob)
+    verts = measures.world_vertices(ob)
     heads, tails = B.bone_segments_world(arm, NAMES)
     d = B.segment_distances(verts, heads, tails)
     order = np.sort(d, axis=1)
@@ -115,12 +115,12 @@ def test_weights_on_cylinder_chain(method):
     # The Armature modifier and parenting are in place; bending moves the top, not the bottom.
     assert [m.type for m in ob.modifiers].count("ARMATURE") == 1
     assert ob.parent == arm
-    rest = B.evaluated_world_vertices(ob)
+    rest = measures.evaluated_world_vertices(ob)
     np.testing.assert_allclose(rest, verts, atol=1e-5)
     arm.pose.bones["Bone2"].rotation_mode = "XYZ"
     arm.pose.bones["Bone2"].rotation_euler = (math.radians(60), 0, 0)
     bpy.context.view_layer.update()
-    posed = B.evaluated_world_vertices(ob)
+    posed = measures.evaluated_world_vertices(ob)
     moved = np.linalg.norm(posed - verts, axis=1)
     top, bottom = verts[:, 2] > 3.5, verts[:, 2] < 0.5
     assert moved[top].min() > 0.5
@@ -145,7 +145,7 @@ def test_each_option_reaches_the_core(method, options, core_kw):
     common_meshes = importlib.import_module("bl_ext.user_default.miniskeleton.common.meshes")
     body, arm = creature.build_body(subdivisions=0), creature.build_armature()
     bones = common_armatures.armature_bones(arm)
-    v, t = B.world_vertices(body), common_meshes.mesh_triangles(body)
+    v, t = measures.world_vertices(body), common_meshes.mesh_triangles(body)
 
     def solve(**kw):
         if method == "IDW":
@@ -233,12 +233,12 @@ def test_a_mesh_that_carries_its_armature_is_weighted_and_not_parented_in_a_loop
     assert sorted(g.name for g in ob.vertex_groups) == NAMES
     assert [m.object for m in ob.modifiers if m.type == "ARMATURE"] == [arm]
     # The modifier deforms it: bending the top bone moves the top, not the bottom.
-    rest = B.evaluated_world_vertices(ob)
+    rest = measures.evaluated_world_vertices(ob)
     arm.pose.bones["Bone3"].rotation_mode = "XYZ"
     arm.pose.bones["Bone3"].rotation_euler = (0.5, 0, 0)
     bpy.context.view_layer.update()
-    moved = np.linalg.norm(B.evaluated_world_vertices(ob) - rest, axis=1)
-    z = B.world_vertices(ob)[:, 2] - ob.location.z
+    moved = np.linalg.norm(measures.evaluated_world_vertices(ob) - rest, axis=1)
+    z = measures.world_vertices(ob)[:, 2] - ob.location.z
     assert moved[z > 3.8].min() > 0.1 and moved[z < 2.0].max() < 1e-5
 
 
@@ -263,12 +263,12 @@ def test_a_constrained_mesh_stays_where_it_is(parent):
     spin = ob.constraints.new("COPY_ROTATION")
     spin.target, spin.mix_mode = turn, "ADD"
     bpy.context.view_layer.update()
-    world, rest = ob.matrix_world.copy(), B.evaluated_world_vertices(ob)
+    world, rest = ob.matrix_world.copy(), measures.evaluated_world_vertices(ob)
     assert bind([ob], arm, method="HEAT") == {"FINISHED"}
     bpy.context.view_layer.update()
     assert ob.parent == arm and ob.parent_type == "OBJECT" and not spin.mute
     np.testing.assert_allclose(np.array(ob.matrix_world), np.array(world), atol=1e-6)
-    np.testing.assert_allclose(B.evaluated_world_vertices(ob), rest, atol=1e-5)
+    np.testing.assert_allclose(measures.evaluated_world_vertices(ob), rest, atol=1e-5)
     turn.rotation_euler = (0.0, 0.0, 0.9)  # and the constraint still acts
     bpy.context.view_layer.update()
     assert np.abs(np.array(ob.matrix_world) - np.array(world)).max() > 0.1
@@ -313,8 +313,8 @@ def test_a_half_modelled_with_a_mirror_modifier_poses_one_side_only():
     modifier goes last in the stack, where Blender's Ctrl+P puts it, so the mirrored half follows
     the mirrored (.R) groups: raising the left arm moves the left arm only. Before, it went first
     and the Mirror modifier copied the left arm's pose onto the right (147 vertices moved)."""
-    import blender_session
-    import creature
+    from testkit import blender_session
+    from testkit import creature
 
     def setup():
         blender_session.reset_scene()
@@ -332,11 +332,11 @@ def test_a_half_modelled_with_a_mirror_modifier_poses_one_side_only():
     body, arm = setup()
     assert bpy.ops.object.miniskeleton_auto_weights() == {"FINISHED"}
     assert [m.type for m in body.modifiers] == blenders == ["MIRROR", "SUBSURF", "ARMATURE"]
-    rest = B.evaluated_world_vertices(body)
+    rest = measures.evaluated_world_vertices(body)
     arm.pose.bones["upper_arm.L"].rotation_mode = "XYZ"
     arm.pose.bones["upper_arm.L"].rotation_euler = (0.0, 0.0, 1.2)
     bpy.context.view_layer.update()
-    moved = np.linalg.norm(B.evaluated_world_vertices(body) - rest, axis=1)
+    moved = np.linalg.norm(measures.evaluated_world_vertices(body) - rest, axis=1)
     assert (moved[rest[:, 0] > 0.05] > 0.1).sum() > 100
     assert moved[rest[:, 0] < -0.05].max() < 1e-5
 
@@ -349,8 +349,8 @@ def test_a_subdivided_cage_is_weighted_on_its_smooth_surface_like_ctrl_p():
     its faces at those positions, and it is closer to Blender's weights than before (on the
     198-vertex creature cage: L1 0.05 instead of 0.20). A Simple or hidden subdivision changes
     nothing."""
-    import blender_session
-    import creature
+    from testkit import blender_session
+    from testkit import creature
     import miniskeleton_core as core
 
     common_armatures = importlib.import_module("bl_ext.user_default.miniskeleton.common.armatures")
@@ -460,7 +460,7 @@ def test_b_bones_are_weighted_along_their_rest_curve_like_ctrl_p():
     ours by 0.040; ours are then within 0.013 of Blender's (0.042 before: ours stayed straight).
     Lone B-Bones, straight at rest, are weighted as plain bones (up to float-level ties where
     two bones meet)."""
-    import blender_session
+    from testkit import blender_session
 
     def setup(segments, chain=True):
         blender_session.reset_scene()
@@ -490,7 +490,7 @@ def test_b_bones_are_weighted_along_their_rest_curve_like_ctrl_p():
         ob = setup(segments, chain)
         assert op() == {"FINISHED"}
         w = B.weights_matrix(ob, names)
-        return w / np.maximum(w.sum(1, keepdims=True), 1e-12), B.world_vertices(ob)[:, 1] > -0.1
+        return w / np.maximum(w.sum(1, keepdims=True), 1e-12), measures.world_vertices(ob)[:, 1] > -0.1
 
     def l1(a, b, used):
         return np.abs(a - b).sum(1)[used].mean()
@@ -530,7 +530,7 @@ def test_foreign_groups_untouched_bone_groups_replaced():
     assert got == pytest.approx({i: 0.37 for i in range(0, 200, 3)})
     w = B.weights_matrix(ob, NAMES)
     # the stale "everything on Bone3" group was replaced: the bottom is on Bone0 now
-    bottom = B.world_vertices(ob)[:, 2] < 0.5
+    bottom = measures.world_vertices(ob)[:, 2] < 0.5
     assert (w[bottom, 3] == 0).all() and (w[bottom, 0] > 0.5).all()
     assert ob.modifiers.get("Keep") == other_mod and other_mod.type == "SUBSURF"
     assert [m.type for m in ob.modifiers] == ["SUBSURF", "ARMATURE"]  # added last, as Ctrl+P does
@@ -627,15 +627,15 @@ def test_multiple_meshes_with_own_transforms_world_space():
     wa, wb = B.weights_matrix(a, NAMES), B.weights_matrix(b, NAMES)
     heads, tails = B.bone_segments_world(arm, NAMES)
     for ob, w in ((a, wa), (b, wb)):
-        verts = B.world_vertices(ob)
+        verts = measures.world_vertices(ob)
         d = B.segment_distances(verts, heads, tails)
         order = np.sort(d, axis=1)
         clear = order[:, 1] - order[:, 0] > 0.2
         assert (w[clear].argmax(1) == d[clear].argmin(1)).all(), ob.name
         np.testing.assert_allclose(w.sum(1), 1, atol=1e-5)
     # same world shape -> the same weights for vertices at the same world height on the axis ring
-    za = B.world_vertices(a)[:, 2]
-    zb = B.world_vertices(b)[:, 2]
+    za = measures.world_vertices(a)[:, 2]
+    zb = measures.world_vertices(b)[:, 2]
     ia, ib = np.argmin(np.abs(za - 3.0)), np.argmin(np.abs(zb - 3.0))
     np.testing.assert_allclose(wa[ia], wb[ib], atol=1e-3)
 
@@ -678,23 +678,17 @@ def test_undo_restores_previous_groups_exactly():
     ob.vertex_groups.new(name="Extra").add([7], 0.25, "REPLACE")
     B.select_for_parenting([ob], arm)
     bpy.ops.ed.undo_push(message="scene built")
-    before = _group_state(ob)
+    before = measures.group_state(ob)
     # As from a menu: the operator's UNDO flag pushes its step (undo=True, like the UI does).
     assert bpy.ops.object.miniskeleton_auto_weights("EXEC_DEFAULT", True, method="HEAT") == {"FINISHED"}
-    after = _group_state(bpy.data.objects["Cylinder"])
+    after = measures.group_state(bpy.data.objects["Cylinder"])
     assert after != before
     bpy.ops.ed.undo()
     ob = bpy.data.objects["Cylinder"]
-    assert _group_state(ob) == before
+    assert measures.group_state(ob) == before
     assert not any(m.type == "ARMATURE" for m in ob.modifiers) and ob.parent is None
     bpy.ops.ed.redo()
-    assert _group_state(bpy.data.objects["Cylinder"]) == after
-
-
-def _group_state(ob):
-    names = {g.index: g.name for g in ob.vertex_groups}
-    return (sorted(names.values()),
-            sorted((v.index, names[g.group], round(g.weight, 6)) for v in ob.data.vertices for g in v.groups))
+    assert measures.group_state(bpy.data.objects["Cylinder"]) == after
 
 
 # ---------------------------------------------------------------- bad input
@@ -803,7 +797,7 @@ def test_a_character_far_from_the_world_origin_is_weighted_as_at_the_origin(meth
         ob.vertex_groups.remove(g)
     arm.location = (1e6, -5e5, 2e5)
     bpy.context.view_layer.update()
-    assert B.world_vertices(ob)[:, 0].min() > 9e5
+    assert measures.world_vertices(ob)[:, 0].min() > 9e5
     assert bind([ob], arm, method=method) == {"FINISHED"}
     np.testing.assert_allclose(B.weights_matrix(ob, names), want, atol=1e-5)
 
@@ -994,7 +988,7 @@ def test_weight_paint_assigns_the_selected_bones_and_leaves_hidden_ones_out(capf
     common_meshes = importlib.import_module("bl_ext.user_default.miniskeleton.common.meshes")
     bones = common_armatures.armature_bones(arm)
     seen = [0, 1, 3]  # Bone2 is hidden: no heat source
-    i, w = core.heat_weights(B.world_vertices(ob), common_meshes.mesh_triangles(ob),
+    i, w = core.heat_weights(measures.world_vertices(ob), common_meshes.mesh_triangles(ob),
                              bones.heads[seen], bones.tails[seen])
     np.testing.assert_allclose(after[:, 1], B.dense_weights(i, w, 3)[:, 1], atol=1e-6)
     z = np.array([v.co.z for v in ob.data.vertices])
@@ -1021,7 +1015,7 @@ def test_weight_paint_assigns_the_selected_bones_and_leaves_hidden_ones_out(capf
     # In Object Mode (Ctrl+P), as in Blender, hiding and selection change nothing.
     bind([ob], arm, method="HEAT")
     np.testing.assert_allclose(B.weights_matrix(ob, NAMES), B.dense_weights(
-        *core.heat_weights(B.world_vertices(ob), common_meshes.mesh_triangles(ob), bones.heads, bones.tails), 4),
+        *core.heat_weights(measures.world_vertices(ob), common_meshes.mesh_triangles(ob), bones.heads, bones.tails), 4),
         atol=1e-6)
 
 
@@ -1184,13 +1178,6 @@ def test_invoke_without_a_window_runs_directly():
 # ---------------------------------------------------------------- the modal loop (Esc to cancel)
 
 
-class Event:
-    """What a window's event loop hands an operator's ``modal``: only its type is read."""
-
-    def __init__(self, type):
-        self.type = type
-
-
 @pytest.fixture
 def driven(monkeypatch):
     """Auto Weights as the UI runs it on a large mesh, with the window's part played by the
@@ -1215,38 +1202,18 @@ def driven(monkeypatch):
     return test
 
 
-def _large_cylinder():
-    """A mesh big enough for the UI to compute it on the worker thread (BACKGROUND_VERTICES)."""
-    compute = importlib.import_module("bl_ext.user_default.miniskeleton.weights.compute")
-    ob = B.cylinder(rings=400, segments=128)
-    assert len(ob.data.vertices) >= compute.BACKGROUND_VERTICES
-    return ob
-
-
-def _tick(op, context, seen, ob):
-    """One timer tick: ``modal``'s answer, with the job's progress and the mesh's groups then."""
-    answer = op.modal(context, Event("TIMER"))
-    seen["ticks"].append((op._job.fraction, len(ob.vertex_groups), answer))
-    return answer
-
-
-def _scene_state(ob):
-    return (_group_state(ob), [(m.type, m.name) for m in ob.modifiers], ob.parent,
-            [tuple(r) for r in ob.matrix_world], B.world_vertices(ob).tobytes())
-
-
 def test_modal_run_shows_progress_and_writes_the_weights_when_done(driven, monkeypatch, capfd):
     """Timer ticks while the worker computes: the progress only grows, with values between 0
     and 1; other events (a click, a key) are swallowed while the meshes must not change; and
     nothing is written until the tick that finds the job done writes every group, the modifier
     and the parent, as a blocking run does."""
-    ob, arm = _large_cylinder(), B.chain()
+    ob, arm = modal.large_cylinder(), B.chain()
     seen = {"ticks": [], "other": []}
 
     def run_to_the_end(op, context):
         while True:
-            seen["other"].append(op.modal(context, Event("LEFTMOUSE")))
-            answer = _tick(op, context, seen, ob)
+            seen["other"].append(op.modal(context, modal.Event("LEFTMOUSE")))
+            answer = modal.tick(op, context, seen, ob)
             if answer != {"RUNNING_MODAL"}:
                 return answer
             time.sleep(0.002)
@@ -1273,34 +1240,23 @@ def test_modal_run_shows_progress_and_writes_the_weights_when_done(driven, monke
     np.testing.assert_allclose(B.weights_matrix(blocking, NAMES), w, atol=1e-6)
 
 
-def _half_weighted_cylinder():
-    """The large mesh with a foreign group and an old 'Bone1' group (a run would replace it)
-    carrying weights, and a modifier of its own: a cancelled run must keep all of them."""
-    ob = _large_cylinder()
-    keep, old = ob.vertex_groups.new(name="Keep"), ob.vertex_groups.new(name="Bone1")
-    keep.add(list(range(0, 5000, 7)), 0.25, "REPLACE")
-    old.add(list(range(100, 900)), 0.5, "REPLACE")
-    ob.modifiers.new("Smooth", "SMOOTH")
-    return ob
-
-
 def test_esc_stops_the_modal_run_and_leaves_the_scene_as_it_was(driven, capfd):
     """Esc while the worker is half way: ``modal`` tells the job to stop and keeps running
     until the job has stopped (at its next progress tick), then cancels with a warning; the
     mesh keeps its groups, weights, modifiers and place, and the armature gets no child."""
-    ob, arm = _half_weighted_cylinder(), B.chain()
+    ob, arm = modal.half_weighted_cylinder(), B.chain()
     B.select_for_parenting([ob], arm)
-    before = _scene_state(ob)
+    before = measures.scene_state(ob)
     seen = {"ticks": []}
 
     def press_esc_half_way(op, context):
         while not 0.0 < op._job.fraction < 1.0:
-            assert _tick(op, context, seen, ob) == {"RUNNING_MODAL"}, "done before Esc could be pressed"
+            assert modal.tick(op, context, seen, ob) == {"RUNNING_MODAL"}, "done before Esc could be pressed"
             time.sleep(0.001)
         seen["esc at"] = op._job.fraction
-        seen["esc"] = op.modal(context, Event("ESC"))
+        seen["esc"] = op.modal(context, modal.Event("ESC"))
         while True:
-            answer = _tick(op, context, seen, ob)
+            answer = modal.tick(op, context, seen, ob)
             if answer != {"RUNNING_MODAL"}:
                 seen["job"] = op._job
                 return answer
@@ -1313,7 +1269,7 @@ def test_esc_stops_the_modal_run_and_leaves_the_scene_as_it_was(driven, capfd):
     job = seen["job"]
     assert job.cancelled and job.result is None and job.error is None and job.fraction < 1.0
     assert "Auto Weights cancelled; nothing was changed" in capfd.readouterr().out
-    assert _scene_state(ob) == before
+    assert measures.scene_state(ob) == before
     assert [g.name for g in ob.vertex_groups] == ["Keep", "Bone1"] and [m.type for m in ob.modifiers] == ["SMOOTH"]
     assert not arm.children
 
@@ -1322,14 +1278,14 @@ def test_blender_ending_the_modal_run_stops_the_worker_and_writes_nothing(driven
     """Blender ends a modal operator itself when another file is opened or the window closes,
     by calling its ``cancel``: the worker stops at its next progress tick and nothing is
     written."""
-    ob, arm = _half_weighted_cylinder(), B.chain()
+    ob, arm = modal.half_weighted_cylinder(), B.chain()
     B.select_for_parenting([ob], arm)
-    before = _scene_state(ob)
+    before = measures.scene_state(ob)
     seen = {"ticks": []}
 
     def cancelled_by_blender(op, context):
         while not 0.0 < op._job.fraction < 1.0:
-            assert _tick(op, context, seen, ob) == {"RUNNING_MODAL"}, "done before Blender could end it"
+            assert modal.tick(op, context, seen, ob) == {"RUNNING_MODAL"}, "done before Blender could end it"
             time.sleep(0.001)
         op.cancel(context)
         seen["job"] = op._job
@@ -1339,4 +1295,4 @@ def test_blender_ending_the_modal_run_stops_the_worker_and_writes_nothing(driven
     assert bpy.ops.object.miniskeleton_auto_weights() == {"CANCELLED"}
     job = seen["job"]
     assert job.wait(60) and job.cancelled and job.result is None and job.error is None
-    assert _scene_state(ob) == before and not arm.children
+    assert measures.scene_state(ob) == before and not arm.children

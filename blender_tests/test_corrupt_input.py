@@ -16,7 +16,7 @@ import bpy
 import numpy as np
 import pytest
 
-import builders
+from testkit import builders
 
 def _refusal(call) -> str | None:
     """None when ``call`` (an operator) finished, else its error report. A Python exception in

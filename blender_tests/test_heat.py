@@ -4,7 +4,8 @@ import bpy
 import numpy as np
 import pytest
 
-import builders as B
+from testkit import builders as B
+from testkit import measures
 
 NAMES = [f"Bone{i}" for i in range(4)]
 
@@ -275,7 +276,7 @@ def test_a_coat_joined_into_the_body_follows_the_body_beneath_it():
     body's beneath by 1.36 (L1, of 2 at most; Blender's Ctrl+P: 1.30). Now the coat looks
     through itself for the bones it holds, as it would alone."""
     import bmesh
-    import creature
+    from testkit import creature
 
     body, arm = creature.build()
     names = [b.name for b in arm.data.bones if b.use_deform]
@@ -320,7 +321,7 @@ def imported_style_rig(connected):
 def test_bone_extent_auto_reaches_children_on_imported_rigs_only():
     names = ["Bone0", "Bone1", "Bone2"]
     ob, arm = imported_style_rig(connected=False)
-    z = B.world_vertices(ob)[:, 2]
+    z = measures.world_vertices(ob)[:, 2]
     mid = (z > 0.6) & (z < 1.0)  # between Bone0's head and its child's
     assert bind([ob], arm) == {"FINISHED"}  # Auto on a rig with nothing connected: To Children
     auto = B.weights_matrix(ob, names)
@@ -332,7 +333,7 @@ def test_bone_extent_auto_reaches_children_on_imported_rigs_only():
     # A rig built in Blender (something connected): Auto is head -> tail, as in Blender, even
     # where a child starts away from its parent's tail (Bone1 -> Bone2).
     ob2, arm2 = imported_style_rig(connected=True)
-    z2 = B.world_vertices(ob2)[:, 2]
+    z2 = measures.world_vertices(ob2)[:, 2]
     mid2 = (z2 > 1.8) & (z2 < 2.2)  # between Bone1's head and Bone2's
     assert bind([ob2], arm2) == {"FINISHED"}
     auto2 = B.weights_matrix(ob2, names)
@@ -370,12 +371,12 @@ def test_a_character_split_into_objects_is_weighted_as_one_surface(axis):
     to 1.26: a crack when posed), and every vertex gets the weights of the unsplit creature.
     A third object, a 2 % wider copy around the whole creature (a garment) sharing no vertex,
     is weighted on its own: had it joined the others, its shell would hide their bones."""
-    import creature
+    from testkit import creature
 
     body, arm = creature.build()
     names = [b.name for b in arm.data.bones if b.use_deform]
     assert bind([body], arm) == {"FINISHED"}
-    co = B.world_vertices(body)
+    co = measures.world_vertices(body)
     whole = {tuple(np.round(p, 5)): w for p, w in zip(co, B.weights_matrix(body, names))}
     cut = float(np.median(co[:, axis]))
     parts = split_in_two(body, axis, cut)
@@ -391,7 +392,7 @@ def test_a_character_split_into_objects_is_weighted_as_one_surface(axis):
     assert bind(parts + [sleeve], arm) == {"FINISHED"}
     seen = {}
     for p in parts:
-        for q, w in zip(B.world_vertices(p), B.weights_matrix(p, names)):
+        for q, w in zip(measures.world_vertices(p), B.weights_matrix(p, names)):
             key = tuple(np.round(q, 5))
             assert np.abs(w - whole[key]).max() < 1e-4, (p.name, q)
             if key in seen:

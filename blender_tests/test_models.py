@@ -1,32 +1,26 @@
 """Real rigged models from ../shared/models/ (skipped, and reported as skipped, when the folder
 or a file is absent; never copied here): Auto Weights (Heat) leaves no vertex unweighted, and
 Fit Skeleton does no harm to a displaced skeleton (no group of joints ends farther, none ends
-outside; also on the creature and the rigs of scripts/rig_corpus.py); the unrigged scans (cow,
-horse) get a rough skeleton that is fitted and bound. The quality and fitting *scores* are
-measured by bench/eval_weights.py and bench/bench_fit.py, whose scene helpers these tests
-reuse."""
+outside; also on the creature and the rigs of testkit.rig_corpus); the unrigged scans (cow,
+horse) are auto-rigged and bound. The quality and fitting *scores* are measured by
+testkit.eval_weights and testkit.eval_fit, whose scene helpers these tests reuse."""
 
 import importlib
-import sys
-from pathlib import Path
 
 import bpy
 import numpy as np
 import pytest
 
-import blender_session
-import builders as B
+from testkit import MODELS_DIR, blender_session
+from testkit import builders as B
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "bench"))
-import bench_fit  # noqa: E402
-import eval_weights  # noqa: E402
-import scan_rig  # noqa: E402
+from testkit import eval_fit
+from testkit import eval_weights, measures, rig_corpus
 
-MODELS = eval_weights.MODELS_DIR
 
 
 def need(name):
-    path = MODELS / name
+    path = MODELS_DIR / name
     if not path.exists():
         pytest.skip(f"{path} not present")
     return path
@@ -67,22 +61,22 @@ def test_fox_snout_follows_the_head():
     assert (ours[snout].argmax(axis=1) == head).mean() > 0.9
 
 
-@pytest.mark.parametrize("name", ["creature"] + bench_fit.RIGGED + bench_fit.CORPUS)
+@pytest.mark.parametrize("name", ["creature"] + eval_fit.RIGGED + eval_fit.CORPUS)
 def test_fit_does_no_harm(name):
-    """bench_fit.py's do-no-harm table: from every joint displaced within 5 % of the diagonal
+    """testkit.eval_fit's do-no-harm table: from every joint displaced within 5 % of the diagonal
     (the bench's 10 seeds), no group of joints (limbs, junctions, spine, ends) ends farther from
     the artist's joints on average than it started, no joint that started inside the mesh ends
     outside, the whole skeleton ends nearer, and joints outside within reach come back in (only
     the artist's own joints far outside, a root on the ground, stay out). The creature and the
-    rigs of scripts/rig_corpus.py are built here; the shared models skip when absent."""
+    rigs of testkit/rig_corpus.py are built here; the shared models skip when absent."""
     if "." in name:
         need(name)
     import miniskeleton_core as core
 
-    r = bench_fit.run(bpy, name, 10, core, tails="AUTO", symmetry="NONE")
+    r = eval_fit.run(bpy, name, 10, core, tails="AUTO", symmetry="NONE")
     assert r is not None, name
     for group, (n, before, after) in r["groups"].items():
-        assert not bench_fit.worse(before, after), f"{name} {group} ({n}): {before:.2f} -> {after:.2f} %"
+        assert not eval_fit.worse(before, after), f"{name} {group} ({n}): {before:.2f} -> {after:.2f} %"
     assert r["in_to_out"] == 0, r["in_to_out"]
     assert r["after"] < r["before"], r
     assert r["out_after"] <= r["out_orig"], r  # at most the artist's own joints far outside stay out
@@ -91,12 +85,12 @@ def test_fit_does_no_harm(name):
 def fit_artist_rig(name):
     """Fit the model's own, undisplaced skeleton: (armature, bone names, joint ends (b, 2), how
     far each joint moved as a fraction of the diagonal)."""
-    arm, meshes = bench_fit.load(bpy, name)
-    _, _, diag = bench_fit.armature_space_mesh(arm, meshes)  # edit bones' space
-    orig, ends = bench_fit.read_joints(bpy, arm, diag)
+    arm, meshes = eval_fit.load(bpy, name)
+    _, _, diag = eval_fit.armature_space_mesh(arm, meshes)  # edit bones' space
+    orig, ends = eval_fit.read_joints(bpy, arm, diag)
     names = [b.name for b in arm.data.bones]
-    assert bench_fit.fit(bpy, arm, meshes, tails="AUTO", symmetry="NONE")[0]
-    moved = np.linalg.norm(bench_fit.joints_now(bpy, arm, ends) - orig, axis=1) / diag
+    assert eval_fit.fit(bpy, arm, meshes, tails="AUTO", symmetry="NONE")[0]
+    moved = np.linalg.norm(eval_fit.joints_now(bpy, arm, ends) - orig, axis=1) / diag
     return arm, names, ends, moved
 
 
@@ -133,47 +127,38 @@ def test_fit_leaves_the_robots_knees_where_the_artist_put_them_and_it_still_walk
     assert sorted(rig.names[leg["bones"][0]] for leg in roles["legs"]) == ["UpperLeg.L", "UpperLeg.R"]
 
 
-@pytest.mark.parametrize("name", scan_rig.SCANS)
-def test_rough_rig_on_unrigged_scans_fits_inside_and_binds_each_hoof_to_its_leg(name):
-    """The scans (the horse is 0.2 units across, 97k triangles) with the rough quadruped a
-    rigger blocks in (scan_rig: joints at fixed fractions of the height, some outside) and Max
-    Move 15 %: Fit puts every joint inside, then Heat weights every vertex and each hoof goes to its own shin. The
-    fitted rig walks as a quadruped, front and back pairs by name: the horse stands in mid-stride,
-    its rough hips over its feet, and was a "multiped" with a front-right "middle" leg."""
-    path = need(name)
+@pytest.mark.parametrize("name", ["autorig_cow", "autorig_horse"])
+def test_auto_rig_on_unrigged_scans_walks_as_a_quadruped_with_each_hoof_on_its_leg(name):
+    """The scans (the horse is 0.2 units across, 97k triangles) auto-rigged and bound as a user
+    does it (``rig_corpus.auto_rigged``): every vertex weighted, the rig read as a quadruped with
+    a front and a back pair, and each hoof (the vertices in the lowest 3 % of the height nearest
+    that leg's end) weighted wholly to its own leg's bones."""
+    need(rig_corpus.AUTORIG[name].name)
     common_armatures = importlib.import_module(blender_session.ADDON_MODULE + ".common.armatures")
-    common_meshes = importlib.import_module(blender_session.ADDON_MODULE + ".common.meshes")
     import miniskeleton_core as core
 
-    ob = scan_rig.load_scan(bpy, path)
-    verts = common_meshes.mesh_world_vertices(ob)
-    tris = common_meshes.mesh_triangles(ob).astype(np.uint32)
-    arm, foot_of = scan_rig.armature(bpy, verts)
-
-    def joints():
-        return np.array([p for b in arm.data.bones for p in (b.head_local, b.tail_local)], dtype=np.float32)
-
-    assert not core.points_inside(verts, tris, joints()).all()  # the rough rig sticks out ...
-    # ... farther than 5 % of the diagonal (the horse's head tip), where Fit keeps a joint in place
-    # as an artist's root on the ground: a rig this rough needs a Max Move to match.
-    assert bench_fit.fit(bpy, arm, [ob], tails="AUTO", symmetry="NONE", max_move=15.0)[0]
-    assert core.points_inside(verts, tris, joints()).all()  # ... the fitted one does not
-    bones = [b.name for b in arm.data.bones]
-    assert eval_weights.bind(bpy, arm, [ob], "HEAT")[1] == {"FINISHED"}
+    rig = rig_corpus.auto_rigged(name)
+    arm, (ob,) = rig.arm, rig.meshes
+    bones = eval_weights.deform_bones(arm)
     w = eval_weights.read_weights(ob, bones)
     assert (w.max(axis=1) > 0).all()
     np.testing.assert_allclose(w.sum(axis=1), 1.0, atol=1e-4)
-    for k, leg in enumerate(scan_rig.LEGS):
-        hoof = foot_of == k
-        assert hoof.sum() > 20, (leg, hoof.sum())
-        shin = w[hoof, bones.index(f"shin.{leg}")]
-        assert shin.min() > 0.9, f"{leg}: hoof vertices' shin weight {shin.min():.3f} .. {shin.max():.3f}"
-    rig = common_armatures.armature_bones(arm)
-    roles = core.detect_roles(rig.heads, rig.tails, rig.parents, names=rig.names)
+    skeleton = common_armatures.armature_bones(arm)
+    roles = core.detect_roles(skeleton.heads, skeleton.tails, skeleton.parents, names=skeleton.names)
     assert roles["plan"] == "quadruped", roles["plan"]
-    legs = {(leg["group"], leg["side"]): rig.names[leg["bones"][0]] for leg in roles["legs"]}
-    assert legs == {(0, "L"): "thigh.front.L", (0, "R"): "thigh.front.R", (1, "L"): "thigh.back.L",
-                    (1, "R"): "thigh.back.R"}, legs
+    assert sorted((leg["group"], leg["side"]) for leg in roles["legs"]) == [(0, "L"), (0, "R"), (1, "L"), (1, "R")]
+    verts = measures.world_vertices(ob)
+    m = np.array(arm.matrix_world)
+    ends = np.array([arm.data.bones[skeleton.names[leg["bones"][-1]]].tail_local for leg in roles["legs"]])
+    ends = ends @ m[:3, :3].T + m[:3, 3]
+    low = verts[:, 2] < verts[:, 2].min() + 0.03 * np.ptp(verts[:, 2])
+    nearest = np.linalg.norm(verts[:, None, :2] - ends[None, :, :2], axis=-1).argmin(axis=1)
+    for k, leg in enumerate(roles["legs"]):
+        hoof = low & (nearest == k)
+        assert hoof.sum() >= 5, (leg["side"], hoof.sum())
+        own = [bones.index(skeleton.names[b]) for b in leg["bones"] if skeleton.names[b] in bones]
+        share = w[np.ix_(hoof, own)].sum(axis=1)
+        assert share.min() > 0.9, f"{leg['group']}{leg['side']}: own leg's weight {share.min():.3f}"
 
 
 @pytest.mark.parametrize("name", ["RobotExpressive.glb", "q_Bunny.glb"])
@@ -214,7 +199,7 @@ def test_fox_runs_without_a_paw_sinking_into_the_ground():
     for pb in arm.pose.bones:
         pb.matrix_basis.identity()
     bpy.context.view_layer.update()
-    rest = np.concatenate([eval_weights.evaluated_world(bpy, ob) for ob in skinned])
+    rest = np.concatenate([measures.evaluated_world_vertices(ob) for ob in skinned])
     height = float(np.ptp(rest[:, 2]))
     B.set_active(arm)
     assert bpy.ops.pose.miniskeleton_add_motion(motion="RUN", cycles=1, append=False) == {"FINISHED"}
@@ -222,5 +207,5 @@ def test_fox_runs_without_a_paw_sinking_into_the_ground():
     lowest = []
     for f in range(scene.frame_start, scene.frame_start + 30):
         scene.frame_set(f)
-        lowest.append(min(eval_weights.evaluated_world(bpy, ob)[:, 2].min() for ob in skinned))
+        lowest.append(min(measures.evaluated_world_vertices(ob)[:, 2].min() for ob in skinned))
     assert min(lowest) > rest[:, 2].min() - 0.02 * height, (min(lowest), rest[:, 2].min(), height)

@@ -11,9 +11,9 @@ import numpy as np
 import pytest
 from mathutils import Matrix, Quaternion, Vector
 
-import blender_session
-import builders as B
-import creature
+from testkit import blender_session
+from testkit import builders as B
+from testkit import creature
 
 ADDON = "bl_ext.user_default.miniskeleton"
 

@@ -18,17 +18,14 @@ Rigs whose files are absent (no ../shared) are skipped. Each rig is built once f
 from __future__ import annotations
 
 import math
-import sys
-from pathlib import Path
 
 import bpy
 import pytest
 
-import builders as B
+from testkit import builders as B
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "bench"))
-import motion_corpus as corpus  # noqa: E402
-import rig_corpus  # noqa: E402
+from testkit import motion_corpus as corpus
+from testkit import rig_corpus
 
 
 def _mixamo(side: str) -> tuple[str, str]:

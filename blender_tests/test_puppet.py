@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 from mathutils import Vector
 
-import blender_session
-import builders as B
+from testkit import blender_session
+from testkit import builders as B
 
 R = importlib.import_module("bl_ext.user_default.miniskeleton.puppet.rig")
 L = importlib.import_module("bl_ext.user_default.miniskeleton.puppet.live")

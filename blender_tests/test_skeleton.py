@@ -16,8 +16,9 @@ import numpy as np
 import pytest
 from mathutils import Vector
 
-import builders
-import creature
+from testkit import builders
+from testkit import measures
+from testkit import creature
 
 skeleton_editing = importlib.import_module("bl_ext.user_default.miniskeleton.skeleton.editing")
 skeleton_joints = importlib.import_module("bl_ext.user_default.miniskeleton.skeleton.joints")
@@ -75,7 +76,7 @@ def creature_setup(seed=1, scale=0.05):
     Returns (body, arm, ends, original joints, displaced joints, diagonal)."""
     body, arm = creature.build()
     names, h, t, parents, conn = bone_arrays(arm)
-    verts = builders.world_vertices(body)
+    verts = measures.world_vertices(body)
     diag = float(np.linalg.norm(verts.max(0) - verts.min(0)))
     joints, ends = skeleton_joints.joint_graph(h, t, parents, conn, 1e-6 * diag)
     rng = np.random.default_rng(seed)
@@ -100,7 +101,7 @@ def fit_one_joint(arm, body, bone, end, **op):
 
 
 def mesh_arrays(ob):
-    v = builders.world_vertices(ob).astype(np.float32)
+    v = measures.world_vertices(ob).astype(np.float32)
     ob.data.calc_loop_triangles()
     t = np.array([tuple(lt.vertices) for lt in ob.data.loop_triangles], dtype=np.uint32)
     return v, t
@@ -261,12 +262,12 @@ def test_fit_reads_bone_parented_parts_in_the_rest_pose():
     arm.pose.bones["Bone0"].rotation_mode = "XYZ"
     arm.pose.bones["Bone0"].rotation_euler = Euler((1.5708, 0.0, 0.0))
     bpy.context.view_layer.update()
-    assert np.abs(builders.world_vertices(ob)[:, 1]).max() > 1.0  # it follows the pose: along y
+    assert np.abs(measures.world_vertices(ob)[:, 1]).max() > 1.0  # it follows the pose: along y
 
     def rest_vertices():
         arm.data.pose_position = "REST"
         bpy.context.view_layer.update()
-        v = builders.world_vertices(ob)
+        v = measures.world_vertices(ob)
         arm.data.pose_position = "POSE"
         bpy.context.view_layer.update()
         return v
@@ -304,16 +305,16 @@ def test_fit_and_restore_keep_a_constrained_bone_child_in_place():
     spin = ob.constraints.new("COPY_ROTATION")
     spin.target, spin.mix_mode = turn, "ADD"
     bpy.context.view_layer.update()
-    rest = builders.evaluated_world_vertices(ob)
+    rest = measures.evaluated_world_vertices(ob)
     builders.select_for_parenting([ob], arm)
     assert bpy.ops.armature.miniskeleton_fit_skeleton() == {"FINISHED"}
     bpy.context.view_layer.update()
     assert np.abs(joints_of(arm, ends) - joints)[:, :2].max() < 0.05  # Bone0 moved back in ...
-    np.testing.assert_allclose(builders.evaluated_world_vertices(ob), rest, atol=1e-5)  # ... the body did not
+    np.testing.assert_allclose(measures.evaluated_world_vertices(ob), rest, atol=1e-5)  # ... the body did not
     builders.set_active(arm)
     assert bpy.ops.armature.miniskeleton_restore_skeleton() == {"FINISHED"}
     bpy.context.view_layer.update()
-    np.testing.assert_allclose(builders.evaluated_world_vertices(ob), rest, atol=1e-5)
+    np.testing.assert_allclose(measures.evaluated_world_vertices(ob), rest, atol=1e-5)
     assert not spin.mute and ob.parent_type == "BONE"
 
 
@@ -1057,7 +1058,7 @@ def test_glb_round_trip(tmp_path):
     ob, arm = bound_cylinder("HEAT")
     names = [b.name for b in arm.data.bones]
     w0 = builders.weights_matrix(ob, names)
-    v0 = builders.world_vertices(ob)
+    v0 = measures.world_vertices(ob)
     heads0 = {b.name: np.array(arm.matrix_world @ b.head_local) for b in arm.data.bones}
     parents0 = {b.name: b.parent.name if b.parent else None for b in arm.data.bones}
     path = str(tmp_path / "rig.glb")
@@ -1072,7 +1073,7 @@ def test_glb_round_trip(tmp_path):
         assert np.allclose(np.array(arm2.matrix_world @ b.head_local), heads0[b.name], atol=1e-5), b.name
         assert (b.parent.name if b.parent else None) == parents0[b.name]
     w1 = builders.weights_matrix(ob2, names)
-    v1 = builders.world_vertices(ob2)
+    v1 = measures.world_vertices(ob2)
     d = np.linalg.norm(v1[:, None, :] - v0[None, :, :], axis=2)
     nearest = d.argmin(axis=1)
     assert d.min(axis=1).max() < 1e-5
@@ -1101,9 +1102,9 @@ def test_rust_lbs_matches_armature_modifier():
     mw = arm.matrix_world
     mats = np.array([np.array(mw @ arm.pose.bones[n].matrix @ arm.data.bones[n].matrix_local.inverted()
                               @ mw.inverted()) for n in names], dtype=np.float32)
-    rest = builders.world_vertices(ob).astype(np.float32)
+    rest = measures.world_vertices(ob).astype(np.float32)
     ours = core.lbs(rest, idx, ww.astype(np.float32), mats)
-    blender = builders.evaluated_world_vertices(ob)
+    blender = measures.evaluated_world_vertices(ob)
     diag = np.linalg.norm(rest.max(0) - rest.min(0))
     assert np.abs(ours - blender).max() <= 1e-5 * diag
 

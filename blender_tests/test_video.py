@@ -12,8 +12,9 @@ import numpy as np
 import pytest
 from mathutils import Vector
 
-import builders as B
-import creature
+from testkit import builders as B
+from testkit import measures
+from testkit import creature
 
 
 def walker(cycles=1):
@@ -186,7 +187,7 @@ def test_the_character_stands_apart_from_the_floor_with_its_shadow_at_its_feet(t
     def seen(f):
         """The character's pixels at frame ``f``, and the pixel of its lowest point (a foot)."""
         scene.frame_set(f)
-        verts = B.evaluated_world_vertices(body)
+        verts = measures.evaluated_world_vertices(body)
         uv = pixels_of(scene, cam, verts, size)
         return silhouette(uv, tris, size), uv[np.argmin(verts[:, 2])]
 
@@ -251,7 +252,7 @@ def test_the_set_is_laid_for_the_render_only_unless_off_or_the_scene_has_a_groun
                                                       floor=False) == {"FINISHED"}
         assert seen == [([body.name], engine == "WORKBENCH")] * 2, seen
         seen.clear()
-        lowest = B.evaluated_world_vertices(body)[:, 2].min()
+        lowest = measures.evaluated_world_vertices(body)[:, 2].min()
         bpy.ops.mesh.primitive_plane_add(size=50.0, location=(0.0, 0.0, lowest))
         ground = bpy.context.active_object
         assert bpy.ops.render.miniskeleton_make_video(filepath=str(tmp_path / "ground.mp4"), resolution_x=32,

@@ -8,8 +8,9 @@ import bpy
 import numpy as np
 import pytest
 
-import builders as B
-from test_auto_weights import NAMES, Event, _half_weighted_cylinder, _scene_state, _tick
+from testkit import builders as B
+from testkit import measures, modal
+from testkit.builders import CHAIN_NAMES as NAMES
 
 operators = importlib.import_module("bl_ext.user_default.miniskeleton.weights.operators")
 
@@ -67,7 +68,7 @@ def test_a_character_in_many_pieces_binds_without_repair():
         assert (w[name].argmax(1) == 3).all() and w[name][:, 3].min() > 0.9, name
     assert (w["Boxes"].argmax(1) == 0).mean() > 0.9
     # The sleeve's weights are the body's at the same height (within the blend of a joint).
-    sv, bv = B.world_vertices(sleeve), B.world_vertices(body)
+    sv, bv = measures.world_vertices(sleeve), measures.world_vertices(body)
     nearest = np.abs(sv[:, 2][:, None] - bv[:, 2][None, :]).argmin(1)
     assert np.abs(w["Sleeve"] - w["Body"][nearest]).sum(1).mean() < 0.2
     for ob in meshes:
@@ -82,7 +83,7 @@ def test_voxel_options_reach_the_core():
     common_meshes = importlib.import_module("bl_ext.user_default.miniskeleton.common.meshes")
     ob, arm = B.cylinder(), B.chain(count=4)
     heads, tails = B.bone_segments_world(arm, NAMES)
-    v, t = B.world_vertices(ob), common_meshes.mesh_triangles(ob)
+    v, t = measures.world_vertices(ob), common_meshes.mesh_triangles(ob)
     assert B.select_for_parenting([ob], arm) is None
     assert bpy.ops.object.miniskeleton_auto_weights(method="VOXEL", resolution=24, voxel_falloff=0.3) == {"FINISHED"}
     got = B.weights_matrix(ob, NAMES)
@@ -101,24 +102,24 @@ def test_esc_stops_a_voxel_run_and_leaves_the_scene_as_it_was(monkeypatch, capfd
         prepared = self._prepare(context)
         self._start_job(context, core, prepared)
         while not 0.0 < self._job.fraction < 1.0:
-            assert _tick(self, context, seen, ob) == {"RUNNING_MODAL"}, "done before Esc could be pressed"
+            assert modal.tick(self, context, seen, ob) == {"RUNNING_MODAL"}, "done before Esc could be pressed"
             time.sleep(0.001)
-        self.modal(context, Event("ESC"))
+        self.modal(context, modal.Event("ESC"))
         while True:
-            answer = _tick(self, context, seen, ob)
+            answer = modal.tick(self, context, seen, ob)
             if answer != {"RUNNING_MODAL"}:
                 seen["job"] = self._job
                 return answer
             time.sleep(0.002)
 
     monkeypatch.setattr(operators.MINISKELETON_OT_auto_weights, "execute", execute)
-    ob, arm = _half_weighted_cylinder(), B.chain()
+    ob, arm = modal.half_weighted_cylinder(), B.chain()
     B.select_for_parenting([ob], arm)
-    before = _scene_state(ob)
+    before = measures.scene_state(ob)
     seen = {"ticks": []}
     assert bpy.ops.object.miniskeleton_auto_weights(method="VOXEL") == {"CANCELLED"}
     assert seen["job"].cancelled and "cancelled; nothing was changed" in capfd.readouterr().out
-    assert _scene_state(ob) == before and not arm.children
+    assert measures.scene_state(ob) == before and not arm.children
 
 
 # ---------------------------------------------------------------- Transfer Weights
@@ -147,7 +148,7 @@ def test_a_sleeve_takes_the_bodys_weights_where_it_lies_on_it(capfd):
     assert "took the body's weights" in capfd.readouterr().out
     ws, wb = B.weights_matrix(sleeve, NAMES), B.weights_matrix(body, NAMES)
     np.testing.assert_allclose(ws.sum(1), 1.0, atol=1e-5)
-    sv, bv = B.world_vertices(sleeve), B.world_vertices(body)
+    sv, bv = measures.world_vertices(sleeve), measures.world_vertices(body)
     nearest = np.linalg.norm(sv[:, None] - bv[None], axis=2).argmin(1)
     assert np.abs(ws - wb[nearest]).sum(1).mean() < 0.1
     assert sleeve.parent == arm and [m.type for m in sleeve.modifiers] == ["ARMATURE"]
@@ -201,7 +202,7 @@ def test_transfer_refuses_an_unweighted_body_and_nothing_selected(capfd):
 def test_transfer_does_not_depend_on_the_scale():
     """Max Distance is relative to the body's size: the same garment at any scale (the armature
     and, with it, its child the body scaled, and the garment) gets the same weights."""
-    import blender_session
+    from testkit import blender_session
 
     seen = {}
     for scale in (1.0, 1e-3, 1e3):

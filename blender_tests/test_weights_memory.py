@@ -7,7 +7,7 @@ import re
 import bpy
 import pytest
 
-import builders as B
+from testkit import builders as B
 
 import miniskeleton_core as core
 

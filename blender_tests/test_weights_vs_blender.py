@@ -4,19 +4,17 @@ and deforms no worse than Blender's own bone heat (Ctrl+P > With Automatic Weigh
 artist's weights, all bound in the same run and posed with the same frames of the model's own
 clips.
 
-The measure is ``bench/eval_weights.py``'s deform error (mean distance to the artist-weighted
+The measure is ``testkit/eval_weights.py``'s deform error (mean distance to the artist-weighted
 mesh, % of the bounding-box diagonal), on fewer frames to stay quick; the full table is that
 script's. A change that makes any model worse than Blender's fails here."""
 
-import sys
 from pathlib import Path
 from types import SimpleNamespace
 
 import bpy
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "bench"))
-import eval_weights  # noqa: E402
+from testkit import eval_weights
 
 # The table's 3 clips, 6 frames each instead of 20: quick, and the same side wins on every model.
 ARGS = SimpleNamespace(clips=3, frames=6, actions="", no_blender=False)

@@ -3,7 +3,7 @@ Auto Rig it (a Rigify-named skeleton found in the mesh, bound with Auto Weights 
 render a PNG with Workbench and save the .blend; then key a head shake, a walk and a run on it,
 render them to an MP4 and save the .blend again. No joint is placed by hand.
 
-    python scripts/demo.py --out out [--model path/to/model.glb]
+    python -m scripts.demo --out out [--model path/to/model.glb]
 
 Any mesh goes the same way (OBJ, PLY, GLB/glTF, FBX; +Z up, standing on its feet, such as
 ../shared/models/cow.obj or horse.ply): Auto Rig finds its skeleton. A model that comes with an
@@ -18,12 +18,10 @@ from __future__ import annotations
 
 import argparse
 import math
-import sys
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-import blender_session  # noqa: E402
+from testkit import blender_session
 
 
 SPOT = Path(__file__).resolve().parents[1] / "assets" / "spot" / "spot.glb"
@@ -236,7 +234,7 @@ def main(argv=None):
     ap.add_argument("--puppet", help="shadow-play clip instead: five-rod, three-rod, prop, strip, quadruped")
     args = ap.parse_args(argv)
     if args.puppet:
-        import puppet_demo
+        from scripts import puppet_demo
 
         return puppet_demo.main(["--out", str(args.out), "--puppet", args.puppet])
     args.out.mkdir(parents=True, exist_ok=True)

@@ -4,7 +4,7 @@ materials), welded along the glTF's split seams, +Z up, standing on z = 0 where 
 `make demo` rigs it with Auto Rig. Spot is public domain (CC0), by Keenan Crane: see
 assets/spot/LICENSE.txt.
 
-    python scripts/extract_spot.py [--source ../shared/models/spot_rig.glb] [--out assets/spot/spot.glb]
+    python -m scripts.extract_spot [--source ../shared/models/spot_rig.glb] [--out assets/spot/spot.glb]
 
 Needs only Blender's ``bpy`` module (the project's .venv), not the extension.
 """
@@ -14,7 +14,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
+from testkit import MODELS_DIR, ROOT
 
 
 def extract(source: Path, out: Path) -> None:
@@ -64,7 +64,7 @@ def extract(source: Path, out: Path) -> None:
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--source", type=Path, default=ROOT.parent / "shared" / "models" / "spot_rig.glb")
+    ap.add_argument("--source", type=Path, default=MODELS_DIR / "spot_rig.glb")
     ap.add_argument("--out", type=Path, default=ROOT / "assets" / "spot" / "spot.glb")
     args = ap.parse_args(argv)
     extract(args.source, args.out)

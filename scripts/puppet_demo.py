@@ -1,7 +1,7 @@
 """Shadow-play demo, headless: build a puppet, animate its rods, bake the solved pose to keys,
 set up the Shadow Theatre and render a short clip with Workbench.
 
-    python scripts/puppet_demo.py --out out [--puppet five-rod] [--frames 48] [--size 480x360]
+    python -m scripts.puppet_demo --out out [--puppet five-rod] [--frames 48] [--size 480x360]
 
 (`make demo PUPPET=five-rod` runs it through scripts/demo.py.) The five-rod figure walks
 across the screen (neck rod forward with a bob, foot rods stepping) while waving both arms
@@ -14,12 +14,10 @@ from __future__ import annotations
 import argparse
 import importlib
 import math
-import sys
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-import blender_session  # noqa: E402
+from testkit import blender_session
 
 KINDS = {"three-rod": "THREE_ROD", "five-rod": "FIVE_ROD", "prop": "PROP", "strip": "STRIP",
          "quadruped": "QUADRUPED"}

@@ -40,24 +40,24 @@ def quadruped():
 def test_a_quadruped_gets_rigifys_bones(quadruped):
     v, t = quadruped
     rig = msc.auto_rig(v, t)
-    assert rig["template"] == "QUADRUPED" and rig["tail"] is False
-    assert rig["reason"] == "4 legs hold the body up"
-    names = rig["names"]
+    assert rig.template == "QUADRUPED" and rig.tail is False
+    assert rig.reason == "4 legs hold the body up"
+    names = rig.names
     k = len(names)
-    assert rig["heads"].shape == (k, 3) and rig["heads"].dtype == np.float32
-    assert rig["tails"].shape == (k, 3) and rig["parents"].shape == (k,) and rig["connected"].dtype == np.bool_
+    assert rig.heads.shape == (k, 3) and rig.heads.dtype == np.float32
+    assert rig.tails.shape == (k, 3) and rig.parents.shape == (k,) and rig.connected.dtype == np.bool_
     assert {"spine.004", "spine.011", "thigh.L", "front_toe.R", "shoulder.L"} <= set(names)
-    assert all(p < i for i, p in enumerate(rig["parents"]))
-    assert names[rig["parents"][names.index("front_thigh.L")]] == "shoulder.L"
-    np.testing.assert_allclose(rig["forward"], [1, 0, 0], atol=0.1)
-    np.testing.assert_allclose(rig["left"], [0, 1, 0], atol=0.1)
-    assert rig["heads"][names.index("thigh.L")][1] > 0.05
+    assert all(p < i for i, p in enumerate(rig.parents))
+    assert names[rig.parents[names.index("front_thigh.L")]] == "shoulder.L"
+    np.testing.assert_allclose(rig.forward, [1, 0, 0], atol=0.1)
+    np.testing.assert_allclose(rig.left, [0, 1, 0], atol=0.1)
+    assert rig.heads[names.index("thigh.L")][1] > 0.05
     # The tree the bones follow is returned for display.
-    assert rig["centre_points"].shape[1] == 3 and rig["centre_edges"].max() < len(rig["centre_points"])
+    assert rig.centre_points.shape[1] == 3 and rig.centre_edges.max() < len(rig.centre_points)
     # The facing can be given; the template can be forced.
     back = msc.auto_rig(v, t, forward=[-1, 0, 0])
-    np.testing.assert_allclose(back["forward"], [-1, 0, 0], atol=1e-6)
-    assert msc.auto_rig(v, t, template="BIPED")["template"] == "BIPED"
+    np.testing.assert_allclose(back.forward, [-1, 0, 0], atol=1e-6)
+    assert msc.auto_rig(v, t, template="BIPED").template == "BIPED"
 
 
 def test_bad_input_is_one_value_error(quadruped):
@@ -92,10 +92,10 @@ def test_a_snake_gets_a_chain_from_tail_to_head():
         base += len(v)
     v, t = np.concatenate(verts).astype(np.float32), np.concatenate(tris)
     rig = msc.auto_rig(v, t)
-    assert rig["template"] == "CHAIN" and "no legs" in rig["reason"], rig["reason"]
-    names = rig["names"]
+    assert rig.template == "CHAIN" and "no legs" in rig.reason, rig.reason
+    names = rig.names
     assert not [n for n in names if n.startswith(("thigh", "shin"))]
-    assert rig["tails"][names.index("spine.007")][1] < -1.1  # the head end
-    assert rig["tail"] and rig["tails"][names.index("spine")][1] > 0.9
+    assert rig.tails[names.index("spine.007")][1] < -1.1  # the head end
+    assert rig.tail and rig.tails[names.index("spine")][1] > 0.9
     with pytest.raises(ValueError, match="no wings"):
         msc.auto_rig(v, t, template="WINGED")

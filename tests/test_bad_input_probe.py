@@ -23,7 +23,7 @@ import numpy as np
 import pytest
 
 import miniskeleton_core as msc
-from test_posing_api import biped
+from testkit.skeletons import biped
 
 ODD = [0.0, -1.0, 1e-30, 1e30, np.nan, np.inf, -np.inf, 0.5, 2.0]
 
@@ -419,8 +419,7 @@ def test_odd_options(seed):
             msc.heat_weights, v, t, heads, tails, bone_mirror=np.arange(4), symmetry_axis=axis)
     outcome((OverflowError, "can't convert negative int to unsigned"), msc.heat_weights, v, t, heads, tails,
             bone_mirror=np.arange(4), symmetry_axis=-1)
-    outcome((OverflowError, "can't convert negative int to unsigned"), msc.ik2d_solve, [1.0], (0.5, 0.0),
-            max_iterations=-1)
+    outcome((OverflowError, "can't convert negative int to unsigned"), msc.Ik2dOptions, max_iterations=-1)
     outcome((VE, r"^falloff must be 'gaussian' or 'inverse_power', got \"cubic\"$"), msc.bilinear_weights,
             v, heads, tails, parents, falloff="cubic")
     for rays, samples in [(2, 5), (3, 5), (12, 0), (12, 1)]:
@@ -439,17 +438,25 @@ def test_odd_options(seed):
     lengths = [1.0, 0.8, 0.5]
     reach = sum(lengths)
 
+    def ik_solve(lengths, target, *, base_angle=0.0, limits=None, **options):
+        """ik2d_solve as the add-on calls it: a chain and options built here, then solved."""
+        chain = msc.Chain2d(lengths, base_angle=base_angle, limits=limits)
+        return msc.ik2d_solve(chain, target, msc.Ik2dOptions(**options))
+
+    def ik_solve_multi(lengths, effectors, **options):
+        return msc.ik2d_solve_multi(msc.Chain2d(lengths), effectors, msc.Ik2dOptions(**options))
+
     def solved(limits=None, tolerance=None, target=None):
         def check(out):
-            angles, report = out
+            angles = out.angles
             assert angles.shape == (3,) and np.isfinite(angles).all()
-            assert set(report) == {"iterations", "error", "reached"}
+            assert isinstance(out, msc.Ik2dSolution) and np.isfinite(out.error) and out.iterations >= 0
             if limits is not None:
                 assert ((angles >= limits[:, 0] - 1e-9) & (angles <= limits[:, 1] + 1e-9)).all(), (angles, limits)
-            if report["reached"] and target is not None:  # the tip is where the report says
-                tip = msc.ik2d_forward(lengths, angles)[-1]
+            if out.reached and target is not None:  # the tip is where the solution says
+                tip = msc.ik2d_forward(msc.Chain2d(lengths, angles))[-1]
                 tol = tolerance if tolerance is not None else 1e-3 * reach
-                assert np.hypot(*(tip - target)) <= tol * 1.01 + 1e-9, (tip, target, report)
+                assert np.hypot(*(tip - target)) <= tol * 1.01 + 1e-9, (tip, target, out.error)
         return check
 
     tolerance_pattern = r"^invalid argument: tolerance must be finite and >= 0, got "
@@ -461,50 +468,50 @@ def test_odd_options(seed):
             name = f"ik {method}"
             for value in ODD:
                 run(name, "tolerance", value, finite_at_least(0), tolerance_pattern,
-                    solved(tolerance=value, target=target), msc.ik2d_solve, lengths, aim, method=method,
+                    solved(tolerance=value, target=target), ik_solve, lengths, aim, method=method,
                     tolerance=value)
                 run(name, "base_angle", value, math.isfinite, r"^1 IK chain\(s\) have NaN or infinite values$",
-                    solved(), msc.ik2d_solve, lengths, aim, method=method, base_angle=value)
+                    solved(), ik_solve, lengths, aim, method=method, base_angle=value)
                 odd = (value, aim[1])
                 run(name, "target", value, math.isfinite, r"^1 target\(s\) have NaN or infinite values$",
-                    solved(target=np.array(odd)), msc.ik2d_solve, lengths, odd, method=method)
+                    solved(target=np.array(odd)), ik_solve, lengths, odd, method=method)
             # Limits: ordered in (-pi, pi) or as wide as 1e30 (the result within them), one NaN, or
             # a pair with min > max.
             limits = np.sort(rng.uniform(-3.0, 3.0, size=(3, 2)), axis=1)
             if rng.random() < 0.3:
                 limits[rng.integers(0, 3)] = [-1e30, 1e30]
             run(name, "limits", "ordered", anything, "", solved(limits=limits),
-                msc.ik2d_solve, lengths, aim, method=method, limits=limits)
+                ik_solve, lengths, aim, method=method, limits=limits)
             nan = limits.copy()
             nan[rng.integers(0, 3), rng.integers(0, 2)] = np.nan
             run(name, "limits", "nan", lambda x: False, r"^1 joint limit\(s\) have NaN or infinite values$",
-                solved(), msc.ik2d_solve, lengths, aim, method=method, limits=nan)
+                solved(), ik_solve, lengths, aim, method=method, limits=nan)
             swapped = limits.copy()
             j = int(rng.integers(0, 3))
             swapped[j] = swapped[j, ::-1] + [1.0, -1.0]
             run(name, "limits", "min > max", lambda x: False,
                 rf"^invalid argument: joint {j} has limits \[.*\] with min > max$",
-                solved(), msc.ik2d_solve, lengths, aim, method=method, limits=swapped)
+                solved(), ik_solve, lengths, aim, method=method, limits=swapped)
             # Passes: at most MAX_ITERATIONS (the solvers run without the GIL, uninterruptible).
             for passes in (0, 1, 10_000, 10_001):
                 run(name, "max_iterations", passes, lambda x: x <= 10_000, rf"^{too_many}$", solved(),
-                    msc.ik2d_solve, lengths, aim, method=method, max_iterations=passes)
+                    ik_solve, lengths, aim, method=method, max_iterations=passes)
         for value in ODD:
             run("ik multi", "weight", value, finite_at_least(0),
                 r"^invalid argument: effector 0 has weight \S+; weights must be finite and >= 0$",
-                solved(), msc.ik2d_solve_multi, lengths, [(3, aim, value), (2, (0.5, 0.5), 1.0)])
+                solved(), ik_solve_multi, lengths, [(3, aim, value), (2, (0.5, 0.5), 1.0)])
             run("ik multi", "target", value, math.isfinite, r"^1 effector target\(s\) have NaN or infinite values$",
-                solved(), msc.ik2d_solve_multi, lengths, [(3, (value, 0.3), 1.0), (2, (0.5, 0.5), 1.0)])
+                solved(), ik_solve_multi, lengths, [(3, (value, 0.3), 1.0), (2, (0.5, 0.5), 1.0)])
             run("ik multi", "tolerance", value, finite_at_least(0), tolerance_pattern,
-                solved(), msc.ik2d_solve_multi, lengths, [(3, aim, 1.0)], tolerance=value)
+                solved(), ik_solve_multi, lengths, [(3, aim, 1.0)], tolerance=value)
         for passes in (0, 10_000, 10_001):
             run("ik multi", "max_iterations", passes, lambda x: x <= 10_000, rf"^{too_many}$", solved(),
-                msc.ik2d_solve_multi, lengths, [(3, aim, 1.0)], max_iterations=passes)
+                ik_solve_multi, lengths, [(3, aim, 1.0)], max_iterations=passes)
         for joint in (0, 1, 3, 4):
             run("ik multi", "joint", joint, lambda x: 1 <= x <= 3,
                 rf"^invalid argument: effector 0 is on joint {joint}, but a chain of 3 bones has movable joints",
-                solved(), msc.ik2d_solve_multi, lengths, [(joint, aim, 1.0)])
-        outcome((VE, r"^invalid argument: all effector weights are zero$"), msc.ik2d_solve_multi, lengths,
+                solved(), ik_solve_multi, lengths, [(joint, aim, 1.0)])
+        outcome((VE, r"^invalid argument: all effector weights are zero$"), ik_solve_multi, lengths,
                 [(3, aim, 0.0), (2, (0.5, 0.5), 0.0)])
 
     # Floors: every option was tried, and each took values in its range and values outside it

@@ -1,5 +1,7 @@
 """The layout rules the code keeps: no import cycle between the Rust core's modules, the
-add-on's modules or the scripts, and the core's source grouped by area in folders."""
+add-on's modules, the helpers package or the scripts; the core's source grouped by area in
+folders; tests import the helpers package, never a benchmark or another test, and nothing but
+one conftest edits ``sys.path``."""
 
 from __future__ import annotations
 
@@ -91,6 +93,8 @@ def python_graph(folder: Path, package: str | None) -> dict[str, set[str]]:
                     mod = [*base, *(node.module.split(".") if node.module else [])]
                 elif package is None and node.module:
                     mod = node.module.split(".")
+                elif node.module and node.module.split(".")[0] == package:
+                    mod = node.module.split(".")[1:]  # `from package import x`, `from package.x import y`
                 else:
                     continue
                 subs = [".".join([*mod, a.name]) for a in node.names]
@@ -125,6 +129,53 @@ def test_the_addon_has_no_import_cycle():
 def test_the_scripts_have_no_import_cycle():
     graph = python_graph(ROOT / "scripts", None)
     assert _cycle(graph) is None, " -> ".join(_cycle(graph))
+
+
+def test_the_helpers_have_no_import_cycle():
+    graph = python_graph(ROOT / "testkit", "testkit")
+    assert len(graph) > 8 and graph["builders"], graph
+    assert _cycle(graph) is None, " -> ".join(_cycle(graph))
+
+
+PYTHON_FOLDERS = ("addon", "bench", "blender_tests", "release_tests", "scripts", "testkit", "tests", "fuzz")
+
+
+def _imports(path: Path) -> set[str]:
+    """The absolute module names ``path`` imports (``from a.b import c`` gives a.b and a.b.c)."""
+    out = set()
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.Import):
+            out |= {a.name for a in node.names}
+        elif isinstance(node, ast.ImportFrom) and not node.level and node.module:
+            out |= {node.module} | {f"{node.module}.{a.name}" for a in node.names}
+    return out
+
+
+def test_tests_import_neither_a_benchmark_nor_another_test():
+    tests = {p.stem for d in ("blender_tests", "tests", "release_tests") for p in (ROOT / d).glob("test_*.py")}
+    benches = {p.stem for p in (ROOT / "bench").glob("*.py")} - {"__init__"}
+    bad = []
+    for d in ("blender_tests", "tests", "release_tests", "testkit"):
+        for path in sorted((ROOT / d).glob("*.py")):
+            for name in _imports(path):
+                top = name.split(".")
+                if top[0] in tests or top[0] == "bench" or top[0] in benches or top[-1] in tests:
+                    bad.append(f"{path.relative_to(ROOT)}: {name}")
+    assert not bad, bad
+
+
+def test_only_one_conftest_edits_sys_path():
+    """Tests, benches and scripts import the helpers package testkit/ (pytest's ``pythonpath``
+    in pyproject.toml, ``python -m`` from the checkout in the Makefile); the release checks'
+    conftest alone puts scripts/platforms/ on the path for the platform build script."""
+    edits = []
+    for d in PYTHON_FOLDERS:
+        for path in sorted((ROOT / d).rglob("*.py")):
+            for node in ast.walk(ast.parse(path.read_text())):
+                if isinstance(node, ast.Attribute) and node.attr == "path" and \
+                        isinstance(node.value, ast.Name) and node.value.id == "sys":
+                    edits.append(str(path.relative_to(ROOT)))
+    assert sorted(set(edits)) == ["release_tests/conftest.py"], sorted(set(edits))
 
 
 def test_the_core_is_grouped_by_area():

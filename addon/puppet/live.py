@@ -164,7 +164,7 @@ def _rod_point(inv, rod):
 
 
 def solve_puppet(rig: bpy.types.Object) -> dict:
-    """Pose ``rig`` from its rods with the Rust planar solver; returns {driver: report}.
+    """Pose ``rig`` from its rods with the Rust planar solver; returns {driver: Ik2dSolution}.
 
     Only the in-plane angle (``rotation_euler.z``) of driven bones is written, and only when
     it changes; the other bones are clamped into their stored limits. Each solve starts from
@@ -208,20 +208,20 @@ def solve_puppet(rig: bpy.types.Object) -> dict:
                 down = inv.to_3x3() @ Vector((0.0, 0.0, -1.0))
                 far = 100.0 * max(sum(lengths), 1e-6) / max(math.hypot(down.x, down.z), 1e-9)
                 target = (base[0] + far * down.x, base[1] + far * down.z)
-            angles, rep = core.ik2d_solve(lengths, target, seeds, base=base, base_angle=base_angle,
-                                          limits=limits)
-            _write_chain(pose, names, angles, offsets)
-            reports[drv[2] if kind == "ik" else f"hang:{names[0]}"] = rep
+            chain = core.Chain2d(lengths, seeds, base=base, base_angle=base_angle, limits=limits)
+            solution = core.ik2d_solve(chain, target)
+            _write_chain(pose, names, solution.angles, offsets)
+            reports[drv[2] if kind == "ik" else f"hang:{names[0]}"] = solution
         elif kind == "multi":
             names = list(drv[1])
             effs = [(j, _rod_point(inv, rods[role]), w) for j, role, w in drv[2] if role in rods]
             if not effs or any(n not in pbones for n in names):
                 continue
             lengths, base, base_angle, offsets, limits, seeds = _chain_setup(pose, names)
-            angles, rep = core.ik2d_solve_multi(lengths, effs, seeds, base=base, base_angle=base_angle,
-                                                limits=limits)
-            _write_chain(pose, names, angles, offsets)
-            reports["multi"] = rep
+            chain = core.Chain2d(lengths, seeds, base=base, base_angle=base_angle, limits=limits)
+            solution = core.ik2d_solve_multi(chain, effs)
+            _write_chain(pose, names, solution.angles, offsets)
+            reports["multi"] = solution
         elif kind == "level" and drv[1] in pbones:
             name = drv[1]
             rest = _angle(pose.bones[name].matrix_local.col[1])

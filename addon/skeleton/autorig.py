@@ -174,9 +174,10 @@ def ground_point(verts: np.ndarray) -> np.ndarray:
     return np.array([(lo[0] + hi[0]) / 2, (lo[1] + hi[1]) / 2, lo[2]])
 
 
-def fit_rig(core, verts: np.ndarray, tris: np.ndarray, origin: np.ndarray, template: str, forward: str) -> dict:
+def fit_rig(core, verts: np.ndarray, tris: np.ndarray, origin: np.ndarray, template: str, forward: str):
     """The core's skeleton for the surface ``verts`` (world, float64) and ``tris``, with joints
-    relative to ``origin``. AutoRigError with the core's reason when it finds none."""
+    relative to ``origin`` (``miniskeleton_core.AutoRig``). AutoRigError with the core's reason when
+    it finds none."""
     local = (verts - origin).astype(np.float32)
     try:
         rig = core.auto_rig(local, tris, template=template,
@@ -185,8 +186,8 @@ def fit_rig(core, verts: np.ndarray, tris: np.ndarray, origin: np.ndarray, templ
         reason = str(err).strip()
         reason = reason[len("auto_rig:"):].strip() if reason.startswith("auto_rig:") else reason
         raise AutoRigError(reason[:1].upper() + reason[1:]) from None
-    heads, tails = np.asarray(rig["heads"], np.float64), np.asarray(rig["tails"], np.float64)
-    if not len(rig["names"]) or not (np.isfinite(heads).all() and np.isfinite(tails).all()):
+    heads, tails = np.asarray(rig.heads, np.float64), np.asarray(rig.tails, np.float64)
+    if not len(rig.names) or not (np.isfinite(heads).all() and np.isfinite(tails).all()):
         raise AutoRigError("The core returned no usable skeleton")
     return rig
 
@@ -226,7 +227,7 @@ def _collection(context) -> bpy.types.Collection:
     return coll if coll is not None and coll.library is None else context.scene.collection
 
 
-def build_armature(context, name: str, origin: np.ndarray, rig: dict) -> bpy.types.Object:
+def build_armature(context, name: str, origin: np.ndarray, rig) -> bpy.types.Object:
     """A new armature object ``name`` at ``origin`` (world, no rotation or scale) with the
     core's bones (joints relative to ``origin``; the heel a marker that does not deform), in
     front of the mesh, active and selected alone, in Object Mode."""
@@ -243,13 +244,13 @@ def build_armature(context, name: str, origin: np.ndarray, rig: dict) -> bpy.typ
         ob.select_set(False)
     arm.select_set(True)
     context.view_layer.objects.active = arm
-    names = list(rig["names"])
-    heads, tails = np.asarray(rig["heads"], np.float64), np.asarray(rig["tails"], np.float64)
-    parents, connected = np.asarray(rig["parents"]), np.asarray(rig["connected"], bool)
-    z_axes = bone_z_axes(names, heads, tails, rig["forward"], rig["left"])
+    names = list(rig.names)
+    heads, tails = np.asarray(rig.heads, np.float64), np.asarray(rig.tails, np.float64)
+    parents, connected = np.asarray(rig.parents), np.asarray(rig.connected, bool)
+    z_axes = bone_z_axes(names, heads, tails, rig.forward, rig.left)
     # A bone that starts a Rigify rig of its own (the head's, the tail's) is not connected to
     # its parent, as on the metarigs: Rigify's chain rigs would take it into the parent's chain.
-    rig_roots = set(rig_types(rig["template"], names))
+    rig_roots = set(rig_types(rig.template, names))
     bpy.ops.object.mode_set(mode="EDIT")
     try:
         ebs = []

@@ -1,4 +1,5 @@
-//! Bindings for posing: linear blend skinning (`lbs.rs`) and planar IK (`ik2d.rs`).
+//! Bindings for posing: linear blend skinning (`lbs.rs`) and planar IK (`ik2d/`): a chain, the
+//! solver's options and its solution as classes.
 
 use crate::convert::{from_rows, index_matrix, rows, vector, IndexRows};
 use crate::error::guarded;
@@ -6,7 +7,6 @@ use miniskeleton_core::posing::ik2d::{self, Chain2d, SolveOptions, SolveReport};
 use numpy::{AllowTypeChange, PyArray1, PyArray2, PyArrayLike1, PyArrayLike2, PyArrayLike3};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
-use pyo3::types::PyDict;
 
 /// Linear blend skinning v' = sum_j w_j M_j v; bone_matrices (b,4,4) row-major rest->posed.
 #[pyfunction]
@@ -60,46 +60,116 @@ fn chain(
     Ok(c)
 }
 
-fn report<'py>(py: Python<'py>, r: &SolveReport) -> PyResult<Bound<'py, PyDict>> {
-    let d = PyDict::new(py);
-    d.set_item("iterations", r.iterations)?;
-    d.set_item("error", r.error)?;
-    d.set_item("reached", r.reached)?;
-    Ok(d)
-}
+/// A planar chain (one puppet limb), the core's `Chain2d`: lengths (b,), relative joint angles
+/// (b,) radians (default 0), base (x, y), base_angle radians, limits (b, 2) radians (default
+/// none). Checked when solved.
+#[pyclass(name = "Chain2d", module = "miniskeleton_core", frozen)]
+pub struct PyChain2d(Chain2d);
 
-fn options(c: &Chain2d, max_iterations: usize, tolerance: Option<f64>) -> SolveOptions {
-    let mut o = SolveOptions::for_chain(c);
-    o.max_iterations = max_iterations;
-    if let Some(t) = tolerance {
-        o.tolerance = t;
+#[pymethods]
+impl PyChain2d {
+    #[new]
+    #[pyo3(signature = (lengths, angles=None, *, base=(0.0, 0.0), base_angle=0.0, limits=None))]
+    fn new(
+        lengths: PyArrayLike1<'_, f64, AllowTypeChange>,
+        angles: Option<PyArrayLike1<'_, f64, AllowTypeChange>>,
+        base: (f64, f64),
+        base_angle: f64,
+        limits: Option<PyArrayLike2<'_, f64, AllowTypeChange>>,
+    ) -> PyResult<Self> {
+        Ok(PyChain2d(chain(&lengths, angles, base, base_angle, limits)?))
     }
-    o
+
+    #[getter]
+    fn lengths<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        PyArray1::from_slice(py, &self.0.lengths)
+    }
+
+    #[getter]
+    fn angles<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        PyArray1::from_slice(py, &self.0.angles)
+    }
+
+    #[getter]
+    fn base(&self) -> (f64, f64) {
+        (self.0.base[0], self.0.base[1])
+    }
+
+    #[getter]
+    fn base_angle(&self) -> f64 {
+        self.0.base_angle
+    }
+
+    #[getter]
+    fn limits<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        from_rows(py, &self.0.limits)
+    }
 }
 
-/// Planar IK for one chain. method: "ccd" (improved CCD, default), "ccd_pure" (the paper's
-/// step only), "ccd_classic3d", "fabrik". Returns (relative angles (b,), report dict).
-/// `max_iterations` above `ik2d::MAX_ITERATIONS` (10 000) is a ValueError: the solve runs
-/// without the GIL and could not be interrupted.
-#[pyfunction]
-#[pyo3(signature = (lengths, target, angles=None, *, base=(0.0, 0.0), base_angle=0.0, limits=None,
-                    max_iterations=200, tolerance=None, method="ccd"))]
-#[allow(clippy::too_many_arguments)]
-pub fn ik2d_solve<'py>(
-    py: Python<'py>,
-    lengths: PyArrayLike1<'py, f64, AllowTypeChange>,
-    target: (f64, f64),
-    angles: Option<PyArrayLike1<'py, f64, AllowTypeChange>>,
-    base: (f64, f64),
-    base_angle: f64,
-    limits: Option<PyArrayLike2<'py, f64, AllowTypeChange>>,
+/// How to solve: at most max_iterations passes (above `ik2d::MAX_ITERATIONS`, 10 000, a
+/// ValueError: the solve runs without the GIL and could not be interrupted), tolerance (chain
+/// units; default 1e-3 of the chain's reach), method "ccd" (improved CCD), "ccd_pure" (the
+/// paper's step only), "ccd_classic3d" or "fabrik" (the baselines).
+#[pyclass(module = "miniskeleton_core", frozen, get_all)]
+pub struct Ik2dOptions {
     max_iterations: usize,
     tolerance: Option<f64>,
-    method: &str,
-) -> PyResult<(Bound<'py, PyArray1<f64>>, Bound<'py, PyDict>)> {
-    let mut c = chain(&lengths, angles, base, base_angle, limits)?;
-    let opts = options(&c, max_iterations, tolerance);
-    let solver = match method {
+    method: String,
+}
+
+#[pymethods]
+impl Ik2dOptions {
+    #[new]
+    #[pyo3(signature = (*, max_iterations=200, tolerance=None, method="ccd"))]
+    fn new(max_iterations: usize, tolerance: Option<f64>, method: &str) -> Self {
+        Ik2dOptions { max_iterations, tolerance, method: method.to_owned() }
+    }
+}
+
+impl Ik2dOptions {
+    /// The core's options for chain `c` and the method; without options, the core's defaults
+    /// (`SolveOptions::for_chain`) and the improved CCD.
+    fn for_chain(options: Option<&Ik2dOptions>, c: &Chain2d) -> (SolveOptions, String) {
+        let mut o = SolveOptions::for_chain(c);
+        let Some(options) = options else { return (o, "ccd".to_owned()) };
+        o.max_iterations = options.max_iterations;
+        if let Some(t) = options.tolerance {
+            o.tolerance = t;
+        }
+        (o, options.method.clone())
+    }
+}
+
+/// What a solve found: the chain's relative angles (b,) radians, the passes it ran, the final
+/// distance from the effector to its target (the largest over the effectors for
+/// `ik2d_solve_multi`) and whether that is within the tolerance.
+#[pyclass(module = "miniskeleton_core", frozen, get_all)]
+pub struct Ik2dSolution {
+    angles: Py<PyArray1<f64>>,
+    iterations: usize,
+    error: f64,
+    reached: bool,
+}
+
+impl Ik2dSolution {
+    fn new(py: Python<'_>, angles: Vec<f64>, r: SolveReport) -> Self {
+        let angles = PyArray1::from_vec(py, angles).unbind();
+        Ik2dSolution { angles, iterations: r.iterations, error: r.error, reached: r.reached }
+    }
+}
+
+/// Planar IK for one chain from its angles toward target (x, y).
+#[pyfunction]
+#[pyo3(signature = (chain, target, options=None))]
+pub fn ik2d_solve(
+    py: Python<'_>,
+    chain: &PyChain2d,
+    target: (f64, f64),
+    options: Option<Py<Ik2dOptions>>,
+) -> PyResult<Ik2dSolution> {
+    let mut c = chain.0.clone();
+    let (opts, method) = Ik2dOptions::for_chain(options.as_ref().map(|o| o.get()), &c);
+    let solver = match method.as_str() {
         "ccd" => ik2d::solve_ccd,
         "ccd_pure" => ik2d::solve_ccd_pure,
         "ccd_classic3d" => ik2d::solve_ccd_classic3d,
@@ -110,53 +180,45 @@ pub fn ik2d_solve<'py>(
         let r = solver(&mut c, [target.0, target.1], opts)?;
         Ok((c.angles, r))
     })?;
-    Ok((PyArray1::from_vec(py, angles), report(py, &r)?))
+    Ok(Ik2dSolution::new(py, angles, r))
 }
 
-/// Several effectors on one chain (strip puppets): effectors = [(joint 1..=b, (x, y), weight)].
-/// `max_iterations` is bounded as in `ik2d_solve`.
+/// Several effectors on one chain (strip puppets): effectors = [(joint 1..=b, (x, y), weight)],
+/// solved by the improved CCD (options.method must be "ccd").
 #[pyfunction]
-#[pyo3(signature = (lengths, effectors, angles=None, *, base=(0.0, 0.0), base_angle=0.0, limits=None,
-                    max_iterations=200, tolerance=None))]
-#[allow(clippy::too_many_arguments)]
-pub fn ik2d_solve_multi<'py>(
-    py: Python<'py>,
-    lengths: PyArrayLike1<'py, f64, AllowTypeChange>,
+#[pyo3(signature = (chain, effectors, options=None))]
+pub fn ik2d_solve_multi(
+    py: Python<'_>,
+    chain: &PyChain2d,
     effectors: Vec<(usize, (f64, f64), f64)>,
-    angles: Option<PyArrayLike1<'py, f64, AllowTypeChange>>,
-    base: (f64, f64),
-    base_angle: f64,
-    limits: Option<PyArrayLike2<'py, f64, AllowTypeChange>>,
-    max_iterations: usize,
-    tolerance: Option<f64>,
-) -> PyResult<(Bound<'py, PyArray1<f64>>, Bound<'py, PyDict>)> {
-    let mut c = chain(&lengths, angles, base, base_angle, limits)?;
-    let opts = options(&c, max_iterations, tolerance);
+    options: Option<Py<Ik2dOptions>>,
+) -> PyResult<Ik2dSolution> {
+    let mut c = chain.0.clone();
+    let (opts, method) = Ik2dOptions::for_chain(options.as_ref().map(|o| o.get()), &c);
+    if method != "ccd" {
+        return Err(PyValueError::new_err(format!("ik2d_solve_multi solves by CCD only, not {method:?}")));
+    }
     let effs: Vec<_> = effectors.into_iter().map(|(j, (x, y), w)| (j, [x, y], w)).collect();
     let (angles, r) = guarded(py, move || {
         let r = ik2d::solve_multi(&mut c, &effs, opts)?;
         Ok((c.angles, r))
     })?;
-    Ok((PyArray1::from_vec(py, angles), report(py, &r)?))
+    Ok(Ik2dSolution::new(py, angles, r))
 }
 
 /// Joint positions (b+1, 2) of a planar chain: base, then each bone's tip.
 #[pyfunction]
-#[pyo3(signature = (lengths, angles, *, base=(0.0, 0.0), base_angle=0.0))]
-pub fn ik2d_forward<'py>(
-    py: Python<'py>,
-    lengths: PyArrayLike1<'py, f64, AllowTypeChange>,
-    angles: PyArrayLike1<'py, f64, AllowTypeChange>,
-    base: (f64, f64),
-    base_angle: f64,
-) -> PyResult<Bound<'py, PyArray2<f64>>> {
-    let c = chain(&lengths, Some(angles), base, base_angle, None)?;
+pub fn ik2d_forward<'py>(py: Python<'py>, chain: &PyChain2d) -> PyResult<Bound<'py, PyArray2<f64>>> {
+    let c = chain.0.clone();
     let pts = guarded(py, move || ik2d::forward(&c))?;
     from_rows(py, &pts)
 }
 
-/// Add this area's functions to the module.
+/// Add this area's functions and classes to the module.
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_class::<PyChain2d>()?;
+    m.add_class::<Ik2dOptions>()?;
+    m.add_class::<Ik2dSolution>()?;
     m.add_function(wrap_pyfunction!(lbs, m)?)?;
     m.add_function(wrap_pyfunction!(ik2d_solve, m)?)?;
     m.add_function(wrap_pyfunction!(ik2d_solve_multi, m)?)?;

@@ -18,7 +18,7 @@
 //! line (no perpendicular part) bends along any perpendicular. [`frame_turn`] gives the
 //! rotation that turns a bone with its bend plane from rest to the solved pose.
 //!
-//! See also: `ik2d.rs` (iterative planar chains of any length for puppets).
+//! See also: `ik2d/` (iterative planar chains of any length for puppets).
 
 use glam::{DMat3, DQuat, DVec3, Quat, Vec3};
 

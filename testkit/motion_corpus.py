@@ -1,9 +1,9 @@
-"""Add Motion on real rigs: head shake, walk and run on the rig corpus of scripts/rig_corpus.py
+"""Add Motion on real rigs: head shake, walk and run on the rig corpus of testkit/rig_corpus.py
 (Rigify control rigs, Mixamo-style humanoids round-tripped through glTF and FBX, game and
 hand-made rigs from ../shared/models, a deform-only rig, the generated creature, legless
 characters), measured on the meshes the armature deforms.
 
-    .venv/bin/python bench/motion_corpus.py [--rigs Fox,mixamo_gltf] [--motions WALK,RUN,HEAD_SHAKE]
+    .venv/bin/python -m testkit.motion_corpus [--rigs Fox,mixamo_gltf] [--motions WALK,RUN,HEAD_SHAKE]
 
 For each rig and motion: the armature's action is cleared (NLA tracks removed) and every pose
 bone put at rest; ``pose.miniskeleton_add_motion`` runs with its default options; the meshes
@@ -50,9 +50,8 @@ from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path[:0] = [str(ROOT / "scripts")]
-import blender_session  # noqa: E402
+from testkit import ROOT, blender_session
+from testkit.measures import evaluated_world_vertices
 
 MOTIONS = ["WALK", "RUN", "HEAD_SHAKE"]
 CONTACT = 0.005     # contact band above the lowest z, fraction of diag
@@ -67,18 +66,7 @@ FOLDS = dict(WALK=(5.0, 0.4), RUN=(10.0, 1.5))
 
 def world_points(meshes) -> np.ndarray:
     """(n, 3) evaluated world vertices of ``meshes`` (modifiers and parents applied), stacked."""
-    import bpy
-
-    dg = bpy.context.evaluated_depsgraph_get()
-    out = []
-    for ob in meshes:
-        ev = ob.evaluated_get(dg)
-        me = ev.to_mesh()
-        co = np.empty(len(me.vertices) * 3)
-        me.vertices.foreach_get("co", co)
-        ev.to_mesh_clear()
-        m = np.array(ev.matrix_world)
-        out.append(co.reshape(-1, 3) @ m[:3, :3].T + m[:3, 3])
+    out = [evaluated_world_vertices(ob) for ob in meshes]
     return np.concatenate(out) if out else np.zeros((0, 3))
 
 
@@ -691,7 +679,7 @@ def main(argv=None) -> None:
     args = ap.parse_args(argv)
 
     blender_session.start()
-    import rig_corpus
+    from testkit import rig_corpus
 
     names = [n for n in args.rigs.split(",") if n] or rig_corpus.NAMES
     unknown = [n for n in names if n not in rig_corpus.BUILDERS]

@@ -2,7 +2,7 @@
 ``parent_set(type='ARMATURE_AUTO')`` against the artist's weights of real rigged models, in one
 process; and Transfer Weights onto the other skinned meshes of a model and onto a shell around it.
 
-    .venv/bin/python bench/eval_weights.py [--models Fox,CesiumMan] [--no-blender] [--detail 5] [--symmetry X]
+    .venv/bin/python -m testkit.eval_weights [--models Fox,CesiumMan] [--no-blender] [--detail 5] [--symmetry X]
         [--clips 3] [--frames 20] [--actions ThumbsUp,Wave] [--bone-extent AUTO|TAIL|CHILDREN]
         [--resolution 64] [--falloff 0.02] [--no-transfer]
 
@@ -50,17 +50,14 @@ from __future__ import annotations
 
 import argparse
 import importlib
-import sys
 import time
 from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "scripts"))
-import blender_session  # noqa: E402
+from testkit import MODELS_DIR, ROOT, blender_session
+from testkit.measures import evaluated_world_vertices, world_vertices
 
-MODELS_DIR = ROOT.parent / "shared" / "models"
 MODELS = ["Fox.glb", "CesiumMan.gltf", "RiggedSimple.gltf", "RobotExpressive.glb", "q_Bunny.glb",
           "q_Orc.glb", "q_Cat.glb", "q_Dragon.glb"]
 INFLUENCE = 1e-3
@@ -140,13 +137,6 @@ def bind(bpy, arm, meshes, method):
     arm.data.pose_position = "POSE"
     bpy.context.view_layer.update()
     return secs, res
-
-
-def world_rest(ob):
-    co = np.empty(len(ob.data.vertices) * 3)
-    ob.data.vertices.foreach_get("co", co)
-    m = np.array(ob.matrix_world)
-    return co.reshape(-1, 3) @ m[:3, :3].T + m[:3, 3]
 
 
 # ---------------------------------------------------------------------------- poses
@@ -295,17 +285,6 @@ def influence_scores(a, b):
     return prec, rec
 
 
-def evaluated_world(bpy, ob):
-    dg = bpy.context.evaluated_depsgraph_get()
-    ev = ob.evaluated_get(dg)
-    me = ev.to_mesh()
-    co = np.empty(len(me.vertices) * 3)
-    me.vertices.foreach_get("co", co)
-    ev.to_mesh_clear()
-    m = np.array(ev.matrix_world)
-    return co.reshape(-1, 3) @ m[:3, :3].T + m[:3, 3]
-
-
 def lbs_check(bpy, arm, basis, bones, meshes, poses, diag):
     """Max |numpy LBS - Blender's Armature modifier| on one frame, as % of diag; None if not checkable."""
     pose = poses[len(poses) // 2]
@@ -319,7 +298,7 @@ def lbs_check(bpy, arm, basis, bones, meshes, poses, diag):
             skipped.append(ob.name)
             continue
         ours = lbs(np.array([v.co for v in ob.data.vertices]), mw, mats, normalized(read_weights(ob, bones)))
-        theirs = evaluated_world(bpy, ob)
+        theirs = evaluated_world_vertices(ob)
         if theirs.shape != ours.shape:
             skipped.append(ob.name)
             continue
@@ -348,7 +327,7 @@ def rebind(bpy, path, side, args, poses=None):
     basis = arm.matrix_basis.copy()
     artist = [read_weights(ob, bones) for ob in meshes]
     locals_ = [np.array([v.co for v in ob.data.vertices]) for ob in meshes]
-    before = np.concatenate([world_rest(ob) for ob in meshes])
+    before = np.concatenate([world_vertices(ob) for ob in meshes])
     diag = float(np.linalg.norm(before.max(axis=0) - before.min(axis=0)))
     ctx = dict(arm=arm, meshes=meshes, rigid=rigid, mesh_names=[ob.name for ob in meshes],
                rigid_names=[ob.name for ob in rigid], bones=bones, artist=artist, locals=locals_, diag=diag)
@@ -361,7 +340,7 @@ def rebind(bpy, path, side, args, poses=None):
         bpy.context.scene.frame_set(0)
     strip(meshes, bones)
     secs, res = bind(bpy, arm, meshes, SIDES[side])
-    after = np.concatenate([world_rest(ob) for ob in meshes])
+    after = np.concatenate([world_vertices(ob) for ob in meshes])
     moved = 100.0 * float(np.abs(after - before).max()) / diag
     parts = [read_weights(ob, bones) for ob in meshes]
     check = lbs_check(bpy, arm, basis, bones, meshes, poses or ctx["poses"], diag)
@@ -566,11 +545,11 @@ def transfer_rows(model, path, bpy, args, row):
                poses=row["poses"], diag=row["diag"])
     # The paper's transfer alone, in world space (the core directly).
     tri = importlib.import_module(blender_session.ADDON_MODULE + ".common.meshes")
-    bv, bt = world_rest(body), tri.mesh_triangles(body)
+    bv, bt = world_vertices(body), tri.mesh_triangles(body)
     alone = [w.copy() for w in artist]
     for g in garments:
         i, w, _ = core.transfer_weights(bv, bt, *_rows_of(normalized(artist[meshes.index(body)])),
-                                        world_rest(g), tri.mesh_triangles(g))
+                                        world_vertices(g), tri.mesh_triangles(g))
         dense = np.zeros_like(artist[meshes.index(g)])
         for k in range(i.shape[1]):
             ok = i[:, k] >= 0

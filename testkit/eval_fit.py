@@ -1,11 +1,11 @@
 """Fit Skeleton to Mesh against the artists' own skeletons.
 
-    .venv/bin/python bench/bench_fit.py [--models Fox.glb,CesiumMan.gltf,spot_rig.glb|all] [--seeds 10]
+    .venv/bin/python -m testkit.eval_fit [--models Fox.glb,CesiumMan.gltf,spot_rig.glb|all] [--seeds 10]
                                         [--symmetry X] [--displace ball|depth] [--per-joint]
 
-Models: the generated creature (scripts/creature.py), the files of ``../shared/models/`` named
+Models: the generated creature (testkit/creature.py), the files of ``../shared/models/`` named
 in ``--models`` (relative to the project root; missing files are skipped, never copied here)
-and the rigs of scripts/rig_corpus.py named there (Rigify's generated rigs and the Mixamo-style
+and the rigs of testkit/rig_corpus.py named there (Rigify's generated rigs and the Mixamo-style
 humanoid, each in a Skin body: ``rigify_basic_human``, ``mixamo_gltf``, ...); ``--models all``
 is every rigged shared model (``RIGGED``) and ``CORPUS``. For each, take the model's own
 skeleton, displace every joint randomly (seeded, uniform in a ball of radius 5 % of the mesh's
@@ -36,23 +36,18 @@ from __future__ import annotations
 
 import argparse
 import importlib
-import sys
 import time
-from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path[:0] = [str(ROOT / "scripts")]
-import blender_session  # noqa: E402
+from testkit import MODELS_DIR, ROOT, blender_session
 
-MODELS_DIR = ROOT.parent / "shared" / "models"
 MODELS = ["Fox.glb", "CesiumMan.gltf", "spot_rig.glb"]
-# ``--models all``: every rigged model of ../shared/models, and rigs built by scripts/rig_corpus.py
+# ``--models all``: every rigged model of ../shared/models, and rigs built by testkit/rig_corpus.py
 RIGGED = ["Fox.glb", "CesiumMan.gltf", "RiggedSimple.gltf", "RobotExpressive.glb", "q_Bunny.glb", "q_Orc.glb",
           "q_Cat.glb", "q_Dragon.glb", "spot_rig.glb"]
 CORPUS = ["rigify_basic_human", "rigify_basic_quadruped", "mixamo_gltf", "mixamo_fbx"]
-# rigs of scripts/rig_corpus.py that come through an importer, which invents their leaf tails
+# rigs of testkit/rig_corpus.py that come through an importer, which invents their leaf tails
 IMPORTED_RIGS = {"mixamo_gltf", "mixamo_fbx", "mixamo_fbx_xaxis"}
 GROUPS = ("limbs", "junctions", "spine", "ends")
 
@@ -63,16 +58,16 @@ def addon(name: str):
 
 
 def load(bpy, name):
-    """Fresh scene with the model (or the creature, or a rig of scripts/rig_corpus.py):
+    """Fresh scene with the model (or the creature, or a rig of testkit/rig_corpus.py):
     (armature, meshes)."""
     blender_session.reset_scene()
     if name == "creature":
-        import creature
+        from testkit import creature
 
         body, arm = creature.build()
         return arm, [body]
     if "." not in name:
-        import rig_corpus
+        from testkit import rig_corpus
 
         rig = rig_corpus.build(name)
         return rig.arm, rig.meshes
@@ -322,14 +317,14 @@ def harm_row(r):
 def model_names(spec):
     """The models ``--models`` names (``all``: every rigged shared model and ``CORPUS``), present
     here, after the creature; missing files are reported and skipped."""
-    import rig_corpus
+    from testkit import rig_corpus
 
     wanted = RIGGED + CORPUS if spec == "all" else [m for m in spec.split(",") if m]
     names = ["creature"]
     for m in wanted:
         why = None if "." not in m else (None if (MODELS_DIR / m).exists() else f"not in {MODELS_DIR}")
         if "." not in m and m not in rig_corpus.NAMES:
-            why = "not a model file nor a rig of scripts/rig_corpus.py"
+            why = "not a model file nor a rig of testkit/rig_corpus.py"
         if why:
             print(f"skipped {m}: {why}")
         else:

@@ -1,4 +1,4 @@
-"""Rigs to measure Add Motion on (bench/motion_corpus.py; Blender tests can import the same
+"""Rigs to measure Add Motion on (testkit/motion_corpus.py; Blender tests can import the same
 builders): Rigify control rigs, Mixamo-style humanoids round-tripped through glTF and FBX,
 game and hand-made rigs from ``../shared/models``, a Blender-built deform-only rig, the
 project's generated creature, legless characters, and bare meshes rigged by Auto Rig.
@@ -26,8 +26,7 @@ import bpy
 import numpy as np
 from mathutils import Matrix
 
-ROOT = Path(__file__).resolve().parents[1]
-MODELS_DIR = ROOT.parent / "shared" / "models"
+from testkit import MODELS_DIR, ROOT
 
 
 @dataclass
@@ -325,7 +324,7 @@ def mixamo_roundtrip(fmt, bone_axis="Y"):
     for a user's Mixamo download. ``bone_axis`` (FBX): the joint axis the exporter lays along
     each bone; "X" writes joints as Maya's convention has them (X down the bone), and Blender's
     importer, which takes Y for the bone by default, then points every tail across its bone."""
-    import blender_session
+    from testkit import blender_session
 
     src = mixamo_source()
     folder = Path(tempfile.mkdtemp(prefix="miniskeleton-mixamo-"))
@@ -441,7 +440,7 @@ def ik_game_rig(name, joints, bones, constraints):
     bound to them; exported with Blender's glTF exporter and imported again with the default
     options, as a game character reaches a user: the constraints are gone, the feet stay
     children of the root."""
-    import blender_session
+    from testkit import blender_session
 
     def at(p):
         return joints[p][0] if isinstance(p, str) else p
@@ -571,7 +570,7 @@ def bare_model(path):
     """Model ``path`` (glTF, FBX, OBJ or PLY) imported as a bare mesh: its armature(s) deleted, with
     the meshes kept where they are in the rest pose and their groups and Armature modifiers gone.
     Returns the meshes (the importer's bone shapes left out)."""
-    import blender_session
+    from testkit import blender_session
 
     new, meshes, rigs = blender_session.import_model(path)  # new: the importer's bone shapes too
     for arm in rigs:
@@ -617,8 +616,8 @@ def auto_rigged(name):
 
 
 def creature_rig():
-    """The project's generated quadruped (scripts/creature.py), bound to its bones."""
-    import creature
+    """The project's generated quadruped (testkit/creature.py), bound to its bones."""
+    from testkit import creature
 
     body, arm = creature.build()
     body = bind_to_segments(body, arm, [b.name for b in arm.data.bones])

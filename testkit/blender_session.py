@@ -13,7 +13,8 @@ import tempfile
 import time
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
+from testkit import ROOT
+
 ADDON_MODULE = "bl_ext.user_default.miniskeleton"
 
 

@@ -4,13 +4,12 @@ from __future__ import annotations
 
 import importlib
 import math
-import sys
-from pathlib import Path
 
 import bpy
 import numpy as np
-import rig_corpus
-from rig_corpus import set_active
+
+from testkit import blender_session, motion_corpus, rig_corpus
+from testkit.rig_corpus import set_active
 
 
 def cylinder_arrays(radius=0.5, height=4.0, rings=40, segments=24):
@@ -82,6 +81,10 @@ def chain(name="Armature", count=4, height=4.0, margin=0.2, **kw):
     return armature(name, bones, **kw)
 
 
+# chain()'s bone names with its default count
+CHAIN_NAMES = [f"Bone{i}" for i in range(4)]
+
+
 def pose_select(arm, selected=(), hidden=()):
     """Select and hide ``arm``'s bones as in Pose Mode: exactly ``selected`` selected and
     ``hidden`` hidden (Blender 5.0 keeps both on the pose bone, 4.x on the bone)."""
@@ -113,23 +116,6 @@ def weights_matrix(ob, names):
             if g.group in index:
                 w[v.index, index[g.group]] = g.weight
     return w
-
-
-def world_vertices(ob):
-    m = np.array(ob.matrix_world)
-    co = np.array([v.co for v in ob.data.vertices])
-    return co @ m[:3, :3].T + m[:3, 3]
-
-
-def evaluated_world_vertices(ob):
-    """World positions after modifiers (the Armature modifier's deformation)."""
-    dg = bpy.context.evaluated_depsgraph_get()
-    ev = ob.evaluated_get(dg)
-    me = ev.to_mesh()
-    m = np.array(ev.matrix_world)
-    co = np.array([v.co for v in me.vertices])
-    ev.to_mesh_clear()
-    return co @ m[:3, :3].T + m[:3, 3]
 
 
 def segment_distances(points, heads, tails):
@@ -193,26 +179,13 @@ _corpus_rigs: dict = {}
 
 def addon(name: str):
     """The installed extension's module ``name`` ("motion.planning")."""
-    import blender_session
-
     return importlib.import_module(f"{blender_session.ADDON_MODULE}.{name}")
 
 
-def motion_corpus():
-    """bench/motion_corpus.py, imported (the measures and the rig reset the motion tests use)."""
-    bench = str(Path(__file__).resolve().parents[1] / "bench")
-    if bench not in sys.path:
-        sys.path.insert(0, bench)
-    return importlib.import_module("motion_corpus")
-
-
 def corpus_rig(name: str) -> rig_corpus.Rig:
-    """Rig ``name`` of scripts/rig_corpus.py, built in a fresh scene unless it is there already
+    """Rig ``name`` of ``rig_corpus``, built in a fresh scene unless it is there already
     (another test may have reset the scene, or undone it), then reset: no action, every pose
     bone at rest, the armature object where it was built (``rig.basis``)."""
-    import blender_session
-
-    corpus = motion_corpus()
     rig = _corpus_rigs.get(name)
     try:
         alive = rig is not None and rig.arm.name in bpy.context.scene.objects and all(
@@ -222,9 +195,9 @@ def corpus_rig(name: str) -> rig_corpus.Rig:
     if not alive:
         blender_session.reset_scene()
         _corpus_rigs.clear()
-        with corpus.captured_output():
+        with motion_corpus.captured_output():
             rig = rig_corpus.build(name)
         rig.basis = rig.arm.matrix_basis.copy()
         _corpus_rigs[name] = rig
-    corpus.reset_rig(rig.arm, rig.basis)
+    motion_corpus.reset_rig(rig.arm, rig.basis)
     return rig

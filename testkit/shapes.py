@@ -87,7 +87,7 @@ def graph(name):
 
 def build(name, object_name=None):
     """Shape ``name`` as a plain mesh object in the current scene."""
-    import rig_corpus
+    from testkit import rig_corpus
 
     points, edges, radii = graph(name)
     return rig_corpus.skin_body(object_name or name.capitalize(), points, edges, radii)
