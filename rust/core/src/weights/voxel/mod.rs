@@ -79,8 +79,9 @@ impl VoxelOptions {
         HeatOptions {
             max_influences: self.max_influences,
             min_weight: self.min_weight,
-            // The geodesic distances replace the straight lines of sight.
-            visibility: false,
+            // A vertex's nearest visible bone leads; the geodesic distances rank the rest and
+            // stand in where a vertex sees no bone.
+            visibility: true,
             weld_tolerance: self.weld_tolerance,
             symmetry: self.symmetry.clone(),
             mirror_tolerance: self.mirror_tolerance,
@@ -159,7 +160,7 @@ pub fn voxel_weights(
         tick(0.8)?;
         let clock = std::time::Instant::now();
         let near = stages::vertex_distances(prep, vis, &solid, stages::VOXEL_LABELS);
-        let out = stages::sources(&near, opts.falloff, solid.grid.step);
+        let out = stages::sources(&near, vis, opts.falloff, solid.grid.step);
         r.timings.push(("falloff", clock.elapsed().as_secs_f64()));
         *report.lock().unwrap_or_else(|p| p.into_inner()) = r;
         Ok(out)
