@@ -125,7 +125,8 @@ pub struct VoxelReport {
 ///    solid; parts no bone reaches continue through the air;
 /// 3. each vertex's distance to a bone is the least over the eight voxels around it of the
 ///    voxel's distance plus the way to the vertex; bones are ranked by Blender's
-///    normal-weighted distance on it;
+///    normal-weighted distance on it, a vertex's nearest visible bone (heat's, when it sees
+///    one) first and the bones ranked nearer that it does not see dropped;
 /// 4. falloff: the nearest bones share the vertex's heat by `exp(-(r - r_min) / (falloff
 ///    r_min))`;
 /// 5. smoothing: heat's screened solve on the surface, `(L + M H) w_j = M H s_j` with `s_j`
