@@ -160,3 +160,23 @@ fn transfer_copies_where_the_garment_lies_and_inpaints_the_rest() {
     let short = Influences::empty(3, 4);
     assert!(matches!(transfer_weights(&bv, &bt, &short, &gv, &gt, &TransferOptions::default()), Err(Error::Shape(_))));
 }
+
+#[test]
+fn a_bone_across_a_gap_finer_than_a_voxel_does_not_take_what_cannot_see_it() {
+    // Two boxes side by side, 0.005 apart (a twentieth of a voxel: one solid across the gap),
+    // each with its bone; box A's bone runs close to the gap, so the near corners of box B are
+    // nearer to it in a straight line, through the gap, than to their own bone.
+    let (mut v, mut t) = (Vec::new(), Vec::new());
+    add_box(&mut v, &mut t, [0.0, 0.0, 0.0], [1.0, 1.0, 1.0]);
+    add_box(&mut v, &mut t, [1.005, 0.0, 0.0], [2.005, 1.0, 1.0]);
+    let heads = [[0.9, 0.5, 0.1], [1.9, 0.5, 0.1]];
+    let tails = [[0.9, 0.5, 0.9], [1.9, 0.5, 0.9]];
+    let opts = VoxelOptions { resolution: 16, ..Default::default() };
+    let (inf, _) = voxel_weights(&v, &t, &heads, &tails, &opts, None).unwrap();
+    assert_rows_sum_to_one(&inf);
+    for (i, p) in v.iter().enumerate() {
+        let (idx, w) = inf.row(i);
+        let own = if p[0] < 1.002 { 0 } else { 1 };
+        assert_eq!(idx[0], own, "vertex {i} at {p:?}: {idx:?} {w:?}");
+    }
+}

@@ -317,7 +317,7 @@ pub(crate) struct Visibility {
     /// Per piece: does it hold a bone (computed when accessories or a second look need it).
     inside: Vec<bool>,
     /// `(nw,)` nearest visible bone(s) of each vertex, in bones.
-    sources: Vec<Source>,
+    pub(crate) sources: Vec<Source>,
     /// Seconds: BVH, then the rest.
     secs: (f64, f64),
 }

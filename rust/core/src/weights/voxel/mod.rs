@@ -79,8 +79,9 @@ impl VoxelOptions {
         HeatOptions {
             max_influences: self.max_influences,
             min_weight: self.min_weight,
-            // The geodesic distances replace the straight lines of sight.
-            visibility: false,
+            // A vertex's nearest visible bone leads; the geodesic distances rank the rest and
+            // stand in where a vertex sees no bone.
+            visibility: true,
             weld_tolerance: self.weld_tolerance,
             symmetry: self.symmetry.clone(),
             mirror_tolerance: self.mirror_tolerance,
@@ -124,7 +125,8 @@ pub struct VoxelReport {
 ///    solid; parts no bone reaches continue through the air;
 /// 3. each vertex's distance to a bone is the least over the eight voxels around it of the
 ///    voxel's distance plus the way to the vertex; bones are ranked by Blender's
-///    normal-weighted distance on it;
+///    normal-weighted distance on it, a vertex's nearest visible bone (heat's, when it sees
+///    one) first and the bones ranked nearer that it does not see dropped;
 /// 4. falloff: the nearest bones share the vertex's heat by `exp(-(r - r_min) / (falloff
 ///    r_min))`;
 /// 5. smoothing: heat's screened solve on the surface, `(L + M H) w_j = M H s_j` with `s_j`
@@ -159,7 +161,7 @@ pub fn voxel_weights(
         tick(0.8)?;
         let clock = std::time::Instant::now();
         let near = stages::vertex_distances(prep, vis, &solid, stages::VOXEL_LABELS);
-        let out = stages::sources(&near, opts.falloff, solid.grid.step);
+        let out = stages::sources(&near, vis, opts.falloff, solid.grid.step);
         r.timings.push(("falloff", clock.elapsed().as_secs_f64()));
         *report.lock().unwrap_or_else(|p| p.into_inner()) = r;
         Ok(out)

@@ -170,10 +170,13 @@ pub(super) fn vertex_distances(prep: &Prepared, vis: &Visibility, solid: &Solid,
 /// its heat term. A geodesic distance `d` that follows the straight line (within
 /// [`STRAIGHT_RATIO`] and [`STRAIGHT_SLACK`] voxels of `step`) is replaced by the exact straight
 /// one, so the sweep's metric error does not decide between bones at nearly the same distance.
-/// Bones are ranked by Blender's normal-weighted distance on it, `r = d / ((cos + 1.001) / 2)`;
-/// bone `j` takes the share `exp(-(r_j - r_min) / (falloff r_min))` of the nearest's (up to
-/// [`SHARED`] bones); the distance in the heat term is the nearest's `d`.
-pub(super) fn sources(near: &Nearest, falloff: f32, step: f64) -> Provided {
+/// Bones are ranked by Blender's normal-weighted distance on it, `r = d / ((cos + 1.001) / 2)`.
+/// A vertex that sees a bone (heat's nearest visible bones in `vis`, ties) takes those as its
+/// nearest: bones ranked nearer that it does not see are dropped, and the seen ones share the
+/// least rank among them; a vertex that sees none keeps the geodesic ranking. Bone `j` takes
+/// the share `exp(-(r_j - r_min) / (falloff r_min))` of the nearest's (up to [`SHARED`]
+/// bones); the distance in the heat term is the nearest's `d`.
+pub(super) fn sources(near: &Nearest, vis: &Visibility, falloff: f32, step: f64) -> Provided {
     let slack = STRAIGHT_SLACK * step as f32;
     let (k, nw) = (near.k, near.bone.len() / near.k.max(1));
     let mut rows = Influences::empty(nw, SHARED);
@@ -193,6 +196,13 @@ pub(super) fn sources(near: &Nearest, falloff: f32, step: f64) -> Provided {
                     (j, g / ((c + 1.001) / 2.0), g)
                 })
                 .collect();
+            let mut ranked = ranked;
+            let src = &vis.sources[v];
+            let seen = |j: i32| src.bones[..src.count as usize].contains(&(j as u32));
+            if let Some(rv) = ranked.iter().filter(|c| seen(c.0)).map(|c| c.1).reduce(f32::min) {
+                ranked.retain(|c| c.1 >= rv || seen(c.0));
+                ranked.iter_mut().filter(|c| seen(c.0)).for_each(|c| c.1 = rv);
+            }
             let Some(&(_, rmin, gmin)) = ranked.iter().min_by(|a, b| a.1.total_cmp(&b.1)) else { return };
             *d = gmin as f64;
             let width = (falloff * rmin).max(f32::MIN_POSITIVE);
