@@ -975,7 +975,7 @@ def steer_cells(row: dict) -> dict:
     out = dict(result="FINISHED" if done else "CANCELLED: " + shorten((row["error"] or "").replace("\n", " "), 60))
     for key in ("skate", "stance", "pen", "heading", "travel"):
         value = row.get(key)
-        if not done or value is None or (key == "skate" and row["case"] == "in_place") \
+        if not done or value is None or (key in ("skate", "stance") and row["case"] == "in_place") \
                 or (key == "travel" and row["case"] != "in_place"):
             out[key] = "–"
             continue

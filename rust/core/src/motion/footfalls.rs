@@ -191,8 +191,9 @@ const FOOT_FOLD: f32 = 0.7;
 /// Where a planted leg's ankle goes when its upright foot stands on its toe's head (the toe's
 /// rest head carried as the ankle is to `ankle_at`): the foot leans with the leg from the posed
 /// hip `hip` ([`FOOT_TILT`]) and, lifted `lift` in swing, folds back ([`FOOT_FOLD`]); and the
-/// foot's world turn, after the foot's `heading` (the course's turn at its distance). A leg
-/// with no upright foot: `ankle_at` as it is, and the heading. `(fwd, right)`: the body's
+/// foot's world turn, after the turn `heading` that stands the rest foot on the ground (the
+/// course's turn at its distance, then the ground's tilt). A leg with no upright foot:
+/// `ankle_at` as it is, and that turn. `(fwd, right)`: the body's
 /// straight-line axes.
 pub(crate) fn leaning_foot(
     leg: &PlantedLeg,
@@ -253,51 +254,62 @@ pub(crate) struct Ground<'a> {
 }
 
 /// Where a foot is in its cycle, from [`foot_offset`]: its distance `ahead` of its standing
-/// place (straight-line gait), its `lift` (`up`: the share of the full lift, sin π s in swing),
+/// place (straight-line gait), its `lift`,
 /// and in swing where it lifted off (`from`), where it lands (`to`, a stride on) and how far it
 /// has gone between them (`eased`, 0 to 1; 0 in stance, where `from` = `to` = `ahead`).
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct Step {
     pub ahead: f32,
     pub lift: f32,
-    pub up: f32,
     pub from: f32,
     pub to: f32,
     pub eased: f32,
 }
 
-/// How far ahead and behind the ankle a swinging foot clears the ground, as a share of the
-/// leg's two bones: its toes and heel do not catch a step's edge.
+/// How far ahead and behind the ankle a foot reads the ground, as a share of the leg's two
+/// bones (and half as far to each side): about a foot's length.
 const FOOTPRINT: f32 = 0.25;
+
+/// The plane a foot stands on at distance `a` along `fwd` (straight-line gait) of `leg`'s
+/// standing place: fitted to the ground at the ankle and a footprint ahead, behind and to each
+/// side ([`FOOTPRINT`]), then raised to clear all five (a foot across a step's edge rests on
+/// the edge, not in it). Returns the world point under the ankle (on the plane) and the plane's
+/// unit normal.
+fn footing(leg: &PlantedLeg, ground: &Ground, a: f32, fwd: Vec3) -> (Vec3, Vec3) {
+    let map = &ground.steering;
+    let print = FOOTPRINT * (leg.l1 + leg.l2);
+    let side = fwd.cross(Vec3::Z).normalize_or(Vec3::X) * (0.5 * print);
+    let at = |off: Vec3| {
+        let p = map.place(leg.stand + fwd * a + off);
+        p.with_z(ground.terrain.height(p, ground.level))
+    };
+    let (c, ahead, behind, right, left) = (at(Vec3::ZERO), at(fwd * print), at(-fwd * print), at(side), at(-side));
+    let normal = (ahead - behind).cross(left - right).try_normalize().filter(|n| n.z > 0.0).unwrap_or(Vec3::Z);
+    let mean = (c + ahead + behind + right + left) / 5.0;
+    // the plane through the samples' mean, raised (along +Z) until no sample lies above it
+    let rise = [c, ahead, behind, right, left].iter().map(|p| (*p - mean).dot(normal) / normal.z).fold(0.0, f32::max);
+    let under = c.with_z(mean.z - (c - mean).with_z(0.0).dot(normal) / normal.z + rise);
+    (under, normal)
+}
 
 /// Where `leg`'s ankle goes (the one place that reads the ground): its standing place moved
 /// `step.ahead` along `fwd`, mapped to the world through the course at the foot's own distance,
-/// at its ankle height above the terrain along the surface's normal, lifted by `step.lift`.
-/// In swing the ground under it is the higher of the terrain there and the blend from where it
-/// lifted off to where it lands (and, lifted, of the terrain a footprint ahead and behind), the
-/// normal the blend of those two places'. Returns the target, the foot's heading turn (about
-/// +Z: the course's turn at the foot's distance) and its tilt (+Z onto the surface's normal).
+/// at its ankle height above the ground it stands on ([`footing`]) along that ground's normal,
+/// lifted by `step.lift`. In swing the ground under it is the higher of the footing there and
+/// the blend from where it lifted off to where it lands, the normal the blend of those two.
+/// Returns the target, the foot's heading turn (about +Z: the course's turn at the foot's
+/// distance) and its tilt (+Z onto the normal).
 pub(crate) fn foot_target(leg: &PlantedLeg, ground: &Ground, step: Step, fwd: Vec3) -> (Vec3, Quat, Quat) {
     let map = &ground.steering;
-    let along = |a: f32| map.place(leg.stand + fwd * a);
-    let straight = leg.stand + fwd * step.ahead;
-    let at = map.place(straight);
-    let turn = map.turn(map.distance(straight));
-    let height = |p: Vec3| ground.terrain.height(p, ground.level);
-    let mut base = height(at);
-    let mut normal = ground.terrain.normal(at);
+    let turn = map.turn(map.distance(leg.stand + fwd * step.ahead));
+    let (mut under, mut normal) = footing(leg, ground, step.ahead, fwd);
     if step.eased > 0.0 {
-        let (a, b) = (along(step.from), along(step.to));
-        base = base.max(height(a) + (height(b) - height(a)) * step.eased);
-        normal = ground.terrain.normal(a).lerp(ground.terrain.normal(b), step.eased).normalize_or(Vec3::Z);
-    }
-    if step.up > 0.0 {
-        let print = FOOTPRINT * (leg.l1 + leg.l2);
-        let clear = height(along(step.ahead + print)).max(height(along(step.ahead - print))) - base;
-        base += clear.max(0.0) * step.up;
+        let ((a, na), (b, nb)) = (footing(leg, ground, step.from, fwd), footing(leg, ground, step.to, fwd));
+        under.z = under.z.max(a.z + (b.z - a.z) * step.eased);
+        normal = na.lerp(nb, step.eased).normalize_or(Vec3::Z);
     }
     let tilt = Quat::from_rotation_arc(Vec3::Z, normal);
-    let target = Vec3::new(at.x, at.y, base) + normal * leg.ankle_height + Vec3::Z * step.lift;
+    let target = under + normal * leg.ankle_height + Vec3::Z * step.lift;
     (target, turn, tilt)
 }
 
@@ -314,7 +326,7 @@ pub(crate) fn foot_offset(ph: f32, duty: f32, stride: f32, lift: f32, travel: f3
     let ahead = stride * (0.5 * duty - ph + eased) + travel;
     let from = ahead - stride * eased;
     let to = if stance { ahead } else { from + stride };
-    Step { ahead, lift: lift * up, up, from, to, eased }
+    Step { ahead, lift: lift * up, from, to, eased }
 }
 
 /// A leg lowers the body by at most this fraction of its reach; a foot further out is left

@@ -1072,12 +1072,15 @@ fn plant_legs(
         / aims.len().max(1) as f32;
     let base = base + Vec3::Z * rise;
     let (_, hips0) = fk(poser, base);
-    let (targets, leans): (Vec<Vec3>, Vec<Quat>) = legs
+    // each ankle's target, its foot's world turn and its toe's (an upright foot's toe stands on
+    // the ground, turned to it)
+    let (targets, leans): (Vec<Vec3>, Vec<(Quat, Quat)>) = legs
         .iter()
         .zip(&aims)
         .map(|(leg, (step, (at, heading, tilt)))| {
-            let (at, turn) = leaning_foot(leg, hips0[leg.upper], (*at, step.lift), (ctx.fwd, right), *heading);
-            (at, *tilt * turn)
+            let stand = *tilt * *heading;
+            let (at, turn) = leaning_foot(leg, hips0[leg.upper], (*at, step.lift), (ctx.fwd, right), stand);
+            (at, (turn, stand))
         })
         .unzip();
     let reach: Vec<_> = legs.iter().zip(&targets).map(|(leg, &t)| (leg, hips0[leg.upper], t)).collect();
@@ -1091,7 +1094,7 @@ fn plant_legs(
         p if p >= 0 => turns[p as usize],
         _ => Quat::IDENTITY,
     };
-    for ((leg, &target), &lean) in legs.iter().zip(&targets).zip(&leans) {
+    for ((leg, &target), &(lean, toe_turn)) in legs.iter().zip(&targets).zip(&leans) {
         let (turns, posed) = fk(poser, offset);
         let pelvis = parent_turn(&turns, leg.upper);
         let (upper, lower) = leg_turns(leg, posed[leg.upper], target, pelvis);
@@ -1104,7 +1107,7 @@ fn plant_legs(
         }
         if let Some((toe, _)) = leg.toe {
             let (turns, _) = fk(poser, offset);
-            turn_to(poser, toe, Quat::IDENTITY, parent_turn(&turns, toe));
+            turn_to(poser, toe, toe_turn, parent_turn(&turns, toe));
         }
     }
     offset
