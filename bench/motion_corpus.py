@@ -765,9 +765,6 @@ def steer_main(args, rig_corpus) -> None:
     blender_session.write_report(Path(args.out).with_name("motion_steer.md"), text)
 
 
-if __name__ == "__main__":
-    main()
-
 
 # ---------------------------------------------------------------------------- steering
 
@@ -835,7 +832,8 @@ class Course:
         s = np.linspace(-2 * self.body, 2 * self.body, n_side)
         if self.case == "step":   # a vertical riser: two rows of points at its edge
             edge = 0.6 * self.body
-            d = np.sort(np.concatenate([d[np.abs(d - edge) > 1e-6], [edge - 1e-4 * self.body, edge + 1e-4 * self.body]]))
+            riser = [edge - 1e-4 * self.body, edge + 1e-4 * self.body]
+            d = np.sort(np.concatenate([d[np.abs(d - edge) > 1e-6], riser]))
         dd, ss = np.meshgrid(d, s, indexing="ij")
         x = self.start[0] + dd * self.fwd[0] + ss * self.left[0]
         y = self.start[1] + dd * self.fwd[1] + ss * self.left[1]
@@ -891,9 +889,11 @@ def rig_frame(arm) -> dict:
 
 
 def yaw_of(arm, bone: str) -> float:
-    """The world yaw (radians) of pose bone ``bone``'s Y axis, evaluated now."""
-    m = arm.matrix_world @ arm.pose.bones[bone].matrix
-    return math.atan2(m[1][1], m[0][1])
+    """The world yaw (radians) of pose bone ``bone``'s most level axis at rest, evaluated now."""
+    rest = (arm.matrix_world @ arm.data.bones[bone].matrix_local).to_3x3()
+    axis = min(range(3), key=lambda i: abs(rest.col[i].normalized().z))
+    m = (arm.matrix_world @ arm.pose.bones[bone].matrix).to_3x3()
+    return math.atan2(m[1][axis], m[0][axis])
 
 
 def steer_row(rig, case: str, motion: str = "WALK") -> dict:
@@ -998,3 +998,7 @@ def steer_table(rows) -> str:
         lines.append("| " + " | ".join(str(c[key]) for key, _ in STEER_COLUMNS) + " |")
     met = sum(not any("✗" in str(v) for v in steer_cells(r).values()) and r["result"] == "FINISHED" for r in rows)
     return "\n".join(lines + ["", f"Rows meeting every target: {met} of {len(rows)}."])
+
+
+if __name__ == "__main__":
+    main()

@@ -254,13 +254,14 @@ pub(crate) struct Ground<'a> {
 }
 
 /// Where a foot is in its cycle, from [`foot_offset`]: its distance `ahead` of its standing
-/// place (straight-line gait), its `lift`,
+/// place (straight-line gait), its `lift` (`up`: the share of the full lift, sin π s in swing),
 /// and in swing where it lifted off (`from`), where it lands (`to`, a stride on) and how far it
 /// has gone between them (`eased`, 0 to 1; 0 in stance, where `from` = `to` = `ahead`).
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct Step {
     pub ahead: f32,
     pub lift: f32,
+    pub up: f32,
     pub from: f32,
     pub to: f32,
     pub eased: f32,
@@ -269,34 +270,50 @@ pub(crate) struct Step {
 /// How far ahead and behind the ankle a foot reads the ground, as a share of the leg's two
 /// bones (and half as far to each side): about a foot's length.
 const FOOTPRINT: f32 = 0.25;
+/// How much further than its footprint a lifted foot clears the ground ahead and behind (a
+/// biped's toes reach about 0.4 of its leg ahead of the ankle).
+const SWING_CLEAR: f32 = 2.0;
 
 /// The plane a foot stands on at distance `a` along `fwd` (straight-line gait) of `leg`'s
-/// standing place: fitted to the ground at the ankle and a footprint ahead, behind and to each
-/// side ([`FOOTPRINT`]), then raised to clear all five (a foot across a step's edge rests on
-/// the edge, not in it). Returns the world point under the ankle (on the plane) and the plane's
-/// unit normal.
+/// standing place: fitted (least squares) to the ground at 5 x 3 points over its footprint
+/// ([`FOOTPRINT`] ahead and behind, half as far to each side), then raised to clear every one
+/// (a foot across a step's edge rests on the edge, not in it). Returns the world point under
+/// the ankle (on the plane) and the plane's unit normal.
 fn footing(leg: &PlantedLeg, ground: &Ground, a: f32, fwd: Vec3) -> (Vec3, Vec3) {
     let map = &ground.steering;
     let print = FOOTPRINT * (leg.l1 + leg.l2);
-    let side = fwd.cross(Vec3::Z).normalize_or(Vec3::X) * (0.5 * print);
-    let at = |off: Vec3| {
-        let p = map.place(leg.stand + fwd * a + off);
-        p.with_z(ground.terrain.height(p, ground.level))
-    };
-    let (c, ahead, behind, right, left) = (at(Vec3::ZERO), at(fwd * print), at(-fwd * print), at(side), at(-side));
-    let normal = (ahead - behind).cross(left - right).try_normalize().filter(|n| n.z > 0.0).unwrap_or(Vec3::Z);
-    let mean = (c + ahead + behind + right + left) / 5.0;
-    // the plane through the samples' mean, raised (along +Z) until no sample lies above it
-    let rise = [c, ahead, behind, right, left].iter().map(|p| (*p - mean).dot(normal) / normal.z).fold(0.0, f32::max);
-    let under = c.with_z(mean.z - (c - mean).with_z(0.0).dot(normal) / normal.z + rise);
-    (under, normal)
+    let side = fwd.cross(Vec3::Z).normalize_or(Vec3::X);
+    let centre = map.place(leg.stand + fwd * a);
+    let heading = map.turn(map.distance(leg.stand + fwd * a)) * fwd;
+    let right = heading.cross(Vec3::Z).normalize_or(side);
+    // samples as (along, across, height) about the centre, in the foot's heading
+    let mut samples = [(0.0f32, 0.0f32, 0.0f32); 15];
+    for (k, s) in samples.iter_mut().enumerate() {
+        let (u, v) = ((k % 5) as f32 * 0.5 - 1.0, (k / 5) as f32 * 0.5 - 0.5);
+        let p = map.place(leg.stand + fwd * (a + u * print) + side * (v * print));
+        let d = p - centre;
+        *s = (d.dot(heading), d.dot(right), ground.terrain.height(p, ground.level));
+    }
+    let n = samples.len() as f32;
+    let mean = samples.iter().fold(Vec3::ZERO, |m, &(x, y, z)| m + Vec3::new(x, y, z)) / n;
+    let (mut sxx, mut sxz, mut syy, mut syz) = (0.0f32, 0.0f32, 0.0f32, 0.0f32);
+    for &(x, y, z) in &samples {
+        let (x, y, z) = (x - mean.x, y - mean.y, z - mean.z);
+        (sxx, sxz, syy, syz) = (sxx + x * x, sxz + x * z, syy + y * y, syz + y * z);
+    }
+    let (gx, gy) = (sxz / sxx.max(f32::MIN_POSITIVE), syz / syy.max(f32::MIN_POSITIVE));
+    let plane = |x: f32, y: f32| mean.z + gx * (x - mean.x) + gy * (y - mean.y);
+    let rise = samples.iter().map(|&(x, y, z)| z - plane(x, y)).fold(0.0f32, f32::max);
+    let normal = (Vec3::Z - heading * gx - right * gy).normalize();
+    (centre.with_z(plane(0.0, 0.0) + rise), normal)
 }
 
 /// Where `leg`'s ankle goes (the one place that reads the ground): its standing place moved
 /// `step.ahead` along `fwd`, mapped to the world through the course at the foot's own distance,
 /// at its ankle height above the ground it stands on ([`footing`]) along that ground's normal,
 /// lifted by `step.lift`. In swing the ground under it is the higher of the footing there and
-/// the blend from where it lifted off to where it lands, the normal the blend of those two.
+/// the blend from where it lifted off to where it lands, the normal the blend of those two, and
+/// as it lifts, the ground [`SWING_CLEAR`] footprints ahead and behind.
 /// Returns the target, the foot's heading turn (about +Z: the course's turn at the foot's
 /// distance) and its tilt (+Z onto the normal).
 pub(crate) fn foot_target(leg: &PlantedLeg, ground: &Ground, step: Step, fwd: Vec3) -> (Vec3, Quat, Quat) {
@@ -307,6 +324,15 @@ pub(crate) fn foot_target(leg: &PlantedLeg, ground: &Ground, step: Step, fwd: Ve
         let ((a, na), (b, nb)) = (footing(leg, ground, step.from, fwd), footing(leg, ground, step.to, fwd));
         under.z = under.z.max(a.z + (b.z - a.z) * step.eased);
         normal = na.lerp(nb, step.eased).normalize_or(Vec3::Z);
+    }
+    if step.up > 0.0 {
+        // lifted, the foot clears the ground further ahead and behind (its toes and heel)
+        let reach = SWING_CLEAR * FOOTPRINT * (leg.l1 + leg.l2);
+        let high = (0..=8)
+            .map(|k| map.place(leg.stand + fwd * (step.ahead + reach * (k as f32 / 4.0 - 1.0))))
+            .map(|p| ground.terrain.height(p, ground.level))
+            .fold(f32::MIN, f32::max);
+        under.z += (high - under.z).max(0.0) * step.up;
     }
     let tilt = Quat::from_rotation_arc(Vec3::Z, normal);
     let target = under + normal * leg.ankle_height + Vec3::Z * step.lift;
@@ -326,7 +352,7 @@ pub(crate) fn foot_offset(ph: f32, duty: f32, stride: f32, lift: f32, travel: f3
     let ahead = stride * (0.5 * duty - ph + eased) + travel;
     let from = ahead - stride * eased;
     let to = if stance { ahead } else { from + stride };
-    Step { ahead, lift: lift * up, from, to, eased }
+    Step { ahead, lift: lift * up, up, from, to, eased }
 }
 
 /// A leg lowers the body by at most this fraction of its reach; a foot further out is left
