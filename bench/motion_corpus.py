@@ -736,20 +736,56 @@ def main(argv=None) -> None:
     blender_session.write_report(Path(args.out), text)
 
 
+def timed_path(rig, repeats: int = 3) -> tuple[float, float]:
+    """Least seconds of Add Motion (walk) on ``rig`` over ``repeats`` runs: along a quarter circle
+    4 strides long (4 cycles), and straight on for 4 cycles."""
+    import bpy
+
+    frame = rig_frame(rig.arm)
+    stride = 1.3 * frame["leg"]   # a biped's walk (docs/motion.md)
+    radius = 4 * stride / (math.pi / 2)
+    fwd, start = frame["fwd"], frame["start"]
+    left = np.array([-fwd[1], fwd[0], 0.0])
+    a = np.linspace(0.0, math.pi / 2, 64)[:, None]
+    course = Course("circle", start, fwd, 1.0, 1.0, 0.0)
+    course.path = start * [1, 1, 0] + radius * (left - np.cos(a) * left + np.sin(a) * fwd)
+    path = course.curve("timed_path")
+    best = {}
+    for key, props in (("path", dict(path=path.name)), ("straight", dict(cycles=4.0))):
+        for _ in range(repeats):
+            reset_rig(rig.arm, rig.arm.matrix_basis.copy())
+            bpy.context.view_layer.objects.active = rig.arm
+            with captured_output():
+                start_t = time.perf_counter()
+                bpy.ops.pose.miniskeleton_add_motion(motion="WALK", **props)
+                secs = time.perf_counter() - start_t
+            best[key] = min(best.get(key, secs), secs)
+    reset_rig(rig.arm, rig.arm.matrix_basis.copy())
+    data = path.data
+    bpy.data.objects.remove(path)
+    bpy.data.curves.remove(data)
+    return best["path"], best["straight"]
+
+
 def steer_main(args, rig_corpus) -> None:
     """The steering rows (``steer_row``) of each rig and case, walking; the slope and the
     circle also running. Writes the table to stdout and out/motion_steer.md."""
     names = [n for n in args.rigs.split(",") if n] or STEER_RIGS
     cases = STEER_CASES if args.steer == "all" else [c for c in args.steer.split(",") if c]
-    rows, skipped = [], []
+    rows, notes = [], []
     for name in names:
         why = rig_corpus.missing(name)
         if why:
-            skipped.append(f"skipped {name}: {why}")
+            notes.append(f"skipped {name}: {why}")
             continue
         blender_session.reset_scene()
         with captured_output():
             rig = rig_corpus.build(name)
+        if name == "rigify_human":
+            along, straight = timed_path(rig)
+            notes.append(f"Add Motion (walk, 4 cycles) on rigify_human: {along:.2f} s along a path, "
+                           f"{straight:.2f} s straight on (least of 3)")
+            print(notes[-1], flush=True)
         for case in cases:
             for motion in ["WALK"] + (["RUN"] if case in ("circle", "slope") else []):
                 row = steer_row(rig, case, motion)
@@ -759,7 +795,7 @@ def steer_main(args, rig_corpus) -> None:
                 print(f"{name:20s} {case:9s} {motion:5s} {c['result'][:50]:50s} skate {c['skate']:7s} "
                       f"stance {c['stance']:7s} pen {c['pen']:7s} heading {c['heading']:7s} "
                       f"travel {c['travel']:7s} {c['secs']} s", flush=True)
-    text = "\n".join(["## Add Motion steered", "", steer_table(rows), ""] + skipped)
+    text = "\n".join(["## Add Motion steered", "", steer_table(rows), ""] + notes)
     print()
     print(text)
     blender_session.write_report(Path(args.out).with_name("motion_steer.md"), text)
@@ -827,9 +863,9 @@ class Course:
 
         if not self.ground_mesh:
             return None
-        n_along, n_side = 360, 48
+        n_along, n_side = 360, 200
         d = np.linspace(-2 * self.body, 10 * self.body, n_along)
-        s = np.linspace(-2 * self.body, 2 * self.body, n_side)
+        s = np.linspace(-5 * self.body, 5 * self.body, n_side)
         if self.case == "step":   # a vertical riser: two rows of points at its edge
             edge = 0.6 * self.body
             riser = [edge - 1e-4 * self.body, edge + 1e-4 * self.body]
@@ -872,7 +908,7 @@ class Course:
 
 
 def rig_frame(arm) -> dict:
-    """The rig's forward axis, leg length, root bone and root head (world), as the core reads them."""
+    """The rig's forward axis, leg length and root head (world), as the core reads them."""
     import miniskeleton_core as core
 
     planning = importlib.import_module(blender_session.ADDON_MODULE + ".motion.planning")
@@ -884,24 +920,29 @@ def rig_frame(arm) -> dict:
     roles = core.detect_roles(heads, tails, bones.parents, bones.names)
     fwd = np.array(roles["forward"], dtype=np.float64)
     fwd[2] = 0.0
-    return dict(fwd=fwd / np.linalg.norm(fwd), leg=float(roles["leg_length"]), root=bones.names[roles["root"]],
+    return dict(fwd=fwd / np.linalg.norm(fwd), leg=float(roles["leg_length"]),
                 start=np.asarray(bones.heads[roles["root"]], dtype=np.float64))
 
 
-def yaw_of(arm, bone: str) -> float:
-    """The world yaw (radians) of pose bone ``bone``'s most level axis at rest, evaluated now."""
-    rest = (arm.matrix_world @ arm.data.bones[bone].matrix_local).to_3x3()
-    axis = min(range(3), key=lambda i: abs(rest.col[i].normalized().z))
-    m = (arm.matrix_world @ arm.pose.bones[bone].matrix).to_3x3()
-    return math.atan2(m[1][axis], m[0][axis])
+def body_yaw(anatomy: "Anatomy", ends) -> tuple[np.ndarray, np.ndarray]:
+    """(frames,) the body's heading (radians, unwrapped): square to the line from its right legs'
+    tops to its left legs' (``sample``'s bone ends); and (frames, 2) where the body is: the
+    centre of its legs' tops, seen from above."""
+    def tops(side):
+        return np.mean([anatomy.end(ends, first) for s, first, _ in anatomy.legs if s == side], axis=0)
+
+    left, right = tops("L"), tops("R")
+    across = left - right
+    return np.unwrap(np.arctan2(-across[:, 0], across[:, 1])), 0.5 * (left + right)[:, :2]
 
 
 def steer_row(rig, case: str, motion: str = "WALK") -> dict:
     """Add Motion ``motion`` on ``rig`` for the steering ``case`` (``Course``), measured in the
     ground's frame: each vertex's height above the ground under it. Returns the operator's
     result, seconds, and skate, stance (worst standing foot's median height above the surface, %
-    of diag), pen (deepest vertex below it, %), heading (largest angle between the body's turn
-    and the path's, degrees) and travel (the centroid's, % of diag; in place)."""
+    of diag), pen (deepest vertex below it, %), heading (largest angle between the body's turn,
+    ``body_yaw``, and the path's where the body is, degrees) and travel (the centroid's, % of
+    diag; in place)."""
     import bpy
 
     basis = rig.arm.matrix_basis.copy()
@@ -936,11 +977,7 @@ def steer_row(rig, case: str, motion: str = "WALK") -> dict:
         frames = list(range(int(span.group(1)), int(span.group(2)) + 1))
         anatomy = anatomy_of(rig.arm, rig.meshes, text, rest)
         pts, ends = sample(rig.meshes, frames, rig.arm, anatomy.bones)
-        yaws = []
-        for f in frames:
-            bpy.context.scene.frame_set(f)
-            yaws.append(yaw_of(rig.arm, frame["root"]))
-        row.update(steer_measures(course, pts, ends, anatomy, rest, np.unwrap(yaws)))
+        row.update(steer_measures(course, pts, ends, anatomy, rest, body_yaw(anatomy, ends)))
         row["frames"] = len(frames)
     reset_rig(rig.arm, basis)
     for ob in (ground, path):
@@ -951,8 +988,9 @@ def steer_row(rig, case: str, motion: str = "WALK") -> dict:
     return row
 
 
-def steer_measures(course: Course, pts, ends, anatomy, rest, yaws) -> dict:
-    """The measures of ``steer_row`` from the sampled vertices ``pts`` (frames, n, 3)."""
+def steer_measures(course: Course, pts, ends, anatomy, rest, body) -> dict:
+    """The measures of ``steer_row`` from the sampled vertices ``pts`` (frames, n, 3) and the
+    ``body``'s heading and place (``body_yaw``)."""
     diag = rest["diag"]
     flat = pts.copy()
     flat[..., 2] -= course.height(pts[..., 0], pts[..., 1])   # height above the ground under it
@@ -961,7 +999,7 @@ def steer_measures(course: Course, pts, ends, anatomy, rest, yaws) -> dict:
                travel=float(np.linalg.norm(pts[-1].mean(0)[:2] - pts[0].mean(0)[:2])) * 100.0 / diag)
     out.update({k: v for k, v in anatomy.measure(flat, ends, level).items() if k in ("stance", "contact")})
     if course.path is not None:
-        centre = pts.mean(axis=1)[:, :2]
+        yaws, centre = body
         want = np.unwrap(course.tangent_angle(centre))
         turn = (yaws - yaws[0]) - (want - want[0])
         out["heading"] = float(np.degrees(np.abs(turn)).max())

@@ -42,8 +42,9 @@
 //!   (`skin`), a body whose soles do not all rest on it settled first (`settle`), or on a
 //!   terrain (`terrain`), turned to its slope, the body following the ground under the feet.
 //! - Course ([`steered_clip`]): the gait is made along the straight line and mapped onto a path
-//!   (`course`): the body carried rigidly at its distance (every tree turned about the main
-//!   root's head), each foot at its own, so stance feet stay put through turns.
+//!   (`course`): the body carried rigidly at the distance of its legs' tops' centre (every tree
+//!   turned about the main root's head), each foot at its own, so stance feet stay put through
+//!   turns.
 //! - Root: forward travel (optional) and the body's height from the planted legs' reach (with
 //!   swinging legs only: the offset that keeps every foot at or above its own rest height and
 //!   the lowest one on it); a tail carried below its rest height turns up at its base.
@@ -926,6 +927,10 @@ fn gait(
     let steering = Steering { course: steer.course.as_ref(), origin: hv(roles.root), fwd };
     let ground_at = Ground { terrain: &steer.terrain, level: ground, steering };
     let mut turned_at = settle_at.clone();
+    // the body is carried at the distance of its legs' tops' centre (a quadruped's between its
+    // shoulders and hips), which stays on the path
+    let centre_ahead = roles.legs.iter().map(|l| (hv(l.bones[0]) - hv(roles.root)).dot(fwd)).sum::<f32>()
+        / roles.legs.len().max(1) as f32;
     // Each foot's lowest point; without planted legs the body rises or sinks so that no foot
     // goes below its own rest height and the lowest one stays on it (feet need not end at one
     // height: the Fox's front leg bones end at the wrist, 6 units above its hind feet's).
@@ -938,7 +943,8 @@ fn gait(
         pose_arms(&mut poser, &arms, hips, run, right);
         pose_body(&mut poser, roles, &sway, TAU * phi, run, (up, fwd, right));
         let travel = if p.root_motion { c.stride * phi } else { 0.0 };
-        let heading = steering.turn(travel);
+        let body_at = travel + centre_ahead;
+        let heading = steering.turn(body_at);
         if steer.course.is_some() {
             for &r in &others {
                 let at = hv(roles.root) + heading * (settled.apply(hv(r)) - settled.apply(hv(roles.root))) - hv(r);
@@ -947,7 +953,7 @@ fn gait(
         }
         let frame_at = &turned_at;
         // the straight-line root offset carried to the world at the body's distance
-        let carry = |straight: Vec3| steering.carry(hv(roles.root) + straight, travel) - hv(roles.root);
+        let carry = |straight: Vec3| steering.carry(hv(roles.root) + straight, body_at) - hv(roles.root);
         let offset = match &planted {
             Some(plant) => {
                 for limb in &roles.legs {
