@@ -448,7 +448,7 @@ pub fn steered_clip(
     match params.motion {
         Motion::HeadShake => head_shake(heads, tails, rest, roles, params),
         Motion::Walk | Motion::Run if roles.legs.is_empty() => Err(Error::NoBones(no_legs_message())),
-        Motion::Walk | Motion::Run => gait(heads, tails, parents, rest, roles, params, skin, steer),
+        Motion::Walk | Motion::Run => gait(heads, tails, parents, rest, roles, (params, steer), skin),
     }
 }
 
@@ -836,9 +836,8 @@ fn gait(
     parents: &[i32],
     rest: &[[f32; 9]],
     roles: &Roles,
-    p: &GaitParams,
+    (p, steer): (&GaitParams, &Steer),
     skin: &Skin,
-    steer: &Steer,
 ) -> Result<Clip> {
     let n = heads.len();
     let run = p.motion == Motion::Run;

@@ -52,7 +52,7 @@ impl Terrain {
                 heights.len()
             )));
         }
-        if !(cell > 0.0 && cell.is_finite()) || !origin.iter().all(|v| v.is_finite()) {
+        if !(cell > 0.0 && cell.is_finite() && origin.iter().all(|v| v.is_finite())) {
             return Err(Error::InvalidArgument(format!(
                 "the ground's cell must be positive and its origin finite, got {cell} at {origin:?}"
             )));
