@@ -378,6 +378,7 @@ def make_motion(
     cycles: float = 2.0, duration: float = 2.0, amplitude: float = 0.5236, stride: float = 1.0,
     speed: float = 1.0, root_motion: bool = True, joint_tails: bool = False,
     skin_points: Optional[ArrayLike] = None, skin_bones: Optional[ArrayLike] = None,
+    path: Optional[ArrayLike] = None, ground: Optional[tuple[tuple[float, float], float, ArrayLike]] = None,
 ) -> dict:
     """'HEAD_SHAKE', 'WALK' or 'RUN' for a skeleton. rest_matrices (b,3,3): rest orientation per
     bone (columns = bone X, Y, Z) in the heads' space. joint_tails: the tails are an importer's
@@ -385,6 +386,9 @@ def make_motion(
     skin_points (p,3) and skin_bones (p,) int: the skin at rest in the heads' space and the bone
     weighing most on each point (-1: none): the feet stand on the ground its soles rest on (a
     body that does not stand level is settled first), arms hang clear of its body.
+    path (p,3): a polyline the walk or run follows (cycles from its length; ValueError with
+    root_motion off). ground ((x, y), cell, heights (ny,nx)): a height field, heights[j, i] at
+    (x + i cell, y + j cell), NaN for a miss; the feet stand on it, turned to its slope.
     Returns {rotations (frames,b,4) float32 local quaternions w,x,y,z; root_offset (frames,3)
     float32; animated (k,) int32; locations (frames,b,3) float32 local locations in the heads'
     units (zero but for located); located (j,) int32 (the riders); moves_root; frames;

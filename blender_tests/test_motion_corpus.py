@@ -216,3 +216,62 @@ def test_a_legless_rig_is_refused_no_legs_with_nothing_keyed_and_shakes_its_head
     row = corpus.run_motion(r.arm, r.meshes, "HEAD_SHAKE", r.basis)
     assert row["result"] == "FINISHED" and row["head"] >= corpus.TARGET["head"], row
     B.set_active(r.arm)
+
+
+# ---------------------------------------------------------------------------- steering
+
+STEERED = ["ik_biped_gltf", "ik_quadruped_gltf"]
+
+
+@pytest.mark.parametrize("case", ["circle", "s_curve", "slope", "bumps", "step", "in_place"])
+@pytest.mark.parametrize("name", STEERED)
+def test_a_steered_walk_keeps_its_feet_planted_on_the_ground_and_heads_along_the_path(name, case):
+    """bench/motion_corpus.py's steering rows (``steer_row``): along a half circle of radius 2
+    body lengths and an S-curve, up a 15 degree slope, over bumps and up a step of 15 % of the
+    leg: no skate in the ground's frame, each standing foot on the surface under it, nothing
+    through it, the body turning with the path; in place, no travel."""
+    row = corpus.steer_row(built(name), case)
+    assert row["result"] == "FINISHED", row["error"]
+    t = corpus.STEER_TARGET
+    assert row["pen"] <= t["pen"], row["pen"]
+    if case == "in_place":   # the feet slide back under a body that stays: no foot stands
+        assert row["travel"] <= t["travel"], row["travel"]
+    else:
+        assert row["skate"] <= t["skate"] and abs(row["stance"]) <= t["stance"], (row["skate"], row["stance"])
+    if "heading" in row:
+        assert row["heading"] <= t["heading"], row["heading"]
+
+
+def test_a_bad_path_or_ground_is_one_report_and_nothing_is_keyed():
+    """A path of one point, far from the character, or not a curve; a ground that is the
+    armature itself or not a mesh; In Place with a path: each an error naming it, no key."""
+    r = built("ik_biped_gltf")
+    one = bpy.data.curves.new("one_point", "CURVE")
+    one.splines.new("POLY")
+    far = bpy.data.curves.new("far", "CURVE")
+    sp = far.splines.new("POLY")
+    sp.points.add(1)
+    sp.points[0].co, sp.points[1].co = (1e3, 0, 0, 1), (1e3 + 5, 0, 0, 1)
+    near = bpy.data.curves.new("near", "CURVE")
+    sp = near.splines.new("POLY")
+    sp.points.add(1)
+    sp.points[0].co, sp.points[1].co = (*r.arm.location[:2], 0, 1), (r.arm.location.x + 5, r.arm.location.y, 0, 1)
+    obs = [bpy.data.objects.new(c.name, c) for c in (one, far, near)]
+    for ob in obs:
+        bpy.context.scene.collection.objects.link(ob)
+    cases = [(dict(path="one_point"), "two points"), (dict(path="far"), "starts"),
+             (dict(path=r.arm.name), "not a curve"), (dict(ground=r.arm.name), "not a mesh"),
+             (dict(ground=r.meshes[0].name), "part of the character"),
+             (dict(path="near", in_place=True), "In Place"), (dict(path="nothing"), "no object")]
+    try:
+        for props, why in cases:
+            corpus.reset_rig(r.arm, r.basis)
+            B.set_active(r.arm)
+            with pytest.raises(RuntimeError, match=why):
+                bpy.ops.pose.miniskeleton_add_motion(motion="WALK", **props)
+            assert not corpus.keyed_anything(r.arm), props
+    finally:
+        for ob in obs:
+            data = ob.data
+            bpy.data.objects.remove(ob)
+            bpy.data.curves.remove(data)

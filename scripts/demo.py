@@ -1,7 +1,7 @@
 """The MiniSkeleton demo, headless: import Spot the cow's bare mesh (assets/spot, public domain),
 Auto Rig it (a Rigify-named skeleton found in the mesh, bound with Auto Weights (Heat)), pose it,
-render a PNG with Workbench and save the .blend; then key a head shake, a walk and a run on it,
-render them to an MP4 and save the .blend again. No joint is placed by hand.
+render a PNG with Workbench and save the .blend; then key a head shake, a walk along an
+S-shaped curve and a run on it, render them to an MP4 and save the .blend again. No joint is placed by hand.
 
     python -m scripts.demo --out out [--model path/to/model.glb]
 
@@ -127,6 +127,35 @@ def facing(rig):
         way = Vector((0.0, -1.0, 0.0))
     way.z = 0.0
     return way.normalized() if way.length > 0 else Vector((0.0, -1.0, 0.0))
+
+
+def s_curve(meshes, rig):
+    """A poly curve from under the rig's root bone: a quarter turn left then one right, each of a
+    radius of the character's size, so it ends heading the way it started (the run goes on
+    straight). Returns its name."""
+    import bpy
+    import numpy as np
+
+    box = posed_box(meshes)
+    size = float(np.linalg.norm(box[1] - box[0]))
+    fwd = np.array(facing(rig)[:])
+    left = np.array([-fwd[1], fwd[0], 0.0])
+    root = next(b for b in rig.data.bones if b.parent is None)
+    start = np.array((rig.matrix_world @ root.head_local)[:])
+    start[2] = 0.0
+    a = np.linspace(0.0, math.pi / 2, 24)[:, None]
+    first = start + size * (left - np.cos(a) * left + np.sin(a) * fwd)
+    second = first[-1] + size * (fwd - np.cos(a) * fwd + np.sin(a) * left)
+    points = np.concatenate([first, second[1:]])
+    cu = bpy.data.curves.new("Path", "CURVE")
+    cu.dimensions = "3D"
+    sp = cu.splines.new("POLY")
+    sp.points.add(len(points) - 1)
+    for p, q in zip(sp.points, points):
+        p.co = (*q, 1.0)
+    ob = bpy.data.objects.new("Path", cu)
+    bpy.context.scene.collection.objects.link(ob)
+    return ob.name
 
 
 def frame_camera(meshes, rig):
@@ -256,7 +285,7 @@ def main(argv=None):
     print(f"[demo] wrote {png} and {blend}")
     st.run("rest pose", rest_pose, rig)
     added = [st.run("motion: head shake", lambda: add_motion(rig, "HEAD_SHAKE", duration=1.25, cycles=2)),
-             st.run("motion: walk", lambda: add_motion(rig, "WALK", cycles=2)),
+             st.run("motion: walk along a curve", lambda: add_motion(rig, "WALK", path=s_curve(meshes, rig))),
              st.run("motion: run", lambda: add_motion(rig, "RUN", cycles=2))]
     if not any(added):
         print("[demo] no motion fits this rig: no video")

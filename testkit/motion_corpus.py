@@ -676,10 +676,16 @@ def main(argv=None) -> None:
     ap.add_argument("--rigs", default="", help="comma list of rig names (default: all); see rig_corpus.NAMES")
     ap.add_argument("--motions", default=",".join(MOTIONS), help="comma list of WALK, RUN, HEAD_SHAKE")
     ap.add_argument("--out", default=str(ROOT / "out" / "motion_corpus.md"))
+    ap.add_argument("--steer", default="", help="comma list of steering cases (circle, s_curve, slope, bumps, "
+                    "step, in_place, or all) to run on the --rigs (default: STEER_RIGS) instead")
     args = ap.parse_args(argv)
 
     blender_session.start()
     from testkit import rig_corpus
+
+    if args.steer:
+        steer_main(args, rig_corpus)
+        return
 
     names = [n for n in args.rigs.split(",") if n] or rig_corpus.NAMES
     unknown = [n for n in names if n not in rig_corpus.BUILDERS]
@@ -716,6 +722,308 @@ def main(argv=None) -> None:
     print()
     print(text)
     blender_session.write_report(Path(args.out), text)
+
+
+def timed_path(rig, repeats: int = 3) -> tuple[float, float]:
+    """Least seconds of Add Motion (walk) on ``rig`` over ``repeats`` runs: along a quarter circle
+    4 strides long (4 cycles), and straight on for 4 cycles."""
+    import bpy
+
+    frame = rig_frame(rig.arm)
+    stride = 1.3 * frame["leg"]   # a biped's walk (docs/motion.md)
+    radius = 4 * stride / (math.pi / 2)
+    fwd, start = frame["fwd"], frame["start"]
+    left = np.array([-fwd[1], fwd[0], 0.0])
+    a = np.linspace(0.0, math.pi / 2, 64)[:, None]
+    course = Course("circle", start, fwd, 1.0, 1.0, 0.0)
+    course.path = start * [1, 1, 0] + radius * (left - np.cos(a) * left + np.sin(a) * fwd)
+    path = course.curve("timed_path")
+    best = {}
+    for key, props in (("path", dict(path=path.name)), ("straight", dict(cycles=4.0))):
+        for _ in range(repeats):
+            reset_rig(rig.arm, rig.arm.matrix_basis.copy())
+            bpy.context.view_layer.objects.active = rig.arm
+            with captured_output():
+                start_t = time.perf_counter()
+                bpy.ops.pose.miniskeleton_add_motion(motion="WALK", **props)
+                secs = time.perf_counter() - start_t
+            best[key] = min(best.get(key, secs), secs)
+    reset_rig(rig.arm, rig.arm.matrix_basis.copy())
+    data = path.data
+    bpy.data.objects.remove(path)
+    bpy.data.curves.remove(data)
+    return best["path"], best["straight"]
+
+
+def steer_main(args, rig_corpus) -> None:
+    """The steering rows (``steer_row``) of each rig and case, walking; the slope and the
+    circle also running. Writes the table to stdout and out/motion_steer.md."""
+    names = [n for n in args.rigs.split(",") if n] or STEER_RIGS
+    cases = STEER_CASES if args.steer == "all" else [c for c in args.steer.split(",") if c]
+    rows, notes = [], []
+    for name in names:
+        why = rig_corpus.missing(name)
+        if why:
+            notes.append(f"skipped {name}: {why}")
+            continue
+        blender_session.reset_scene()
+        with captured_output():
+            rig = rig_corpus.build(name)
+        if name == "rigify_human":
+            along, straight = timed_path(rig)
+            notes.append(f"Add Motion (walk, 4 cycles) on rigify_human: {along:.2f} s along a path, "
+                           f"{straight:.2f} s straight on (least of 3)")
+            print(notes[-1], flush=True)
+        for case in cases:
+            for motion in ["WALK"] + (["RUN"] if case in ("circle", "slope") else []):
+                row = steer_row(rig, case, motion)
+                row["rig"] = name
+                rows.append(row)
+                c = steer_cells(row)
+                print(f"{name:20s} {case:9s} {motion:5s} {c['result'][:50]:50s} skate {c['skate']:7s} "
+                      f"stance {c['stance']:7s} pen {c['pen']:7s} heading {c['heading']:7s} "
+                      f"travel {c['travel']:7s} {c['secs']} s", flush=True)
+    text = "\n".join(["## Add Motion steered", "", steer_table(rows), ""] + notes)
+    print()
+    print(text)
+    blender_session.write_report(Path(args.out).with_name("motion_steer.md"), text)
+
+
+
+# ---------------------------------------------------------------------------- steering
+
+# Rigs of each family the steering rows walk: a biped and a quadruped where the family has one
+# (Mixamo characters are bipeds).
+STEER_RIGS = ["ik_biped_gltf", "ik_quadruped_gltf", "CesiumMan", "Fox", "mixamo_gltf", "rigify_human", "rigify_wolf",
+              "autorig_CesiumMan", "autorig_spot"]
+STEER_CASES = ["circle", "s_curve", "slope", "bumps", "step", "in_place"]
+SLOPE = 15.0        # degrees
+STEP = 0.15         # a step's height, share of the leg's length
+STEER_TARGET = dict(skate=0.15, stance=1.0, pen=1.0, heading=10.0, travel=1.0)
+
+
+class Course:
+    """One steering case laid out for a rig: ``path`` (p, 3) world points or None, ``height``
+    (a function of world x, y arrays: the ground under them) and ``ground_mesh`` (bool: lay a
+    mesh for it), from the rig's rest ``start`` (its root's head, world), ``fwd`` (unit,
+    horizontal), body length and leg length."""
+
+    def __init__(self, case: str, start, fwd, body: float, leg: float, floor: float):
+        self.case = case
+        start, fwd = np.asarray(start, dtype=np.float64), np.asarray(fwd, dtype=np.float64)
+        left = np.array([-fwd[1], fwd[0], 0.0])
+        self.path, self.ground_mesh = None, case in ("slope", "bumps", "step")
+        radius = 2.0 * body
+        s0 = np.array([start[0], start[1], floor])
+
+        def arc(centre, u, v, n=96):   # a quarter turn from centre + R u, heading along v
+            a = np.linspace(0.0, math.pi / 2, n)[:, None]
+            return centre + radius * (np.cos(a) * u + np.sin(a) * v)
+
+        if case == "circle":   # half a circle turning left
+            centre = s0 + radius * left
+            self.path = np.concatenate([arc(centre, -left, fwd), arc(centre, fwd, left)[1:]])
+        elif case == "s_curve":   # a quarter turning left, then a quarter turning right
+            first = arc(s0 + radius * left, -left, fwd)
+            self.path = np.concatenate([first, arc(first[-1] + radius * fwd, -fwd, left)[1:]])
+        ahead = 0.6 * body   # the ground changes this far ahead of the root
+        tan = math.tan(math.radians(SLOPE))
+        wave = body
+
+        def height(x, y):
+            d = (x - start[0]) * fwd[0] + (y - start[1]) * fwd[1]
+            s = (x - start[0]) * left[0] + (y - start[1]) * left[1]
+            if case == "slope":
+                return floor + tan * np.maximum(0.0, d - ahead)
+            if case == "bumps":
+                return floor + 0.04 * leg * (1 - np.cos(2 * math.pi * np.maximum(0.0, d - ahead) / wave)) \
+                    * (1 + 0.5 * np.sin(2 * math.pi * s / wave))
+            if case == "step":
+                return floor + STEP * leg * (d > ahead)
+            return floor + 0.0 * d
+
+        self.height = height
+        self.start, self.fwd, self.left, self.body = start, fwd, left, body
+
+    def lay(self, name: str):
+        """The ground mesh (a fine grid of ``height``) in the scene, or None."""
+        import bpy
+
+        if not self.ground_mesh:
+            return None
+        n_along, n_side = 360, 200
+        d = np.linspace(-2 * self.body, 10 * self.body, n_along)
+        s = np.linspace(-5 * self.body, 5 * self.body, n_side)
+        if self.case == "step":   # a vertical riser: two rows of points at its edge
+            edge = 0.6 * self.body
+            riser = [edge - 1e-4 * self.body, edge + 1e-4 * self.body]
+            d = np.sort(np.concatenate([d[np.abs(d - edge) > 1e-6], riser]))
+        dd, ss = np.meshgrid(d, s, indexing="ij")
+        x = self.start[0] + dd * self.fwd[0] + ss * self.left[0]
+        y = self.start[1] + dd * self.fwd[1] + ss * self.left[1]
+        z = self.height(x, y)
+        verts = np.stack([x, y, z], axis=-1).reshape(-1, 3)
+        quads = [(i * n_side + j, (i + 1) * n_side + j, (i + 1) * n_side + j + 1, i * n_side + j + 1)
+                 for i in range(len(d) - 1) for j in range(n_side - 1)]
+        me = bpy.data.meshes.new(name)
+        me.from_pydata(verts.tolist(), [], quads)
+        ob = bpy.data.objects.new(name, me)
+        bpy.context.scene.collection.objects.link(ob)
+        return ob
+
+    def curve(self, name: str):
+        """The path as a poly curve object in the scene, or None."""
+        import bpy
+
+        if self.path is None:
+            return None
+        cu = bpy.data.curves.new(name, "CURVE")
+        cu.dimensions = "3D"
+        sp = cu.splines.new("POLY")
+        sp.points.add(len(self.path) - 1)
+        for p, q in zip(sp.points, self.path):
+            p.co = (*q, 1.0)
+        ob = bpy.data.objects.new(name, cu)
+        bpy.context.scene.collection.objects.link(ob)
+        return ob
+
+    def tangent_angle(self, xy: np.ndarray) -> np.ndarray:
+        """(k,) the path's heading (radians) at its point nearest each of ``xy`` (k, 2)."""
+        seg = np.diff(self.path[:, :2], axis=0)
+        near = np.argmin(np.linalg.norm(self.path[None, :-1, :2] - xy[:, None], axis=2), axis=1)
+        t = seg[near]
+        return np.arctan2(t[:, 1], t[:, 0])
+
+
+def rig_frame(arm) -> dict:
+    """The rig's forward axis, leg length and root head (world), as the core reads them."""
+    import miniskeleton_core as core
+
+    planning = importlib.import_module(blender_session.ADDON_MODULE + ".motion.planning")
+    rigify = importlib.import_module(blender_session.ADDON_MODULE + ".motion.rigify")
+    bones = planning.motion_bones(arm)
+    if rigify.is_rigify(arm):
+        bones = rigify.merged_segments(arm, bones)
+    heads, tails, _ = planning.motion_skeleton(arm, bones)
+    roles = core.detect_roles(heads, tails, bones.parents, bones.names)
+    fwd = np.array(roles["forward"], dtype=np.float64)
+    fwd[2] = 0.0
+    return dict(fwd=fwd / np.linalg.norm(fwd), leg=float(roles["leg_length"]),
+                start=np.asarray(bones.heads[roles["root"]], dtype=np.float64))
+
+
+def body_yaw(anatomy: "Anatomy", ends) -> tuple[np.ndarray, np.ndarray]:
+    """(frames,) the body's heading (radians, unwrapped): square to the line from its right legs'
+    tops to its left legs' (``sample``'s bone ends); and (frames, 2) where the body is: the
+    centre of its legs' tops, seen from above."""
+    def tops(side):
+        return np.mean([anatomy.end(ends, first) for s, first, _ in anatomy.legs if s == side], axis=0)
+
+    left, right = tops("L"), tops("R")
+    across = left - right
+    return np.unwrap(np.arctan2(-across[:, 0], across[:, 1])), 0.5 * (left + right)[:, :2]
+
+
+def steer_row(rig, case: str, motion: str = "WALK") -> dict:
+    """Add Motion ``motion`` on ``rig`` for the steering ``case`` (``Course``), measured in the
+    ground's frame: each vertex's height above the ground under it. Returns the operator's
+    result, seconds, and skate, stance (worst standing foot's median height above the surface, %
+    of diag), pen (deepest vertex below it, %), heading (largest angle between the body's turn,
+    ``body_yaw``, and the path's where the body is, degrees) and travel (the centroid's, % of
+    diag; in place)."""
+    import bpy
+
+    basis = rig.arm.matrix_basis.copy()
+    reset_rig(rig.arm, basis)
+    rest = rest_of(rig.meshes)
+    frame = rig_frame(rig.arm)
+    along = rest["points"][:, :2] @ frame["fwd"][:2]
+    body = max(float(np.ptp(along)), float(np.ptp(rest["points"][:, 2])))
+    course = Course(case, frame["start"], frame["fwd"], body, frame["leg"], rest["ground"])
+    ground, path = course.lay(f"ground_{case}"), course.curve(f"path_{case}")
+    props = dict(path=path.name if path else "", ground=ground.name if ground else "", in_place=case == "in_place")
+    if case == "slope" or case == "bumps" or case == "step":
+        props["cycles"] = 4.0
+    for ob in bpy.context.view_layer.objects:
+        ob.select_set(False)
+    rig.arm.select_set(True)
+    bpy.context.view_layer.objects.active = rig.arm
+    error = None
+    with captured_output() as out:
+        start = time.perf_counter()
+        try:
+            result = bpy.ops.pose.miniskeleton_add_motion(motion=motion, **props)
+        except RuntimeError as err:
+            result, error = {"CANCELLED"}, str(err).strip()
+        secs = time.perf_counter() - start
+    text = out[0]
+    row = dict(rig=rig.name if hasattr(rig, "name") else "", case=case, motion=motion, result=next(iter(result)),
+               secs=secs, error=error, diag=rest["diag"])
+    if row["result"] == "FINISHED":
+        info = [ln[6:] for ln in text.splitlines() if ln.startswith("Info: ")]
+        span = re.search(r"frames (-?\d+)-(-?\d+)", " ".join(info))
+        frames = list(range(int(span.group(1)), int(span.group(2)) + 1))
+        anatomy = anatomy_of(rig.arm, rig.meshes, text, rest)
+        pts, ends = sample(rig.meshes, frames, rig.arm, anatomy.bones)
+        row.update(steer_measures(course, pts, ends, anatomy, rest, body_yaw(anatomy, ends)))
+        row["frames"] = len(frames)
+    reset_rig(rig.arm, basis)
+    for ob in (ground, path):
+        if ob is not None:
+            data = ob.data
+            bpy.data.objects.remove(ob)
+            (bpy.data.meshes if ground is ob else bpy.data.curves).remove(data)
+    return row
+
+
+def steer_measures(course: Course, pts, ends, anatomy, rest, body) -> dict:
+    """The measures of ``steer_row`` from the sampled vertices ``pts`` (frames, n, 3) and the
+    ``body``'s heading and place (``body_yaw``)."""
+    diag = rest["diag"]
+    flat = pts.copy()
+    flat[..., 2] -= course.height(pts[..., 0], pts[..., 1])   # height above the ground under it
+    level = dict(rest, ground=0.0)
+    out = dict(skate=skate(flat, diag), pen=max(0.0, -float(flat[..., 2].min())) * 100.0 / diag,
+               travel=float(np.linalg.norm(pts[-1].mean(0)[:2] - pts[0].mean(0)[:2])) * 100.0 / diag)
+    out.update({k: v for k, v in anatomy.measure(flat, ends, level).items() if k in ("stance", "contact")})
+    if course.path is not None:
+        yaws, centre = body
+        want = np.unwrap(course.tangent_angle(centre))
+        turn = (yaws - yaws[0]) - (want - want[0])
+        out["heading"] = float(np.degrees(np.abs(turn)).max())
+    return out
+
+
+def steer_cells(row: dict) -> dict:
+    """The steering table's cells with ✓ / ✗ against ``STEER_TARGET``."""
+    t = STEER_TARGET
+    done = row["result"] == "FINISHED"
+    out = dict(result="FINISHED" if done else "CANCELLED: " + shorten((row["error"] or "").replace("\n", " "), 60))
+    for key in ("skate", "stance", "pen", "heading", "travel"):
+        value = row.get(key)
+        if not done or value is None or (key in ("skate", "stance") and row["case"] == "in_place") \
+                or (key == "travel" and row["case"] != "in_place"):
+            out[key] = "–"
+            continue
+        ok = (value <= t[key]) if key != "stance" else abs(value) <= t[key]
+        out[key] = fmt(value) + mark(bool(ok) and not math.isnan(value))
+    out["secs"] = f"{row['secs']:.2f}"
+    return out
+
+
+STEER_COLUMNS = [("rig", "rig"), ("case", "case"), ("motion", "motion"), ("result", "result"), ("skate", "skate"),
+                 ("stance", "stance %"), ("pen", "pen. %"), ("heading", "heading °"), ("travel", "travel %"),
+                 ("secs", "op s")]
+
+
+def steer_table(rows) -> str:
+    lines = ["| " + " | ".join(title for _, title in STEER_COLUMNS) + " |",
+             "|" + "|".join("---" for _ in STEER_COLUMNS) + "|"]
+    for row in rows:
+        c = dict(rig=row["rig"], case=row["case"], motion=row["motion"], **steer_cells(row))
+        lines.append("| " + " | ".join(str(c[key]) for key, _ in STEER_COLUMNS) + " |")
+    met = sum(not any("✗" in str(v) for v in steer_cells(r).values()) and r["result"] == "FINISHED" for r in rows)
+    return "\n".join(lines + ["", f"Rows meeting every target: {met} of {len(rows)}."])
 
 
 if __name__ == "__main__":

@@ -17,6 +17,7 @@ from contextlib import nullcontext
 from pathlib import Path
 
 import bpy
+import numpy as np
 from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty, StringProperty
 
 from ..common.files import make_folder
@@ -28,8 +29,9 @@ from .filming import (ENGINES, VideoError, add_camera, add_follow_camera, add_li
                       union_box)
 from .keying import (constrained_rotation_bones, driven_rotation_bones, last_key_frame, overridden_keys, root_bone_axes,
                      write_keys)
-from .planning import describe_roles, make_motion, motion_armature, motion_bones
+from .planning import describe_roles, make_motion, motion_armature, motion_bones, skinned_meshes
 from .rigify import is_rigify, key_controls, merged_segments, plan_controls
+from .steering import SteeringError, check_path_near, ground_field, path_points
 from .studio import studio_set
 
 MOTIONS = [
@@ -57,8 +59,15 @@ class MINISKELETON_OT_add_motion(bpy.types.Operator):
                           description="Stride length, 1 = natural for the leg length")
     speed: FloatProperty(name="Speed", default=1.0, min=0.2, max=5.0,
                          description="Cadence, 1 = natural for the leg length")
-    root_motion: BoolProperty(name="Move Forward", default=True,
-                              description="Move the root bone forward (else walk on the spot)")
+    in_place: BoolProperty(name="In Place", default=False,
+                           description="Walk or run on the spot: the cycle without its travel (the root's forward "
+                           "motion taken out, as game engines want); off, the root moves along")
+    path: StringProperty(name="Path", default="",
+                         description="A curve object the walk or run follows (its length sets the cycles); "
+                         "empty: straight ahead")
+    ground: StringProperty(name="Ground", default="",
+                           description="A mesh object the feet stand on, its height and slope under each foot "
+                           "(cast down onto it); empty: a level floor")
     append: BoolProperty(name="Append", default=True,
                          description="Start after the last existing key (else at the current frame)")
     blend: FloatProperty(name="Blend", default=0.25, min=0.0, max=5.0, unit="TIME_ABSOLUTE",
@@ -75,7 +84,9 @@ class MINISKELETON_OT_add_motion(bpy.types.Operator):
         else:
             layout.prop(self, "stride")
             layout.prop(self, "speed")
-            layout.prop(self, "root_motion")
+            layout.prop(self, "in_place")
+            layout.prop_search(self, "path", bpy.data, "objects")
+            layout.prop_search(self, "ground", bpy.data, "objects")
         layout.prop(self, "append")
         layout.prop(self, "blend")
 
@@ -87,9 +98,7 @@ class MINISKELETON_OT_add_motion(bpy.types.Operator):
         scene = context.scene
         fps = scene.render.fps / scene.render.fps_base
         try:
-            out = make_motion(arm, bones, scene, fps, self.motion, cycles=self.cycles, duration=self.duration,
-                              amplitude=self.amplitude, stride=self.stride, speed=self.speed,
-                              root_motion=self.root_motion)
+            out = self._plan(context, arm, bones, fps)
         except ValueError as err:
             self.report({"ERROR"}, f"{arm.name}: {err}")
             return {"CANCELLED"}
@@ -137,6 +146,36 @@ class MINISKELETON_OT_add_motion(bpy.types.Operator):
                     f"{', '.join(bones.names[i] for i in roles['spine'])} (full list in the console){controls}")
         self._warn(arm, keyed)
         return {"FINISHED"}
+
+    def _plan(self, context, arm, bones, fps: float) -> dict:
+        """The core's motion with this operator's options, along the path and on the ground they
+        name (``steering``); ValueError (a ``SteeringError`` for a bad path or ground) saying why."""
+        def plan(**steer):
+            return make_motion(arm, bones, context.scene, fps, self.motion, cycles=self.cycles,
+                               duration=self.duration, amplitude=self.amplitude, stride=self.stride,
+                               speed=self.speed, root_motion=not self.in_place, **steer)
+
+        gait = self.motion != "HEAD_SHAKE"
+        if not gait or not (self.path or self.ground):
+            return plan()
+        ends = np.concatenate([bones.heads, bones.tails])
+        size = float(np.linalg.norm(np.ptp(ends, axis=0)))
+        steer = {}
+        if self.path:
+            if self.in_place:
+                raise SteeringError("In Place walks on the spot, so it cannot follow a path: turn In Place off "
+                                    "or clear the path")
+            steer["path"] = path_points(bpy.data.objects.get(self.path) or _missing("path", self.path))
+            check_path_near(steer["path"], 0.5 * (ends.min(axis=0) + ends.max(axis=0)), size, self.path)
+        if self.ground:
+            ground = bpy.data.objects.get(self.ground) or _missing("ground", self.ground)
+            # the region the walk covers: the character at rest moved by the root's offsets
+            offsets = np.asarray(plan(**steer)["root_offset"], dtype=np.float64)[:, :2]
+            margin = 0.1 * size
+            region = (ends[:, :2].min(axis=0) + offsets.min(axis=0) - margin,
+                      ends[:, :2].max(axis=0) + offsets.max(axis=0) + margin)
+            steer["ground"] = ground_field(ground, region, size, {arm, *skinned_meshes(arm)})
+        return plan(**steer)
 
     def _armature(self, context):
         """(armature, its deform bones) to animate, or None (reported)."""
@@ -270,6 +309,10 @@ class MINISKELETON_OT_make_video(bpy.types.Operator):
     def video_size(self) -> tuple[int, int]:
         """The requested width and height rounded up to even numbers (H.264 wants them even)."""
         return self.resolution_x + self.resolution_x % 2, self.resolution_y + self.resolution_y % 2
+
+
+def _missing(what: str, name: str):
+    raise SteeringError(f"no object named '{name}' for the {what}")
 
 
 classes = (MINISKELETON_OT_add_motion, MINISKELETON_OT_make_video)

@@ -181,16 +181,20 @@ def scene_metres(scene: bpy.types.Scene) -> float:
 
 
 def make_motion(arm, bones, scene, fps: float, motion: str, cycles: float, duration: float, amplitude: float,
-                stride: float, speed: float, root_motion: bool) -> dict:
+                stride: float, speed: float, root_motion: bool, path: np.ndarray | None = None,
+                ground: tuple | None = None) -> dict:
     """The core's ``motion`` (``make_motion``: "HEAD_SHAKE", "WALK" or "RUN", with the Add Motion
     options) for ``arm``'s deform ``bones`` (``armature_bones``) at ``fps``, its offsets in the
     armature's world units; ValueError when the core finds no legs or no head. The skin of the
     meshes it moves (``motion_skin``) tells the core where the feet stand and how wide the body
-    is beside the arms."""
+    is beside the arms. ``path`` (p, 3) world points and ``ground`` (``steering.ground_field``,
+    world) go to the core in its space."""
     import miniskeleton_core as core
 
     skin, skin_bones = motion_skin(arm, bones)
     heads, tails, rest = motion_skeleton(arm, bones, skin)
+    origin = np.array(arm.matrix_world.translation, dtype=np.float64)
+    mirrored = np.linalg.det(np.array(arm.matrix_world.to_3x3(), dtype=np.float64)) < 0
     # The cadence follows the leg length in metres: the core gets the skeleton in metres,
     # by the scene's Unit Scale (in a centimetre scene, 0.01, a creature would otherwise walk
     # at the slowest cadence, as if its legs were metres long).
@@ -206,11 +210,27 @@ def make_motion(arm, bones, scene, fps: float, motion: str, cycles: float, durat
         unit_size = 2.0 ** math.floor(math.log2(size / 1e6))
     elif 0.0 < size < 1e-3:
         unit_size = 2.0 ** math.ceil(math.log2(size / 1e-3))
+    scale = metres / unit_size   # world units, from the armature's origin, to the core's
+    steer = {}
+    if path is not None:
+        points = (np.asarray(path, dtype=np.float64) - origin) * scale
+        if mirrored:
+            points[:, 0] *= -1
+        steer["path"] = points
+    if ground is not None:
+        (x, y), cell, heights = ground
+        heights = (np.asarray(heights, dtype=np.float64) - origin[2]) * scale
+        x = x - origin[0]
+        if mirrored:   # the grid seen in the mirror: its columns reversed
+            x = -(x + (heights.shape[1] - 1) * cell)
+            heights = heights[:, ::-1]
+        steer["ground"] = ((x * scale, (y - origin[1]) * scale), cell * scale, heights)
     out = core.make_motion(
         heads / unit_size, tails / unit_size, bones.parents, rest, motion,
         names=bones.names, fps=fps, cycles=cycles, duration=duration,
         amplitude=amplitude, stride=stride, speed=speed,
-        root_motion=root_motion, joint_tails=bones.imported, skin_points=skin / unit_size, skin_bones=skin_bones)
+        root_motion=root_motion, joint_tails=bones.imported, skin_points=skin / unit_size, skin_bones=skin_bones,
+        **steer)
     for key in ("root_offset", "locations"):   # back in world units
         out[key] = np.asarray(out[key], dtype=np.float64) * (unit_size / metres)
     return out

@@ -1,10 +1,11 @@
-//! Bindings for motion: skeleton roles (`roles.rs`) and procedural gaits (`gait.rs`).
+//! Bindings for motion: skeleton roles (`roles.rs`), procedural gaits (`gait.rs`) and where they
+//! go (`course.rs`, `terrain.rs`).
 #![allow(clippy::approx_constant)] // make_motion's amplitude=0.5236 rad (30 degrees) is a literal so Python's signature shows it
 
 use crate::convert::{from_rows, indices, rows, Indices};
 use crate::error::guarded;
 use miniskeleton_core::motion::{detect_roles as core_detect, BodyPlan, Limb, Roles, Side};
-use miniskeleton_core::motion::{motion_clip, GaitParams, Motion, Skin};
+use miniskeleton_core::motion::{steered_clip, Course, GaitParams, Motion, Skin, Steer, Terrain};
 use numpy::ndarray::Array3;
 use numpy::{AllowTypeChange, IntoPyArray, PyArray1, PyArrayLike2};
 use pyo3::exceptions::PyValueError;
@@ -107,10 +108,15 @@ pub fn detect_roles<'py>(
 /// the character's skin at rest in the same space and the bone weighing most on each point (-1:
 /// none); the feet stand on the ground its soles rest on (a body that does not stand level is
 /// settled first) and arms hang clear of its body. Without them the bones alone are read.
+/// path (p, 3): a polyline in the heads' space the walk or run follows (the clip covers its
+/// length; `cycles` is read from it; an error with root_motion off). ground ((x, y), cell,
+/// heights (ny, nx)): a height field, heights[j, i] at (x + i cell, y + j cell), NaN for a miss;
+/// the feet stand on it, turned to its slope.
 #[pyfunction]
 #[pyo3(signature = (bone_heads, bone_tails, parents, rest_matrices, motion="WALK", *, names=None,
                     fps=24.0, cycles=2.0, duration=2.0, amplitude=0.5236, stride=1.0, speed=1.0,
-                    root_motion=true, joint_tails=false, skin_points=None, skin_bones=None))]
+                    root_motion=true, joint_tails=false, skin_points=None, skin_bones=None, path=None,
+                    ground=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn make_motion<'py>(
     py: Python<'py>,
@@ -130,6 +136,8 @@ pub fn make_motion<'py>(
     joint_tails: bool,
     skin_points: Option<F32Rows<'py>>,
     skin_bones: Option<Indices<'py>>,
+    path: Option<F32Rows<'py>>,
+    ground: Option<((f32, f32), f32, F32Rows<'py>)>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let mut s = skeleton(&bone_heads, &bone_tails, &parents, names)?;
     let skin_points = skin_points.as_ref().map(|p| rows::<f32, 3>(p, "skin_points")).transpose()?.unwrap_or_default();
@@ -153,6 +161,12 @@ pub fn make_motion<'py>(
     }
     let rest: Vec<[f32; 9]> = flat.chunks_exact(9).map(|c| c.try_into().unwrap()).collect();
     let params = GaitParams { motion, fps, cycles, duration, amplitude, stride, speed, root_motion };
+    let path = path.as_ref().map(|p| rows::<f32, 3>(p, "path")).transpose()?;
+    let ground = ground.map(|((x, y), cell, heights)| {
+        let view = heights.as_array();
+        let (ny, nx) = view.dim();
+        ([x, y], cell, (nx, ny), view.iter().copied().collect::<Vec<f32>>())
+    });
     let (roles, clip) = guarded(py, move || {
         if joint_tails {
             miniskeleton_core::skeleton::validate_parents(&s.parents, s.heads.len())?;
@@ -160,7 +174,14 @@ pub fn make_motion<'py>(
         }
         let roles = core_detect(&s.heads, &s.tails, &s.parents, &s.names)?;
         let skin = Skin { points: &skin_points, bones: &skin_bones };
-        let clip = motion_clip(&s.heads, &s.tails, &s.parents, &rest, &roles, &params, &skin)?;
+        let steer = Steer {
+            course: path.as_deref().map(Course::new).transpose()?,
+            terrain: match &ground {
+                Some((origin, cell, size, heights)) => Terrain::field(*origin, *cell, *size, heights)?,
+                None => Terrain::LEVEL,
+            },
+        };
+        let clip = steered_clip(&s.heads, &s.tails, &s.parents, &rest, &roles, (&params, &steer), &skin)?;
         Ok((roles, clip))
     })?;
     let flat: Vec<f32> = clip.rotations.iter().flat_map(|q| q.iter().copied()).collect();

@@ -14,12 +14,15 @@
 //! rest height above the foot's sole (the lowest skin point of the leg, `skin.rs`; without skin,
 //! above the ankle's own rest height, so the foot keeps it). A body whose feet do not all rest
 //! on one ground is settled first (`settle.rs`), and the feet stand where the settled body puts
-//! them. The ground is a level plane at the lowest sole; [`foot_target`] is where a foot goes for
-//! a given ground height, the one place that reads it.
+//! them. The ground is the level plane at the lowest sole, or a terrain (`terrain.rs`): a foot
+//! stands on the surface under it, turned to its normal; [`foot_target`] is where a foot goes,
+//! the one place that reads the ground. On a course (`course.rs`) the gait is made along the
+//! straight line and each foot mapped at its own distance, so a stance foot stays put through a
+//! turn.
 //!
 //! Body height. Each leg allows the hip to be at most its reach above its foot target at the
 //! target's horizontal distance; the body goes as high as every leg allows, never above the
-//! settled rest height and never lower than a few per cent of a leg's reach.
+//! settled rest height (over the terrain under the feet) and never lower than a few per cent of a leg's reach.
 //! Reach is the leg's rest hip-ankle distance, or 98 % of its two bones when they are bent at
 //! rest. So stance feet stay on the ground, neither floating nor sinking, and the body dips
 //! where the feet are far apart.
@@ -35,8 +38,10 @@
 //! head instead, and folds back in swing ([`leaning_foot`]), its toe level: the thigh then
 //! swings less. A leg without two such bones is left to the swing-based posing of `gait.rs`.
 
+use crate::motion::course::Steering;
 use crate::motion::roles::{Limb, Roles};
 use crate::motion::settle::Settle;
+use crate::motion::terrain::Terrain;
 use crate::posing::{frame_turn, two_bone_ik};
 use glam::{Quat, Vec3};
 use std::f32::consts::PI;
@@ -186,21 +191,25 @@ const FOOT_FOLD: f32 = 0.7;
 /// Where a planted leg's ankle goes when its upright foot stands on its toe's head (the toe's
 /// rest head carried as the ankle is to `ankle_at`): the foot leans with the leg from the posed
 /// hip `hip` ([`FOOT_TILT`]) and, lifted `lift` in swing, folds back ([`FOOT_FOLD`]); and the
-/// foot's world turn. A leg with no upright foot: `ankle_at` as it is, and no turn.
-/// `(fwd, right)`: the body's axes.
+/// foot's world turn, after the turn `heading` that stands the rest foot on the ground (the
+/// course's turn at its distance, then the ground's tilt). A leg with no upright foot:
+/// `ankle_at` as it is, and that turn. `(fwd, right)`: the body's
+/// straight-line axes.
 pub(crate) fn leaning_foot(
     leg: &PlantedLeg,
     hip: Vec3,
     (ankle_at, lift): (Vec3, f32),
     (fwd, right): (Vec3, Vec3),
+    heading: Quat,
 ) -> (Vec3, Quat) {
-    let Some((_, toe)) = leg.toe else { return (ankle_at, Quat::IDENTITY) };
-    let toe_at = ankle_at + (toe - leg.ankle);
-    let angle = |d: Vec3| d.dot(fwd).atan2(-d.z);
+    let Some((_, toe)) = leg.toe else { return (ankle_at, heading) };
+    let toe_at = ankle_at + heading * (toe - leg.ankle);
+    let (fwd_now, right_now) = (heading * fwd, heading * right);
+    let angle = |d: Vec3, fwd: Vec3| d.dot(fwd).atan2(-d.z);
     let length = (leg.ankle - toe).length().max(f32::MIN_POSITIVE);
     let fold = (1.0 - FOOT_FOLD * lift.max(0.0) / length).clamp(-1.0, 1.0).acos();
-    let lean = FOOT_TILT * (angle(toe_at - hip) - angle(toe - leg.hip));
-    let turn = Quat::from_axis_angle(right, lean - fold);
+    let lean = FOOT_TILT * (angle(toe_at - hip, fwd_now) - angle(toe - leg.hip, fwd));
+    let turn = Quat::from_axis_angle(right_now, lean - fold) * heading;
     (toe_at + turn * (leg.ankle - toe), turn)
 }
 
@@ -235,18 +244,104 @@ pub(crate) fn stand_on(
     }
 }
 
-/// Where `leg`'s ankle goes on a ground at height `ground` (the one place that reads it): its
-/// standing place moved `ahead` along `fwd`, at its ankle height above the ground, lifted by
-/// `lift` (both from [`foot_offset`]).
-pub(crate) fn foot_target(leg: &PlantedLeg, ground: f32, (ahead, lift): (f32, f32), fwd: Vec3) -> Vec3 {
-    let mut p = leg.stand + fwd * ahead;
-    p.z = ground + leg.ankle_height + lift;
-    p
+/// The ground a foot stands on: the terrain (`terrain.rs`; `level` is the level ground's
+/// height) and the map from the straight-line gait to the world (`course.rs`).
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Ground<'a> {
+    pub terrain: &'a Terrain,
+    pub level: f32,
+    pub steering: Steering<'a>,
+}
+
+/// Where a foot is in its cycle, from [`foot_offset`]: its distance `ahead` of its standing
+/// place (straight-line gait), its `lift` (`up`: the share of the full lift, sin π s in swing),
+/// and in swing where it lifted off (`from`), where it lands (`to`, a stride on) and how far it
+/// has gone between them (`eased`, 0 to 1; 0 in stance, where `from` = `to` = `ahead`).
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Step {
+    pub ahead: f32,
+    pub lift: f32,
+    pub up: f32,
+    pub from: f32,
+    pub to: f32,
+    pub eased: f32,
+}
+
+/// How far ahead and behind the ankle a foot reads the ground, as a share of the leg's two
+/// bones (and half as far to each side): about a foot's length.
+const FOOTPRINT: f32 = 0.25;
+/// How much further than its footprint a lifted foot clears the ground ahead and behind (a
+/// biped's toes reach about 0.4 of its leg ahead of the ankle).
+const SWING_CLEAR: f32 = 2.0;
+
+/// The plane a foot stands on at distance `a` along `fwd` (straight-line gait) of `leg`'s
+/// standing place: fitted (least squares) to the ground at 5 x 3 points over its footprint
+/// ([`FOOTPRINT`] ahead and behind, half as far to each side), then raised to clear every one
+/// (a foot across a step's edge rests on the edge, not in it). Returns the world point under
+/// the ankle (on the plane) and the plane's unit normal.
+fn footing(leg: &PlantedLeg, ground: &Ground, a: f32, fwd: Vec3) -> (Vec3, Vec3) {
+    let map = &ground.steering;
+    let print = FOOTPRINT * (leg.l1 + leg.l2);
+    let side = fwd.cross(Vec3::Z).normalize_or(Vec3::X);
+    let centre = map.place(leg.stand + fwd * a);
+    let heading = map.turn(map.distance(leg.stand + fwd * a)) * fwd;
+    let right = heading.cross(Vec3::Z).normalize_or(side);
+    // samples as (along, across, height) about the centre, in the foot's heading
+    let mut samples = [(0.0f32, 0.0f32, 0.0f32); 15];
+    for (k, s) in samples.iter_mut().enumerate() {
+        let (u, v) = ((k % 5) as f32 * 0.5 - 1.0, (k / 5) as f32 * 0.5 - 0.5);
+        let p = map.place(leg.stand + fwd * (a + u * print) + side * (v * print));
+        let d = p - centre;
+        *s = (d.dot(heading), d.dot(right), ground.terrain.height(p, ground.level));
+    }
+    let n = samples.len() as f32;
+    let mean = samples.iter().fold(Vec3::ZERO, |m, &(x, y, z)| m + Vec3::new(x, y, z)) / n;
+    let (mut sxx, mut sxz, mut syy, mut syz) = (0.0f32, 0.0f32, 0.0f32, 0.0f32);
+    for &(x, y, z) in &samples {
+        let (x, y, z) = (x - mean.x, y - mean.y, z - mean.z);
+        (sxx, sxz, syy, syz) = (sxx + x * x, sxz + x * z, syy + y * y, syz + y * z);
+    }
+    let (gx, gy) = (sxz / sxx.max(f32::MIN_POSITIVE), syz / syy.max(f32::MIN_POSITIVE));
+    let plane = |x: f32, y: f32| mean.z + gx * (x - mean.x) + gy * (y - mean.y);
+    let rise = samples.iter().map(|&(x, y, z)| z - plane(x, y)).fold(0.0f32, f32::max);
+    let normal = (Vec3::Z - heading * gx - right * gy).normalize();
+    (centre.with_z(plane(0.0, 0.0) + rise), normal)
+}
+
+/// Where `leg`'s ankle goes (the one place that reads the ground): its standing place moved
+/// `step.ahead` along `fwd`, mapped to the world through the course at the foot's own distance,
+/// at its ankle height above the ground it stands on ([`footing`]) along that ground's normal,
+/// lifted by `step.lift`. In swing the ground under it is the higher of the footing there and
+/// the blend from where it lifted off to where it lands, the normal the blend of those two, and
+/// as it lifts, the ground [`SWING_CLEAR`] footprints ahead and behind.
+/// Returns the target, the foot's heading turn (about +Z: the course's turn at the foot's
+/// distance) and its tilt (+Z onto the normal).
+pub(crate) fn foot_target(leg: &PlantedLeg, ground: &Ground, step: Step, fwd: Vec3) -> (Vec3, Quat, Quat) {
+    let map = &ground.steering;
+    let turn = map.turn(map.distance(leg.stand + fwd * step.ahead));
+    let (mut under, mut normal) = footing(leg, ground, step.ahead, fwd);
+    if step.eased > 0.0 {
+        let ((a, na), (b, nb)) = (footing(leg, ground, step.from, fwd), footing(leg, ground, step.to, fwd));
+        under.z = under.z.max(a.z + (b.z - a.z) * step.eased);
+        normal = na.lerp(nb, step.eased).normalize_or(Vec3::Z);
+    }
+    if step.up > 0.0 {
+        // lifted, the foot clears the ground further ahead and behind (its toes and heel)
+        let reach = SWING_CLEAR * FOOTPRINT * (leg.l1 + leg.l2);
+        let high = (0..=8)
+            .map(|k| map.place(leg.stand + fwd * (step.ahead + reach * (k as f32 / 4.0 - 1.0))))
+            .map(|p| ground.terrain.height(p, ground.level))
+            .fold(f32::MIN, f32::max);
+        under.z += (high - under.z).max(0.0) * step.up;
+    }
+    let tilt = Quat::from_rotation_arc(Vec3::Z, normal);
+    let target = under + normal * leg.ankle_height + Vec3::Z * step.lift;
+    (target, turn, tilt)
 }
 
 /// Where a foot's ankle is at leg phase `ph`, relative to its rest place, for a body that has
-/// travelled `travel` along `fwd`: forward offset and lift (see the module doc).
-pub(crate) fn foot_offset(ph: f32, duty: f32, stride: f32, lift: f32, travel: f32) -> (f32, f32) {
+/// travelled `travel` along `fwd` (see the module doc and [`Step`]).
+pub(crate) fn foot_offset(ph: f32, duty: f32, stride: f32, lift: f32, travel: f32) -> Step {
     let stance = ph < duty;
     let (eased, up) = if stance {
         (0.0, 0.0)
@@ -254,7 +349,10 @@ pub(crate) fn foot_offset(ph: f32, duty: f32, stride: f32, lift: f32, travel: f3
         let s = (ph - duty) / (1.0 - duty);
         (0.5 - 0.5 * (PI * s).cos(), (PI * s).sin())
     };
-    (stride * (0.5 * duty - ph + eased) + travel, lift * up)
+    let ahead = stride * (0.5 * duty - ph + eased) + travel;
+    let from = ahead - stride * eased;
+    let to = if stance { ahead } else { from + stride };
+    Step { ahead, lift: lift * up, up, from, to, eased }
 }
 
 /// A leg lowers the body by at most this fraction of its reach; a foot further out is left
@@ -297,7 +395,8 @@ mod tests {
         let (duty, stride, fpc) = (0.6, 1.3, 30.0);
         let at = |k: f32| {
             let ph = (k / fpc + 0.25).fract();
-            foot_offset(ph, duty, stride, 0.1, stride * k / fpc)
+            let s = foot_offset(ph, duty, stride, 0.1, stride * k / fpc);
+            (s.ahead, s.lift)
         };
         // Frames 0..10 have phase 0.25..0.58: stance.
         let (x0, _) = at(0.0);

@@ -39,7 +39,12 @@
 //!   run); neck/head bob at the step rate with the head steadied; tail sway with a lag; arms
 //!   held out at rest hang clear of the body's skin (`skin`) and swing against the legs.
 //! - Ground: every stance foot stands on the level ground of the lowest sole of the skin
-//!   (`skin`), a body whose soles do not all rest on it settled first (`settle`).
+//!   (`skin`), a body whose soles do not all rest on it settled first (`settle`), or on a
+//!   terrain (`terrain`), turned to its slope, the body following the ground under the feet.
+//! - Course ([`steered_clip`]): the gait is made along the straight line and mapped onto a path
+//!   (`course`): the body carried rigidly at the distance of its legs' tops' centre (every tree
+//!   turned about the main root's head), each foot at its own, so stance feet stay put through
+//!   turns.
 //! - Root: forward travel (optional) and the body's height from the planted legs' reach (with
 //!   swinging legs only: the offset that keeps every foot at or above its own rest height and
 //!   the lowest one on it); a tail carried below its rest height turns up at its base.
@@ -47,15 +52,19 @@
 //!   fade in and out (starts and ends at rest), the head taking half; ears and other head
 //!   children swing after it with 35 % of the amplitude and a lag.
 //!
-//! Known limitations: the ground is a level plane; without a skin each foot keeps its own rest
+//! Known limitations: the body stays upright on a slope; without a skin each foot keeps its own rest
 //! height; rotations are about world-up-based axes, so a character lying down is animated as if
 //! standing.
 
 use crate::error::{Error, Result};
-use crate::motion::footfalls::{body_drop, foot_offset, foot_target, leaning_foot, leg_turns, planted_legs, stand_on};
+use crate::motion::course::{Course, Steering};
+use crate::motion::footfalls::{
+    body_drop, foot_offset, foot_target, leaning_foot, leg_turns, planted_legs, stand_on, Ground,
+};
 use crate::motion::roles::{no_legs_message, BodyPlan, Limb, Roles, Side};
 use crate::motion::settle::{settle, Settle};
 use crate::motion::skin::{arm_radius, elbow_clearance, hang_angle, leg_soles, Body, Hanging, Skin};
+use crate::motion::terrain::Terrain;
 use crate::skeleton::validate_parents;
 use glam::{Mat3, Quat, Vec3};
 use std::f32::consts::{PI, TAU};
@@ -101,6 +110,15 @@ impl Default for GaitParams {
             root_motion: true,
         }
     }
+}
+
+/// Where a walk or run goes: along a course (`course.rs`; None: straight on along forward) and
+/// over a terrain (`terrain.rs`; level: the ground the feet rest on). With a course the clip
+/// covers its length (`cycles` is read from it) and needs root motion.
+#[derive(Debug, Clone, Default)]
+pub struct Steer {
+    pub course: Option<Course>,
+    pub terrain: Terrain,
 }
 
 /// Generated motion: `frames` frames, frame 0 first.
@@ -407,12 +425,36 @@ pub fn motion_clip(
     params: &GaitParams,
     skin: &Skin,
 ) -> Result<Clip> {
+    steered_clip(heads, tails, parents, rest, roles, (params, &Steer::default()), skin)
+}
+
+/// [`motion_clip`] steered (`steer`: along a course, over a terrain; see [`Steer`]). A course
+/// without root motion (in place) or with a stride of 0 is an error.
+pub fn steered_clip(
+    heads: &[[f32; 3]],
+    tails: &[[f32; 3]],
+    parents: &[i32],
+    rest: &[[f32; 9]],
+    roles: &Roles,
+    (params, steer): (&GaitParams, &Steer),
+    skin: &Skin,
+) -> Result<Clip> {
     check(heads, tails, parents, rest, roles, params)?;
     skin.check(heads.len())?;
+    if steer.course.is_some() && params.motion != Motion::HeadShake {
+        if !params.root_motion {
+            return Err(Error::InvalidArgument(
+                "a path needs the body to travel: in place walks on the spot, so leave In Place off with a path".into(),
+            ));
+        }
+        if !(params.stride > 0.0) {
+            return Err(Error::InvalidArgument("a path needs a stride above 0".into()));
+        }
+    }
     match params.motion {
         Motion::HeadShake => head_shake(heads, tails, rest, roles, params),
         Motion::Walk | Motion::Run if roles.legs.is_empty() => Err(Error::NoBones(no_legs_message())),
-        Motion::Walk | Motion::Run => gait(heads, tails, parents, rest, roles, params, skin),
+        Motion::Walk | Motion::Run => gait(heads, tails, parents, rest, roles, (params, steer), skin),
     }
 }
 
@@ -505,14 +547,13 @@ struct Cadence {
 /// The cadence follows a pendulum of the leg's length (assumed in metres; clamped so rigs in
 /// other units, centimetres or a 60-unit cow, still get a plausible one); the stride a fixed
 /// number of leg lengths.
-fn cadence(roles: &Roles, p: &GaitParams) -> Result<Cadence> {
+fn cadence(roles: &Roles, p: &GaitParams, course: Option<&Course>) -> Result<Cadence> {
     let run = p.motion == Motion::Run;
     let quad = roles.plan == BodyPlan::Quadruped;
     let l = roles.leg_length.max(1e-6);
     let pendulum = (l / 0.9).sqrt().clamp(0.6, 1.6);
     let period = if run { 0.6 } else { 1.05 } * pendulum / p.speed;
     let fpc = (period * p.fps).round().max(8.0);
-    let frames = frame_count(p.cycles * fpc, 1.0)?;
     // A run keeps a foot on the ground at least 75 % of the cycle: a gallop's four feet in
     // stance 0.3 of it each cover 0.8; two or six feet take turns, in stance 0.4 each. Its
     // stride is what the legs reach in that time with the body no lower than `MAX_DROP`. A
@@ -531,6 +572,9 @@ fn cadence(roles: &Roles, p: &GaitParams) -> Result<Cadence> {
         (true, false) => 1.7,
     } * l
         * p.stride;
+    // along a course, as many cycles as cover it
+    let cycles = course.map_or(p.cycles, |c| c.length() / stride.max(f32::MIN_POSITIVE));
+    let frames = frame_count(cycles * fpc, 1.0)?;
     Ok(Cadence {
         fpc,
         frames,
@@ -798,7 +842,7 @@ fn gait(
     parents: &[i32],
     rest: &[[f32; 9]],
     roles: &Roles,
-    p: &GaitParams,
+    (p, steer): (&GaitParams, &Steer),
     skin: &Skin,
 ) -> Result<Clip> {
     let n = heads.len();
@@ -807,7 +851,7 @@ fn gait(
     let fwd = Vec3::from(roles.forward);
     let right = fwd.cross(up).normalize();
     let hv = |b: usize| Vec3::from(heads[b]);
-    let c = cadence(roles, p)?;
+    let c = cadence(roles, p, steer.course.as_ref())?;
     let phases = leg_phases(roles, p.motion);
     let legs = leg_joints(heads, tails, roles, (fwd, right));
     // spine bones that sway: all but the root when there are others
@@ -842,7 +886,7 @@ fn gait(
     // The settle turns every tree the roles lie in about its root: the main root through the
     // root offset, the others (a rig of several trees) through their location.
     let mut tree_roots: Vec<usize> = Vec::new();
-    if !settled.is_none() {
+    if !settled.is_none() || steer.course.is_some() {
         let real_root = |mut b: usize| {
             while parents[b] >= 0 {
                 b = parents[b] as usize;
@@ -878,10 +922,20 @@ fn gait(
     // the other trees' roots, moved with the main one's by the settle
     let mut settle_at = vec![[0.0f32; 3]; n];
     let mut located: Vec<usize> = roles.riders.iter().map(|&[r, _]| r).collect();
-    for &r in tree_roots.iter().filter(|&&r| r != roles.root) {
+    let others: Vec<usize> = tree_roots.iter().copied().filter(|&r| r != roles.root).collect();
+    for &r in &others {
         settle_at[r] = (poser.rest[r].inverse() * (settle_shift(r) - root_settle)).to_array();
         located.push(r);
     }
+    // The course carries the body at its distance (`course.rs`), turning every tree about the
+    // main root's head; the ground under the feet is the terrain's (`terrain.rs`).
+    let steering = Steering { course: steer.course.as_ref(), origin: hv(roles.root), fwd };
+    let ground_at = Ground { terrain: &steer.terrain, level: ground, steering };
+    let mut turned_at = settle_at.clone();
+    // the body is carried at the distance of its legs' tops' centre (a quadruped's between its
+    // shoulders and hips), which stays on the path
+    let centre_ahead = roles.legs.iter().map(|l| (hv(l.bones[0]) - hv(roles.root)).dot(fwd)).sum::<f32>()
+        / roles.legs.len().max(1) as f32;
     // Each foot's lowest point; without planted legs the body rises or sinks so that no foot
     // goes below its own rest height and the lowest one stays on it (feet need not end at one
     // height: the Fox's front leg bones end at the wrist, 6 units above its hind feet's).
@@ -894,6 +948,17 @@ fn gait(
         pose_arms(&mut poser, &arms, hips, run, right);
         pose_body(&mut poser, roles, &sway, TAU * phi, run, (up, fwd, right));
         let travel = if p.root_motion { c.stride * phi } else { 0.0 };
+        let body_at = travel + centre_ahead;
+        let heading = steering.turn(body_at);
+        if steer.course.is_some() {
+            for &r in &others {
+                let at = hv(roles.root) + heading * (settled.apply(hv(r)) - settled.apply(hv(roles.root))) - hv(r);
+                turned_at[r] = (poser.rest[r].inverse() * at).to_array();
+            }
+        }
+        let frame_at = &turned_at;
+        // the straight-line root offset carried to the world at the body's distance
+        let carry = |straight: Vec3| steering.carry(hv(roles.root) + straight, body_at) - hv(roles.root);
         let offset = match &planted {
             Some(plant) => {
                 for limb in &roles.legs {
@@ -902,22 +967,24 @@ fn gait(
                     }
                 }
                 for &r in &tree_roots {
-                    poser.pre_turn(r, settled.turn);
+                    poser.pre_turn(r, heading * settled.turn);
                 }
-                let ctx = Planting { heads, carried: &carried, locations: &settle_at, fwd, ground };
-                let offset = plant_legs(&mut poser, &ctx, plant, &phases, &c, phi, fwd * travel + root_settle);
+                let ctx = Planting { heads, carried: &carried, locations: frame_at, fwd, ground: &ground_at };
+                let offset =
+                    plant_legs(&mut poser, &ctx, plant, &phases, &c, phi, (carry(fwd * travel + root_settle), travel));
                 // A tail that the body's dip and the spine's flexion carry below its own rest
                 // height (a hanging tail nearly touches the ground) turns up at its base by the
                 // angle that lifts it back.
                 if let (Some(&base), true) = (roles.tail.first(), tail_reach > 0.0) {
                     let local: Vec<[f32; 4]> = poser.q.iter().map(|&q| to_wxyz(q)).collect();
                     let (turns, posed) =
-                        posed_frames(heads, &carried, &poser.rest, &local, &settle_at, offset.to_array());
+                        posed_frames(heads, &carried, &poser.rest, &local, frame_at, offset.to_array());
                     let low = roles
                         .tail
                         .iter()
                         .map(|&b| (posed[b] + turns[b] * (Vec3::from(tails[b]) - hv(b))).z.min(posed[b].z))
                         .fold(f32::INFINITY, f32::min);
+                    let tail_low = tail_low + steer.terrain.height(hv(roles.root) + offset, ground) - ground;
                     if low < tail_low {
                         poser.rotate(base, right, -((tail_low - low) / tail_reach).min(1.0).asin());
                     }
@@ -933,16 +1000,20 @@ fn gait(
                 };
                 let lift =
                     feet.iter().zip(&rest_low).map(|(&b, &r)| r - posed_low(b)).fold(f32::NEG_INFINITY, f32::max);
-                fwd * travel + up * lift
+                for &r in &tree_roots {
+                    poser.pre_turn(r, heading);
+                }
+                let at = carry(fwd * travel);
+                at + up * (lift + steer.terrain.height(hv(roles.root) + at, ground) - ground)
             }
         };
         root_offset.push(offset.to_array());
         let mut local: Vec<[f32; 4]> = poser.q.iter().map(|&q| to_wxyz(q)).collect();
         let frame_locations = &mut locations[k * n..(k + 1) * n];
-        frame_locations.copy_from_slice(&settle_at);
+        frame_locations.copy_from_slice(frame_at);
         if !roles.riders.is_empty() {
-            let on_legs = posed_frames(heads, &carried, &poser.rest, &local, &settle_at, [0.0; 3]);
-            let real = posed_frames(heads, parents, &poser.rest, &local, &settle_at, [0.0; 3]);
+            let on_legs = posed_frames(heads, &carried, &poser.rest, &local, frame_at, [0.0; 3]);
+            let real = posed_frames(heads, parents, &poser.rest, &local, frame_at, [0.0; 3]);
             for &[r, _] in &roles.riders {
                 let (q, loc) = rider_pose(r, heads, parents, &poser.rest, (&on_legs.0, &on_legs.1), (&real.0, &real.1));
                 local[r] = to_wxyz(q);
@@ -978,12 +1049,13 @@ struct Planting<'a> {
     carried: &'a [i32],
     locations: &'a [[f32; 3]],
     fwd: Vec3,
-    ground: f32,
+    ground: &'a Ground<'a>,
 }
 
 /// Plant the legs at cycle fraction `phi` (see `footfalls`): each ankle's target, the body's
-/// offset (`base`: forward travel and the settle, then down as far as the legs need), then each
-/// leg's two bones by IK and its foot level. Returns the root offset.
+/// offset (`base`: forward travel and the settle carried along the course, then up by the
+/// terrain's mean height under the feet and down as far as the legs need), then each leg's two
+/// bones by IK and its foot on the ground. Returns the root offset.
 fn plant_legs(
     poser: &mut Poser,
     ctx: &Planting,
@@ -991,22 +1063,35 @@ fn plant_legs(
     phases: &[f32],
     c: &Cadence,
     phi: f32,
-    base: Vec3,
+    (base, travel): (Vec3, f32),
 ) -> Vec3 {
     let fk = |poser: &Poser, offset: Vec3| {
         let local: Vec<[f32; 4]> = poser.q.iter().map(|&q| to_wxyz(q)).collect();
         posed_frames(ctx.heads, ctx.carried, &poser.rest, &local, ctx.locations, offset.to_array())
     };
-    let travel = base.dot(ctx.fwd);
-    let (_, hips0) = fk(poser, base);
     let right = ctx.fwd.cross(Vec3::Z).normalize();
-    let (targets, leans): (Vec<Vec3>, Vec<Quat>) = legs
+    let aims: Vec<_> = legs
         .iter()
         .zip(phases)
         .map(|(leg, o)| {
             let step = foot_offset((phi + o).fract(), c.duty, c.stride, c.foot_lift, travel);
-            let at = foot_target(leg, ctx.ground, step, ctx.fwd);
-            leaning_foot(leg, hips0[leg.upper], (at, step.1), (ctx.fwd, right))
+            (step, foot_target(leg, ctx.ground, step, ctx.fwd))
+        })
+        .collect();
+    let ground = ctx.ground;
+    let rise = aims.iter().map(|(_, (at, ..))| ground.terrain.height(*at, ground.level) - ground.level).sum::<f32>()
+        / aims.len().max(1) as f32;
+    let base = base + Vec3::Z * rise;
+    let (_, hips0) = fk(poser, base);
+    // each ankle's target, its foot's world turn and its toe's (an upright foot's toe stands on
+    // the ground, turned to it)
+    let (targets, leans): (Vec<Vec3>, Vec<(Quat, Quat)>) = legs
+        .iter()
+        .zip(&aims)
+        .map(|(leg, (step, (at, heading, tilt)))| {
+            let stand = *tilt * *heading;
+            let (at, turn) = leaning_foot(leg, hips0[leg.upper], (*at, step.lift), (ctx.fwd, right), stand);
+            (at, (turn, stand))
         })
         .unzip();
     let reach: Vec<_> = legs.iter().zip(&targets).map(|(leg, &t)| (leg, hips0[leg.upper], t)).collect();
@@ -1020,7 +1105,7 @@ fn plant_legs(
         p if p >= 0 => turns[p as usize],
         _ => Quat::IDENTITY,
     };
-    for ((leg, &target), &lean) in legs.iter().zip(&targets).zip(&leans) {
+    for ((leg, &target), &(lean, toe_turn)) in legs.iter().zip(&targets).zip(&leans) {
         let (turns, posed) = fk(poser, offset);
         let pelvis = parent_turn(&turns, leg.upper);
         let (upper, lower) = leg_turns(leg, posed[leg.upper], target, pelvis);
@@ -1033,7 +1118,7 @@ fn plant_legs(
         }
         if let Some((toe, _)) = leg.toe {
             let (turns, _) = fk(poser, offset);
-            turn_to(poser, toe, Quat::IDENTITY, parent_turn(&turns, toe));
+            turn_to(poser, toe, toe_turn, parent_turn(&turns, toe));
         }
     }
     offset

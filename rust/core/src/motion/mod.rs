@@ -5,17 +5,22 @@
 //!   names, with the joint tree it reads private in `hierarchy`;
 //! - [`motion_clip`]: per-frame bone rotations (and root motion) of a clip, with the feet
 //!   planted by its private stage `footfalls` on the ground the character's [`Skin`] stands on,
-//!   a body that does not stand level first settled (`settle`).
+//!   a body that does not stand level first settled (`settle`); [`steered_clip`] the same along
+//!   a [`Course`] and over a [`Terrain`] (private stages `course` and `terrain`).
 
+mod course;
 mod footfalls;
 pub mod gait;
 mod hierarchy;
 pub mod roles;
 mod settle;
 pub mod skin;
+mod terrain;
 
 /// The side a bone name states; the rule lives with the other name rules in `skeleton`.
 pub use crate::skeleton::name_side;
-pub use gait::{motion_clip, posed_points, Clip, GaitParams, Motion};
+pub use course::Course;
+pub use gait::{motion_clip, posed_points, steered_clip, Clip, GaitParams, Motion, Steer};
 pub use roles::{detect_roles, BodyPlan, Limb, Roles, Side};
 pub use skin::Skin;
+pub use terrain::Terrain;
