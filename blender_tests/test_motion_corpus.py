@@ -208,8 +208,8 @@ def test_head_shake_turns_the_head_and_keeps_the_feet_still(rig):
     assert row["result"] == "FINISHED", row["error"]
     if rig in EXPECTED:
         assert row.get("head_bone") == EXPECTED[rig]["head"], row["info"]
-    else:   # an auto-rigged one's head is Auto Rig's head bone (Rigify's basic human or quadruped)
-        assert row.get("head_bone") in ("spine.006", "spine.011"), row["info"]
+    else:   # an auto-rigged one shakes a bone of Auto Rig's trunk (spine.*), not a limb's
+        assert str(row.get("head_bone")).startswith("spine"), row["info"]
     assert row["head"] >= corpus.TARGET["head"] and row["feet"] < corpus.TARGET["feet"], row
 
 
