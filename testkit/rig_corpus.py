@@ -552,6 +552,7 @@ AUTORIG = {
     "autorig_horse": MODELS_DIR / "horse.ply",
     "autorig_CesiumMan": MODELS_DIR / "CesiumMan.gltf",
     "autorig_Fox": MODELS_DIR / "Fox.glb",
+    "autorig_q_Bunny": MODELS_DIR / "q_Bunny.glb",
 }
 
 

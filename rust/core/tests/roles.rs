@@ -491,3 +491,52 @@ fn a_mane_reaching_above_the_head_is_not_the_head() {
     assert_eq!(names[r.head], "head");
     assert_eq!(named(&names, &r.neck), ["neck"]);
 }
+
+/// A T-posed biped lies nearly in one vertical plane: mirrored front to back across it, it
+/// matches itself about as well as mirrored left to right, and better once a hand holds a prop
+/// forward and the torso bends aside. The skeleton here is Auto Rig's for such a character
+/// (the shared q_Bunny: its torso's centre line wanders towards the carrot it holds), rounded:
+/// its roles read the right hand as the head and both legs on one side, so its run skated.
+/// The sagittal plane lies between the legs; the plane they lie in does not.
+#[test]
+fn a_t_posed_biped_holding_a_prop_faces_its_feet() {
+    let b: Vec<BoneSpec> = vec![
+        ("spine".into(), [0.0, 0.18, 0.83], [0.0, 0.18, 1.06], None),
+        ("spine.001".into(), [0.0, 0.18, 1.06], [0.14, 0.18, 1.27], Some("spine".into())),
+        ("spine.002".into(), [0.14, 0.18, 1.27], [0.22, 0.18, 1.53], Some("spine.001".into())),
+        ("spine.003".into(), [0.22, 0.18, 1.53], [0.37, 0.18, 1.79], Some("spine.002".into())),
+        ("spine.004".into(), [0.37, 0.18, 1.79], [0.35, 0.17, 1.81], Some("spine.003".into())),
+        ("spine.005".into(), [0.35, 0.17, 1.81], [0.15, 0.19, 1.87], Some("spine.004".into())),
+        ("spine.006".into(), [0.15, 0.19, 1.87], [0.14, -0.18, 2.37], Some("spine.005".into())),
+        ("thigh.L".into(), [0.35, 0.20, 0.83], [0.34, 0.23, 0.46], Some("spine".into())),
+        ("shin.L".into(), [0.34, 0.23, 0.46], [0.33, 0.28, 0.12], Some("thigh.L".into())),
+        ("foot.L".into(), [0.33, 0.28, 0.12], [0.36, 0.11, 0.06], Some("shin.L".into())),
+        ("toe.L".into(), [0.36, 0.11, 0.06], [0.36, -0.15, 0.02], Some("foot.L".into())),
+        ("heel.02.L".into(), [0.23, 0.36, 0.0], [0.43, 0.36, 0.0], Some("foot.L".into())),
+        ("thigh.R".into(), [-0.36, 0.19, 0.83], [-0.35, 0.22, 0.46], Some("spine".into())),
+        ("shin.R".into(), [-0.35, 0.22, 0.46], [-0.34, 0.27, 0.12], Some("thigh.R".into())),
+        ("foot.R".into(), [-0.34, 0.27, 0.12], [-0.36, 0.10, 0.06], Some("shin.R".into())),
+        ("toe.R".into(), [-0.36, 0.10, 0.06], [-0.36, -0.16, 0.02], Some("foot.R".into())),
+        ("heel.02.R".into(), [-0.24, 0.35, 0.0], [-0.44, 0.35, 0.0], Some("foot.R".into())),
+        ("shoulder.L".into(), [0.42, 0.17, 1.81], [0.73, 0.17, 1.81], Some("spine.003".into())),
+        ("upper_arm.L".into(), [0.80, 0.18, 1.81], [1.79, 0.13, 1.83], Some("shoulder.L".into())),
+        ("forearm.L".into(), [1.79, 0.13, 1.83], [1.86, -0.42, 1.70], Some("upper_arm.L".into())),
+        ("hand.L".into(), [1.86, -0.42, 1.70], [2.08, -0.61, 1.80], Some("forearm.L".into())),
+        ("shoulder.R".into(), [0.25, 0.18, 1.79], [-0.63, 0.15, 1.72], Some("spine.003".into())),
+        ("upper_arm.R".into(), [-0.81, 0.17, 1.81], [-1.39, 0.16, 1.81], Some("shoulder.R".into())),
+        ("forearm.R".into(), [-1.39, 0.16, 1.81], [-1.73, 0.12, 1.83], Some("upper_arm.R".into())),
+        ("hand.R".into(), [-1.73, 0.12, 1.83], [-2.11, 0.20, 1.93], Some("forearm.R".into())),
+    ];
+    let (names, h, t, p) = skeleton_of(&b);
+    for named_bones in [&names[..], &[]] {
+        let r = detect_roles(&h, &t, &p, named_bones).unwrap();
+        assert_eq!(r.plan, BodyPlan::Biped);
+        assert_eq!(names[r.head], "spine.006");
+        assert_eq!(leg(&names, &r, Side::Left, 0)[..3], ["thigh.L", "shin.L", "foot.L"]);
+        assert_eq!(leg(&names, &r, Side::Right, 0)[..3], ["thigh.R", "shin.R", "foot.R"]);
+        assert!((Vec3::from(r.forward) - Vec3::NEG_Y).length() < 0.05, "{:?}", r.forward);
+        let mut hands: Vec<&str> = r.arms.iter().map(|a| names[*a.bones.last().unwrap()].as_str()).collect();
+        hands.sort();
+        assert_eq!(hands, ["hand.L", "hand.R"]);
+    }
+}

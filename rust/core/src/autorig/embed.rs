@@ -371,7 +371,12 @@ fn mirror(bones: &mut [Bone], body: &Body, decided: Option<Symmetric>) -> Symmet
         }
         let on_plane = bones
             .iter()
-            .map(|b| [b.head, b.tail].map(|p| side_of(&b.name).is_none() && (p.dot(n) - plane).abs() <= ASYMMETRY))
+            .map(|b| {
+                let torso = torso_ends(&b.name, body.template);
+                let near =
+                    [b.head, b.tail].map(|p| side_of(&b.name).is_none() && (p.dot(n) - plane).abs() <= ASYMMETRY);
+                [near[0] || torso[0], near[1] || torso[1]]
+            })
             .collect();
         Symmetric { straying, on_plane }
     });
@@ -404,6 +409,34 @@ fn mirror(bones: &mut [Bone], body: &Body, decided: Option<Symmetric>) -> Symmet
         }
     }
     decided
+}
+
+/// Which ends (head, tail) of bone `name` are the torso's joints, from the hips to the neck's
+/// base, in a biped's or quadruped's skeleton: they lie on the mirror plane wherever the
+/// centre line runs (a wide torso's centre line is a sheet's and wanders towards a prop held
+/// out to one side); the neck and head keep their own place when turned aside.
+fn torso_ends(name: &str, template: Template) -> [bool; 2] {
+    let (first, last) = match template {
+        Template::Biped => (0, 3),
+        Template::Quadruped => (4, 8),
+        _ => return [false, false],
+    };
+    let k = match name.strip_prefix("spine") {
+        Some("") => 0,
+        Some(rest) => match rest.strip_prefix('.').and_then(|d| d.parse::<usize>().ok()) {
+            Some(k) => k,
+            None => return [false, false],
+        },
+        None => return [false, false],
+    };
+    if (first..=last).contains(&k) {
+        [true, true]
+    } else if k == last + 1 || (template == Template::Quadruped && k == first - 1) {
+        // the neck starts where the torso ends, a quadruped's tail where it starts
+        [true, false]
+    } else {
+        [false, false]
+    }
 }
 
 /// What [`mirror`] decided, kept for its second pass after settling: the limbs posed

@@ -13,8 +13,10 @@
 //! 1. Main tree: trees that touch are joined (see below); then the root whose subtree has the
 //!    most bones; other trees are ignored.
 //! 2. Sagittal plane: the vertical plane through the end points' centroid whose mirror image
-//!    of the end points best matches them (1° scan then refinement). Bones within 0.05 h of
-//!    it are *midline* bones.
+//!    of the end points best matches them (1° scan then refinement); a biped's (two legs in
+//!    step 3, which does not need the plane) within 60° of square to the line between its
+//!    legs: a T-posed biped lying in one vertical plane mirrors onto itself across that plane
+//!    too. Bones within 0.05 h of it are *midline* bones.
 //! 3. Legs: "ground leaves" are leaf bones ending within 0.2 h of the lowest point. Bottom up,
 //!    a bone with two or more "long" children (reaching down 0.2 h or more from their head)
 //!    that contain ground leaves is a split: each such child holding one foot is a leg top, and
@@ -189,13 +191,25 @@ fn validate(heads: &[[f32; 3]], tails: &[[f32; 3]], parents: &[i32], names: &[St
 /// 6.4 s); above this, every k-th point.
 const MIRROR_POINTS: usize = 1024;
 
-/// Unit normal (horizontal) of the best mirror plane through `centre` for `points`.
-fn mirror_normal(points: &[Vec3], centre: Vec3) -> Vec3 {
+/// How far (degrees) a biped's sagittal plane may turn from square to the line between its two
+/// legs: a biped in mid-stride has its legs apart along the body too.
+const BIPED_PLANE_TURN: f32 = 60.0;
+
+/// Unit normal (horizontal) of the best mirror plane through `centre` for `points`; with
+/// `across` (a biped's horizontal direction from one leg to the other), only among the planes
+/// within [`BIPED_PLANE_TURN`] of square to it. A T-posed biped lies nearly in one vertical
+/// plane, which mirrors it front to back as well as its sagittal plane mirrors it left to right
+/// (and better, once an arm holds a prop or the torso bends aside); its legs lie in that plane.
+fn mirror_normal(points: &[Vec3], centre: Vec3, across: Option<Vec3>) -> Vec3 {
     let sampled: Vec<Vec3> = points.iter().step_by(points.len().div_ceil(MIRROR_POINTS).max(1)).copied().collect();
     let points = &sampled[..];
-    let score = |deg: f32| -> f32 {
+    let normal = |deg: f32| {
         let a = deg.to_radians();
-        let n = Vec3::new(a.cos(), a.sin(), 0.0);
+        Vec3::new(a.cos(), a.sin(), 0.0)
+    };
+    let allowed = |deg: f32| across.is_none_or(|a| normal(deg).dot(a).abs() >= BIPED_PLANE_TURN.to_radians().cos());
+    let score = |deg: f32| -> f32 {
+        let n = normal(deg);
         points
             .iter()
             .map(|&p| {
@@ -205,7 +219,7 @@ fn mirror_normal(points: &[Vec3], centre: Vec3) -> Vec3 {
             .sum()
     };
     let (mut best, mut best_s) = (0.0f32, f32::INFINITY);
-    for d in 0..180 {
+    for d in (0..180).filter(|&d| allowed(d as f32)) {
         let s = score(d as f32);
         if s < best_s - 1e-7 {
             best = d as f32;
@@ -215,6 +229,9 @@ fn mirror_normal(points: &[Vec3], centre: Vec3) -> Vec3 {
     let mut step = 0.5;
     while step > 0.01 {
         for cand in [best - step, best + step] {
+            if !allowed(cand) {
+                continue;
+            }
             let s = score(cand);
             if s < best_s - 1e-7 {
                 best = cand;
@@ -223,8 +240,7 @@ fn mirror_normal(points: &[Vec3], centre: Vec3) -> Vec3 {
         }
         step *= 0.5;
     }
-    let a = best.to_radians();
-    Vec3::new(a.cos(), a.sin(), 0.0)
+    normal(best)
 }
 
 /// Find the roles of a skeleton's bones (see the module doc). Fails with
@@ -235,7 +251,7 @@ pub fn detect_roles(heads: &[[f32; 3]], tails: &[[f32; 3]], parents: &[i32], nam
     let (joined, riders) = joined_hierarchy(heads, tails, parents);
     let rig = Rig::new(heads, tails, names, &joined)?;
     let legs = find_legs(&rig);
-    let mid = Midplane::of(&rig);
+    let mid = Midplane::of(&rig, &legs);
     let head_leaf = head_leaf(&rig, &legs, &mid)?;
     let axis = rig.ancestors(head_leaf);
     let mut on_axis = vec![false; rig.n()];
@@ -494,9 +510,18 @@ struct Midplane {
 }
 
 impl Midplane {
-    fn of(rig: &Rig) -> Midplane {
+    /// The plane of the skeleton's end points; a biped's (two `legs`) turned less than
+    /// [`BIPED_PLANE_TURN`] from square to the line between its legs.
+    fn of(rig: &Rig, legs: &Legs) -> Midplane {
         let centre = rig.pts.iter().copied().sum::<Vec3>() / rig.pts.len() as f32;
-        Midplane { centre, normal: mirror_normal(&rig.pts, centre), tol: MIDLINE_FRACTION * rig.height }
+        let across = match &legs.chains[..] {
+            [a, b] => {
+                let d = limb_middle(rig, a) - limb_middle(rig, b);
+                Some(Vec3::new(d.x, d.y, 0.0).normalize_or_zero()).filter(|d| *d != Vec3::ZERO)
+            }
+            _ => None,
+        };
+        Midplane { centre, normal: mirror_normal(&rig.pts, centre, across), tol: MIDLINE_FRACTION * rig.height }
     }
 
     /// Signed distance of `p` from the plane.
@@ -745,10 +770,14 @@ fn body_axes(rig: &Rig, legs: &Legs, mid: &Midplane, head: usize, notes: &mut Ve
     (forward, left)
 }
 
+/// The mean of a limb's bone midpoints.
+fn limb_middle(rig: &Rig, chain: &[usize]) -> Vec3 {
+    chain.iter().map(|&b| (rig.h(b) + rig.t(b)) * 0.5).sum::<Vec3>() / chain.len() as f32
+}
+
 /// The side of the body (from `centre`, along `left`) a limb's bones lie on, on average.
 fn limb_side(rig: &Rig, centre: Vec3, chain: &[usize], left: Vec3) -> Side {
-    let m = chain.iter().map(|&b| (rig.h(b) + rig.t(b)) * 0.5).sum::<Vec3>() / chain.len() as f32;
-    if (m - centre).dot(left) >= 0.0 {
+    if (limb_middle(rig, chain) - centre).dot(left) >= 0.0 {
         Side::Left
     } else {
         Side::Right
