@@ -484,17 +484,11 @@ def keyed_anything(arm) -> bool:
     return bool(keys.action_fcurves(arm))
 
 
-def run_motion(arm, meshes, motion: str, basis=None, **props) -> dict:
-    """Reset ``arm`` (no action, rest pose), run Add Motion ``motion`` on it and measure its
-    ``meshes`` over the frames it keyed. Returns the result ('FINISHED' / 'CANCELLED'), the
-    reports (info, warnings, error), the console's role lines, seconds, keyed bones and the
-    measures (``measure``, plus ``head``: the reported head bone's turn in degrees). ``basis``:
-    the armature object's matrix to restore before and after (default: its matrix now)."""
+def add_motion(arm, motion, props):
+    """Run Add Motion on ``arm`` alone selected and active: (result, error or None, seconds,
+    console text)."""
     import bpy
 
-    basis = basis if basis is not None else arm.matrix_basis.copy()
-    reset_rig(arm, basis)
-    rest = rest_of(meshes)
     for ob in bpy.context.view_layer.objects:
         ob.select_set(False)
     arm.select_set(True)
@@ -507,8 +501,22 @@ def run_motion(arm, meshes, motion: str, basis=None, **props) -> dict:
         except RuntimeError as err:
             result, error = {"CANCELLED"}, str(err).strip()
         secs = time.perf_counter() - start
-    text = out[0]
-    row = dict(motion=motion, result=next(iter(result)), secs=secs, error=error, console=text,
+    return next(iter(result)), error, secs, out[0]
+
+
+def run_motion(arm, meshes, motion: str, basis=None, **props) -> dict:
+    """Reset ``arm`` (no action, rest pose), run Add Motion ``motion`` on it and measure its
+    ``meshes`` over the frames it keyed. Returns the result ('FINISHED' / 'CANCELLED'), the
+    reports (info, warnings, error), the console's role lines, seconds, keyed bones and the
+    measures (``measure``, plus ``head``: the reported head bone's turn in degrees). ``basis``:
+    the armature object's matrix to restore before and after (default: its matrix now)."""
+    import bpy
+
+    basis = basis if basis is not None else arm.matrix_basis.copy()
+    reset_rig(arm, basis)
+    rest = rest_of(meshes)
+    result, error, secs, text = add_motion(arm, motion, props)
+    row = dict(motion=motion, result=result, secs=secs, error=error, console=text,
                info=[ln[6:] for ln in text.splitlines() if ln.startswith("Info: ")],
                warnings=[ln[9:] for ln in text.splitlines() if ln.startswith("Warning: ")],
                roles=console_roles(text), keyed=sorted(keyed_bones(arm)), keyed_any=keyed_anything(arm))
@@ -944,20 +952,8 @@ def steer_row(rig, case: str, motion: str = "WALK") -> dict:
     props = dict(path=path.name if path else "", ground=ground.name if ground else "", in_place=case == "in_place")
     if case == "slope" or case == "bumps" or case == "step":
         props["cycles"] = 4.0
-    for ob in bpy.context.view_layer.objects:
-        ob.select_set(False)
-    rig.arm.select_set(True)
-    bpy.context.view_layer.objects.active = rig.arm
-    error = None
-    with captured_output() as out:
-        start = time.perf_counter()
-        try:
-            result = bpy.ops.pose.miniskeleton_add_motion(motion=motion, **props)
-        except RuntimeError as err:
-            result, error = {"CANCELLED"}, str(err).strip()
-        secs = time.perf_counter() - start
-    text = out[0]
-    row = dict(rig=rig.name if hasattr(rig, "name") else "", case=case, motion=motion, result=next(iter(result)),
+    result, error, secs, text = add_motion(rig.arm, motion, props)
+    row = dict(rig=rig.name if hasattr(rig, "name") else "", case=case, motion=motion, result=result,
                secs=secs, error=error, diag=rest["diag"])
     if row["result"] == "FINISHED":
         info = [ln[6:] for ln in text.splitlines() if ln.startswith("Info: ")]
