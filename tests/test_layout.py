@@ -178,6 +178,14 @@ def test_only_one_conftest_edits_sys_path():
     assert sorted(set(edits)) == ["release_tests/conftest.py"], sorted(set(edits))
 
 
+def test_the_addon_imports_the_native_core_in_one_module():
+    """``addon/common/native.py`` is the one door to ``miniskeleton_core``; every other module
+    of the add-on gets the core from it."""
+    importers = sorted(str(p.relative_to(ROOT)) for p in (ROOT / "addon").rglob("*.py")
+                       if any(n.split(".")[0] == "miniskeleton_core" for n in _imports(p)))
+    assert importers == ["addon/common/native.py"], importers
+
+
 def test_the_core_is_grouped_by_area():
     flat = sorted(p.name for p in CORE.glob("*.rs"))
     assert len(flat) <= 6, flat

@@ -6,11 +6,12 @@ from __future__ import annotations
 
 import numpy as np
 
+from . import native
+
 
 def mirror_name(name: str) -> str:
     """Blender's left/right name flip (.L/.R, _L/_R, -l, Left/Right, left/right); the name itself if none."""
-    import miniskeleton_core as core
-
+    core = native.core()
     return core.mirror_name(name)
 
 
@@ -18,6 +19,5 @@ def bone_mirror_indices(names: list[str]) -> np.ndarray:
     """For each bone, the index of its mirror bone by name, (b,) int32: itself for a centre bone
     (no side in its name), -1 for a side bone whose partner is missing (the flipped name, or the
     one bone matching it up to a trailing number; pairs agree both ways)."""
-    import miniskeleton_core as core
-
+    core = native.core()
     return np.asarray(core.bone_mirror_indices(list(names)), dtype=np.int32)

@@ -10,6 +10,7 @@ import math
 import bpy
 import numpy as np
 
+from ..common import native
 from ..common.armatures import armature_bones, rest_pose
 from ..common.meshes import mesh_world_vertices
 from ..common.objects import follows_bone
@@ -189,8 +190,7 @@ def make_motion(arm, bones, scene, fps: float, motion: str, cycles: float, durat
     meshes it moves (``motion_skin``) tells the core where the feet stand and how wide the body
     is beside the arms. ``path`` (p, 3) world points and ``ground`` (``steering.ground_field``,
     world) go to the core in its space."""
-    import miniskeleton_core as core
-
+    core = native.core()
     skin, skin_bones = motion_skin(arm, bones)
     heads, tails, rest = motion_skeleton(arm, bones, skin)
     origin = np.array(arm.matrix_world.translation, dtype=np.float64)

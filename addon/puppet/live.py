@@ -19,6 +19,7 @@ import bpy
 from bpy.app.handlers import persistent
 from mathutils import Euler, Matrix, Vector
 
+from ..common import native
 from ..common.keys import key_series, rotation_path, rotation_series
 from ..common.reports import name_list
 from ..common.transforms import axis_scales, inverse, placed
@@ -172,8 +173,7 @@ def solve_puppet(rig: bpy.types.Object) -> dict:
     baking give the same pose as live solving). PuppetError when the rig or a rod has no
     finite place, the rig is scaled to zero, its type property names no template or a bone's
     seed is not a number; nothing is written then."""
-    import miniskeleton_core as core
-
+    core = native.core()
     tpl = puppet_template(rig)
     rods = puppet_rods(rig)
     inv = _plane_inverse(rig, rods)

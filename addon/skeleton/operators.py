@@ -21,6 +21,7 @@ import numpy as np
 from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty, StringProperty
 from bpy_extras.io_utils import ExportHelper, ImportHelper
 
+from ..common import native
 from ..common.armatures import find_armature, invented_tails, pose_flag, rest_pose
 from ..common.meshes import shaped_world_mesh, stack_meshes
 from ..common.reports import in_edit_mode, name_list, read_only, unplaced
@@ -133,8 +134,7 @@ class MINISKELETON_OT_auto_rig(bpy.types.Operator):
         return meshes
 
     def execute(self, context):
-        import miniskeleton_core as core
-
+        core = native.core()
         meshes = self._meshes(context)
         if meshes is None:
             return {"CANCELLED"}
@@ -270,8 +270,7 @@ class MINISKELETON_OT_fit_skeleton(bpy.types.Operator):
         return stack_meshes(parts)
 
     def execute(self, context):
-        import miniskeleton_core as core
-
+        core = native.core()
         arm = find_armature(context)
         if not _editable_armature(self, arm):
             return {"CANCELLED"}

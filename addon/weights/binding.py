@@ -11,6 +11,7 @@ from typing import NamedTuple
 import bpy
 import numpy as np
 
+from ..common import native
 from ..common.armatures import Bones, bbone_curves
 from ..common.groups import BoneRows, write_vertex_groups
 from ..common.meshes import mesh_polygons, mesh_triangles, mesh_world_vertices, paint_mask
@@ -85,8 +86,7 @@ def read_inputs(arm: bpy.types.Object, meshes: list[bpy.types.Object], bones: Bo
         if smoothing is not None:
             # A subdivided cage is weighted where its vertices lie on the smooth surface,
             # as Ctrl+P does (Catmull-Clark is affine: any frame is as good as its own).
-            import miniskeleton_core as core
-
+            core = native.core()
             verts = core.catmull_clark_limit(
                 verts, *mesh_polygons(ob),
                 keep_corners=smoothing.boundary_smooth == "PRESERVE_CORNERS")

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..common import native
 from ..common.meshes import stack_meshes
 from ..common.reports import name_list
 
@@ -249,8 +250,7 @@ class WeightsJob:
         return not self._stop.is_set()
 
     def _run(self):
-        import miniskeleton_core as core
-
+        core = native.core()
         try:
             self.result = self._compute(self._progress)
         except core.Cancelled:

@@ -19,6 +19,7 @@ import bpy
 import numpy as np
 from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty
 
+from ..common import native
 from ..common.armatures import armature_bones, find_armature
 from ..common.mirror import bone_mirror_indices
 from ..common.reports import in_edit_mode, name_list, read_only, unplaced
@@ -254,8 +255,7 @@ class MINISKELETON_OT_auto_weights(bpy.types.Operator):
         return {"FINISHED"}
 
     def execute(self, context):
-        import miniskeleton_core as core
-
+        core = native.core()
         prepared = self._prepare(context)
         if prepared is None:
             return {"CANCELLED"}
@@ -284,8 +284,7 @@ class MINISKELETON_OT_auto_weights(bpy.types.Operator):
     def invoke(self, context, event):
         """From the UI: large inputs are computed on a worker thread so that Esc can cancel;
         small ones (and headless runs, which have no event loop) run ``execute`` directly."""
-        import miniskeleton_core as core
-
+        core = native.core()
         if context.window is None:
             return self.execute(context)
         prepared = self._prepare(context)
@@ -396,8 +395,7 @@ class MINISKELETON_OT_transfer_weights(bpy.types.Operator):
         return arm, body, garments, bones
 
     def execute(self, context):
-        import miniskeleton_core as core
-
+        core = native.core()
         from .binding import Prepared, write_weights
         from .transfer import body_rows, read_mesh, transfer
 
