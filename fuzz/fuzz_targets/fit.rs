@@ -60,10 +60,12 @@ fn run(u: &mut Unstructured) -> Result<()> {
         agreement: or_default(u, d.agreement, |u| Ok(number(u)? as f64))?,
         body_radius: or_default(u, d.body_radius, |u| Ok(number(u)? as f64))?,
     };
-    // The work grows as rays x samples per bone and round: past this budget a long run is the
-    // work asked for (576 rays x 571 sections took a minute), not a hang.
-    if opts.rays.saturating_mul(opts.samples) > 1 << 13 {
-        opts.samples = d.samples;
+    // The work grows as rays x samples x bones x rounds: past this budget a long run is the work
+    // asked for (576 rays x 571 sections a bone took a minute under the sanitizer; 12 rays x 384
+    // sections x 5 bones x 12 rounds, 36 s), not a hang.
+    let work = [opts.samples, pairs.len(), opts.rounds.max(1)].iter().fold(opts.rays, |w, &k| w.saturating_mul(k));
+    if work > 1 << 16 {
+        (opts.rays, opts.samples, opts.rounds) = (d.rays, d.samples, d.rounds);
     }
     match fit_joints(&m.vertices, &m.triangles, &joints, &pairs, &movable, &opts) {
         Ok((out, report)) => {
