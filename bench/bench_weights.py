@@ -15,21 +15,27 @@ vertices: 5.6 s with 128 segments around, 8.7 s with 256, 18 s with 512), ours h
   thin   128 segments around at every size (a long thin tube: Blender's best case).
 Prints a markdown table: shape, vertices, bones, Blender s, ours s (whole operator: read mesh,
 weights, write groups; median of --repeats runs), ratio, and the core's own split (best of the
-repeats): total against factor+solve, the latter both as numeric factor + solves ("f+s") and
-with the symbolic analysis (AMD ordering, elimination tree, supernodes) that is part of any
+repeats): total, peak memory (a fresh process making the cylinder and calling the core once),
+against factor+solve, the latter both as numeric factor + solves ("f+s") and
+with the symbolic analysis (ordering, elimination tree, supernodes) that is part of any
 sparse factorization, as in SciPy's SuperLU figure the issue compares with ("sym+f+s"; our
 symbolic step runs while the BVH is built, so it is not on the critical path). Also VOXEL (the
 whole operator, median of --repeats, at its default Resolution; "voxel / heat" is its time over
 HEAT's), IDW and BILINEAR. ``--parts``: a figure kit-built of that many small separate objects (86-vertex
 capped cylinders along a 20-bone chain), where the cost is in writing groups to many objects,
-not in the solve. Nothing is asserted: tests check correctness, this measures speed.
+not in the solve. Film scale (minutes; Blender's own operator would take hours):
+``--sizes 1M:200,2M:200 --shapes issue --scans '' --parts '' --repeats 1 --no-blender``.
+Nothing is asserted: tests check correctness, this measures speed.
 """
 
 from __future__ import annotations
 
 import argparse
 import importlib
+import subprocess
+import sys
 import time
+from pathlib import Path
 
 import numpy as np
 
@@ -37,9 +43,33 @@ from testkit import MODELS_DIR, blender_session, rig_corpus
 
 # (rings, segments) per size and shape.
 SHAPES = {
-    "issue": {"6.5k": (80, 80), "26k": (133, 192), "103k": (268, 384), "206k": (200, 1024)},
-    "thin": {"6.5k": (50, 128), "26k": (203, 128), "103k": (805, 128), "206k": (1610, 128)},
+    "issue": {"6.5k": (80, 80), "26k": (133, 192), "103k": (268, 384), "206k": (200, 1024),
+              "1M": (1000, 1000), "2M": (1414, 1414)},
+    "thin": {"6.5k": (50, 128), "26k": (203, 128), "103k": (805, 128), "206k": (1610, 128),
+             "1M": (7813, 128), "2M": (15625, 128)},
 }
+
+# The core's call alone in a fresh process, for its peak memory (the resident-set peak of a
+# process holds for its whole life, so each row gets its own): the process's peak RSS in MB,
+# read as VmHWM (`ru_maxrss` would keep the peak of the bench process it was forked from).
+PEAK_SCRIPT = """
+import sys
+sys.path.insert(0, sys.argv[1])
+import miniskeleton_core as core
+rings, segments, height, bones = int(sys.argv[2]), int(sys.argv[3]), float(sys.argv[4]), int(sys.argv[5])
+v, t = core.capped_cylinder(0.5, height, rings, segments)
+heads, tails, _ = core.bone_chain(height, bones)
+core.heat_weights_report(v, t, heads, tails)
+with open("/proc/self/status") as status:
+    print(next(int(line.split()[1]) for line in status if line.startswith("VmHWM")) / 1024)
+"""
+
+
+def core_peak_mb(core, rings, segments, height, bones):
+    """Peak resident memory (MB) of a fresh process making the cylinder and calling the core."""
+    where = str(Path(core.__file__).resolve().parent.parent)
+    args = [sys.executable, "-c", PEAK_SCRIPT, where, str(rings), str(segments), str(height), str(bones)]
+    return float(subprocess.run(args, check=True, capture_output=True, text=True).stdout.split()[-1])
 
 
 def cylinder_object(bpy, core, rings, segments, height):
@@ -198,7 +228,7 @@ def main(argv=None):
     import miniskeleton_core as core
     common_meshes = importlib.import_module(blender_session.ADDON_MODULE + ".common.meshes")
 
-    rows = []
+    rows, peaks = [], {}
     specs = [(shape, spec) for shape in args.shapes.split(",") if shape for spec in args.sizes.split(",") if spec]
     for shape, spec in specs:
         size, bones = spec.split(":")
@@ -208,6 +238,7 @@ def main(argv=None):
         mesh, v, t = cylinder_object(bpy, core, rings, segments, height)
         rig, heads, tails = chain_object(bpy, core, height, int(bones))
         rows.append(measure(bpy, core, f"{shape} {rings}x{segments}", mesh, rig, v, t, heads, tails, args))
+        peaks[rows[-1][0]] = core_peak_mb(core, rings, segments, height, int(bones))
     scans = [(n, float(x)) for n in args.scans.split(",") if n for x in args.scan_scales.split(",")]
     for name, scale in scans:
         path = MODELS_DIR / name
@@ -224,14 +255,16 @@ def main(argv=None):
 
     print()
     print("| shape rings x segments | vertices | bones | Blender ARMATURE_AUTO s | unweighted | ours HEAT s "
-          "| unweighted | speed-up | core heat s | f+s s | core / (f+s) | sym+f+s s | core / (sym+f+s) "
-          "| ours VOXEL s | unweighted | voxel / heat | Blender / voxel | ours BILINEAR s | ours IDW s |")
-    print("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
+          "| unweighted | speed-up | core heat s | core peak MB | f+s s | core / (f+s) | sym+f+s s "
+          "| core / (sym+f+s) | ours VOXEL s | unweighted | voxel / heat | Blender / voxel | ours BILINEAR s "
+          "| ours IDW s |")
+    print("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
     for shape, n, b, bs, bm, os_, om, cs, fs, sfs, bil, idw, _, vs, vm in rows:
         ratio = f"{bs / os_:.1f}x" if bs else "-"
         vratio = f"{bs / vs:.1f}x" if bs else "-"
+        peak = f"{peaks[shape]:.0f}" if shape in peaks else "-"
         print(f"| {shape} | {n} | {b} | {bs if bs is None else f'{bs:.2f}'} | {bm if bm is not None else '-'} "
-              f"| {os_:.3f} | {om} | {ratio} | {cs:.3f} | {fs:.3f} | {cs / max(fs, 1e-9):.2f} "
+              f"| {os_:.3f} | {om} | {ratio} | {cs:.3f} | {peak} | {fs:.3f} | {cs / max(fs, 1e-9):.2f} "
               f"| {sfs:.3f} | {cs / max(sfs, 1e-9):.2f} "
               f"| {vs:.3f} | {vm} | {vs / os_:.2f} | {vratio} | {bil:.3f} | {idw:.3f} |")
     print()

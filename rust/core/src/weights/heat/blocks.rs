@@ -20,8 +20,9 @@ use std::time::Instant;
 /// Bytes of dense weights (`f64`, vertices x bones) solved at once: the bones go in blocks of
 /// at most this much (but at least one column per thread), so memory stays bounded on a mesh
 /// of millions of vertices with hundreds of bones (1M x 300 would take 2.4 GB at once). Meshes
-/// up to 206k vertices and 300 bones (or 1M and 60) are one block.
-pub const BLOCK_BYTES: usize = 512 << 20;
+/// up to 206k vertices and 160 bones (or 1M and 33) are one block; wider blocks read the
+/// factor fewer times but were no faster at 1M vertices with 200 bones.
+pub const BLOCK_BYTES: usize = 256 << 20;
 
 /// The bones in blocks of at most `cap` bones (0: as many `nw`-vertex columns as fit in
 /// [`BLOCK_BYTES`], at least `threads`), in increasing order; with `mirror`, a bone and its
@@ -56,12 +57,20 @@ pub(crate) fn block_width(nw: usize, threads: usize) -> usize {
     (BLOCK_BYTES / (8 * nw.max(1))).max(threads).max(1)
 }
 
-/// The right-hand sides `M H P` of the bones in `block`, column-major `(n, block.len())`:
-/// each vertex's heat `heat[v]` (`M_ii H_ii`) shared among its source bones (`shares`).
-fn source_columns(shares: &Shares, heat: &[f64], block: &[usize]) -> Vec<f64> {
+/// The right-hand sides `M H P` of the bones in `block`, column-major `(n, block.len())`, into
+/// `x` (its memory reused from block to block): each vertex's heat `heat[v]` (`M_ii H_ii`)
+/// shared among its source bones (`shares`).
+fn source_columns(x: &mut Vec<f64>, shares: &Shares, heat: &[f64], block: &[usize]) {
     let nw = heat.len();
     let col = block_columns(block);
-    let mut x = vec![0.0f64; nw * block.len()];
+    let len = nw * block.len();
+    if x.capacity() < len {
+        *x = vec![0.0; len];
+    } else {
+        x.truncate(len);
+        x.par_iter_mut().with_min_len(1 << 16).for_each(|w| *w = 0.0);
+        x.resize(len, 0.0);
+    }
     for (v, &h) in heat.iter().enumerate() {
         if h > 0.0 {
             for (j, divisor) in shares.row(v) {
@@ -71,7 +80,6 @@ fn source_columns(shares: &Shares, heat: &[f64], block: &[usize]) -> Vec<f64> {
             }
         }
     }
-    x
 }
 
 /// Where the factorization failed: each vertex's source bones take their shares of it as
@@ -101,8 +109,8 @@ pub(crate) struct Rows<'a> {
     pub rigid: &'a [Option<Ties>],
 }
 
-/// The weights of the bones of `block`, column-major `(n, block.len())`, and the seconds spent
-/// solving: solved against the factor `llt` and clipped to `[0, 1]` (without a factor, the
+/// The weights of the bones of `block`, column-major `(n, block.len())`, into `x` (its memory
+/// reused from block to block), and the seconds spent solving: solved against the factor `llt` and clipped to `[0, 1]` (without a factor, the
 /// sources' shares), then rigid pieces and isolated vertices at 100% on their bone(s),
 /// then averaged with the mirror images (`sym`: the symmetry and the vertex mirror map; a
 /// block holds every bone's mirror partner).
@@ -111,9 +119,10 @@ pub(crate) fn block_weights(
     rows: &Rows,
     llt: Option<&Factor>,
     sym: Option<(&Symmetry, &[i32])>,
-) -> (Vec<f64>, f64) {
+    x: &mut Vec<f64>,
+) -> f64 {
     let nw = rows.sources.len();
-    let mut x = source_columns(rows.shares, rows.heat, block);
+    source_columns(x, rows.shares, rows.heat, block);
     let s = Instant::now();
     match llt {
         // One block of columns per worker, all solved at once: faer's supernodal solve is
@@ -121,13 +130,13 @@ pub(crate) fn block_weights(
         // whole block), so wider blocks stream the factor fewer times and run the dense kernels
         // more efficiently than narrower rounds or one call with faer's own parallelism.
         Some(llt) => {
-            solve_live_columns(llt, &mut x, nw);
+            solve_live_columns(llt, x, nw);
             // Clip; non-finite (should not happen) counts as 0.
             x.par_iter_mut().with_min_len(8192).for_each(|w| {
                 *w = if w.is_finite() { w.clamp(0.0, 1.0) } else { 0.0 };
             });
         }
-        None => source_weights(&mut x, rows.shares, block),
+        None => source_weights(x, rows.shares, block),
     }
     let secs = s.elapsed().as_secs_f64();
     // Rigid pieces and isolated vertices: 100% to one bone (or shared by exact ties).
@@ -146,9 +155,9 @@ pub(crate) fn block_weights(
         let col = block_columns(block);
         let local: Vec<i32> =
             block.iter().map(|&j| u32::try_from(s.mirror[j]).ok().and_then(&col).map_or(-1, |c| c as i32)).collect();
-        symmetrize_columns(&mut x, nw, vm, &local);
+        symmetrize_columns(x, nw, vm, &local);
     }
-    (x, secs)
+    secs
 }
 
 /// Solve `A X = B` for the column-major `(n, k)` block `x` against the factor, skipping the
@@ -183,6 +192,10 @@ fn block_columns(block: &[usize]) -> impl Fn(u32) -> Option<usize> + '_ {
     move |j| block.binary_search(&(j as usize)).ok()
 }
 
+/// Rows merged together into the running top k: their state stays in the cache while the
+/// block's columns stream past.
+const MERGE_ROWS: usize = 1024;
+
 /// Each welded vertex's `k` largest weights so far, over the blocks of bones merged: after
 /// Blender's small-weight ramp ([`weight_limit`]), and unramped for the rows whose weights all
 /// fall below the ramp. Ranked as [`top_k_row`](crate::weights::influence::top_k_row) ranks
@@ -200,20 +213,27 @@ impl RunningTopK {
         RunningTopK { ramped, ramped_used: vec![0; nw], raw, raw_used: vec![0; nw] }
     }
 
-    /// Merge the column-major `(n, block.len())` weights `x` of the bones of `block`.
+    /// Merge the column-major `(n, block.len())` weights `x` of the bones of `block`: rows in
+    /// runs of [`MERGE_ROWS`], each run reading the block column by column.
     pub(crate) fn merge(&mut self, x: &[f64], block: &[usize], start: f32, end: f32) {
         let (k, nw) = (self.ramped.k, self.ramped_used.len());
-        let rows = self.ramped.indices.par_chunks_mut(k).zip(self.ramped.weights.par_chunks_mut(k));
-        let raw_rows = self.raw.indices.par_chunks_mut(k).zip(self.raw.weights.par_chunks_mut(k));
-        rows.zip(self.ramped_used.par_iter_mut())
-            .zip(raw_rows.zip(self.raw_used.par_iter_mut()))
+        let rows =
+            self.ramped.indices.par_chunks_mut(MERGE_ROWS * k).zip(self.ramped.weights.par_chunks_mut(MERGE_ROWS * k));
+        let raw_rows =
+            self.raw.indices.par_chunks_mut(MERGE_ROWS * k).zip(self.raw.weights.par_chunks_mut(MERGE_ROWS * k));
+        rows.zip(self.ramped_used.par_chunks_mut(MERGE_ROWS))
+            .zip(raw_rows.zip(self.raw_used.par_chunks_mut(MERGE_ROWS)))
             .enumerate()
-            .with_min_len(1024)
-            .for_each(|(v, (((idx, w), used), ((ridx, rw), rused)))| {
+            .for_each(|(run, (((idx, w), used), ((ridx, rw), rused)))| {
+                let first = run * MERGE_ROWS;
                 for (c, &j) in block.iter().enumerate() {
-                    let value = x[c * nw + v] as f32;
-                    *used = insert_ranked(j as i32, weight_limit(value, start, end), idx, w, *used);
-                    *rused = insert_ranked(j as i32, value, ridx, rw, *rused);
+                    let column = &x[c * nw + first..c * nw + first + used.len()];
+                    for (r, &value) in column.iter().enumerate() {
+                        let (value, at) = (value as f32, r * k..(r + 1) * k);
+                        let limited = weight_limit(value, start, end);
+                        used[r] = insert_ranked(j as i32, limited, &mut idx[at.clone()], &mut w[at.clone()], used[r]);
+                        rused[r] = insert_ranked(j as i32, value, &mut ridx[at.clone()], &mut rw[at], rused[r]);
+                    }
                 }
             });
     }
@@ -268,7 +288,8 @@ mod tests {
         for blocks in [vec![vec![0, 1, 2, 3]], vec![vec![0, 2], vec![1, 3]]] {
             let mut sum = [0.0; 4];
             for block in &blocks {
-                let x = source_columns(&sources, &heat, block);
+                let mut x = Vec::new();
+                source_columns(&mut x, &sources, &heat, block);
                 for (c, column) in x.chunks(4).enumerate() {
                     assert_eq!(column.len(), 4, "column {c}");
                     sum.iter_mut().zip(column).for_each(|(s, w)| *s += w);
@@ -276,6 +297,8 @@ mod tests {
             }
             assert_eq!(sum, heat);
         }
-        assert_eq!(source_columns(&sources, &heat, &[2]), vec![0.0, 1.5, 0.5, 0.0]);
+        let mut x = vec![9.0; 12];
+        source_columns(&mut x, &sources, &heat, &[2]);
+        assert_eq!(x, vec![0.0, 1.5, 0.5, 0.0]);
     }
 }

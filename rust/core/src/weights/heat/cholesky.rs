@@ -1,11 +1,16 @@
-//! Sparse Cholesky factorization of the heat system with faer: symbolic analysis (AMD
-//! ordering, elimination tree, supernodes) once, numeric `A = L L^T` retried with more
-//! diagonal regularization when a pivot is not positive, and solves of many right-hand sides
-//! against the one factor, split across the rayon pool.
+//! Sparse Cholesky factorization of the heat system with faer: symbolic analysis (a given
+//! nested dissection order or AMD, elimination tree, supernodes) once, numeric `A = L L^T`
+//! retried with more diagonal regularization when a pivot is not positive, and solves of many
+//! right-hand sides against the one factor, split across the rayon pool (a supernodal factor's
+//! by [`solve_sparse_columns`], whose forward pass skips the columns that are still zero).
 
+use super::sparse_solve::solve_sparse_columns;
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::cholesky::llt::factor::LltRegularization;
-use faer::sparse::linalg::cholesky::{factorize_symbolic_cholesky, LltRef, SymbolicCholesky, SymmetricOrdering};
+use faer::perm::PermRef;
+use faer::sparse::linalg::cholesky::{
+    factorize_symbolic_cholesky, LltRef, SymbolicCholesky, SymbolicCholeskyRaw, SymmetricOrdering,
+};
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
 use faer::{Conj, MatMut, Par, Side};
 use rayon::prelude::*;
@@ -19,7 +24,9 @@ pub(crate) struct Factor {
 impl Factor {
     /// Solve `A X = B` in place for the column-major `(n, k)` block `cols`, columns split
     /// across the rayon pool (each worker solves sequentially: many cheap supernodes make
-    /// fine-grained parallelism inside one solve a loss).
+    /// fine-grained parallelism inside one solve a loss): a supernodal factor by
+    /// [`solve_sparse_columns`] (in place, no copy of the block), a simplicial one (small
+    /// matrices) by faer's own solve.
     pub(crate) fn solve_columns(&self, cols: &mut [f64], n: usize) {
         let k = cols.len() / n.max(1);
         if k == 0 {
@@ -28,6 +35,11 @@ impl Factor {
         let threads = rayon::current_num_threads().max(1);
         let per = k.div_ceil(threads).max(1);
         cols.par_chunks_mut(per * n).for_each(|chunk| {
+            if let SymbolicCholeskyRaw::Supernodal(supernodal) = self.symbolic.raw() {
+                let perm = self.symbolic.perm().map(|p| p.arrays().0);
+                solve_sparse_columns(supernodal, &self.values, perm, chunk, n);
+                return;
+            }
             let kc = chunk.len() / n;
             let llt = LltRef::<usize, f64>::new(&self.symbolic, &self.values);
             let req = self.symbolic.solve_in_place_scratch::<f64>(kc, Par::Seq);
@@ -48,8 +60,17 @@ impl Factor {
 }
 
 /// Symbolic analysis (AMD ordering, elimination tree, supernodes) of the lower pattern.
-pub(crate) fn symbolic_factor(a: SymbolicSparseColMatRef<'_, usize>) -> Option<SymbolicCholesky<usize>> {
-    factorize_symbolic_cholesky(a, Side::Lower, SymmetricOrdering::Amd, Default::default()).ok()
+pub(crate) fn symbolic_factor(
+    a: SymbolicSparseColMatRef<'_, usize>,
+    order: Option<&[usize]>,
+) -> Option<SymbolicCholesky<usize>> {
+    let Some(fwd) = order else {
+        return factorize_symbolic_cholesky(a, Side::Lower, SymmetricOrdering::Amd, Default::default()).ok();
+    };
+    let mut inv = vec![0usize; fwd.len()];
+    fwd.iter().enumerate().for_each(|(k, &v)| inv[v] = k);
+    let perm = PermRef::new_checked(fwd, &inv, fwd.len());
+    factorize_symbolic_cholesky(a, Side::Lower, SymmetricOrdering::Custom(perm), Default::default()).ok()
 }
 
 /// Numeric factor of the matrix with lower pattern `pattern` (analysed as `symbolic`) and the
@@ -125,7 +146,7 @@ mod tests {
         let pattern = SymbolicSparseColMatRef::new_checked(3, 3, &COL_PTR, None, &ROW_IDX);
         // d = 1 is indefinite, d = 2 singular (second pivot 2 - 2 * 2 / 2 = 0), d = 4 positive definite.
         let regs = [1.0, 2.0, 4.0];
-        let symbolic = symbolic_factor(pattern).unwrap();
+        let symbolic = symbolic_factor(pattern, None).unwrap();
         let (factor, attempt) = factor_first(symbolic, pattern, &regs, values).expect("the third one factors");
         assert_eq!(attempt, 2);
         // Two right-hand sides of known solutions x1 = (1, 2, 3) and x2 = (-1, 0, 0.5) for d = 4.
@@ -142,7 +163,7 @@ mod tests {
     #[test]
     fn no_factor_when_every_regularization_fails() {
         let pattern = SymbolicSparseColMatRef::new_checked(3, 3, &COL_PTR, None, &ROW_IDX);
-        let symbolic = symbolic_factor(pattern).unwrap();
+        let symbolic = symbolic_factor(pattern, None).unwrap();
         assert!(factor_first(symbolic, pattern, &[0.0, 1.0, -3.0], values).is_none());
     }
 }

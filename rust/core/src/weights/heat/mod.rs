@@ -5,15 +5,18 @@
 //! stages of `stages` in order, and the stages with rules of their own have their own modules:
 //! `sources` (each vertex's nearest visible bones), `pieces` (per-piece geometry, the inside
 //! test, rigid pieces), `reach` (the spans of imported rigs' bones), `cholesky` (factor and
-//! solves), `blocks` (the bones solved in blocks of columns, each vertex's running top k), and
+//! solves), `dissection` (the factor's order on large meshes), `sparse_solve` (solves of
+//! sparse right-hand sides), `blocks` (the bones solved in blocks of columns, each vertex's running top k), and
 //! [`crate::mesh::orient`] (winding and outward normals).
 
 mod blocks;
 pub(crate) mod cholesky;
+mod dissection;
 mod memory;
 pub(crate) mod pieces;
 pub(crate) mod reach;
 mod sources;
+mod sparse_solve;
 pub(crate) mod stages;
 
 use crate::error::caught;
@@ -87,7 +90,7 @@ pub struct HeatOptions {
     pub curves: Option<BoneCurves>,
     /// Most bones solved at once (their weights are held densely, vertices x bones `f64`); 0
     /// picks the block by a memory budget ([`BLOCK_BYTES`]: one block up to 206k vertices
-    /// with 300 bones). The weights do not depend on it. Default 0.
+    /// with 160 bones). The weights do not depend on it. Default 0.
     pub block_bones: usize,
 }
 

@@ -13,7 +13,8 @@
 //!      [`HeatOptions::parents`], the polylines of [`HeatOptions::curves`]); which pieces
 //!      hold a bone; every vertex's nearest visible bone (`sources`).
 //!    - [`matrix`]: the cotangent stiffness `L` and lumped mass `M` (f64), `L`'s sparse
-//!      pattern, and its symbolic Cholesky analysis (AMD ordering, supernodes).
+//!      pattern, and its symbolic Cholesky analysis (supernodes; ordered by nested dissection
+//!      from [`DISSECTION_MIN`] vertices, else AMD).
 //! 4. [`bind_pieces`]: pieces where no vertex sees a bone take the nearest bone by distance;
 //!    rigid pieces (see `pieces`).
 //! 5. [`assemble`]: the bones that share each vertex's heat (found here, or given), and the
@@ -26,6 +27,7 @@
 
 use super::blocks::{block_weights, bone_blocks, Rows, RunningTopK};
 use super::cholesky::{factor_first, symbolic_factor, Factor};
+use super::dissection::{nested_dissection, DISSECTION_MIN};
 use super::pieces::{mark_sources, piece_contains_bone, piece_stats, rigid_pieces, PieceStats};
 use super::reach::reach_segments;
 use super::sources::{vertex_sources, Shares, Source, Ties, MAX_TIES};
@@ -378,7 +380,8 @@ fn matrix(prep: &Prepared) -> Matrix {
     let t_lap = s.elapsed().as_secs_f64();
     let s = Instant::now();
     let pattern = SymbolicSparseColMatRef::new_checked(nw, nw, &csc.col_ptr, None, &csc.row_idx);
-    let symbolic = symbolic_factor(pattern);
+    let order = (nw >= DISSECTION_MIN).then(|| nested_dissection(&csc.col_ptr, &csc.row_idx, &prep.wpos));
+    let symbolic = symbolic_factor(pattern, order.as_deref());
     Matrix { mass: cot.mass, csc, symbolic, secs: (t_lap, s.elapsed().as_secs_f64()) }
 }
 
@@ -634,9 +637,9 @@ fn solve(
     let mut best = RunningTopK::new(prep.wpos.len(), opts.max_influences.min(b));
     let (mut secs, mut done) = (0.0, 0usize);
     let sym = opts.symmetry.as_ref().zip(vm.as_deref());
+    let mut x = Vec::new();
     for block in &blocks {
-        let (x, t) = block_weights(block, rows, llt.as_ref(), sym);
-        secs += t;
+        secs += block_weights(block, rows, llt.as_ref(), sym, &mut x);
         best.merge(&x, block, opts.weight_limit_start, opts.weight_limit_end);
         done += block.len();
         clock.tick(0.6 + 0.3 * done as f32 / b as f32)?;

@@ -93,7 +93,7 @@ pub(super) fn inpaint(
     }
     col_ptr[nu] = row_idx.len();
     let pattern = SymbolicSparseColMatRef::new_checked(nu, nu, &col_ptr, None, &row_idx);
-    let factor = symbolic_factor(pattern).and_then(|sym| {
+    let factor = symbolic_factor(pattern, None).and_then(|sym| {
         factor_first(sym, pattern, &REGULARIZATION, |r| {
             let mut vals = values.clone();
             for &d in &diag_pos {
