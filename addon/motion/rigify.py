@@ -229,7 +229,7 @@ def merged_segments(arm: bpy.types.Object, bones):
 class _Chooser:
     """Finds the controls (``choose``) and collects their ``Target``s."""
 
-    def __init__(self, arm: bpy.types.Object, bones, out: dict):
+    def __init__(self, arm: bpy.types.Object, bones, out):
         self.arm, self.bones, self.out = arm, bones, out
         self.pose, self.data = arm.pose.bones, arm.data.bones
         self.planned = PlannedPose(arm, bones, out)
@@ -354,8 +354,8 @@ class _Chooser:
         control chosen above already carries the bone (spine, neck, head and tail are carried
         by torso, hips, chest, neck, head and the tail master; limbs by their IK or FK
         controls)."""
-        roles, skel, bones = self.out["roles"], self.skel, self.bones
-        carried = set(roles["spine"]) | set(roles["neck"]) | set(roles["tail"]) | {roles["head"]}
+        roles, skel, bones = self.out.roles, self.skel, self.bones
+        carried = set(roles.spine) | set(roles.neck) | set(roles.tail) | {roles.head}
         for first, last in [t.span for t in self.targets] + [(sp.first, sp.last) for sp in self.limbs]:
             carried.update(_between(bones, first, last))
         taken = {t.name for t in self.targets}
@@ -365,7 +365,7 @@ class _Chooser:
             return
         ends = np.array([[self.data[n].head_local, self.data[n].tail_local] for n in free],
                         dtype=np.float64).reshape(-1, 2, 3)
-        for b in sorted(int(i) for i in self.out["animated"]):
+        for b in sorted(int(i) for i in self.out.animated):
             if b in carried:
                 continue
             near = np.flatnonzero((np.linalg.norm(ends[:, 0] - skel.heads[b], axis=1) <= skel.tol)
@@ -374,7 +374,7 @@ class _Chooser:
                 self.add(free[int(near[0])], Span(b, b, skel.heads[b], skel.tails[b]), False)
 
 
-def control_targets(arm: bpy.types.Object, bones, out: dict) -> tuple[list[Target], list[str]]:
+def control_targets(arm: bpy.types.Object, bones, out) -> tuple[list[Target], list[str]]:
     """The Rigify controls that make the DEF ``bones`` (``merged_segments``) follow the core's
     motion ``out``, each with the matrices it should have (``Target``), moved or not; and notes
     for the console (controls looked for and not found)."""
@@ -480,7 +480,7 @@ class ControlPlan:
     notes: list[str]
 
 
-def plan_controls(context, arm: bpy.types.Object, bones, out: dict) -> ControlPlan:
+def plan_controls(context, arm: bpy.types.Object, bones, out) -> ControlPlan:
     """The Rigify controls to key for the core's motion ``out`` on ``bones`` (``merged_segments``),
     their targets moved along to where an earlier motion left the rig. ValueError when none of
     them follows the bones the motion moves."""

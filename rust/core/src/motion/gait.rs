@@ -3,8 +3,8 @@
 //! rotations and a root offset that a caller turns into keyframes.
 //!
 //! Inputs
-//!   heads, tails  #B by 3 rest bone end points, +Z up (world space in the add-on)
-//!   parents       #B parent index, -1 for roots
+//!   skeleton      [`Skeleton`]: heads, tails #B by 3 rest bone end points, +Z up (world
+//!                 space in the add-on); parents #B parent index, -1 for roots; names
 //!   rest          #B rest orientations, row-major 3×3 whose columns are the bone's local
 //!                 X, Y (along the bone), Z axes in the same space (Blender:
 //!                 `armature.matrix_world.to_3x3() @ bone.matrix_local.to_3x3()`); scale is
@@ -65,7 +65,7 @@ use crate::motion::roles::{no_legs_message, BodyPlan, Limb, Roles, Side};
 use crate::motion::settle::{settle, Settle};
 use crate::motion::skin::{arm_radius, elbow_clearance, hang_angle, leg_soles, Body, Hanging, Skin};
 use crate::motion::terrain::Terrain;
-use crate::skeleton::validate_parents;
+use crate::skeleton::{validate_parents, Skeleton};
 use glam::{Mat3, Quat, Vec3};
 use std::f32::consts::{PI, TAU};
 
@@ -361,14 +361,8 @@ fn leg_phases(roles: &Roles, motion: Motion) -> Vec<f32> {
         .collect()
 }
 
-fn check(
-    heads: &[[f32; 3]],
-    tails: &[[f32; 3]],
-    parents: &[i32],
-    rest: &[[f32; 9]],
-    roles: &Roles,
-    p: &GaitParams,
-) -> Result<()> {
+fn check(skeleton: &Skeleton, rest: &[[f32; 9]], roles: &Roles, p: &GaitParams) -> Result<()> {
+    let Skeleton { heads, tails, parents, .. } = *skeleton;
     let n = heads.len();
     if tails.len() != n || parents.len() != n || rest.len() != n {
         return Err(Error::Shape(format!(
@@ -417,30 +411,26 @@ fn check(
 /// Make the motion (see the module doc), reading the character's `skin` for its soles and its
 /// body's width beside the arms ([`Skin::NONE`]: the bones alone).
 pub fn motion_clip(
-    heads: &[[f32; 3]],
-    tails: &[[f32; 3]],
-    parents: &[i32],
+    skeleton: &Skeleton,
     rest: &[[f32; 9]],
     roles: &Roles,
     params: &GaitParams,
     skin: &Skin,
 ) -> Result<Clip> {
-    steered_clip(heads, tails, parents, rest, roles, (params, &Steer::default()), skin)
+    steered_clip(skeleton, rest, roles, (params, &Steer::default()), skin)
 }
 
 /// [`motion_clip`] steered (`steer`: along a course, over a terrain; see [`Steer`]). A course
 /// without root motion (in place) or with a stride of 0 is an error.
 pub fn steered_clip(
-    heads: &[[f32; 3]],
-    tails: &[[f32; 3]],
-    parents: &[i32],
+    skeleton: &Skeleton,
     rest: &[[f32; 9]],
     roles: &Roles,
     (params, steer): (&GaitParams, &Steer),
     skin: &Skin,
 ) -> Result<Clip> {
-    check(heads, tails, parents, rest, roles, params)?;
-    skin.check(heads.len())?;
+    check(skeleton, rest, roles, params)?;
+    skin.check(skeleton.len())?;
     if steer.course.is_some() && params.motion != Motion::HeadShake {
         if !params.root_motion {
             return Err(Error::InvalidArgument(
@@ -452,9 +442,9 @@ pub fn steered_clip(
         }
     }
     match params.motion {
-        Motion::HeadShake => head_shake(heads, tails, rest, roles, params),
+        Motion::HeadShake => head_shake(skeleton, rest, roles, params),
         Motion::Walk | Motion::Run if roles.legs.is_empty() => Err(Error::NoBones(no_legs_message())),
-        Motion::Walk | Motion::Run => gait(heads, tails, parents, rest, roles, (params, steer), skin),
+        Motion::Walk | Motion::Run => gait(skeleton, rest, roles, params, steer, skin),
     }
 }
 
@@ -479,13 +469,8 @@ fn frame_count(count: f32, min: f32) -> Result<usize> {
     Ok(c as usize + 1)
 }
 
-fn head_shake(
-    heads: &[[f32; 3]],
-    tails: &[[f32; 3]],
-    rest: &[[f32; 9]],
-    roles: &Roles,
-    p: &GaitParams,
-) -> Result<Clip> {
+fn head_shake(skeleton: &Skeleton, rest: &[[f32; 9]], roles: &Roles, p: &GaitParams) -> Result<Clip> {
+    let Skeleton { heads, tails, .. } = *skeleton;
     let n = heads.len();
     let frames = frame_count(p.duration * p.fps, 2.0)?;
     let up = Vec3::from(roles.up);
@@ -837,14 +822,14 @@ fn pose_body(
 /// body settled onto one ground and lifted so that no foot goes below it, feet riding on the
 /// root carried by their legs.
 fn gait(
-    heads: &[[f32; 3]],
-    tails: &[[f32; 3]],
-    parents: &[i32],
+    skeleton: &Skeleton,
     rest: &[[f32; 9]],
     roles: &Roles,
-    (p, steer): (&GaitParams, &Steer),
+    p: &GaitParams,
+    steer: &Steer,
     skin: &Skin,
 ) -> Result<Clip> {
+    let Skeleton { heads, tails, parents, .. } = *skeleton;
     let n = heads.len();
     let run = p.motion == Motion::Run;
     let up = Vec3::from(roles.up);
@@ -1133,22 +1118,22 @@ mod test_rigs;
 /// Private helpers only: the clips are tested through the public API in `tests/gait.rs`.
 #[cfg(test)]
 mod tests {
-    use super::test_rigs::{biped, creature, hexapod, ik_biped, rest_of, spot, Skeleton};
+    use super::test_rigs::{biped, creature, hexapod, ik_biped, rest_of, spot, Rig};
     use super::*;
     use crate::motion::detect_roles;
 
     /// A test rig with its rest matrices and roles: names, heads, tails, parents, rest, roles.
     type Prepared = (Vec<String>, Vec<[f32; 3]>, Vec<[f32; 3]>, Vec<i32>, Vec<[f32; 9]>, Roles);
 
-    fn prepare((names, h, t, p): Skeleton) -> Prepared {
+    fn prepare((names, h, t, p): Rig) -> Prepared {
         let rest = rest_of(&h, &t);
-        let roles = detect_roles(&h, &t, &p, &names).unwrap();
+        let roles = detect_roles(&Skeleton::new(&h, &t, &p, &names)).unwrap();
         (names, h, t, p, rest, roles)
     }
 
     #[test]
     fn only_an_insects_rising_femurs_lift_its_legs() {
-        let lifting = |skel: Skeleton| {
+        let lifting = |skel: Rig| {
             let (_, h, t, _, _, roles) = prepare(skel);
             let (fwd, up) = (Vec3::from(roles.forward), Vec3::from(roles.up));
             leg_joints(&h, &t, &roles, (fwd, fwd.cross(up).normalize())).iter().filter(|l| l.lift.is_some()).count()

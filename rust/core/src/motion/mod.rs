@@ -18,7 +18,7 @@ pub mod skin;
 mod terrain;
 
 /// The side a bone name states; the rule lives with the other name rules in `skeleton`.
-pub use crate::skeleton::name_side;
+pub use crate::skeleton::{name_side, Skeleton};
 pub use course::Course;
 pub use gait::{motion_clip, posed_points, steered_clip, Clip, GaitParams, Motion, Steer};
 pub use roles::{detect_roles, BodyPlan, Limb, Roles, Side};
