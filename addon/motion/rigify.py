@@ -28,7 +28,7 @@ import numpy as np
 
 from .keying import keyed_location_bones, keyed_rotation_bones, last_key_frame, write_control_keys
 from .planning import PlannedPose
-from .rigify_solve import solve, transparent
+from .rigify_solve import Target, solve, transparent
 
 # Rigify's own name rule (rigify/utils/naming.py ``split_name``): prefix, base, side, number.
 NAME_PARTS = re.compile(r"^(?:(ORG|MCH|DEF)-)?(.*?)([._-][tTbB])?([._-][lLrR])?(?:\.(\d+))?$")
@@ -104,20 +104,6 @@ def swings(u: np.ndarray, v: np.ndarray) -> np.ndarray:
         across /= np.linalg.norm(across, axis=1, keepdims=True)
         out[back] = 2.0 * np.einsum("ni,nj->nij", across, across) - np.eye(3)
     return out
-
-
-@dataclass(eq=False)
-class Target:
-    """A control to key: the armature-space matrix it should have on each frame, whether its
-    location is keyed (else only its rotation), the DEF bones it follows (named for the console;
-    ``span``: the first and last), and its rest matrix."""
-
-    name: str
-    matrices: np.ndarray
-    location: bool
-    follows: str
-    rest: np.ndarray
-    span: tuple[int, int]
 
 
 class Skeleton:

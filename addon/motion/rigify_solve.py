@@ -9,15 +9,27 @@ small part of the rig's)."""
 from __future__ import annotations
 
 from contextlib import contextmanager, nullcontext
-from typing import TYPE_CHECKING
+from dataclasses import dataclass
 
 import bpy
+import numpy as np
 from mathutils import Matrix
 
-if TYPE_CHECKING:
-    from .rigify import Target
-
 SCALE_ONLY = {"COPY_SCALE", "LIMIT_SCALE", "MAINTAIN_VOLUME"}
+
+
+@dataclass(eq=False)
+class Target:
+    """A control to key: the armature-space matrix it should have on each frame, whether its
+    location is keyed (else only its rotation), the DEF bones it follows (named for the console;
+    ``span``: the first and last), and its rest matrix."""
+
+    name: str
+    matrices: np.ndarray
+    location: bool
+    follows: str
+    rest: np.ndarray
+    span: tuple[int, int]
 
 
 def transparent(c) -> bool:

@@ -2,8 +2,8 @@
 //! method): each stance ankle fixed in the world, the body as high as every leg reaches, each
 //! leg's two bones by IK from the posed hip and its foot and toe turned onto the ground.
 
+use super::clip::Cadence;
 use super::footfalls::{body_drop, foot_offset, foot_target, leaning_foot, leg_turns, Ground, PlantedLeg};
-use super::gait::Cadence;
 use super::pose::{posed_frames, to_wxyz, Poser};
 use glam::{Quat, Vec3};
 

@@ -4,7 +4,7 @@
 //! it without a neck); head extras (jaw, ears) swing back by 0.35 of it a radian later, about
 //! forward for an upright one, else about up. The root stays.
 
-use super::gait::{frame_count, smoothstep, Clip, GaitParams};
+use super::clip::{frame_count, Clip, GaitParams};
 use super::pose::{new_poser, to_wxyz};
 use crate::error::Result;
 use crate::motion::roles::Roles;
@@ -51,4 +51,9 @@ pub(super) fn head_shake(skeleton: &Skeleton, rest: &[[f32; 9]], roles: &Roles, 
         moves_root: false,
         frames_per_cycle: (frames - 1) as f32 / p.cycles,
     })
+}
+
+fn smoothstep(e0: f32, e1: f32, x: f32) -> f32 {
+    let t = ((x - e0) / (e1 - e0)).clamp(0.0, 1.0);
+    t * t * (3.0 - 2.0 * t)
 }
