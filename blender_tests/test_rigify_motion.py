@@ -215,7 +215,7 @@ def test_solving_on_a_pruned_copy_keys_what_solving_on_the_rig_does_and_leaves_n
     """The controls whose parents Blender evaluates (neck, head, toes) are solved on a copy of
     the rig holding only the bones those parents depend on; the keys are the ones solving on
     the rig itself gives, and the copy is gone after, the mode and selection as they were."""
-    rigify = B.addon("motion.rigify")
+    solving = B.addon("motion.rigify_solve")
     keys = B.addon("common.keys")
     r = built("rigify_human")
     arm = r.arm
@@ -234,20 +234,20 @@ def test_solving_on_a_pruned_copy_keys_what_solving_on_the_rig_does_and_leaves_n
     assert (set(bpy.data.objects.keys()), set(bpy.data.armatures.keys())) == before
     assert arm.mode == "POSE" and bpy.context.view_layer.objects.active == arm and arm.select_get()
     made = []
-    real = rigify.pruned_copy
+    real = solving.pruned_copy
 
     def spy(context, rig, keep):
         made.append(len(keep))
         return real(context, rig, keep)
 
-    monkeypatch.setattr(rigify, "pruned_copy", spy)
+    monkeypatch.setattr(solving, "pruned_copy", spy)
     assert walk() == copied and made and made[0] < len(arm.pose.bones) / 5, made
 
     @contextlib.contextmanager
     def refused(context, rig, keep):
         yield None   # as when the copy cannot be made: the rig itself is evaluated
 
-    monkeypatch.setattr(rigify, "pruned_copy", refused)
+    monkeypatch.setattr(solving, "pruned_copy", refused)
     on_rig = walk()
     assert on_rig.keys() == copied.keys()
     assert all(np.allclose(on_rig[k], copied[k], atol=1e-6) for k in copied)

@@ -221,7 +221,7 @@ def overridden_keys(ob: bpy.types.Object, keyed: set[str]) -> str | None:
 
 def write_control_keys(context, arm, targets, solved: dict, start: int, returning=()) -> int:
     """Key the Rigify controls ``targets`` (``rigify_solve.Target``) to their solved transforms
-    (``rigify.solve``: one ``matrix_basis`` per frame) from scene frame ``start``: the rotation
+    (``rigify_solve.solve``: one ``matrix_basis`` per frame) from scene frame ``start``: the rotation
     in each control's own rotation mode, continuing from its keys before, and the location where
     the target keys it. Controls keyed for the first time hold their pose until the motion
     starts; ``returning`` controls (keyed by an earlier motion, left alone by this one, solved
