@@ -30,13 +30,22 @@ def idw_weights(
 ) -> Influences:
     """Inverse-distance weights w_b = (d_b+eps)^-p / sum_k (d_k+eps)^-p to bone segments (eps relative to mesh size)."""
 
+class BilinearOptions(TypedDict, total=False):
+    """The keywords of bilinear_weights; each one left out takes the core's default
+    (max_influences 4, nearest 3, falloff "gaussian" with sigma None: half the median bone
+    length; "inverse_power" with power 2)."""
+    max_influences: int
+    nearest: int
+    falloff: str
+    sigma: Optional[float]
+    power: float
+
 def bilinear_weights(
     vertices: ArrayLike, bone_heads: ArrayLike, bone_tails: ArrayLike,
-    parents: Optional[ArrayLike] = None, *, max_influences: int = 4, nearest: int = 3,
-    falloff: str = "gaussian", sigma: Optional[float] = None, power: float = 2.0,
+    parents: Optional[ArrayLike] = None, **options: Unpack[BilinearOptions],
 ) -> Influences:
     """K = nearest (>= 1) nearest bones with radial falloff, each share split with the neighbour across the
-    nearer joint. nearest or max_influences of 0 is a ValueError."""
+    nearer joint. nearest or max_influences of 0 is a ValueError; an unknown keyword a TypeError."""
 
 class HeatOptions(TypedDict, total=False):
     """The keywords of the heat functions (heat_weights, heat_weights_report, heat_weights_many,
@@ -85,15 +94,66 @@ def heat_weights(
     options: see HeatOptions. progress(fraction) is called while solving: returning False cancels
     (Cancelled); an exception it raises stops the solve and propagates as itself."""
 
+@final
+class WeightsReport:
+    """What a heat or voxel bind did: pieces, fallback_pieces (saw no bone), rigid_pieces,
+    boneless_pieces, spanning_pieces (bone-less pieces that no one bone owns, solved by heat),
+    isolated_vertices, welded_vertices, flipped_faces (wound against their neighbours; turned for
+    the normals only), mirrored_vertices (with bone_mirror: vertices with a mirror twin or on the
+    plane, the only ones averaged), side_bones_paired / side_bones_unpaired, regularized,
+    factorization_failed, timings (stage -> seconds); voxel_weights only (None for heat): grid
+    (3 ints), solid_voxels, outside_bones."""
+    @property
+    def pieces(self) -> int: ...
+    @property
+    def fallback_pieces(self) -> int: ...
+    @property
+    def rigid_pieces(self) -> int: ...
+    @property
+    def boneless_pieces(self) -> int: ...
+    @property
+    def spanning_pieces(self) -> int: ...
+    @property
+    def isolated_vertices(self) -> int: ...
+    @property
+    def welded_vertices(self) -> int: ...
+    @property
+    def flipped_faces(self) -> int: ...
+    @property
+    def mirrored_vertices(self) -> int: ...
+    @property
+    def side_bones_paired(self) -> int: ...
+    @property
+    def side_bones_unpaired(self) -> int: ...
+    @property
+    def regularized(self) -> bool: ...
+    @property
+    def factorization_failed(self) -> bool: ...
+    @property
+    def timings(self) -> dict[str, float]: ...
+    @property
+    def grid(self) -> Optional[Tuple[int, int, int]]: ...
+    @property
+    def solid_voxels(self) -> Optional[int]: ...
+    @property
+    def outside_bones(self) -> Optional[int]: ...
+
+@final
+class Weights:
+    """Top-k weights with their report: indices (n,k) int32 (-1 unused), weights (n,k)
+    float32, report (WeightsReport)."""
+    @property
+    def indices(self) -> npt.NDArray[np.int32]: ...
+    @property
+    def weights(self) -> npt.NDArray[np.float32]: ...
+    @property
+    def report(self) -> WeightsReport: ...
+
 def heat_weights_report(
     vertices: ArrayLike, triangles: ArrayLike, bone_heads: ArrayLike, bone_tails: ArrayLike, *,
     progress: Optional[Callable[[float], Optional[bool]]] = None, **options: Unpack[HeatOptions],
-) -> Tuple[npt.NDArray[np.int32], npt.NDArray[np.float32], dict]:
-    """As heat_weights, plus a report: pieces, fallback_pieces (saw no bone), rigid_pieces, boneless_pieces,
-    spanning_pieces (bone-less pieces that no one bone owns, solved by heat), welded_vertices, flipped_faces
-    (wound against their neighbours; turned for the normals only), isolated_vertices, mirrored_vertices
-    (with bone_mirror: vertices with a mirror twin or on the plane, the only ones averaged), regularized,
-    factorization_failed, timings (stage -> seconds)."""
+) -> Weights:
+    """As heat_weights, with its report (WeightsReport)."""
 
 def heat_peak_bytes(vertices: int, bones: int) -> int:
     """Estimated peak memory in bytes of one heat solve of that many vertices and bones (the Laplacian,
@@ -103,10 +163,10 @@ def heat_peak_bytes(vertices: int, bones: int) -> int:
 def heat_weights_many(
     meshes: Sequence[Tuple[ArrayLike, ArrayLike]], bone_heads: ArrayLike, bone_tails: ArrayLike,
     **options: Unpack[HeatOptions],
-) -> List[Union[Tuple[npt.NDArray[np.int32], npt.NDArray[np.float32], dict], Exception]]:
+) -> List[Union[Weights, Exception]]:
     """heat_weights_report of several independent meshes [(vertices, triangles)] with the same bones
     and options, solved in parallel in one call (many small meshes: a call each costs more than its
-    solve). One entry per mesh, in order: its (indices, weights, report), or the exception it
+    solve). One entry per mesh, in order: its Weights, or the exception it
     raised (ValueError for bad input, RuntimeError for an internal error in its solve, caught per
     mesh), returned so that the others' results stand."""
 
@@ -133,7 +193,7 @@ def heat_sources(
 def heat_weights_from_sources(
     vertices: ArrayLike, triangles: ArrayLike, bone_heads: ArrayLike, bone_tails: ArrayLike,
     source_indices: ArrayLike, source_weights: ArrayLike, **options: Unpack[HeatOptions],
-) -> Tuple[npt.NDArray[np.int32], npt.NDArray[np.float32], dict]:
+) -> Weights:
     """Debug and evaluation: heat_weights_report with the heat sources given instead of found, to
     measure the method apart from its choice of sources. source_indices (n,k) bones (-1 unused)
     and source_weights (n,k) their shares of each vertex's heat (fractions of the row's sum; the
@@ -143,40 +203,106 @@ def heat_weights_from_sources(
     its own source (as heat_sources finds it); rigid pieces and symmetry are as in heat_weights.
     With the sources of heat_sources, the weights of heat_weights_report, bit for bit."""
 
+class VoxelOptions(TypedDict, total=False):
+    """The keywords of voxel_weights; each one left out takes the core's default (resolution 64,
+    falloff 0.02, max_influences 4, objects None: one object). bone_mirror, symmetry_axis,
+    parents, curve_points, curve_bones: as in HeatOptions."""
+    resolution: int
+    falloff: float
+    max_influences: int
+    bone_mirror: Optional[ArrayLike]
+    symmetry_axis: int
+    parents: Optional[ArrayLike]
+    curve_points: Optional[ArrayLike]
+    curve_bones: Optional[ArrayLike]
+    objects: Optional[ArrayLike]
+
 def voxel_weights(
     vertices: ArrayLike, triangles: ArrayLike, bone_heads: ArrayLike, bone_tails: ArrayLike, *,
-    progress: Optional[Callable[[float], Optional[bool]]] = None, resolution: int = 64, falloff: float = 0.02,
-    max_influences: int = 4, bone_mirror: Optional[ArrayLike] = None, symmetry_axis: int = 0,
-    parents: Optional[ArrayLike] = None, curve_points: Optional[ArrayLike] = None,
-    curve_bones: Optional[ArrayLike] = None, objects: Optional[ArrayLike] = None,
-) -> Tuple[npt.NDArray[np.int32], npt.NDArray[np.float32], dict]:
+    progress: Optional[Callable[[float], Optional[bool]]] = None, **options: Unpack[VoxelOptions],
+) -> Weights:
     """Geodesic voxel binding (Dionne & de Lasa 2013) of a whole character (every mesh stacked;
     objects (n,) the object of each vertex: one that holds no bone is a prop, bound rigidly).
     resolution: voxels along the longest side (16-1024); falloff (0-1): how far a vertex shares
     its heat with bones farther than its nearest, relative to the distance. Other keywords as
-    heat_weights. Returns (indices, weights, report): heat_weights_report's report plus grid
-    (3 ints), solid_voxels, outside_bones, and the voxel stages in timings."""
+    heat_weights. Returns its Weights: the report has grid, solid_voxels, outside_bones and the
+    voxel stages in timings."""
+
+class VoxelDistanceOptions(TypedDict, total=False):
+    """The keywords of voxel_distances: resolution, parents, curve_points, curve_bones and
+    bone_mirror / symmetry_axis, as for voxel_weights."""
+    resolution: int
+    bone_mirror: Optional[ArrayLike]
+    symmetry_axis: int
+    parents: Optional[ArrayLike]
+    curve_points: Optional[ArrayLike]
+    curve_bones: Optional[ArrayLike]
+
+@final
+class VoxelDistances:
+    """Each vertex's k nearest bones through the voxel solid: indices (n,k) int32 (-1
+    unused); geodesic and straight distances (n,k) float32 in bbox diagonals; cosines (n,k)
+    float32 between the vertex normal and the direction from the bone."""
+    @property
+    def indices(self) -> npt.NDArray[np.int32]: ...
+    @property
+    def geodesic(self) -> npt.NDArray[np.float32]: ...
+    @property
+    def straight(self) -> npt.NDArray[np.float32]: ...
+    @property
+    def cosines(self) -> npt.NDArray[np.float32]: ...
 
 def voxel_distances(
     vertices: ArrayLike, triangles: ArrayLike, bone_heads: ArrayLike, bone_tails: ArrayLike, *,
-    k: int = 8, resolution: int = 64, parents: Optional[ArrayLike] = None,
-    curve_points: Optional[ArrayLike] = None, curve_bones: Optional[ArrayLike] = None,
-) -> Tuple[npt.NDArray[np.int32], npt.NDArray[np.float32], npt.NDArray[np.float32], npt.NDArray[np.float32]]:
+    k: int = 8, **options: Unpack[VoxelDistanceOptions],
+) -> VoxelDistances:
     """Debug and evaluation: each vertex's k nearest bones by geodesic distance through the voxel
     solid: (indices (n,k) int32, -1 unused; geodesic and straight distances (n,k) float32 in bbox
     diagonals; cosines (n,k) between the vertex normal and the direction from the bone)."""
 
+class TransferOptions(TypedDict, total=False):
+    """The keywords of transfer_weights; each one left out takes the core's default
+    (max_distance 0.05, max_angle 30.0 degrees, flipped True, max_influences 4)."""
+    max_distance: float
+    max_angle: float
+    flipped: bool
+    max_influences: int
+
+@final
+class TransferReport:
+    """What a transfer did: matched (garment vertices that took the body's weights
+    where they lie on it), inpainted, nearest (vertices of pieces with no match, given their
+    nearest points' weights), regularized."""
+    @property
+    def matched(self) -> int: ...
+    @property
+    def inpainted(self) -> int: ...
+    @property
+    def nearest(self) -> int: ...
+    @property
+    def regularized(self) -> bool: ...
+
+@final
+class TransferredWeights:
+    """Transferred top-k weights: indices (n,k) int32, weights (n,k) float32, report
+    (TransferReport)."""
+    @property
+    def indices(self) -> npt.NDArray[np.int32]: ...
+    @property
+    def weights(self) -> npt.NDArray[np.float32]: ...
+    @property
+    def report(self) -> TransferReport: ...
+
 def transfer_weights(
     body_vertices: ArrayLike, body_triangles: ArrayLike, body_indices: ArrayLike, body_weights: ArrayLike,
-    vertices: ArrayLike, triangles: ArrayLike, *, max_distance: float = 0.05, max_angle: float = 30.0,
-    flipped: bool = True, max_influences: int = 4,
-) -> Tuple[npt.NDArray[np.int32], npt.NDArray[np.float32], dict]:
+    vertices: ArrayLike, triangles: ArrayLike, **options: Unpack[TransferOptions],
+) -> TransferredWeights:
     """Robust skin weights transfer (Abdrashitov et al. 2023): a body's top-k weights (body_indices,
     body_weights (nb,k)) onto a garment in the same space. A garment vertex within max_distance
     (fraction of the body's bbox diagonal) of the body, its normal within max_angle degrees of the
     body's (or of its opposite, flipped), takes the body's weights there; the others are
     inpainted by a Laplacian solve; a piece with no such vertex takes its nearest points'
-    weights. Returns (indices, weights, report: matched, inpainted, nearest, regularized)."""
+    weights. Returns TransferredWeights."""
 
 def touching_meshes(vertices: ArrayLike, mesh_of: ArrayLike, meshes: int, *,
                     triangles: Optional[ArrayLike] = None, tolerance: float = 1e-5,
@@ -272,12 +398,59 @@ def ik2d_solve_multi(chain: Chain2d, effectors: list, options: Optional[Ik2dOpti
 def ik2d_forward(chain: Chain2d) -> npt.NDArray[np.float64]:
     """Joint positions (b+1, 2): the base, then each bone's tip."""
 
+class FitOptions(TypedDict, total=False):
+    """The keywords of fit_joints; each one left out takes the core's default (FitOptions:
+    symmetry_axis None, symmetry_plane 0.0, joint_mirror None, rays 12, samples 5, rounds 12,
+    tolerance 1e-4, stiffness 0.05, tip True, max_move 0.12, stub_ratio 0.5, min_sections 2)."""
+    symmetry_axis: Optional[int]
+    symmetry_plane: float
+    joint_mirror: Optional[ArrayLike]
+    rays: int
+    samples: int
+    rounds: int
+    tolerance: float
+    stiffness: float
+    tip: bool
+    max_move: float
+    stub_ratio: float
+    min_sections: int
+
+@final
+class FitResult:
+    """The fitted joints (j,3) float32 and what the fit did: outside_before /
+    outside_after (joints outside the mesh) with their (j,) bool masks, kept_outside, rounds,
+    max_move, open_edges, nonmanifold_edges, pieces, mirrored_surface (with symmetry: share of the
+    vertices whose mirror image lies within 1 % of the diagonal of the surface, else None),
+    off_plane_centre."""
+    @property
+    def joints(self) -> npt.NDArray[np.float32]: ...
+    @property
+    def outside_before(self) -> int: ...
+    @property
+    def outside_after(self) -> int: ...
+    @property
+    def outside_before_mask(self) -> npt.NDArray[np.bool_]: ...
+    @property
+    def outside_after_mask(self) -> npt.NDArray[np.bool_]: ...
+    @property
+    def kept_outside(self) -> int: ...
+    @property
+    def rounds(self) -> int: ...
+    @property
+    def max_move(self) -> float: ...
+    @property
+    def open_edges(self) -> int: ...
+    @property
+    def nonmanifold_edges(self) -> int: ...
+    @property
+    def pieces(self) -> int: ...
+    @property
+    def mirrored_surface(self) -> Optional[float]: ...
+    @property
+    def off_plane_centre(self) -> int: ...
+
 def fit_joints(vertices: ArrayLike, triangles: ArrayLike, joints: ArrayLike, bones: ArrayLike,
-               movable: Optional[ArrayLike] = None, *, symmetry_axis: Optional[int] = None,
-               symmetry_plane: float = 0.0, joint_mirror: Optional[ArrayLike] = None, rays: int = 12,
-               samples: int = 5, rounds: int = 12, tolerance: float = 1e-4, stiffness: float = 0.05, tip: bool = True,
-               max_move: float = 0.12, stub_ratio: float = 0.5,
-               min_sections: int = 2) -> Tuple[npt.NDArray[np.float32], dict]:
+               movable: Optional[ArrayLike] = None, **options: Unpack[FitOptions]) -> FitResult:
     """Fit joints (j,3) into the mesh (same space): each goes to the nearest point of its bones'
     centre lines (cross-section centres); joints left outside are pulled in. bones (b,2) joint
     indices; movable (j,) bool; with symmetry_axis, joint_mirror (j,) pairs end exactly mirrored,
@@ -362,24 +535,112 @@ def auto_rig(vertices: ArrayLike, triangles: ArrayLike, *, template: str = "AUTO
 
 # ---------------------------------------------------------------------------- motion
 
+@final
+class Limb:
+    """A leg or an arm: bones (from the body outwards), side 'L' | 'R', group (legs: 0 the
+    front pair, counting backwards; arms 0). Limbs with equal fields are equal."""
+    @property
+    def bones(self) -> list[int]: ...
+    @property
+    def side(self) -> str: ...
+    @property
+    def group(self) -> int: ...
+
+@final
+class Roles:
+    """Bone roles found from the geometry (+Z up), names as hints: root, spine, neck, head,
+    head_extras, tail, legs, arms (Limbs), plan ('biped'|'quadruped'|'multiped'|'legless': no
+    legs found, legs empty), up, forward, left, ground, height, leg_length, single_tree (moving
+    the root bone moves every role bone), riders ([(foot, leg bone)]: feet hanging off the root,
+    as IK rigs exported to glTF have them, ride on their leg), notes."""
+    @property
+    def root(self) -> int: ...
+    @property
+    def spine(self) -> list[int]: ...
+    @property
+    def neck(self) -> list[int]: ...
+    @property
+    def head(self) -> int: ...
+    @property
+    def head_extras(self) -> list[int]: ...
+    @property
+    def tail(self) -> list[int]: ...
+    @property
+    def legs(self) -> tuple[Limb, ...]: ...
+    @property
+    def arms(self) -> tuple[Limb, ...]: ...
+    @property
+    def plan(self) -> str: ...
+    @property
+    def up(self) -> list[float]: ...
+    @property
+    def forward(self) -> list[float]: ...
+    @property
+    def left(self) -> list[float]: ...
+    @property
+    def ground(self) -> float: ...
+    @property
+    def height(self) -> float: ...
+    @property
+    def leg_length(self) -> float: ...
+    @property
+    def single_tree(self) -> bool: ...
+    @property
+    def riders(self) -> list[tuple[int, int]]: ...
+    @property
+    def notes(self) -> list[str]: ...
+
+@final
+class MotionClip:
+    """A motion: rotations (frames,b,4) float32 local quaternions w,x,y,z; root_offset
+    (frames,3) float32; animated (k,) int32; locations (frames,b,3) float32 local locations in
+    the heads' units (zero but for located); located (j,) int32 (the riders); moves_root; frames;
+    frames_per_cycle; roles."""
+    @property
+    def rotations(self) -> npt.NDArray[np.float32]: ...
+    @property
+    def root_offset(self) -> npt.NDArray[np.float32]: ...
+    @property
+    def animated(self) -> npt.NDArray[np.int32]: ...
+    @property
+    def locations(self) -> npt.NDArray[np.float32]: ...
+    @property
+    def located(self) -> npt.NDArray[np.int32]: ...
+    @property
+    def moves_root(self) -> bool: ...
+    @property
+    def frames(self) -> int: ...
+    @property
+    def frames_per_cycle(self) -> float: ...
+    @property
+    def roles(self) -> Roles: ...
+
 def detect_roles(bone_heads: ArrayLike, bone_tails: ArrayLike, parents: ArrayLike,
-                 names: Optional[list[str]] = None) -> dict:
-    """Bone roles found from the geometry (+Z up), names as hints: {root, spine, neck, head,
-    head_extras, tail, legs, arms ([{bones, side 'L'|'R', group (0 = front)}]), plan
-    ('biped'|'quadruped'|'multiped'|'legless': no legs found, legs empty), up, forward, left,
-    ground, height, leg_length, single_tree (moving the root bone moves every role bone),
-    riders ([(foot, leg bone)]: feet hanging off the root, as IK rigs exported to glTF have
-    them, ride on their leg), notes}. ValueError saying 'no head' when none can be found
+                 names: Optional[list[str]] = None) -> Roles:
+    """The roles of the bones (Roles). ValueError saying 'no head' when none can be found
     (make_motion's walk and run refuse a legless rig: 'no legs')."""
+
+class MotionOptions(TypedDict, total=False):
+    """The keywords of make_motion; each one left out takes the core's default (GaitParams: fps
+    24, cycles 2, duration 2 s, amplitude 30 degrees in radians, stride 1, speed 1, root_motion
+    True; joint_tails False, no skin, no path, level ground)."""
+    fps: float
+    cycles: float
+    duration: float
+    amplitude: float
+    stride: float
+    speed: float
+    root_motion: bool
+    joint_tails: bool
+    skin_points: Optional[ArrayLike]
+    skin_bones: Optional[ArrayLike]
+    path: Optional[ArrayLike]
+    ground: Optional[tuple[tuple[float, float], float, ArrayLike]]
 
 def make_motion(
     bone_heads: ArrayLike, bone_tails: ArrayLike, parents: ArrayLike, rest_matrices: ArrayLike,
-    motion: str = "WALK", *, names: Optional[list[str]] = None, fps: float = 24.0,
-    cycles: float = 2.0, duration: float = 2.0, amplitude: float = 0.5236, stride: float = 1.0,
-    speed: float = 1.0, root_motion: bool = True, joint_tails: bool = False,
-    skin_points: Optional[ArrayLike] = None, skin_bones: Optional[ArrayLike] = None,
-    path: Optional[ArrayLike] = None, ground: Optional[tuple[tuple[float, float], float, ArrayLike]] = None,
-) -> dict:
+    motion: str = "WALK", *, names: Optional[list[str]] = None, **options: Unpack[MotionOptions],
+) -> MotionClip:
     """'HEAD_SHAKE', 'WALK' or 'RUN' for a skeleton. rest_matrices (b,3,3): rest orientation per
     bone (columns = bone X, Y, Z) in the heads' space. joint_tails: the tails are an importer's
     invention, so roles and motion read tails made from the joints (children's heads).
@@ -389,7 +650,4 @@ def make_motion(
     path (p,3): a polyline the walk or run follows (cycles from its length; ValueError with
     root_motion off). ground ((x, y), cell, heights (ny,nx)): a height field, heights[j, i] at
     (x + i cell, y + j cell), NaN for a miss; the feet stand on it, turned to its slope.
-    Returns {rotations (frames,b,4) float32 local quaternions w,x,y,z; root_offset (frames,3)
-    float32; animated (k,) int32; locations (frames,b,3) float32 local locations in the heads'
-    units (zero but for located); located (j,) int32 (the riders); moves_root; frames;
-    frames_per_cycle; roles}."""
+    Returns a MotionClip."""

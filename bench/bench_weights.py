@@ -165,10 +165,10 @@ def measure(bpy, core, label, mesh, rig, v, t, heads, tails, args):
         unbind(mesh)
     ours_s = ours_heat(bpy, mesh, rig, args.repeats)
     ours_missing = unweighted(mesh)
-    core_s, report = min((timed(lambda: core.heat_weights_report(v, t, heads, tails)[2])
+    core_s, report = min((timed(lambda: core.heat_weights_report(v, t, heads, tails).report)
                           for _ in range(max(args.repeats, 1))), key=lambda r: r[0])
-    fs = sum(s for k, s in report["timings"].items() if k in ("factor", "solve"))
-    sfs = fs + report["timings"].get("symbolic", 0.0)
+    fs = sum(s for k, s in report.timings.items() if k in ("factor", "solve"))
+    sfs = fs + report.timings.get("symbolic", 0.0)
     extra = {"VOXEL": ours_heat(bpy, mesh, rig, args.repeats, "VOXEL")}
     extra["VOXEL missing"] = unweighted(mesh)
     for method in ("BILINEAR", "IDW"):
@@ -177,7 +177,7 @@ def measure(bpy, core, label, mesh, rig, v, t, heads, tails, args):
         extra[method], _ = timed(lambda method=method: bpy.ops.object.miniskeleton_auto_weights(method=method))
     print(f"done {label} {n} vertices", flush=True)
     return (label, n, len(heads), blender_s, blender_missing, ours_s, ours_missing, core_s, fs, sfs,
-            extra["BILINEAR"], extra["IDW"], report["timings"], extra["VOXEL"], extra["VOXEL missing"])
+            extra["BILINEAR"], extra["IDW"], report.timings, extra["VOXEL"], extra["VOXEL missing"])
 
 
 def measure_parts(bpy, core, count, args):

@@ -90,10 +90,11 @@ def one_model(bpy, core, calls, model, path, args):
     for name, (indices, weights) in sources:
         vals = []
         for c in args.constants:
-            i, w, report = core.heat_weights_from_sources(*mesh, indices, weights, **{**options, "heat_constant": c})
-            vals.append(deform(ev.normalized(dense(i, w, bones))))
+            out = core.heat_weights_from_sources(*mesh, indices, weights, **{**options, "heat_constant": c})
+            report = out.report
+            vals.append(deform(ev.normalized(dense(out.indices, out.weights, bones))))
         rows.append((name, vals))
-    welded = n - report["welded_vertices"]
+    welded = n - report.welded_vertices
     print(f"\n{model}: {n_total} vertices ({welded} welded), {bones} bones, {len(poses)} frames; "
           f"deform %: our operator {deform(ev.normalized(ours.w)):.3f} (c 1); this solve by heat constant c:")
     print("| source | " + " | ".join(f"c {c:g}" for c in args.constants) + " |")

@@ -153,7 +153,8 @@ def test_each_option_reaches_the_core(method, options, core_kw):
         if method == "BILINEAR":
             return core.bilinear_weights(v, bones.heads, bones.tails, bones.parents, **kw)
         if method == "VOXEL":
-            return core.voxel_weights(v, t, bones.heads, bones.tails, **kw)[:2]
+            out = core.voxel_weights(v, t, bones.heads, bones.tails, **kw)
+            return out.indices, out.weights
         return core.heat_weights(v, t, bones.heads, bones.tails, **kw)
 
     assert bind([body], arm, method=method, **options) == {"FINISHED"}

@@ -123,8 +123,8 @@ def test_fit_leaves_the_robots_knees_where_the_artist_put_them_and_it_still_walk
         assert moved[j] < 0.01, f"{n} moved {moved[j]:.3f} of the diagonal"
     rig = common_armatures.armature_bones(arm)
     roles = core.detect_roles(rig.heads, rig.tails, rig.parents, names=rig.names)
-    assert roles["plan"] == "biped", roles["plan"]
-    assert sorted(rig.names[leg["bones"][0]] for leg in roles["legs"]) == ["UpperLeg.L", "UpperLeg.R"]
+    assert roles.plan == "biped", roles.plan
+    assert sorted(rig.names[leg.bones[0]] for leg in roles.legs) == ["UpperLeg.L", "UpperLeg.R"]
 
 
 @pytest.mark.parametrize("name", ["autorig_cow", "autorig_horse"])
@@ -145,20 +145,20 @@ def test_auto_rig_on_unrigged_scans_walks_as_a_quadruped_with_each_hoof_on_its_l
     np.testing.assert_allclose(w.sum(axis=1), 1.0, atol=1e-4)
     skeleton = common_armatures.armature_bones(arm)
     roles = core.detect_roles(skeleton.heads, skeleton.tails, skeleton.parents, names=skeleton.names)
-    assert roles["plan"] == "quadruped", roles["plan"]
-    assert sorted((leg["group"], leg["side"]) for leg in roles["legs"]) == [(0, "L"), (0, "R"), (1, "L"), (1, "R")]
+    assert roles.plan == "quadruped", roles.plan
+    assert sorted((leg.group, leg.side) for leg in roles.legs) == [(0, "L"), (0, "R"), (1, "L"), (1, "R")]
     verts = measures.world_vertices(ob)
     m = np.array(arm.matrix_world)
-    ends = np.array([arm.data.bones[skeleton.names[leg["bones"][-1]]].tail_local for leg in roles["legs"]])
+    ends = np.array([arm.data.bones[skeleton.names[leg.bones[-1]]].tail_local for leg in roles.legs])
     ends = ends @ m[:3, :3].T + m[:3, 3]
     low = verts[:, 2] < verts[:, 2].min() + 0.03 * np.ptp(verts[:, 2])
     nearest = np.linalg.norm(verts[:, None, :2] - ends[None, :, :2], axis=-1).argmin(axis=1)
-    for k, leg in enumerate(roles["legs"]):
+    for k, leg in enumerate(roles.legs):
         hoof = low & (nearest == k)
-        assert hoof.sum() >= 5, (leg["side"], hoof.sum())
-        own = [bones.index(skeleton.names[b]) for b in leg["bones"] if skeleton.names[b] in bones]
+        assert hoof.sum() >= 5, (leg.side, hoof.sum())
+        own = [bones.index(skeleton.names[b]) for b in leg.bones if skeleton.names[b] in bones]
         share = w[np.ix_(hoof, own)].sum(axis=1)
-        assert share.min() > 0.9, f"{leg['group']}{leg['side']}: own leg's weight {share.min():.3f}"
+        assert share.min() > 0.9, f"{leg.group}{leg.side}: own leg's weight {share.min():.3f}"
 
 
 @pytest.mark.parametrize("name", ["RobotExpressive.glb", "q_Bunny.glb"])
@@ -178,15 +178,15 @@ def test_game_rigs_with_feet_on_the_root_walk_with_their_feet_on_their_legs(name
 
     r = core.detect_roles(bones.heads, bones.tails, bones.parents, names=bones.names)
     n = bones.names
-    assert [n[i] for i in r["neck"]] == ["Neck"] and len(r["arms"]) == 2
-    assert sorted((n[a], n[b]) for a, b in r["riders"]) == [("Foot.L", "LowerLeg.L"), ("Foot.R", "LowerLeg.R")]
+    assert [n[i] for i in r.neck] == ["Neck"] and len(r.arms) == 2
+    assert sorted((n[a], n[b]) for a, b in r.riders) == [("Foot.L", "LowerLeg.L"), ("Foot.R", "LowerLeg.R")]
     scene = bpy.context.scene
     frames = range(scene.frame_start, scene.frame_start + 25)
     for s in "LR":
         offsets, z = B.riding(arm, f"Foot.{s}", f"LowerLeg.{s}", frames)
         world = offsets * max(arm.matrix_world.to_scale())
-        assert np.ptp(world, axis=0).max() < 1e-4 * r["leg_length"], (s, np.ptp(world, axis=0))
-        assert np.ptp(z) > 0.05 * r["leg_length"], (s, np.ptp(z), r["leg_length"])
+        assert np.ptp(world, axis=0).max() < 1e-4 * r.leg_length, (s, np.ptp(world, axis=0))
+        assert np.ptp(z) > 0.05 * r.leg_length, (s, np.ptp(z), r.leg_length)
 
 
 def test_fox_runs_without_a_paw_sinking_into_the_ground():

@@ -5,6 +5,7 @@ import math
 import re
 import shutil
 import subprocess
+from types import SimpleNamespace
 
 import bpy
 import numpy as np
@@ -104,8 +105,8 @@ def roles_by_name(arm):
     bones, _ = skeleton_arrays(arm)
     r = core.detect_roles(bones.heads, bones.tails, bones.parents, names=bones.names)
     n = bones.names
-    legs = {(("front" if leg["group"] == 0 else "back"), leg["side"]): [n[i] for i in leg["bones"]]
-            for leg in r["legs"]}
+    legs = {(("front" if leg.group == 0 else "back"), leg.side): [n[i] for i in leg.bones]
+            for leg in r.legs}
     return r, n, legs
 
 
@@ -132,28 +133,28 @@ def tails_over_frames(arm, names, frames):
 def test_roles_on_generated_quadruped():
     arm = creature.build_armature()
     r, n, legs = roles_by_name(arm)
-    assert r["plan"] == "quadruped"
-    assert [n[i] for i in r["spine"]] == ["spine", "chest"]
-    assert [n[i] for i in r["neck"]] == ["neck"]
-    assert n[r["head"]] == "head"
-    assert sorted(n[i] for i in r["head_extras"]) == ["ear.L", "ear.R", "jaw"]
-    assert [n[i] for i in r["tail"]] == ["tail.001", "tail.002", "tail.003"]
+    assert r.plan == "quadruped"
+    assert [n[i] for i in r.spine] == ["spine", "chest"]
+    assert [n[i] for i in r.neck] == ["neck"]
+    assert n[r.head] == "head"
+    assert sorted(n[i] for i in r.head_extras) == ["ear.L", "ear.R", "jaw"]
+    assert [n[i] for i in r.tail] == ["tail.001", "tail.002", "tail.003"]
     assert legs == {("front", "L"): ["upper_arm.L", "forearm.L", "hand.L"],
                     ("front", "R"): ["upper_arm.R", "forearm.R", "hand.R"],
                     ("back", "L"): ["thigh.L", "shin.L", "foot.L"],
                     ("back", "R"): ["thigh.R", "shin.R", "foot.R"]}
-    assert np.allclose(r["forward"], (0, -1, 0), atol=1e-3)
+    assert np.allclose(r.forward, (0, -1, 0), atol=1e-3)
 
 
 def test_roles_on_generated_biped_and_the_operator_reports_them(capsys):
     arm = biped_rig()
     r, n, legs = roles_by_name(arm)
-    assert r["plan"] == "biped"
-    assert [n[i] for i in r["spine"]] == ["hips", "spine", "chest"]
-    assert n[r["head"]] == "head"
+    assert r.plan == "biped"
+    assert [n[i] for i in r.spine] == ["hips", "spine", "chest"]
+    assert n[r.head] == "head"
     assert legs[("front", "L")][:3] == ["thigh.L", "shin.L", "foot.L"]
     assert legs[("front", "R")][:3] == ["thigh.R", "shin.R", "foot.R"]
-    assert sorted(n[a["bones"][1]] for a in r["arms"]) == ["upper_arm.L", "upper_arm.R"]
+    assert sorted(n[a.bones[1]] for a in r.arms) == ["upper_arm.L", "upper_arm.R"]
     assert add_motion(arm, motion="WALK", cycles=1) == {"FINISHED"}
     printed = capsys.readouterr().out
     assert "head: head" in printed and "leg L: thigh.L, shin.L, foot.L" in printed, printed
@@ -231,9 +232,9 @@ def test_roles_of_a_rig_with_hundreds_of_hair_bones_are_listed_shortly():
     """The console's role list names a dozen bones of a long role and gives the count (a rig
     with 1000 hair bones printed all 1000 names on the head's line)."""
     names = ["hips", "head"] + [f"hair{k}" for k in range(1000)] + ["thigh.L", "thigh.R"]
-    roles = dict(plan="biped", root=0, spine=[0], neck=[], head=1, head_extras=list(range(2, 1002)), tail=[],
-                 legs=[dict(bones=[1002], side="L", group=0), dict(bones=[1003], side="R", group=0)],
-                 arms=[], notes=[])
+    roles = SimpleNamespace(plan="biped", root=0, spine=[0], neck=[], head=1, head_extras=list(range(2, 1002)),
+                            tail=[], legs=[SimpleNamespace(bones=[1002], side="L", group=0),
+                                           SimpleNamespace(bones=[1003], side="R", group=0)], arms=[], notes=[])
     lines = planning().describe_roles(roles, names)
     head = next(line for line in lines if line.startswith("head:"))
     assert head == "head: head (+ " + ", ".join(f"hair{k}" for k in range(12)) + " ... (1000 in all))", head
@@ -289,7 +290,7 @@ def test_walk_feet_alternate_in_phase():
     assert add_motion(arm, motion="WALK", cycles=2) == {"FINISHED"}
     bones, rest = skeleton_arrays(arm)
     fpc = int(core.make_motion(bones.heads, bones.tails, bones.parents, rest, "WALK",
-                               names=bones.names, fps=scene.render.fps)["frames_per_cycle"])
+                               names=bones.names, fps=scene.render.fps).frames_per_cycle)
     start = scene.frame_start
     assert scene.frame_end >= start + 2 * fpc
     feet = ["hand.L", "hand.R", "foot.L", "foot.R"]
@@ -419,9 +420,9 @@ def test_feet_hanging_off_the_root_walk_with_their_legs(invented_tails, scale, c
     B.place_armature_keep_bones(arm, Matrix.Diagonal((scale, abs(scale), abs(scale), 1.0)))
     r, n, legs = roles_by_name(arm)
     assert legs[("front", "L")] == ["UpperLeg.L", "LowerLeg.L", "Foot.L"]
-    assert sorted((n[a], n[b]) for a, b in r["riders"]) == [("Foot.L", "LowerLeg.L"), ("Foot.R", "LowerLeg.R")]
-    assert [n[i] for i in r["neck"]] == ["Neck"] and n[r["spine"][-1]] == "Torso"
-    assert len(r["arms"]) == 2
+    assert sorted((n[a], n[b]) for a, b in r.riders) == [("Foot.L", "LowerLeg.L"), ("Foot.R", "LowerLeg.R")]
+    assert [n[i] for i in r.neck] == ["Neck"] and n[r.spine[-1]] == "Torso"
+    assert len(r.arms) == 2
 
     assert add_motion(arm, motion="WALK", cycles=1) == {"FINISHED"}
     assert "feet hanging off the root bone, not their legs (an IK rig without its constraints): " \

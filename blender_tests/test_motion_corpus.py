@@ -115,12 +115,12 @@ def roles_of(arm) -> tuple[dict, list[str]]:
     out = planning.make_motion(arm, bones, scene, scene.render.fps / scene.render.fps_base, "HEAD_SHAKE",
                                cycles=2.0, duration=1.5, amplitude=math.radians(30), stride=1.0, speed=1.0,
                                root_motion=True)
-    return out["roles"], list(bones.names)
+    return out.roles, list(bones.names)
 
 
 def leg_label(leg: dict, groups: int) -> str:
-    where = ("front " if leg["group"] == 0 else "back ") if groups > 1 else ""
-    return where + leg["side"]
+    where = ("front " if leg.group == 0 else "back ") if groups > 1 else ""
+    return where + leg.side
 
 
 @pytest.mark.parametrize("name", list(EXPECTED))
@@ -128,13 +128,13 @@ def test_the_roles_are_the_rigs_anatomy(name):
     r = built(name)
     want = EXPECTED[name]
     roles, names = roles_of(r.arm)
-    assert roles["plan"] == want["plan"]
-    assert names[roles["head"]] == want["head"]
-    assert [names[b] for b in roles["neck"]] == want["neck"]
-    assert want["spine"] <= {names[b] for b in roles["spine"]}, [names[b] for b in roles["spine"]]
-    assert names[roles["tail"][0]] == want["tail"] if "tail" in want else not roles["tail"]
-    groups = max(leg["group"] for leg in roles["legs"]) + 1
-    found = {leg_label(leg, groups): [names[b] for b in leg["bones"]] for leg in roles["legs"]}
+    assert roles.plan == want["plan"]
+    assert names[roles.head] == want["head"]
+    assert [names[b] for b in roles.neck] == want["neck"]
+    assert want["spine"] <= {names[b] for b in roles.spine}, [names[b] for b in roles.spine]
+    assert names[roles.tail[0]] == want["tail"] if "tail" in want else not roles.tail
+    groups = max(leg.group for leg in roles.legs) + 1
+    found = {leg_label(leg, groups): [names[b] for b in leg.bones] for leg in roles.legs}
     assert set(found) == set(want["legs"]), found
     for label, (first, foot) in want["legs"].items():
         assert found[label][0] == first and foot in found[label], (label, found[label])

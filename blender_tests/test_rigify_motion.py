@@ -82,8 +82,8 @@ def assert_follows(arm, bones, out, pose, frames, diag, shift=(0.0, 0.0, 0.0)):
     scene = bpy.context.scene
     for k in range(0, len(frames), max(1, len(frames) // 5)):
         scene.frame_set(frames[k])
-        for leg in out["roles"]["legs"]:
-            b = leg["bones"][-1]
+        for leg in out.roles.legs:
+            b = leg.bones[-1]
             now = np.array(arm.pose.bones[bones.names[b]].matrix)
             plan = pose(b)[k]
             gap = np.linalg.norm(now[:3, 3] - plan[:3, 3] - np.asarray(shift))
@@ -155,7 +155,7 @@ def test_head_shake_turns_the_head_and_keeps_the_feet_still(rig, capfd):
     m = corpus.measure(arm, r.meshes, frames, rest)
     assert m["feet"] < corpus.TARGET["feet"], m
     bones, out, _ = planned(arm, "HEAD_SHAKE")
-    assert corpus.head_turn(arm, bones.names[out["roles"]["head"]], frames) >= corpus.TARGET["head"]
+    assert corpus.head_turn(arm, bones.names[out.roles.head], frames) >= corpus.TARGET["head"]
 
 
 def _legs(front: tuple[str, str] | None, back: tuple[str, str]) -> dict:
@@ -195,15 +195,15 @@ def test_the_roles_are_the_metarigs_anatomy(rig):
     r = built(rig)
     want = ROLES[rig]
     bones, out, _ = planned(r.arm, "HEAD_SHAKE")
-    roles, names = out["roles"], bones.names
-    spine = {names[b] for b in roles["spine"]}
-    assert roles["plan"] == want["plan"] and names[roles["head"]] == want["head"], (roles["plan"], names[roles["head"]])
+    roles, names = out.roles, bones.names
+    spine = {names[b] for b in roles.spine}
+    assert roles.plan == want["plan"] and names[roles.head] == want["head"], (roles.plan, names[roles.head])
     assert want["spine"] <= spine and not spine & want.get("not_spine", set()), sorted(spine)
     if "tail" in want:
-        assert roles["tail"] and names[roles["tail"][0]] == want["tail"]
-    groups = max(leg["group"] for leg in roles["legs"]) + 1
-    found = {(("front " if leg["group"] == 0 else "back ") if groups > 1 else "") + leg["side"]:
-             [names[b] for b in leg["bones"]] for leg in roles["legs"]}
+        assert roles.tail and names[roles.tail[0]] == want["tail"]
+    groups = max(leg.group for leg in roles.legs) + 1
+    found = {(("front " if leg.group == 0 else "back ") if groups > 1 else "") + leg.side:
+             [names[b] for b in leg.bones] for leg in roles.legs}
     assert set(found) == set(want["legs"]), found
     for label, (first, foot) in want["legs"].items():
         assert found[label][0] == first and foot in found[label], (label, found[label])
@@ -215,7 +215,7 @@ def test_solving_on_a_pruned_copy_keys_what_solving_on_the_rig_does_and_leaves_n
     """The controls whose parents Blender evaluates (neck, head, toes) are solved on a copy of
     the rig holding only the bones those parents depend on; the keys are the ones solving on
     the rig itself gives, and the copy is gone after, the mode and selection as they were."""
-    rigify = B.addon("motion.rigify")
+    solving = B.addon("motion.rigify_solve")
     keys = B.addon("common.keys")
     r = built("rigify_human")
     arm = r.arm
@@ -234,20 +234,20 @@ def test_solving_on_a_pruned_copy_keys_what_solving_on_the_rig_does_and_leaves_n
     assert (set(bpy.data.objects.keys()), set(bpy.data.armatures.keys())) == before
     assert arm.mode == "POSE" and bpy.context.view_layer.objects.active == arm and arm.select_get()
     made = []
-    real = rigify.pruned_copy
+    real = solving.pruned_copy
 
     def spy(context, rig, keep):
         made.append(len(keep))
         return real(context, rig, keep)
 
-    monkeypatch.setattr(rigify, "pruned_copy", spy)
+    monkeypatch.setattr(solving, "pruned_copy", spy)
     assert walk() == copied and made and made[0] < len(arm.pose.bones) / 5, made
 
     @contextlib.contextmanager
     def refused(context, rig, keep):
         yield None   # as when the copy cannot be made: the rig itself is evaluated
 
-    monkeypatch.setattr(rigify, "pruned_copy", refused)
+    monkeypatch.setattr(solving, "pruned_copy", refused)
     on_rig = walk()
     assert on_rig.keys() == copied.keys()
     assert all(np.allclose(on_rig[k], copied[k], atol=1e-6) for k in copied)
@@ -319,7 +319,7 @@ def test_a_second_walk_carries_on_from_where_the_first_ended_and_undo_takes_it_b
     step = np.linalg.norm((torso_start - torso_end)[:2])
     assert step < 0.05 * rest["diag"], (torso_end, torso_start)    # no jump back to the origin
     bones, out_, pose = planned(arm)
-    foot = out_["roles"]["legs"][0]["bones"][-1]
+    foot = out_.roles.legs[0].bones[-1]
     shift = np.array(arm.pose.bones[bones.names[foot]].matrix.translation) - pose(foot)[0][:3, 3]
     assert_follows(arm, bones, out_, pose, frames, rest["diag"], shift)
     name = arm.name

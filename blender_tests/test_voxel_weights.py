@@ -87,9 +87,11 @@ def test_voxel_options_reach_the_core():
     assert B.select_for_parenting([ob], arm) is None
     assert bpy.ops.object.miniskeleton_auto_weights(method="VOXEL", resolution=24, voxel_falloff=0.3) == {"FINISHED"}
     got = B.weights_matrix(ob, NAMES)
-    want = B.dense_weights(*core.voxel_weights(v, t, heads, tails, resolution=24, falloff=0.3)[:2], 4)
+    out = core.voxel_weights(v, t, heads, tails, resolution=24, falloff=0.3)
+    want = B.dense_weights(out.indices, out.weights, 4)
     np.testing.assert_allclose(got, want, atol=1e-6)
-    default = B.dense_weights(*core.voxel_weights(v, t, heads, tails)[:2], 4)
+    out = core.voxel_weights(v, t, heads, tails)
+    default = B.dense_weights(out.indices, out.weights, 4)
     assert np.abs(default - want).max() > 0.05
 
 

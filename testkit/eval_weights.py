@@ -548,8 +548,9 @@ def transfer_rows(model, path, bpy, args, row):
     bv, bt = world_vertices(body), tri.mesh_triangles(body)
     alone = [w.copy() for w in artist]
     for g in garments:
-        i, w, _ = core.transfer_weights(bv, bt, *_rows_of(normalized(artist[meshes.index(body)])),
-                                        world_vertices(g), tri.mesh_triangles(g))
+        out = core.transfer_weights(bv, bt, *_rows_of(normalized(artist[meshes.index(body)])),
+                                    world_vertices(g), tri.mesh_triangles(g))
+        i, w = out.indices, out.weights
         dense = np.zeros_like(artist[meshes.index(g)])
         for k in range(i.shape[1]):
             ok = i[:, k] >= 0

@@ -914,10 +914,10 @@ def rig_frame(arm) -> dict:
         bones = rigify.merged_segments(arm, bones)
     heads, tails, _ = planning.motion_skeleton(arm, bones)
     roles = core.detect_roles(heads, tails, bones.parents, bones.names)
-    fwd = np.array(roles["forward"], dtype=np.float64)
+    fwd = np.array(roles.forward, dtype=np.float64)
     fwd[2] = 0.0
-    return dict(fwd=fwd / np.linalg.norm(fwd), leg=float(roles["leg_length"]),
-                start=np.asarray(bones.heads[roles["root"]], dtype=np.float64))
+    return dict(fwd=fwd / np.linalg.norm(fwd), leg=float(roles.leg_length),
+                start=np.asarray(bones.heads[roles.root], dtype=np.float64))
 
 
 def body_yaw(anatomy: "Anatomy", ends) -> tuple[np.ndarray, np.ndarray]:

@@ -233,8 +233,9 @@ def test_messy_meshes_and_bones(seed):
             for entry, (mesh_n, spoiled) in zip(many, [(n, True), (len(good[0]), bone_fault)]):
                 want = expect.get("heat") if spoiled else None
                 if want is None:
-                    assert isinstance(entry, tuple) and "pieces" in entry[2], entry
-                    check_influences(f"heat_many ({kind}, {fault})", entry, mesh_n, b, opts["max_influences"])
+                    assert isinstance(entry, msc.Weights) and isinstance(entry.report, msc.WeightsReport), entry
+                    check_influences(f"heat_many ({kind}, {fault})", (entry.indices, entry.weights), mesh_n, b,
+                                     opts["max_influences"])
                     results["heat_many"] += 1
                 else:
                     assert type(entry) is want[0] and re.search(want[1], str(entry)), (fault, entry)
@@ -248,8 +249,8 @@ def test_messy_meshes_and_bones(seed):
             want = (VE, r"^empty mesh: every triangle of the mesh is degenerate$")
         fitted = outcome(want, msc.fit_joints, v, t, joints, pairs, **sym)
         if fitted is not None:
-            assert fitted[0].shape == joints.shape and np.isfinite(fitted[0]).all()
-            assert fitted[1]["pieces"] >= 1 and (fitted[1]["mirrored_surface"] is None) != symmetric
+            assert fitted.joints.shape == joints.shape and np.isfinite(fitted.joints).all()
+            assert fitted.pieces >= 1 and (fitted.mirrored_surface is None) != symmetric
             results["fit"] += 1
         else:
             refused["fit"] += 1
@@ -360,7 +361,7 @@ def test_odd_options(seed):
         return lambda out: check_influences("weights", out, n, 4, k)
 
     def fitted(out):
-        assert out[0].shape == joints.shape and np.isfinite(out[0]).all()
+        assert out.joints.shape == joints.shape and np.isfinite(out.joints).all()
 
     def anything(x):
         return True
@@ -609,7 +610,7 @@ def test_perturbed_rigs_make_finite_motions_or_errors(seed):
             roles, unfound = msc.detect_roles(heads, tails, parents, names=use_names), None
         except ValueError as e:  # then every motion is refused with the same words
             roles, unfound = None, (VE, "^" + re.escape(str(e)) + "$")
-        legless = unfound or (None if roles["legs"] else (VE, r"^no legs: no two bone chains branch off the body"))
+        legless = unfound or (None if roles.legs else (VE, r"^no legs: no two bone chains branch off the body"))
         for motion in ("WALK", "RUN", "HEAD_SHAKE"):
             want = expect
             if clip:
@@ -621,17 +622,17 @@ def test_perturbed_rigs_make_finite_motions_or_errors(seed):
                 refused[what] += 1
                 continue
             made[what] += 1
-            frames = out["frames"]
+            frames = out.frames
             for key in ("rotations", "root_offset", "locations"):
-                assert np.isfinite(out[key]).all(), (motion, key, what, clip)
-            assert out["rotations"].shape == (frames, len(heads), 4)
-            np.testing.assert_allclose(np.linalg.norm(out["rotations"], axis=-1), 1.0, atol=1e-3)
+                assert np.isfinite(getattr(out, key)).all(), (motion, key, what, clip)
+            assert out.rotations.shape == (frames, len(heads), 4)
+            np.testing.assert_allclose(np.linalg.norm(out.rotations, axis=-1), 1.0, atol=1e-3)
             if motion == "HEAD_SHAKE":
                 fps, duration = clip.get("fps", 24.0), clip.get("duration", 2.0)
                 assert frames == max(rounded(np.float32(fps) * np.float32(duration)), 2) + 1, (frames, clip)
             else:
                 cycles = np.float32(clip.get("cycles", 2.0))
-                assert frames == max(rounded(cycles * np.float32(out["frames_per_cycle"])), 1) + 1, (frames, clip)
+                assert frames == max(rounded(cycles * np.float32(out.frames_per_cycle)), 1) + 1, (frames, clip)
     # Floors: 12 cases of each perturbation, 3 motions each.
     assert all(made[what] == 36 for what in ("none", "zero rest", "turned", "sheared", "jitter")), made
     assert refused["nan rest"] == 36 and made["clip"] >= 12 and refused["clip"] >= 12, (made, refused)

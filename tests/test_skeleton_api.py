@@ -23,32 +23,35 @@ def test_fit_centres_a_limb_and_reports():
     rng = np.random.default_rng(3)
     start = np.array([[0.0, 0.0, 0.4 + 0.8 * i] for i in range(5)], dtype=np.float32)
     start[:, :2] += rng.uniform(-0.12, 0.12, size=(5, 2))
-    out, rep = msc.fit_joints(v, t, start, chain(5))
+    rep = msc.fit_joints(v, t, start, chain(5))
+    out = rep.joints
     assert out.shape == (5, 3) and out.dtype == np.float32
     assert np.abs(out[:, :2]).max() < 0.02, out
     np.testing.assert_allclose(out[:4, 2], start[:4, 2], atol=0.05)  # along the limb: kept
-    assert rep["outside_after"] == 0 and rep["pieces"] == 1
+    assert rep.outside_after == 0 and rep.pieces == 1
     assert msc.points_inside(v, t, out).all()
     # The free end goes toward the tube's end only with tip (the default).
     assert out[4, 2] > start[4, 2] + 0.1
-    kept, _ = msc.fit_joints(v, t, start, chain(5), tip=False)
+    kept = msc.fit_joints(v, t, start, chain(5), tip=False).joints
     assert abs(kept[4, 2] - start[4, 2]) < 0.01 and np.abs(kept[:, :2]).max() < 0.02
     # Joints pushed out of the tube are counted outside before and inside after.
-    out, rep = msc.fit_joints(v, t, start + np.float32([0.35, 0.0, 0.0]), chain(5))
-    assert rep["outside_before"] == rep["outside_before_mask"].sum() == 5
-    assert rep["outside_after"] == rep["outside_after_mask"].sum() == 0
+    rep = msc.fit_joints(v, t, start + np.float32([0.35, 0.0, 0.0]), chain(5))
+    out = rep.joints
+    assert rep.outside_before == rep.outside_before_mask.sum() == 5
+    assert rep.outside_after == rep.outside_after_mask.sum() == 0
     # ... unless they are farther outside than max_move: those keep their place.
     far = start + np.float32([0.35, 0.0, 0.0])
     far[0, 0] += 1.2
-    out, rep = msc.fit_joints(v, t, far, chain(5))
-    assert rep["kept_outside"] == 1 and rep["outside_after"] == 1 and rep["outside_after_mask"][0]
+    rep = msc.fit_joints(v, t, far, chain(5))
+    out = rep.joints
+    assert rep.kept_outside == 1 and rep.outside_after == 1 and rep.outside_after_mask[0]
     np.testing.assert_array_equal(out[0], far[0])
 
 
 def test_fixed_joints_stay_and_options_are_checked(tube):
     v, t = tube
     start = np.array([[0.3, 0.0, 0.5], [0.3, 0.0, 2.0], [0.3, 0.0, 3.5]], dtype=np.float32)
-    out, _ = msc.fit_joints(v, t, start, chain(3), movable=np.array([True, False, True]))
+    out = msc.fit_joints(v, t, start, chain(3), movable=np.array([True, False, True])).joints
     np.testing.assert_array_equal(out[1], start[1])
     assert abs(out[0, 0]) < 0.3 - 0.01
     # rays / samples past 1024 would be allocated before any work (10^12 aborted the process)

@@ -75,9 +75,10 @@ def pieces_mesh(pieces):
 def test_heat_two_pieces_all_weighted_and_report(cyl):
     v, t, h, tl, p = cyl
     v2, t2 = pieces_mesh([(v, t), (v + [5, 0, 0], t)])  # a twin cylinder with no bone inside
-    idx, w, report = msc.heat_weights_report(v2, t2, h, tl)
+    out = msc.heat_weights_report(v2, t2, h, tl)
+    idx, w, report = out.indices, out.weights, out.report
     check_influences(idx, w, len(v2), 4, len(h))
-    assert report["pieces"] == 2
+    assert report.pieces == 2
 
 
 def test_heat_many_meshes_in_one_call_match_one_call_each(cyl):
@@ -88,10 +89,11 @@ def test_heat_many_meshes_in_one_call_match_one_call_each(cyl):
     opts = dict(max_influences=3, parents=p, bone_mirror=np.arange(len(h), dtype=np.int32))
     many = msc.heat_weights_many(meshes, h, tl, **opts)
     assert len(many) == len(meshes)
-    for (mv, mt), (i, w, report) in zip(meshes, many):
-        i1, w1, report1 = msc.heat_weights_report(mv, mt, h, tl, **opts)
-        assert np.array_equal(i, i1) and np.array_equal(w, w1)
-        assert report["pieces"] == report1["pieces"] and set(report) == set(report1)
+    for (mv, mt), got in zip(meshes, many):
+        one = msc.heat_weights_report(mv, mt, h, tl, **opts)
+        assert isinstance(got, msc.Weights) and isinstance(got.report, msc.WeightsReport)
+        assert np.array_equal(got.indices, one.indices) and np.array_equal(got.weights, one.weights)
+        assert got.report.pieces == one.report.pieces and set(got.report.timings) == set(one.report.timings)
     bad = list(meshes)
     bad[1] = (meshes[1][0], np.full_like(t, 10_000))
     bad[3] = (np.full_like(v, np.nan), t)
@@ -99,7 +101,7 @@ def test_heat_many_meshes_in_one_call_match_one_call_each(cyl):
     assert isinstance(out[1], ValueError) and "10000" in str(out[1])
     assert isinstance(out[3], ValueError) and "NaN" in str(out[3])
     for k in (0, 2, 4):
-        assert np.array_equal(out[k][0], many[k][0]) and np.array_equal(out[k][1], many[k][1])
+        assert np.array_equal(out[k].indices, many[k].indices) and np.array_equal(out[k].weights, many[k].weights)
     assert msc.heat_weights_many([], h, tl) == []
     with pytest.raises(ValueError, match="max_influences"):
         msc.heat_weights_many(meshes, h, tl, max_influences=0)
@@ -114,20 +116,23 @@ def test_heat_keywords_default_as_documented_and_unknown_ones_are_type_errors(cy
     """Each heat keyword's default is what passing it explicitly gives (the core's defaults,
     written once); a keyword the functions do not know is a TypeError naming it, as Python's."""
     v, t, h, tl, p = cyl
-    i0, w0, r0 = msc.heat_weights_report(v, t, h, tl)
+    out = msc.heat_weights_report(v, t, h, tl)
+    i0, w0 = out.indices, out.weights
     for key, value in HEAT_DEFAULTS.items():
-        i, w, r = msc.heat_weights_report(v, t, h, tl, **{key: value})
+        out = msc.heat_weights_report(v, t, h, tl, **{key: value})
+        i, w = out.indices, out.weights
         assert np.array_equal(i, i0) and np.array_equal(w, w0), key
     i, w = msc.heat_weights(v, t, h, tl, **HEAT_DEFAULTS)
     assert np.array_equal(i, i0) and np.array_equal(w, w0)
-    (i, w, _), = msc.heat_weights_many([(v, t)], h, tl, **HEAT_DEFAULTS)
+    got, = msc.heat_weights_many([(v, t)], h, tl, **HEAT_DEFAULTS)
+    i, w = got.indices, got.weights
     assert np.array_equal(i, i0) and np.array_equal(w, w0)
     # symmetry_tolerance is the core's mirror tolerance: on a mesh moved 0.01 off the plane (its
     # twins 0.5 % of its size apart), the default matches none of them and 1 % matches all.
     off = (v + np.float32([0.01, 0, 0]), t, h, tl)
     mirror = np.arange(len(h))
-    tight = msc.heat_weights_report(*off, bone_mirror=mirror)[2]["mirrored_vertices"]
-    loose = msc.heat_weights_report(*off, bone_mirror=mirror, symmetry_tolerance=0.01)[2]["mirrored_vertices"]
+    tight = msc.heat_weights_report(*off, bone_mirror=mirror).report.mirrored_vertices
+    loose = msc.heat_weights_report(*off, bone_mirror=mirror, symmetry_tolerance=0.01).report.mirrored_vertices
     assert (tight, loose) == (0, len(v))
     for fn, args in ((msc.heat_weights, (v, t, h, tl)), (msc.heat_weights_report, (v, t, h, tl)),
                      (msc.heat_weights_many, ([(v, t)], h, tl)), (msc.heat_sources, (v, t, h, tl))):
@@ -151,12 +156,15 @@ def test_heat_from_its_own_sources_is_heat_itself(cyl):
         si, sw = msc.heat_sources(verts, tris, h, tl, **opts)
         assert si.shape == sw.shape == (len(verts), 4) and si.dtype == np.int32 and sw.dtype == np.float32
         assert ((si[:, 0] >= 0) & (np.abs(sw.sum(1) - 1) < 1e-6)).all()
-        i0, w0, r0 = msc.heat_weights_report(verts, tris, h, tl, **opts)
-        i, w, r = msc.heat_weights_from_sources(verts, tris, h, tl, si, sw, **opts)
+        out = msc.heat_weights_report(verts, tris, h, tl, **opts)
+        i0, w0, r0 = out.indices, out.weights, out.report
+        out = msc.heat_weights_from_sources(verts, tris, h, tl, si, sw, **opts)
+        i, w, r = out.indices, out.weights, out.report
         assert np.array_equal(i, i0) and np.array_equal(w, w0)
-        assert set(r["timings"]) == set(r0["timings"]) and r["pieces"] == r0["pieces"]
+        assert set(r.timings) == set(r0.timings) and r.pieces == r0.pieces
     # Every vertex a source of bone 3: bone 3 everywhere.
-    i, w, _ = msc.heat_weights_from_sources(v, t, h, tl, np.full((len(v), 1), 3), np.ones((len(v), 1)))
+    out = msc.heat_weights_from_sources(v, t, h, tl, np.full((len(v), 1), 3), np.ones((len(v), 1)))
+    i, w, _ = out.indices, out.weights, out.report
     assert (i[:, 0] == 3).all() and (w[:, 0] == 1).all()
     with pytest.raises(ValueError, match="one shape"):
         msc.heat_weights_from_sources(v, t, h, tl, np.zeros((len(v), 2)), np.ones((len(v), 1)))
@@ -172,9 +180,10 @@ def test_heat_small_boneless_piece_is_rigid_on_nearest_bone(cyl):
     sv, st = msc.capped_cylinder(0.25, 1.0, 8, 12)
     verts, tris = pieces_mesh([(v, t), (sv + [3, 0, 2.0], st)])  # centre z = 2.5: Bone2's middle
     for visibility in (True, False):  # the inside tests need rays without the visibility test too
-        idx, w, report = msc.heat_weights_report(verts, tris, h, tl, visibility=visibility)
+        out = msc.heat_weights_report(verts, tris, h, tl, visibility=visibility)
+        idx, w, report = out.indices, out.weights, out.report
         check_influences(idx, w, len(verts), 4, len(h))
-        assert report["rigid_pieces"] == 1 and report["boneless_pieces"] >= 1, visibility
+        assert report.rigid_pieces == 1 and report.boneless_pieces >= 1, visibility
         part = slice(len(v), None)
         assert (w[part, 0] == 1).all() and set(idx[part, 0]) == {2}
         # the body itself is still smoothly blended
@@ -188,10 +197,11 @@ def test_heat_piece_that_sees_no_bone_falls_back_rigidly(cyl):
     shell_v, shell_t = msc.capped_cylinder(1.5, 4.0, 20, 24)
     part_v, part_t = msc.capped_cylinder(0.2, 0.5, 4, 8)
     verts, tris = pieces_mesh([(v, t), (shell_v + [6, 0, 0], shell_t), (part_v + [6, 0, 2.25], part_t)])
-    idx, w, report = msc.heat_weights_report(verts, tris, h, tl)
+    out = msc.heat_weights_report(verts, tris, h, tl)
+    idx, w, report = out.indices, out.weights, out.report
     check_influences(idx, w, len(verts), 4, len(h))
-    assert report["pieces"] == 3
-    assert report["fallback_pieces"] >= 1 and report["rigid_pieces"] == 1
+    assert report.pieces == 3
+    assert report.fallback_pieces >= 1 and report.rigid_pieces == 1
     part = slice(len(v) + len(shell_v), None)
     assert (w[part, 0] == 1).all() and set(idx[part, 0]) == {2}  # centre z = 2.5: Bone2
 
@@ -448,14 +458,15 @@ def test_heat_blends_across_a_joint_over_a_width_set_by_the_limbs_thickness(radi
 
 def test_voxel_weights_follow_the_chain_and_report_the_solid(cyl):
     v, t, h, tl, p = cyl
-    idx, w, report = msc.voxel_weights(v, t, h, tl, resolution=32)
+    out = msc.voxel_weights(v, t, h, tl, resolution=32)
+    idx, w, report = out.indices, out.weights, out.report
     check_influences(idx, w, len(v), 4, 4)
     # Mid-bone vertices take the bone at their height (bones 0.95 long from z = 0.1).
     along = (v[:, 2] - 0.1) / 0.95
     mid = (np.abs(along - np.floor(along) - 0.5) < 0.2) & (along < 4)
     assert (idx[mid, 0] == np.floor(along[mid])).all()
-    assert len(report["grid"]) == 3 and report["solid_voxels"] > 0 and report["outside_bones"] == 0
-    assert {"voxelize", "geodesic", "falloff", "total"} <= set(report["timings"])
+    assert len(report.grid) == 3 and report.solid_voxels > 0 and report.outside_bones == 0
+    assert {"voxelize", "geodesic", "falloff", "total"} <= set(report.timings)
 
 
 def test_voxel_weights_objects_bind_a_prop_rigidly(cyl):
@@ -465,7 +476,8 @@ def test_voxel_weights_objects_bind_a_prop_rigidly(cyl):
     bt = np.array([[0, 2, 3], [0, 3, 1], [4, 5, 7], [4, 7, 6], [0, 1, 5], [0, 5, 4], [2, 6, 7], [2, 7, 3],
                    [0, 4, 6], [0, 6, 2], [1, 3, 7], [1, 7, 5]], np.uint32) + len(v)
     objects = np.repeat(np.array([0, 1], np.uint32), [len(v), 8])
-    idx, w, _ = msc.voxel_weights(np.vstack([v, bv]), np.vstack([t, bt]), h, tl, objects=objects)
+    out = msc.voxel_weights(np.vstack([v, bv]), np.vstack([t, bt]), h, tl, objects=objects)
+    idx, w, _ = out.indices, out.weights, out.report
     assert (w[len(v):, 0] == 1.0).all() and len(set(idx[len(v):, 0])) == 1
 
 
@@ -486,9 +498,10 @@ def test_transfer_weights_copy_onto_a_sleeve(cyl):
     idx, w = msc.heat_weights(v, t, h, tl)
     gv, gt = msc.capped_cylinder(0.52, 2.0, 21, 24)
     gv = gv + np.array([0, 0, 1.0], np.float32)
-    gi, gw, report = msc.transfer_weights(v, t, idx, w, gv, gt)
+    out = msc.transfer_weights(v, t, idx, w, gv, gt)
+    gi, gw, report = out.indices, out.weights, out.report
     check_influences(gi, gw, len(gv), 4, 4)
-    assert report["matched"] > 0.9 * len(gv) and report["nearest"] == 0
+    assert report.matched > 0.9 * len(gv) and report.nearest == 0
     # Each sleeve vertex carries the weights of the body vertex nearest to it (within a blend).
     near = np.linalg.norm(gv[:, None] - v[None], axis=2).argmin(1)
     assert np.abs(dense(gi, gw, 4) - dense(idx, w, 4)[near]).sum(1).mean() < 0.15

@@ -72,7 +72,7 @@ def animated_pose_bones(fcurves, paths: tuple[str, ...] = ROT_PATHS) -> set[str]
     return out
 
 
-def write_keys(context, arm, names: list[str], out: dict, start: int) -> int:
+def write_keys(context, arm, names: list[str], out, start: int) -> int:
     """Key the core's motion ``out`` (``planning.make_motion``) on ``arm``'s pose bones ``names``
     from scene frame ``start``, continuing from the keys already there: bones keyed for the first
     time hold their pose until it starts, bones an earlier motion keyed and this one leaves go
@@ -80,19 +80,19 @@ def write_keys(context, arm, names: list[str], out: dict, start: int) -> int:
     it stands. Returns the number of frames keyed."""
     scene = context.scene
     frame_before = scene.frame_current
-    rot = out["rotations"]
-    frames = int(out["frames"])
-    animated = [int(b) for b in out["animated"]]
+    rot = out.rotations
+    frames = int(out.frames)
+    animated = [int(b) for b in out.animated]
     pose = arm.pose.bones
     if arm.animation_data is None:
         arm.animation_data_create()
-    root_pb = pose[names[out["roles"]["root"]]]
+    root_pb = pose[names[out.roles.root]]
     # Where the root is now (after earlier motions), to continue from there.
     earlier = last_key_frame(arm)
     keyed_before = keyed_rotation_bones(arm)
     # feet hanging off the root (IK rigs exported without their constraints) follow their
     # legs by location keys; the core gives them in world units
-    located = [int(b) for b in out["located"]]
+    located = [int(b) for b in out.located]
     located_before = keyed_location_bones(arm) - {root_pb.name}
     unit = float(np.mean(axis_scales(arm.matrix_world)))
 
@@ -115,7 +115,7 @@ def write_keys(context, arm, names: list[str], out: dict, start: int) -> int:
         key_series(pb, path, span, values, group=pb.name)
     for b in located:
         pb = pose[names[b]]
-        key_series(pb, "location", span, np.asarray(out["locations"])[:, b] / unit, group=pb.name)
+        key_series(pb, "location", span, np.asarray(out.locations)[:, b] / unit, group=pb.name)
     # bones keyed by earlier motions that this one leaves alone go back to rest
     animated_names = {names[b] for b in animated}
     for name in keyed_before - animated_names:
@@ -127,7 +127,7 @@ def write_keys(context, arm, names: list[str], out: dict, start: int) -> int:
             pose[name].location = (0.0, 0.0, 0.0)
             pose[name].keyframe_insert("location", frame=start, group=name)
 
-    axes = root_bone_axes(arm, root_pb, out["roles"])
+    axes = root_bone_axes(arm, root_pb, out.roles)
     to_local, to_world = axes if axes is not None else (None, None)
     if earlier is not None:
         scene.frame_set(int(math.floor(earlier)))
@@ -139,13 +139,13 @@ def write_keys(context, arm, names: list[str], out: dict, start: int) -> int:
         root_base = arm.location.copy()
         root_base.z = object_base_z(arm)
     scene.frame_set(frame_before)
-    if out["moves_root"]:
+    if out.moves_root:
         if earlier is not None:   # hold still until the motion starts
             if to_local is not None and not has_root_keys(arm, root_pb):
                 root_pb.keyframe_insert("location", frame=earlier, group=root_pb.name)
             elif to_local is None and not has_object_keys(arm):
                 arm.keyframe_insert("location", frame=earlier)
-        key_root(arm, root_pb, to_local, root_base, out["root_offset"], span)
+        key_root(arm, root_pb, to_local, root_base, out.root_offset, span)
     elif earlier is not None:
         # keep the distance travelled, drop the gait's vertical bob
         if to_local is not None and has_root_keys(arm, root_pb):
@@ -171,10 +171,10 @@ def object_base_z(arm) -> float:
     return arm.location.z
 
 
-def root_bone_axes(arm, root_pb, roles: dict) -> tuple[Matrix, Matrix] | None:
+def root_bone_axes(arm, root_pb, roles) -> tuple[Matrix, Matrix] | None:
     """``root_axes`` when the root bone carries the motion's root offset, None when the object
     moves instead (the rig is several trees, or the root bone cannot translate)."""
-    return root_axes(arm, root_pb) if roles["single_tree"] else None
+    return root_axes(arm, root_pb) if roles.single_tree else None
 
 
 def root_axes(arm, root_pb) -> tuple[Matrix, Matrix] | None:
@@ -220,8 +220,8 @@ def overridden_keys(ob: bpy.types.Object, keyed: set[str]) -> str | None:
 
 
 def write_control_keys(context, arm, targets, solved: dict, start: int, returning=()) -> int:
-    """Key the Rigify controls ``targets`` (``rigify.Target``) to their solved transforms
-    (``rigify.solve``: one ``matrix_basis`` per frame) from scene frame ``start``: the rotation
+    """Key the Rigify controls ``targets`` (``rigify_solve.Target``) to their solved transforms
+    (``rigify_solve.solve``: one ``matrix_basis`` per frame) from scene frame ``start``: the rotation
     in each control's own rotation mode, continuing from its keys before, and the location where
     the target keys it. Controls keyed for the first time hold their pose until the motion
     starts; ``returning`` controls (keyed by an earlier motion, left alone by this one, solved

@@ -102,7 +102,7 @@ class MINISKELETON_OT_add_motion(bpy.types.Operator):
         except ValueError as err:
             self.report({"ERROR"}, f"{arm.name}: {err}")
             return {"CANCELLED"}
-        roles = out["roles"]
+        roles = out.roles
         print(f"[MiniSkeleton] roles of '{arm.name}':")
         for line in describe_roles(roles, bones.names):
             print(f"[MiniSkeleton]   {line}")
@@ -123,9 +123,9 @@ class MINISKELETON_OT_add_motion(bpy.types.Operator):
                 print(f"[MiniSkeleton]   rigify: {line}")
             keyed = {t.name for t in plan.moved}
         else:
-            keyed = {bones.names[int(b)] for b in out["animated"]} | {bones.names[int(b)] for b in out["located"]}
-        root = arm.pose.bones[bones.names[roles["root"]]]
-        moves_object = out["moves_root"] and root_bone_axes(arm, root, roles) is None
+            keyed = {bones.names[int(b)] for b in out.animated} | {bones.names[int(b)] for b in out.located}
+        root = arm.pose.bones[bones.names[roles.root]]
+        moves_object = out.moves_root and root_bone_axes(arm, root, roles) is None
         refused = overridden_keys(arm, keyed) or locked_curves(arm, keyed | {root.name}, moves_object)
         if refused:
             self.report({"ERROR"}, f"{arm.name}: {refused}")
@@ -139,11 +139,11 @@ class MINISKELETON_OT_add_motion(bpy.types.Operator):
         scene.frame_end = max(end, int(math.ceil(last_key_frame(arm)))) if self.append else \
             max(scene.frame_end, end)
         label = dict((m[0], m[1]) for m in MOTIONS)[self.motion]
-        legs = ", ".join(bones.names[leg["bones"][0]] for leg in roles["legs"])
+        legs = ", ".join(bones.names[leg.bones[0]] for leg in roles.legs)
         controls = f"; Rigify controls keyed: {name_list(sorted(keyed), 12)}" if rigify else ""
-        self.report({"INFO"}, f"{label} ({roles['plan']}): frames {start}-{end}; head "
-                    f"{bones.names[roles['head']]}, legs {legs}; spine "
-                    f"{', '.join(bones.names[i] for i in roles['spine'])} (full list in the console){controls}")
+        self.report({"INFO"}, f"{label} ({roles.plan}): frames {start}-{end}; head "
+                    f"{bones.names[roles.head]}, legs {legs}; spine "
+                    f"{', '.join(bones.names[i] for i in roles.spine)} (full list in the console){controls}")
         self._warn(arm, keyed)
         return {"FINISHED"}
 
@@ -170,7 +170,7 @@ class MINISKELETON_OT_add_motion(bpy.types.Operator):
         if self.ground:
             ground = bpy.data.objects.get(self.ground) or _missing("ground", self.ground)
             # the region the walk covers: the character at rest moved by the root's offsets
-            offsets = np.asarray(plan(**steer)["root_offset"], dtype=np.float64)[:, :2]
+            offsets = np.asarray(plan(**steer).root_offset, dtype=np.float64)[:, :2]
             margin = 0.1 * size
             region = (ends[:, :2].min(axis=0) + offsets.min(axis=0) - margin,
                       ends[:, :2].max(axis=0) + offsets.max(axis=0) + margin)

@@ -5,7 +5,9 @@ found, described for the console."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
+from dataclasses import dataclass
 
 import bpy
 import numpy as np
@@ -181,9 +183,32 @@ def scene_metres(scene: bpy.types.Scene) -> float:
     return m if math.isfinite(m) and m > 0.0 else 1.0
 
 
+@dataclass(frozen=True)
+class Motion:
+    """The core's ``MotionClip`` with its offsets in the armature's world units: root_offset
+    (frames, 3) and locations (frames, b, 3) float64; the rest as the core gives them."""
+    rotations: np.ndarray
+    root_offset: np.ndarray
+    animated: np.ndarray
+    locations: np.ndarray
+    located: np.ndarray
+    moves_root: bool
+    frames: int
+    frames_per_cycle: float
+    roles: object  # the core's Roles
+
+    @classmethod
+    def in_world_units(cls, clip, scale: float) -> Motion:
+        """``clip`` (a ``MotionClip``) with root_offset and locations times ``scale``."""
+        fields = {f.name: getattr(clip, f.name) for f in dataclasses.fields(cls)}
+        for key in ("root_offset", "locations"):
+            fields[key] = np.asarray(fields[key], dtype=np.float64) * scale
+        return cls(**fields)
+
+
 def make_motion(arm, bones, scene, fps: float, motion: str, cycles: float, duration: float, amplitude: float,
                 stride: float, speed: float, root_motion: bool, path: np.ndarray | None = None,
-                ground: tuple | None = None) -> dict:
+                ground: tuple | None = None) -> Motion:
     """The core's ``motion`` (``make_motion``: "HEAD_SHAKE", "WALK" or "RUN", with the Add Motion
     options) for ``arm``'s deform ``bones`` (``armature_bones``) at ``fps``, its offsets in the
     armature's world units; ValueError when the core finds no legs or no head. The skin of the
@@ -231,30 +256,28 @@ def make_motion(arm, bones, scene, fps: float, motion: str, cycles: float, durat
         amplitude=amplitude, stride=stride, speed=speed,
         root_motion=root_motion, joint_tails=bones.imported, skin_points=skin / unit_size, skin_bones=skin_bones,
         **steer)
-    for key in ("root_offset", "locations"):   # back in world units
-        out[key] = np.asarray(out[key], dtype=np.float64) * (unit_size / metres)
-    return out
+    return Motion.in_world_units(out, unit_size / metres)
 
 
-def describe_roles(roles: dict, names: list[str]) -> list[str]:
+def describe_roles(roles, names: list[str]) -> list[str]:
     """One line per role: 'head: head (+ jaw, ear.L, ear.R)'."""
     def n(ids):  # a rig with hundreds of hair bones gets a dozen names and the count
         listed = name_list([names[i] for i in ids], 12)
         return (f"{listed} ({len(ids)} in all)" if len(ids) > 12 else listed) or "-"
 
-    lines = [f"body: {roles['plan']}", f"root: {names[roles['root']]}", f"spine: {n(roles['spine'])}",
-             f"neck: {n(roles['neck'])}", f"head: {names[roles['head']]}"
-             + (f" (+ {n(roles['head_extras'])})" if roles["head_extras"] else "")]
-    if roles["tail"]:
-        lines.append(f"tail: {n(roles['tail'])}")
-    groups = max((leg["group"] for leg in roles["legs"]), default=0) + 1
-    for leg in roles["legs"]:
-        where = ("front " if leg["group"] == 0 else "back " if leg["group"] == groups - 1 else
-                 f"middle {leg['group']} ") if groups > 1 else ""
-        lines.append(f"leg {where}{leg['side']}: {n(leg['bones'])}")
-    for arm in roles["arms"]:
-        lines.append(f"arm {arm['side']}: {n(arm['bones'])}")
-    lines += [f"note: {note}" for note in roles["notes"]]
+    lines = [f"body: {roles.plan}", f"root: {names[roles.root]}", f"spine: {n(roles.spine)}",
+             f"neck: {n(roles.neck)}", f"head: {names[roles.head]}"
+             + (f" (+ {n(roles.head_extras)})" if roles.head_extras else "")]
+    if roles.tail:
+        lines.append(f"tail: {n(roles.tail)}")
+    groups = max((leg.group for leg in roles.legs), default=0) + 1
+    for leg in roles.legs:
+        where = ("front " if leg.group == 0 else "back " if leg.group == groups - 1 else
+                 f"middle {leg.group} ") if groups > 1 else ""
+        lines.append(f"leg {where}{leg.side}: {n(leg.bones)}")
+    for arm in roles.arms:
+        lines.append(f"arm {arm.side}: {n(arm.bones)}")
+    lines += [f"note: {note}" for note in roles.notes]
     return lines
 
 
@@ -278,17 +301,17 @@ class PlannedPose:
     every root moved by the root offset, as the root bone or the object carries the whole
     skeleton). Bones are computed when asked for, with their ancestors, and kept."""
 
-    def __init__(self, arm: bpy.types.Object, bones, out: dict):
+    def __init__(self, arm: bpy.types.Object, bones, out: Motion):
         self.arm, self.bones = arm, bones
-        self.frames = int(out["frames"])
+        self.frames = int(out.frames)
         self.parents = [int(p) for p in bones.parents]
         world = np.array(arm.matrix_world, dtype=np.float64)[:3, :3]
-        self.offsets = np.asarray(out["root_offset"], dtype=np.float64).reshape(self.frames, 3) \
+        self.offsets = np.asarray(out.root_offset, dtype=np.float64).reshape(self.frames, 3) \
             @ np.linalg.inv(world).T
         self.unit = float(np.mean(np.linalg.norm(world, axis=0)))   # as keying.write_keys divides
-        self.rot = np.asarray(out["rotations"], dtype=np.float64)
-        self.loc = np.asarray(out["locations"], dtype=np.float64)
-        self.located = {int(b) for b in out["located"]}
+        self.rot = np.asarray(out.rotations, dtype=np.float64)
+        self.loc = np.asarray(out.locations, dtype=np.float64)
+        self.located = {int(b) for b in out.located}
         self.posed: dict[int, np.ndarray] = {}
 
     def rest(self, b: int) -> np.ndarray:

@@ -128,12 +128,12 @@ def fit_skeleton(core, skel: Skeleton, verts: np.ndarray, tris: np.ndarray, stre
     if symmetry == "X":
         kw = dict(symmetry_axis=0, symmetry_plane=0.0, joint_mirror=mirror)
     try:
-        sub, rep = core.fit_joints(verts, tris, joints_f[fit_j].astype(np.float32), fit_bones,
-                                   movable[fit_j], rounds=rounds, tip=not follow, max_move=max_move, **kw)
+        rep = core.fit_joints(verts, tris, joints_f[fit_j].astype(np.float32), fit_bones,
+                              movable[fit_j], rounds=rounds, tip=not follow, max_move=max_move, **kw)
     except (ValueError, RuntimeError) as err:
         raise FitError(f"Fit failed: {err}; nothing was changed") from err
     new = joints.copy()
-    new[fit_j] = np.linalg.solve(stretch, np.asarray(sub, dtype=np.float64).T).T
+    new[fit_j] = np.linalg.solve(stretch, np.asarray(rep.joints, dtype=np.float64).T).T
     fitted = np.zeros(len(joints), dtype=bool)
     fitted[fit_j] = True
     new_heads = new[ends[:, 0]]

@@ -307,7 +307,7 @@ class MINISKELETON_OT_fit_skeleton(bpy.types.Operator):
         except FitError as err:
             self.report({"ERROR"}, str(err))
             return {"CANCELLED"}
-        if rep["outside_before_mask"].all():
+        if rep.outside_before_mask.all():
             self.report({"ERROR"}, f"All {len(fit_j)} joints of '{arm.name}' are outside the selected "
                         "mesh(es): is this the right mesh, and are both objects placed over each other? "
                         "Nothing was changed")
@@ -316,31 +316,31 @@ class MINISKELETON_OT_fit_skeleton(bpy.types.Operator):
         self._report_fit(rep, movable[fit_j], controls[fit_j], nj)
         return {"FINISHED"}
 
-    def _report_fit(self, rep: dict, movable: np.ndarray, kept: np.ndarray, joints: int):
+    def _report_fit(self, rep, movable: np.ndarray, kept: np.ndarray, joints: int):
         """Warnings on the mesh and the symmetry, then the counts; ``movable`` and ``kept``
         (controls left in place, counted apart) are over the ``len(movable)`` joints fitted of
         the armature's ``joints``."""
-        if rep["open_edges"] or rep["nonmanifold_edges"]:
-            self.report({"WARNING"}, f"The mesh is not closed ({rep['open_edges']} open edges, "
-                        f"{rep['nonmanifold_edges']} non-manifold edges): inside tests may be wrong")
-        if rep["pieces"] > 1:
-            self.report({"WARNING"}, f"The mesh has {rep['pieces']} separate pieces: each joint was "
+        if rep.open_edges or rep.nonmanifold_edges:
+            self.report({"WARNING"}, f"The mesh is not closed ({rep.open_edges} open edges, "
+                        f"{rep.nonmanifold_edges} non-manifold edges): inside tests may be wrong")
+        if rep.pieces > 1:
+            self.report({"WARNING"}, f"The mesh has {rep.pieces} separate pieces: each joint was "
                         "fitted into the piece around it")
-        before = int((rep["outside_before_mask"] & ~kept).sum())
-        after = int((rep["outside_after_mask"] & ~kept).sum())
-        mirrored = rep.get("mirrored_surface")
+        before = int((rep.outside_before_mask & ~kept).sum())
+        after = int((rep.outside_after_mask & ~kept).sum())
+        mirrored = rep.mirrored_surface
         if after and mirrored is not None and mirrored < 0.9:
             self.report({"WARNING"}, f"Symmetry X: only {mirrored:.0%} of the mesh's surface has a mirror "
                         "image across the armature's X = 0 plane (a posed scan, or the armature's origin off "
                         "the mesh's middle), so mirrored joints can end outside; fit without Symmetry, or put "
                         "the armature's origin on the mesh's mirror plane")
-        unnamed = rep.get("off_plane_centre", 0)
+        unnamed = rep.off_plane_centre
         if unnamed:
             self.report({"WARNING"}, f"Symmetry X: {unnamed} joints lie farther than Max Move off the armature's "
                         "X = 0 plane, but their bones' names carry no side (.L/.R, _L/_R, Left/Right): they were "
                         "fitted without a mirror partner instead of being pulled onto the plane; name the sides "
                         "to mirror them")
-        far = int(rep.get("kept_outside", 0))
+        far = int(rep.kept_outside)
         level = {"WARNING"} if after > far else {"INFO"}
         fitted = len(movable)
         extra = f" ({joints - fitted} invented tails followed their bones)" if fitted < joints else ""

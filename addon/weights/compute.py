@@ -26,11 +26,13 @@ def mesh_weights(core, settings: dict, verts, tris, bones, progress):
             falloff=settings["falloff"], sigma=settings["sigma"], power=settings["power"])
         return i, w, None
     if settings["method"] == "VOXEL":
-        return core.voxel_weights(verts, tris, bones.heads, bones.tails, progress=progress,
-                                  resolution=settings["resolution"], falloff=settings["voxel_falloff"],
-                                  objects=settings.get("objects"), **_rig_options(settings, bones))
-    return core.heat_weights_report(verts, tris, bones.heads, bones.tails, progress=progress,
-                                    visibility=settings["visibility"], **_rig_options(settings, bones))
+        out = core.voxel_weights(verts, tris, bones.heads, bones.tails, progress=progress,
+                                 resolution=settings["resolution"], falloff=settings["voxel_falloff"],
+                                 objects=settings.get("objects"), **_rig_options(settings, bones))
+    else:
+        out = core.heat_weights_report(verts, tris, bones.heads, bones.tails, progress=progress,
+                                       visibility=settings["visibility"], **_rig_options(settings, bones))
+    return out.indices, out.weights, out.report
 
 
 def _rig_options(settings: dict, bones) -> dict:
@@ -166,7 +168,7 @@ def _solve_batch(core, settings: dict, bones, inputs, groups: list[list[int]], s
     for members, out in zip(groups[start:end], solved):
         if isinstance(out, Exception):
             raise WeightsError(f"Mesh '{_group_name(inputs, members)}': {out}; nothing was changed") from out
-        _gather(inputs, members, out, settings, results, notes)
+        _gather(inputs, members, (out.indices, out.weights, out.report), settings, results, notes)
     return end
 
 
@@ -175,28 +177,28 @@ def _gather(inputs, members: list[int], solved, settings: dict, results: list, n
     i, w, report = solved
     name = _group_name(inputs, members)
     counts = [len(inputs[m][2]) for m in members]
-    if report and (report.get("fallback_pieces") or report.get("rigid_pieces") or report.get("spanning_pieces")):
-        notes.append(f"{name}: of {report['pieces']} pieces, "
-                     f"{report['fallback_pieces']} saw no bone (nearest bone used), "
-                     f"{report['rigid_pieces']} bound rigidly (no bone inside)"
-                     + (f", {report['spanning_pieces']} with no bone inside blended over the bones "
-                        "they span" if report.get("spanning_pieces") else ""))
-    if report and report.get("flipped_faces"):
-        notes.append(f"{name}: {report['flipped_faces']} triangles are wound against their neighbours "
+    if report and (report.fallback_pieces or report.rigid_pieces or report.spanning_pieces):
+        notes.append(f"{name}: of {report.pieces} pieces, "
+                     f"{report.fallback_pieces} saw no bone (nearest bone used), "
+                     f"{report.rigid_pieces} bound rigidly (no bone inside)"
+                     + (f", {report.spanning_pieces} with no bone inside blended over the bones "
+                        "they span" if report.spanning_pieces else ""))
+    if report and report.flipped_faces:
+        notes.append(f"{name}: {report.flipped_faces} triangles are wound against their neighbours "
                      "(flipped normals); the weights ignore that, the mesh is unchanged (Mesh > Normals "
                      "> Recalculate Outside fixes them)")
-    if report and settings["mirror"] is not None and report["mirrored_vertices"] < 0.9 * sum(counts):
-        notes.append(f"{name}: Symmetry X: only {report['mirrored_vertices'] / max(sum(counts), 1):.0%} of "
+    if report and settings["mirror"] is not None and report.mirrored_vertices < 0.9 * sum(counts):
+        notes.append(f"{name}: Symmetry X: only {report.mirrored_vertices / max(sum(counts), 1):.0%} of "
                      "the vertices have a mirror twin across the armature's X = 0 plane; the others "
                      "keep their own weights")
-    paired, alone = (report.get("side_bones_paired", 0), report.get("side_bones_unpaired", 0)) if report else (0, 0)
+    paired, alone = (report.side_bones_paired, report.side_bones_unpaired) if report else (0, 0)
     if paired or alone:
         note = (f"Symmetry X: {paired + alone} bones off the X = 0 plane have no side in their names "
                 f"(.L/.R, _L/_R, Left/Right): {paired} paired with their mirror image by place, {alone} "
                 "without one keep their own weights")
         if note not in notes:  # the same for every mesh of the armature
             notes.append(note)
-    if report and report.get("factorization_failed"):
+    if report and report.factorization_failed:
         notes.append(f"{name}: heat solve failed, nearest-bone weights used")
     ends = np.cumsum(counts)
     for m, end, n in zip(members, ends, counts):

@@ -71,14 +71,15 @@ def transfer(core, body_mesh, body_weights, garments, bones, settings: dict):
     direct = dict(method="HEAT", k=settings["k"], visibility=True, mirror=None, parents=settings["parents"])
     for ob, name, verts, tris in garments:
         try:
-            i, w, report = core.transfer_weights(*body_mesh, *body_weights, verts, tris,
-                                                 max_distance=settings["max_distance"],
-                                                 max_angle=settings["max_angle"], max_influences=settings["k"])
+            out = core.transfer_weights(*body_mesh, *body_weights, verts, tris,
+                                        max_distance=settings["max_distance"],
+                                        max_angle=settings["max_angle"], max_influences=settings["k"])
         except (ValueError, RuntimeError) as err:
             raise WeightsError(f"Mesh '{name}': {err}; nothing was changed") from err
-        worn = report["matched"] / max(len(verts), 1)
+        i, w, report = out.indices, out.weights, out.report
+        worn = report.matched / max(len(verts), 1)
         why = None
-        if report["matched"] == 0:
+        if report.matched == 0:
             why = "no vertex of it lies on the body"
         elif worn < WORN_SHARE and not holds_bone(core, verts, tris, bones):
             why = f"it holds no bone and only {worn:.0%} of it lies on the body (a prop)"
@@ -86,7 +87,7 @@ def transfer(core, body_mesh, body_weights, garments, bones, settings: dict):
             i, w, _ = mesh_weights(core, direct, verts, tris, bones, lambda f: True)
             notes.append(f"'{name}': {why}, so it was bound directly with Auto Weights (Heat)")
         else:
-            notes.append(f"'{name}': {report['matched']} vertices took the body's weights, "
-                         f"{report['inpainted']} were inpainted")
+            notes.append(f"'{name}': {report.matched} vertices took the body's weights, "
+                         f"{report.inpainted} were inpainted")
         results.append((ob, i, w))
     return results, notes

@@ -5,7 +5,7 @@
 
 use arbitrary::{Result, Unstructured};
 use libfuzzer_sys::fuzz_target;
-use miniskeleton_core::motion::{detect_roles, motion_clip, posed_points, GaitParams, Motion, Skin};
+use miniskeleton_core::motion::{detect_roles, motion_clip, posed_points, GaitParams, Motion, Skeleton, Skin};
 use miniskeleton_core::Error;
 use miniskeleton_fuzz::{bones, mesh, names, number, or_default};
 
@@ -18,7 +18,7 @@ fn run(u: &mut Unstructured) -> Result<()> {
     if u.ratio(1u8, 16)? {
         names.pop();
     }
-    let roles = match detect_roles(&b.heads, &b.tails, &b.parents, &names) {
+    let roles = match detect_roles(&Skeleton::new(&b.heads, &b.tails, &b.parents, &names)) {
         Ok(r) => r,
         Err(Error::Internal(e)) => panic!("internal error: {e}"),
         Err(_) => return Ok(()),
@@ -56,7 +56,7 @@ fn run(u: &mut Unstructured) -> Result<()> {
         .map(|_| if u.ratio(1u8, 32)? { u.arbitrary() } else { Ok(u.int_in_range(-1..=n as i32 - 1)?) })
         .collect::<Result<_>>()?;
     let skin = if u.ratio(1u8, 4)? { Skin::NONE } else { Skin { points: &m.vertices, bones: &owners } };
-    let clip = match motion_clip(&b.heads, &b.tails, &b.parents, &rest, &roles, &params, &skin) {
+    let clip = match motion_clip(&Skeleton::new(&b.heads, &b.tails, &b.parents, &[]), &rest, &roles, &params, &skin) {
         Ok(c) => c,
         Err(Error::Internal(e)) => panic!("internal error: {e}"),
         Err(_) => return Ok(()),

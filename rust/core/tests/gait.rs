@@ -6,11 +6,11 @@
 mod common;
 
 use common::rigs::{
-    biped, bone, bone_skin, creature, hexapod, ik_biped, ik_quadruped, rest_of, spot, t_pose_biped, Skeleton,
+    biped, bone, bone_skin, creature, hexapod, ik_biped, ik_quadruped, rest_of, spot, t_pose_biped, Rig,
 };
 use glam::{Mat3, Quat, Vec3};
 use miniskeleton_core::motion::{
-    detect_roles, motion_clip, posed_points, BodyPlan, Clip, GaitParams, Motion, Roles, Side, Skin,
+    detect_roles, motion_clip, posed_points, BodyPlan, Clip, GaitParams, Motion, Roles, Side, Skeleton, Skin,
 };
 
 /// A test rig run through a motion: names, heads, tails, parents, rest matrices, roles, clip.
@@ -54,21 +54,21 @@ fn world_rotations(parents: &[i32], rest: &[[f32; 9]], local: &[[f32; 4]]) -> Ve
 /// A test rig with its rest matrices and roles: names, heads, tails, parents, rest, roles.
 type Prepared = (Vec<String>, Vec<[f32; 3]>, Vec<[f32; 3]>, Vec<i32>, Vec<[f32; 9]>, Roles);
 
-fn prepare((names, h, t, p): Skeleton) -> Prepared {
+fn prepare((names, h, t, p): Rig) -> Prepared {
     let rest = rest_of(&h, &t);
-    let roles = detect_roles(&h, &t, &p, &names).unwrap();
+    let roles = detect_roles(&Skeleton::new(&h, &t, &p, &names)).unwrap();
     (names, h, t, p, rest, roles)
 }
 
-fn run(skel: Skeleton, motion: Motion) -> Animated {
+fn run(skel: Rig, motion: Motion) -> Animated {
     run_on(skel, motion, &Skin::NONE)
 }
 
 /// [`run`] with the character's skin.
-fn run_on(skel: Skeleton, motion: Motion, skin: &Skin) -> Animated {
+fn run_on(skel: Rig, motion: Motion, skin: &Skin) -> Animated {
     let (names, h, t, p, rest, roles) = prepare(skel);
     let params = GaitParams { motion, cycles: 2.0, ..Default::default() };
-    let clip = motion_clip(&h, &t, &p, &rest, &roles, &params, skin).unwrap();
+    let clip = motion_clip(&Skeleton::new(&h, &t, &p, &[]), &rest, &roles, &params, skin).unwrap();
     (names, h, t, p, rest, roles, clip)
 }
 
@@ -104,7 +104,7 @@ fn circ(a: f32, b: f32) -> f32 {
     d.min(1.0 - d)
 }
 
-fn check_walk(skel: Skeleton, motion: Motion) {
+fn check_walk(skel: Rig, motion: Motion) {
     let (_, h, t, p, rest, roles, clip) = run(skel, motion);
     let fpc = clip.frames_per_cycle as usize;
     assert_eq!(clip.frames, 2 * fpc + 1);
@@ -337,7 +337,7 @@ fn biped_walk_and_run() {
 fn an_imported_rigs_arms_swing_from_their_upper_arms_at_any_size() {
     // With invented tails every bone is a stub of one length: the arm swung from the
     // clavicle or from the upper arm as rounding (and so the rig's size) decided.
-    let arm_bones_turned = |(names, h, t, p): Skeleton| -> Vec<String> {
+    let arm_bones_turned = |(names, h, t, p): Rig| -> Vec<String> {
         let (names, _, _, _, _, _, clip) = run((names, h, t, p), Motion::Walk);
         (0..clip.bone_count)
             .filter(|&b| names[b].contains("Arm") || names[b].starts_with("Shoulder"))
@@ -666,24 +666,30 @@ fn head_shake_moves_head_not_feet() {
 fn bad_params() {
     let (_, h, t, p, rest, roles) = prepare(creature());
     let bad = GaitParams { fps: 0.0, ..Default::default() };
-    assert!(motion_clip(&h, &t, &p, &rest, &roles, &bad, &Skin::NONE).is_err());
+    assert!(motion_clip(&Skeleton::new(&h, &t, &p, &[]), &rest, &roles, &bad, &Skin::NONE).is_err());
     for motion in [Motion::HeadShake, Motion::Walk] {
         let nan = GaitParams { motion, amplitude: f32::NAN, ..Default::default() };
-        let err = motion_clip(&h, &t, &p, &rest, &roles, &nan, &Skin::NONE).unwrap_err().to_string();
+        let err =
+            motion_clip(&Skeleton::new(&h, &t, &p, &[]), &rest, &roles, &nan, &Skin::NONE).unwrap_err().to_string();
         assert!(err.contains("amplitude"), "{err}");
     }
     // roles from another rig: every role is checked, not only the head and the legs
     let mut stale = roles.clone();
     stale.tail.push(h.len());
-    let err = motion_clip(&h, &t, &p, &rest, &stale, &GaitParams::default(), &Skin::NONE).unwrap_err().to_string();
+    let err = motion_clip(&Skeleton::new(&h, &t, &p, &[]), &rest, &stale, &GaitParams::default(), &Skin::NONE)
+        .unwrap_err()
+        .to_string();
     assert!(err.contains("not in the arrays"), "{err}");
-    assert!(motion_clip(&h, &t, &p, &rest[1..], &roles, &GaitParams::default(), &Skin::NONE).is_err());
+    assert!(
+        motion_clip(&Skeleton::new(&h, &t, &p, &[]), &rest[1..], &roles, &GaitParams::default(), &Skin::NONE).is_err()
+    );
     // A NaN rest frame (one entry is enough) is refused, not keyed as NaN.
     for motion in [Motion::HeadShake, Motion::Walk] {
         let mut nan = rest.clone();
         nan[roles.head][4] = f32::NAN;
         let params = GaitParams { motion, ..Default::default() };
-        let err = motion_clip(&h, &t, &p, &nan, &roles, &params, &Skin::NONE).unwrap_err().to_string();
+        let err =
+            motion_clip(&Skeleton::new(&h, &t, &p, &[]), &nan, &roles, &params, &Skin::NONE).unwrap_err().to_string();
         assert!(err.contains("1 rest matrix(s) have NaN"), "{err}");
     }
     // Clips past Blender's last frame are refused before anything is allocated.
@@ -691,7 +697,8 @@ fn bad_params() {
         [(Motion::HeadShake, 1e9, 1e9, 1.0), (Motion::HeadShake, 1e30, 1e30, 1.0), (Motion::Walk, 24.0, 2.0, 1e12)]
     {
         let long = GaitParams { motion, fps, duration, cycles, ..Default::default() };
-        let err = motion_clip(&h, &t, &p, &rest, &roles, &long, &Skin::NONE).unwrap_err().to_string();
+        let err =
+            motion_clip(&Skeleton::new(&h, &t, &p, &[]), &rest, &roles, &long, &Skin::NONE).unwrap_err().to_string();
         assert!(err.contains("frames"), "{err}");
     }
 }
@@ -703,12 +710,12 @@ fn a_rest_frame_near_the_float_limit_keys_the_same_rotations() {
     let (_, h, t, p, rest, roles) = prepare(creature());
     for motion in [Motion::HeadShake, Motion::Walk] {
         let params = GaitParams { motion, ..Default::default() };
-        let plain = motion_clip(&h, &t, &p, &rest, &roles, &params, &Skin::NONE).unwrap();
+        let plain = motion_clip(&Skeleton::new(&h, &t, &p, &[]), &rest, &roles, &params, &Skin::NONE).unwrap();
         let mut huge = rest.clone();
         for b in [roles.head, roles.spine[0]] {
             huge[b] = huge[b].map(|x| x * 3e38);
         }
-        let clip = motion_clip(&h, &t, &p, &huge, &roles, &params, &Skin::NONE).unwrap();
+        let clip = motion_clip(&Skeleton::new(&h, &t, &p, &[]), &huge, &roles, &params, &Skin::NONE).unwrap();
         for (a, b) in plain.rotations.iter().zip(&clip.rotations) {
             assert!(b.iter().all(|c| c.is_finite()), "{motion:?}: {b:?}");
             assert!(q(*a).angle_between(q(*b)) < 1e-3, "{motion:?}: {a:?} vs {b:?}");
@@ -728,7 +735,7 @@ fn a_head_shake_turns_neck_and_head_by_the_amplitude_and_its_cycle_is_one_shake(
     // with no neck, the head turns alone by the whole amplitude
     let neckless = Roles { neck: Vec::new(), ..roles.clone() };
     let params = GaitParams { motion: Motion::HeadShake, ..Default::default() };
-    let alone = motion_clip(&h, &t, &p, &rest, &neckless, &params, &Skin::NONE).unwrap();
+    let alone = motion_clip(&Skeleton::new(&h, &t, &p, &[]), &rest, &neckless, &params, &Skin::NONE).unwrap();
     assert!((most_turned(&alone, roles.head) - amp).abs() < 0.05 * amp);
 }
 
@@ -793,8 +800,9 @@ fn sheared_rest_frames_give_the_motion_of_their_orthonormal_frames() {
             Mat3::from_cols(m.x_axis + 0.4 * m.y_axis, m.y_axis * 1.7, m.z_axis).transpose().to_cols_array()
         })
         .collect();
-    let a = motion_clip(&h, &t, &p, &rest, &roles, &GaitParams::default(), &Skin::NONE).unwrap();
-    let b = motion_clip(&h, &t, &p, &sheared, &roles, &GaitParams::default(), &Skin::NONE).unwrap();
+    let a = motion_clip(&Skeleton::new(&h, &t, &p, &[]), &rest, &roles, &GaitParams::default(), &Skin::NONE).unwrap();
+    let b =
+        motion_clip(&Skeleton::new(&h, &t, &p, &[]), &sheared, &roles, &GaitParams::default(), &Skin::NONE).unwrap();
     for (x, y) in a.rotations.iter().zip(&b.rotations) {
         assert!(q(*x).dot(q(*y)).abs() > 1.0 - 1e-5, "{x:?} {y:?}");
     }
@@ -805,11 +813,14 @@ fn any_fps_and_stride_give_a_whole_finite_cycle() {
     let (_, h, t, p, rest, roles) = prepare(creature());
     // a slideshow of 2 frames a second still has 8 frames a step cycle
     let slow = GaitParams { fps: 2.0, ..Default::default() };
-    assert!(motion_clip(&h, &t, &p, &rest, &roles, &slow, &Skin::NONE).unwrap().frames_per_cycle >= 8.0);
+    assert!(
+        motion_clip(&Skeleton::new(&h, &t, &p, &[]), &rest, &roles, &slow, &Skin::NONE).unwrap().frames_per_cycle
+            >= 8.0
+    );
     // a stride longer than the legs can take swings them as far as they go, not to NaN
     for motion in [Motion::Walk, Motion::Run] {
         let long = GaitParams { motion, stride: 5.0, ..Default::default() };
-        let clip = motion_clip(&h, &t, &p, &rest, &roles, &long, &Skin::NONE).unwrap();
+        let clip = motion_clip(&Skeleton::new(&h, &t, &p, &[]), &rest, &roles, &long, &Skin::NONE).unwrap();
         assert!(clip.rotations.iter().flatten().all(|v| v.is_finite()));
         assert!(clip.root_offset.iter().flatten().all(|v| v.is_finite()));
     }

@@ -4,16 +4,16 @@
 mod common;
 
 use common::rigs::{
-    biped, biped_bones, bone, creature, ik_biped, ik_quadruped, rest_of, skeleton_of, spot, BoneSpec, Skeleton,
+    biped, biped_bones, bone, creature, ik_biped, ik_quadruped, rest_of, skeleton_of, spot, BoneSpec, Rig,
 };
 use glam::Vec3;
-use miniskeleton_core::motion::{detect_roles, motion_clip, BodyPlan, GaitParams, Motion, Roles, Side, Skin};
+use miniskeleton_core::motion::{detect_roles, motion_clip, BodyPlan, GaitParams, Motion, Roles, Side, Skeleton, Skin};
 use miniskeleton_core::Error;
 
 #[test]
 fn quadruped_made_of_separate_trees() {
     let (names, h, t, p) = spot();
-    let r = detect_roles(&h, &t, &p, &names).unwrap();
+    let r = detect_roles(&Skeleton::new(&h, &t, &p, &names)).unwrap();
     assert_eq!(r.plan, BodyPlan::Quadruped);
     assert_eq!(names[r.root], "body_root");
     assert_eq!(named(&names, &r.spine), ["body_root", "body_spine", "body_back"]);
@@ -26,7 +26,7 @@ fn quadruped_made_of_separate_trees() {
     assert!((Vec3::from(r.forward) - Vec3::Y).length() < 1e-2, "{:?}", r.forward);
     assert!(!r.single_tree);
     // without names the head is still found at the front end
-    let r2 = detect_roles(&h, &t, &p, &[]).unwrap();
+    let r2 = detect_roles(&Skeleton::new(&h, &t, &p, &[])).unwrap();
     assert_eq!(r2.legs.len(), 4);
     assert!(["head", "neck_mid"].contains(&names[r2.head].as_str()), "{}", names[r2.head]);
 }
@@ -43,7 +43,7 @@ fn leg(names: &[String], r: &Roles, side: Side, group: usize) -> Vec<String> {
 #[test]
 fn quadruped_roles() {
     let (names, h, t, p) = creature();
-    let r = detect_roles(&h, &t, &p, &names).unwrap();
+    let r = detect_roles(&Skeleton::new(&h, &t, &p, &names)).unwrap();
     assert_eq!(r.plan, BodyPlan::Quadruped);
     assert_eq!(named(&names, &r.spine), ["spine", "chest"]);
     assert_eq!(named(&names, &r.neck), ["neck"]);
@@ -83,7 +83,7 @@ fn a_tail_on_the_ground_or_above_the_head_stays_the_tail() {
             let k = bone(&names, from);
             names[k] = to.to_string();
         }
-        let r = detect_roles(&h, &t, &p, &names).unwrap();
+        let r = detect_roles(&Skeleton::new(&h, &t, &p, &names)).unwrap();
         assert_eq!(r.plan, BodyPlan::Quadruped, "{rename:?}");
         (named(&names, &r.tail), names[r.head].clone())
     };
@@ -114,7 +114,7 @@ fn hanging_single_bones_are_not_arms() {
         t.push([x, -0.2, 0.5]);
         p.push(chest);
     }
-    let r = detect_roles(&h, &t, &p, &names).unwrap();
+    let r = detect_roles(&Skeleton::new(&h, &t, &p, &names)).unwrap();
     assert!(r.arms.is_empty(), "{:?}", r.arms);
     assert_eq!(r.plan, BodyPlan::Quadruped);
     // Nor is a chain on one side only (a bag's strap): arms come in pairs.
@@ -127,12 +127,12 @@ fn hanging_single_bones_are_not_arms() {
         t.push(b);
         p.push(if k == 0 { chest } else { names.len() as i32 - 2 });
     }
-    let r = detect_roles(&h, &t, &p, &names).unwrap();
+    let r = detect_roles(&Skeleton::new(&h, &t, &p, &names)).unwrap();
     assert!(r.arms.is_empty(), "{:?}", r.arms);
 }
 
 /// The creature with each leg's bones moved by `dy` along Y (forward is -Y).
-fn creature_with_legs_moved(dy: [(&str, f32); 4]) -> Skeleton {
+fn creature_with_legs_moved(dy: [(&str, f32); 4]) -> Rig {
     let (names, mut h, mut t, p) = creature();
     for (leg, d) in dy {
         let (kind, side) = leg.split_once('.').unwrap();
@@ -152,7 +152,7 @@ fn quadruped_in_mid_stride_keeps_a_front_and_a_back_pair() {
     // than the 0.15 h that groups legs (h = 1.8 here), the pairs much further apart.
     let (names, h, t, p) =
         creature_with_legs_moved([("front.L", -0.35), ("front.R", 0.0), ("back.L", 0.0), ("back.R", 0.30)]);
-    let r = detect_roles(&h, &t, &p, &names).unwrap();
+    let r = detect_roles(&Skeleton::new(&h, &t, &p, &names)).unwrap();
     assert_eq!(r.plan, BodyPlan::Quadruped);
     assert_eq!(leg(&names, &r, Side::Left, 0)[0], "upper_arm.L");
     assert_eq!(leg(&names, &r, Side::Right, 0)[0], "upper_arm.R");
@@ -161,7 +161,7 @@ fn quadruped_in_mid_stride_keeps_a_front_and_a_back_pair() {
     // Four legs evenly along the body (left, right, left, right) are no two pairs.
     let (names, h, t, p) =
         creature_with_legs_moved([("front.L", -0.5), ("front.R", 0.0), ("back.L", -0.5), ("back.R", 0.0)]);
-    let r = detect_roles(&h, &t, &p, &names).unwrap();
+    let r = detect_roles(&Skeleton::new(&h, &t, &p, &names)).unwrap();
     assert_eq!(r.plan, BodyPlan::Multiped);
 }
 
@@ -185,7 +185,7 @@ fn six_legs_make_three_groups_front_to_back() {
             parent = names.len() as i32 - 1;
         }
     }
-    let r = detect_roles(&h, &t, &p, &names).unwrap();
+    let r = detect_roles(&Skeleton::new(&h, &t, &p, &names)).unwrap();
     assert_eq!((r.plan, r.legs.len()), (BodyPlan::Multiped, 6));
     for (group, top) in [(0, "upper_arm"), (1, "mid_thigh"), (2, "thigh")] {
         for side in [Side::Left, Side::Right] {
@@ -202,7 +202,7 @@ fn quadruped_roles_without_names_and_turned() {
     let rot = |q: [f32; 3]| [-q[1], q[0], q[2]];
     let h: Vec<_> = h.into_iter().map(rot).collect();
     let t: Vec<_> = t.into_iter().map(rot).collect();
-    let r = detect_roles(&h, &t, &p, &[]).unwrap();
+    let r = detect_roles(&Skeleton::new(&h, &t, &p, &[])).unwrap();
     assert_eq!(r.plan, BodyPlan::Quadruped);
     assert!((Vec3::from(r.forward) - Vec3::X).length() < 1e-3, "{:?}", r.forward);
     assert_eq!(named(&names, &r.spine), ["spine", "chest"]);
@@ -214,7 +214,7 @@ fn quadruped_roles_without_names_and_turned() {
 #[test]
 fn biped_roles() {
     let (names, h, t, p) = biped();
-    let r = detect_roles(&h, &t, &p, &names).unwrap();
+    let r = detect_roles(&Skeleton::new(&h, &t, &p, &names)).unwrap();
     assert_eq!(r.plan, BodyPlan::Biped);
     assert_eq!(named(&names, &r.spine), ["hips", "spine", "chest"]);
     assert_eq!(named(&names, &r.neck), ["neck"]);
@@ -227,7 +227,7 @@ fn biped_roles() {
     assert!((Vec3::from(r.forward) - Vec3::NEG_Y).length() < 1e-3, "{:?}", r.forward);
     assert!((r.leg_length - 0.98).abs() < 1e-3, "{}", r.leg_length);
     // without names too
-    let r2 = detect_roles(&h, &t, &p, &[]).unwrap();
+    let r2 = detect_roles(&Skeleton::new(&h, &t, &p, &[])).unwrap();
     assert_eq!(names[r2.head], "head");
     assert_eq!(r2.legs.len(), 2);
 }
@@ -248,7 +248,7 @@ fn short_flaps_and_pouches_are_neither_legs_nor_arms() {
         ]);
     }
     let (names, h, t, p) = skeleton_of(&b);
-    let r = detect_roles(&h, &t, &p, &names).unwrap();
+    let r = detect_roles(&Skeleton::new(&h, &t, &p, &names)).unwrap();
     assert_eq!(r.plan, BodyPlan::Biped);
     assert_eq!(r.legs.len(), 2);
     assert_eq!(leg(&names, &r, Side::Left, 0)[0], "thigh.L");
@@ -260,7 +260,7 @@ fn short_flaps_and_pouches_are_neither_legs_nor_arms() {
 fn ik_exported_biped_feet_ride_on_their_legs_and_t_posed_arms_are_arms() {
     for invented_tails in [false, true] {
         let (names, h, t, p) = ik_biped(invented_tails);
-        let r = detect_roles(&h, &t, &p, &names).unwrap();
+        let r = detect_roles(&Skeleton::new(&h, &t, &p, &names)).unwrap();
         assert_eq!(r.plan, BodyPlan::Biped);
         assert_eq!(leg(&names, &r, Side::Left, 0), ["UpperLeg.L", "LowerLeg.L", "Foot.L"]);
         assert_eq!(leg(&names, &r, Side::Right, 0), ["UpperLeg.R", "LowerLeg.R", "Foot.R"]);
@@ -286,7 +286,7 @@ fn ik_exported_biped_feet_ride_on_their_legs_and_t_posed_arms_are_arms() {
 #[test]
 fn rigs_with_feet_on_their_legs_have_no_riders() {
     for (names, h, t, p) in [biped(), creature(), spot()] {
-        assert!(detect_roles(&h, &t, &p, &names).unwrap().riders.is_empty());
+        assert!(detect_roles(&Skeleton::new(&h, &t, &p, &names)).unwrap().riders.is_empty());
     }
     // a narrow biped, arms out, whose feet hang off the hips (the root) level with the shins'
     // ends: they ride on their shins, and nothing on the head, whose end is too high to be a
@@ -308,7 +308,7 @@ fn rigs_with_feet_on_their_legs_have_no_riders() {
         ]);
     }
     let (names, h, t, p) = skeleton_of(&b);
-    let r = detect_roles(&h, &t, &p, &names).unwrap();
+    let r = detect_roles(&Skeleton::new(&h, &t, &p, &names)).unwrap();
     let mut riders: Vec<[String; 2]> = r.riders.iter().map(|&[a, b]| [names[a].clone(), names[b].clone()]).collect();
     riders.sort();
     assert_eq!(riders, [["foot.L", "shin.L"], ["foot.R", "shin.R"]].map(|r| r.map(String::from)));
@@ -322,7 +322,7 @@ fn rigs_with_feet_on_their_legs_have_no_riders() {
 #[test]
 fn an_ik_exported_quadrupeds_feet_ride_on_their_legs() {
     let (names, h, t, p) = ik_quadruped();
-    let r = detect_roles(&h, &t, &p, &names).unwrap();
+    let r = detect_roles(&Skeleton::new(&h, &t, &p, &names)).unwrap();
     assert_eq!(r.plan, BodyPlan::Quadruped, "{:?}", r.legs);
     assert!(r.arms.is_empty(), "{:?}", r.arms);
     for s in ["L", "R"] {
@@ -345,7 +345,7 @@ fn thousands_of_hair_bones_leave_the_roles_as_they_were() {
     // 400 strands of 10 bones hanging off the head: the mirror-plane scan samples the
     // 8000+ bone ends (it compares every pair) and still finds the body's plane
     let (mut names, mut h, mut t, mut p) = biped();
-    let plain = detect_roles(&h, &t, &p, &names).unwrap();
+    let plain = detect_roles(&Skeleton::new(&h, &t, &p, &names)).unwrap();
     let head = bone(&names, "head") as i32;
     for k in 0..400 {
         let x = 0.1 * ((k as f32 * 0.618).fract() - 0.5);
@@ -357,7 +357,7 @@ fn thousands_of_hair_bones_leave_the_roles_as_they_were() {
             p.push(if j == 0 { head } else { h.len() as i32 - 2 });
         }
     }
-    let r = detect_roles(&h, &t, &p, &names).unwrap();
+    let r = detect_roles(&Skeleton::new(&h, &t, &p, &names)).unwrap();
     assert_eq!(named(&names, &r.spine), named(&names, &plain.spine));
     assert_eq!(r.legs.len(), 2);
     assert_eq!(leg(&names, &r, Side::Left, 0), leg(&names, &plain, Side::Left, 0));
@@ -372,7 +372,7 @@ fn thousands_of_hair_bones_leave_the_roles_as_they_were() {
 #[test]
 fn a_small_tree_at_the_roots_head_joins_the_body() {
     let (plain_names, h, t, p) = biped();
-    let plain = detect_roles(&h, &t, &p, &plain_names).unwrap();
+    let plain = detect_roles(&Skeleton::new(&h, &t, &p, &plain_names)).unwrap();
     let mut b = biped_bones();
     let hips = b[0].1; // the body's root, listed first
     b.extend([
@@ -380,7 +380,7 @@ fn a_small_tree_at_the_roots_head_joins_the_body() {
         ("skirt1".into(), [0.0, 0.1, 0.85], [0.0, 0.15, 0.7], Some("skirt0".into())),
     ]);
     let (names, h, t, p) = skeleton_of(&b);
-    let r = detect_roles(&h, &t, &p, &names).unwrap();
+    let r = detect_roles(&Skeleton::new(&h, &t, &p, &names)).unwrap();
     assert_eq!(names[r.root], "hips");
     assert_eq!(named(&names, &r.spine), named(&plain_names, &plain.spine));
     assert_eq!(leg(&names, &r, Side::Left, 0), leg(&plain_names, &plain, Side::Left, 0));
@@ -395,18 +395,18 @@ fn a_legless_body_shakes_its_head_but_does_not_walk() {
     let t = vec![[0.0, 0.0, 2.0], [0.0, 0.0, 2.5], [0.0, 0.0, 3.0]];
     let names: Vec<String> = ["body", "neck", "head"].map(String::from).to_vec();
     let parents = [-1, 0, 1];
-    let r = detect_roles(&h, &t, &parents, &names).unwrap();
+    let r = detect_roles(&Skeleton::new(&h, &t, &parents, &names)).unwrap();
     assert_eq!(r.plan, BodyPlan::Legless);
     assert!(r.legs.is_empty());
     assert_eq!(names[r.head], "head");
     let rest = rest_of(&h, &t);
     for motion in [Motion::Walk, Motion::Run] {
         let params = GaitParams { motion, ..GaitParams::default() };
-        let err = motion_clip(&h, &t, &parents, &rest, &r, &params, &Skin::NONE).unwrap_err();
+        let err = motion_clip(&Skeleton::new(&h, &t, &parents, &[]), &rest, &r, &params, &Skin::NONE).unwrap_err();
         assert!(err.to_string().contains("no legs"), "{err}");
     }
     let params = GaitParams { motion: Motion::HeadShake, ..GaitParams::default() };
-    let clip = motion_clip(&h, &t, &parents, &rest, &r, &params, &Skin::NONE).unwrap();
+    let clip = motion_clip(&Skeleton::new(&h, &t, &parents, &[]), &rest, &r, &params, &Skin::NONE).unwrap();
     assert!(clip.animated.contains(&r.head));
     let turn = (0..clip.frames).map(|f| clip.rotation(f, r.head)[0].abs()).fold(1.0f32, f32::min);
     assert!(turn < 0.995, "the head turns (half of 30 degrees): min |w| {turn}");
@@ -417,19 +417,19 @@ fn no_head_is_a_clear_error() {
     // a hip bone with two legs and nothing else
     let h = vec![[-0.2, 0.0, 1.0], [-0.2, 0.0, 1.0], [0.2, 0.0, 1.0]];
     let t = vec![[0.2, 0.0, 1.0], [-0.2, 0.0, 0.0], [0.2, 0.0, 0.0]];
-    let err = detect_roles(&h, &t, &[-1, 0, 0], &[]).unwrap_err();
+    let err = detect_roles(&Skeleton::new(&h, &t, &[-1, 0, 0], &[])).unwrap_err();
     assert!(err.to_string().contains("no head"), "{err}");
 }
 
 #[test]
 fn bad_input_is_rejected() {
-    assert!(detect_roles(&[], &[], &[], &[]).is_err());
+    assert!(detect_roles(&Skeleton::new(&[], &[], &[], &[])).is_err());
     let h = vec![[0.0; 3], [0.0, 0.0, 1.0]];
     let t = vec![[0.0, 0.0, 1.0], [0.0, 0.0, 2.0]];
-    assert!(matches!(detect_roles(&h, &t, &[1, 0], &[]), Err(Error::InvalidArgument(_))));
-    assert!(matches!(detect_roles(&h, &t, &[-1], &[]), Err(Error::Shape(_))));
+    assert!(matches!(detect_roles(&Skeleton::new(&h, &t, &[1, 0], &[])), Err(Error::InvalidArgument(_))));
+    assert!(matches!(detect_roles(&Skeleton::new(&h, &t, &[-1], &[])), Err(Error::Shape(_))));
     let nan = vec![[f32::NAN; 3], [0.0; 3]];
-    assert!(matches!(detect_roles(&nan, &t, &[-1, 0], &[]), Err(Error::NonFinite { .. })));
+    assert!(matches!(detect_roles(&Skeleton::new(&nan, &t, &[-1, 0], &[])), Err(Error::NonFinite { .. })));
 }
 
 /// Legs' names are read by the one left/right rule (`skeleton::name_side`): a biped (its head
@@ -447,7 +447,7 @@ fn legs_named_with_a_side_letter_between_underscores_set_the_side() {
     let b: Vec<BoneSpec> =
         biped_bones().into_iter().map(|(n, h, t, p)| (rename(&n), h, t, p.as_deref().map(rename))).collect();
     let (names, h, t, p) = skeleton_of(&b);
-    let r = detect_roles(&h, &t, &p, &names).unwrap();
+    let r = detect_roles(&Skeleton::new(&h, &t, &p, &names)).unwrap();
     assert!((Vec3::from(r.forward) - Vec3::Y).length() < 1e-3, "{:?}", r.forward);
     assert!(r.notes.iter().any(|n| n.contains("taken from the .L/.R bone names")), "{:?}", r.notes);
     assert_eq!(leg(&names, &r, Side::Left, 0), ["Bip01_L_thigh", "Bip01_L_shin", "Bip01_L_foot", "Bip01_L_toe"]);
@@ -467,14 +467,14 @@ fn a_tail_the_hierarchy_starts_from_is_no_spine() {
     p[tail[1]] = tail[2] as i32;
     p[tail[0]] = tail[1] as i32;
     p[spine] = tail[0] as i32;
-    let r = detect_roles(&h, &t, &p, &names).unwrap();
+    let r = detect_roles(&Skeleton::new(&h, &t, &p, &names)).unwrap();
     assert_eq!(r.plan, BodyPlan::Quadruped);
     assert!(r.spine.contains(&spine) && !tail.iter().any(|b| r.spine.contains(b)), "{:?}", named(&names, &r.spine));
     assert_eq!((names[r.head].as_str(), r.legs.len()), ("head", 4));
     // the walk turns no tail bone: each carries the whole body
     let rest = rest_of(&h, &t);
     let params = GaitParams { motion: Motion::Walk, ..Default::default() };
-    let clip = motion_clip(&h, &t, &p, &rest, &r, &params, &Skin::NONE).unwrap();
+    let clip = motion_clip(&Skeleton::new(&h, &t, &p, &[]), &rest, &r, &params, &Skin::NONE).unwrap();
     assert!(!tail.iter().any(|b| clip.animated.contains(b)), "{:?}", named(&names, &clip.animated));
 }
 
@@ -487,7 +487,7 @@ fn a_mane_reaching_above_the_head_is_not_the_head() {
     h.push([0.0, -0.6, 1.25]);
     t.push([0.0, -0.6, 2.0]);
     p.push(neck as i32);
-    let r = detect_roles(&h, &t, &p, &names).unwrap();
+    let r = detect_roles(&Skeleton::new(&h, &t, &p, &names)).unwrap();
     assert_eq!(names[r.head], "head");
     assert_eq!(named(&names, &r.neck), ["neck"]);
 }
@@ -529,7 +529,7 @@ fn a_t_posed_biped_holding_a_prop_faces_its_feet() {
     ];
     let (names, h, t, p) = skeleton_of(&b);
     for named_bones in [&names[..], &[]] {
-        let r = detect_roles(&h, &t, &p, named_bones).unwrap();
+        let r = detect_roles(&Skeleton::new(&h, &t, &p, named_bones)).unwrap();
         assert_eq!(r.plan, BodyPlan::Biped);
         assert_eq!(names[r.head], "spine.006");
         assert_eq!(leg(&names, &r, Side::Left, 0)[..3], ["thigh.L", "shin.L", "foot.L"]);

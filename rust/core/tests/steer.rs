@@ -5,21 +5,21 @@
 
 mod common;
 
-use common::rigs::{biped, rest_of, spot, Skeleton};
+use common::rigs::{biped, rest_of, spot, Rig};
 use glam::{Quat, Vec3};
 use miniskeleton_core::motion::{
-    detect_roles, posed_points, steered_clip, Clip, Course, GaitParams, Motion, Roles, Skin, Steer, Terrain,
+    detect_roles, posed_points, steered_clip, Clip, Course, GaitParams, Motion, Roles, Skeleton, Skin, Steer, Terrain,
 };
 use std::f32::consts::PI;
 
 /// A rig walked with `steer`: heads, tails, parents, rest, roles, clip.
 type Steered = (Vec<[f32; 3]>, Vec<[f32; 3]>, Vec<i32>, Vec<[f32; 9]>, Roles, Clip);
 
-fn walk((names, h, t, p): Skeleton, motion: Motion, steer: &Steer) -> Steered {
+fn walk((names, h, t, p): Rig, motion: Motion, steer: &Steer) -> Steered {
     let rest = rest_of(&h, &t);
-    let roles = detect_roles(&h, &t, &p, &names).unwrap();
+    let roles = detect_roles(&Skeleton::new(&h, &t, &p, &names)).unwrap();
     let params = GaitParams { motion, cycles: 4.0, ..Default::default() };
-    let clip = steered_clip(&h, &t, &p, &rest, &roles, (&params, steer), &Skin::NONE).unwrap();
+    let clip = steered_clip(&Skeleton::new(&h, &t, &p, &[]), &rest, &roles, (&params, steer), &Skin::NONE).unwrap();
     (h, t, p, rest, roles, clip)
 }
 
@@ -55,7 +55,7 @@ fn ankles(s: &Steered, heads: &[Vec<[f32; 3]>]) -> Vec<Vec<Vec3>> {
 fn stance_feet_stay_put_through_a_turn_and_the_body_heads_along_the_path() {
     for skel in [biped(), spot()] {
         let (names, h, t, p) = skel.clone();
-        let roles = detect_roles(&h, &t, &p, &names).unwrap();
+        let roles = detect_roles(&Skeleton::new(&h, &t, &p, &names)).unwrap();
         let fwd = Vec3::from(roles.forward).with_z(0.0).normalize();
         let root = Vec3::from(h[roles.root]);
         let r = 2.0 * roles.height;
@@ -104,7 +104,7 @@ fn feet_stand_on_a_slope_and_the_body_climbs_it() {
     let slope = 15f32.to_radians().tan();
     for skel in [biped(), spot()] {
         let (names, h, t, p) = skel.clone();
-        let roles = detect_roles(&h, &t, &p, &names).unwrap();
+        let roles = detect_roles(&Skeleton::new(&h, &t, &p, &names)).unwrap();
         let fwd = Vec3::from(roles.forward).with_z(0.0).normalize();
         let root = Vec3::from(h[roles.root]);
         // a slope rising along forward from just ahead of the front feet
@@ -139,9 +139,9 @@ fn feet_stand_on_a_slope_and_the_body_climbs_it() {
 fn in_place_with_a_path_is_an_error() {
     let (names, h, t, p) = biped();
     let rest = rest_of(&h, &t);
-    let roles = detect_roles(&h, &t, &p, &names).unwrap();
+    let roles = detect_roles(&Skeleton::new(&h, &t, &p, &names)).unwrap();
     let steer = Steer { course: Some(Course::new(&[[0.0; 3], [5.0, 0.0, 0.0]]).unwrap()), terrain: Terrain::LEVEL };
     let params = GaitParams { root_motion: false, ..Default::default() };
-    let err = steered_clip(&h, &t, &p, &rest, &roles, (&params, &steer), &Skin::NONE).unwrap_err();
+    let err = steered_clip(&Skeleton::new(&h, &t, &p, &[]), &rest, &roles, (&params, &steer), &Skin::NONE).unwrap_err();
     assert!(err.to_string().contains("In Place"), "{err}");
 }

@@ -1,7 +1,8 @@
 //! The Python module `miniskeleton_core`: thin pyo3 bindings over the pure-Rust core.
 //! One file per core area (mesh, weights, skeleton, autorig, motion, posing, and the generated test
 //! meshes of primitives), each registering its own functions; `error.rs` maps errors and stops
-//! panics; `convert.rs` checks and converts numpy inputs. Arrays in and out are numpy; any
+//! panics; `convert.rs` checks and converts numpy inputs; `options.rs` reads keyword options into
+//! the core's option structs. Arrays in and out are numpy; any
 //! array-like is cast to the documented dtype.
 
 mod autorig;
@@ -9,6 +10,7 @@ mod convert;
 mod error;
 mod mesh;
 mod motion;
+mod options;
 mod posing;
 mod primitives;
 mod skeleton;

@@ -3,6 +3,7 @@
 
 use crate::convert::{from_rows, index_rows, indices, rows, vector, IndexRows, Indices};
 use crate::error::guarded;
+use crate::options::{keyword, optional, read_options};
 use miniskeleton_core::mesh::Symmetry;
 use miniskeleton_core::skeleton::{self, FitOptions};
 use numpy::{AllowTypeChange, PyArray1, PyArray2, PyArrayLike1, PyArrayLike2};
@@ -13,13 +14,12 @@ use pyo3::types::PyDict;
 /// Fit joints (j,3) into the mesh: each joint goes to the nearest point of its bones' centre
 /// lines. bones (b,2) joint indices; movable (j,) bool (default all); symmetry_axis 0/1/2 with
 /// joint_mirror (j,) mirror joint indices; max_move caps each joint's fitting move (fraction of the
-/// mesh's bounding-box diagonal); stub_ratio and min_sections: see `FitOptions`. Returns
-/// (joints (j,3) float32, report dict).
+/// mesh's bounding-box diagonal); stub_ratio and min_sections: see `FitOptions`. Keywords:
+/// symmetry_axis, symmetry_plane, joint_mirror, rays, samples, rounds, tolerance, stiffness, tip,
+/// max_move, stub_ratio, min_sections; each left out keeps `FitOptions::default()`. Returns a
+/// `FitResult`.
 #[pyfunction]
-#[pyo3(signature = (vertices, triangles, joints, bones, movable=None, *, symmetry_axis=None,
-                    symmetry_plane=0.0, joint_mirror=None, rays=12, samples=5, rounds=12,
-                    tolerance=1e-4, stiffness=0.05, tip=true, max_move=0.12, stub_ratio=0.5, min_sections=2))]
-#[allow(clippy::too_many_arguments)]
+#[pyo3(signature = (vertices, triangles, joints, bones, movable=None, **options))]
 pub fn fit_joints<'py>(
     py: Python<'py>,
     vertices: PyArrayLike2<'py, f32, AllowTypeChange>,
@@ -27,57 +27,75 @@ pub fn fit_joints<'py>(
     joints: PyArrayLike2<'py, f32, AllowTypeChange>,
     bones: IndexRows<'py>,
     movable: Option<PyArrayLike1<'py, bool, AllowTypeChange>>,
-    symmetry_axis: Option<usize>,
-    symmetry_plane: f64,
-    joint_mirror: Option<Indices<'py>>,
-    rays: usize,
-    samples: usize,
-    rounds: usize,
-    tolerance: f64,
-    stiffness: f64,
-    tip: bool,
-    max_move: f64,
-    stub_ratio: f64,
-    min_sections: usize,
-) -> PyResult<(Bound<'py, PyArray2<f32>>, Bound<'py, PyDict>)> {
+    options: Option<&Bound<'py, PyDict>>,
+) -> PyResult<PyFitResult> {
     let v = rows::<f32, 3>(&vertices, "vertices")?;
     let t = index_rows::<u32, 3>(&triangles, "triangles")?;
     let j = rows::<f32, 3>(&joints, "joints")?;
     let b = index_rows::<u32, 2>(&bones, "bones")?;
     let mv = movable.map(|m| vector(&m)).unwrap_or_else(|| vec![true; j.len()]);
-    let symmetry = match (symmetry_axis, joint_mirror) {
+    // The mirror's keywords: (axis, plane, joint_mirror).
+    let mirror = (None::<usize>, 0.0f64, None::<Vec<i32>>);
+    let (mut opts, (axis, plane, joint_mirror)) =
+        read_options("fit_joints", options, (FitOptions::default(), mirror), |(o, m), key, value| {
+            match key {
+                "symmetry_axis" => m.0 = optional(value, key, Ok)?,
+                "symmetry_plane" => m.1 = keyword(value, key)?,
+                "joint_mirror" => m.2 = optional(value, key, |j: Indices| indices(&j, "joint_mirror"))?,
+                "rays" => o.rays = keyword(value, key)?,
+                "samples" => o.samples = keyword(value, key)?,
+                "rounds" => o.rounds = keyword(value, key)?,
+                "tolerance" => o.tolerance = keyword(value, key)?,
+                "stiffness" => o.stiffness = keyword(value, key)?,
+                "tip" => o.tip = keyword(value, key)?,
+                "max_move" => o.max_move = keyword(value, key)?,
+                "stub_ratio" => o.stub_ratio = keyword(value, key)?,
+                "min_sections" => o.min_sections = keyword(value, key)?,
+                _ => return Ok(false),
+            }
+            Ok(true)
+        })?;
+    opts.symmetry = match (axis, joint_mirror) {
         (None, None) => None,
-        (Some(axis), Some(m)) => Some(Symmetry { axis, plane: symmetry_plane, mirror: indices(&m, "joint_mirror")? }),
+        (Some(axis), Some(mirror)) => Some(Symmetry { axis, plane, mirror }),
         _ => return Err(PyValueError::new_err("symmetry_axis and joint_mirror go together")),
     };
-    let opts = FitOptions {
-        symmetry,
-        rays,
-        samples,
-        rounds,
-        tolerance,
-        stiffness,
-        tip,
-        max_move,
-        stub_ratio,
-        min_sections,
-        ..FitOptions::default()
-    };
     let (out, rep) = guarded(py, move || skeleton::fit_joints(&v, &t, &j, &b, &mv, &opts))?;
-    let d = PyDict::new(py);
-    d.set_item("outside_before", rep.count_outside_before())?;
-    d.set_item("outside_after", rep.count_outside_after())?;
-    d.set_item("outside_before_mask", PyArray1::from_vec(py, rep.outside_before.clone()))?;
-    d.set_item("outside_after_mask", PyArray1::from_vec(py, rep.outside_after.clone()))?;
-    d.set_item("kept_outside", rep.kept_outside.iter().filter(|&&k| k).count())?;
-    d.set_item("rounds", rep.rounds)?;
-    d.set_item("max_move", rep.max_move)?;
-    d.set_item("open_edges", rep.open_edges)?;
-    d.set_item("nonmanifold_edges", rep.nonmanifold_edges)?;
-    d.set_item("pieces", rep.pieces)?;
-    d.set_item("mirrored_surface", rep.mirrored_surface)?;
-    d.set_item("off_plane_centre", rep.off_plane_centre)?;
-    Ok((from_rows(py, &out)?, d))
+    Ok(PyFitResult {
+        joints: from_rows(py, &out)?.unbind(),
+        outside_before: rep.count_outside_before(),
+        outside_after: rep.count_outside_after(),
+        outside_before_mask: PyArray1::from_vec(py, rep.outside_before.clone()).unbind(),
+        outside_after_mask: PyArray1::from_vec(py, rep.outside_after.clone()).unbind(),
+        kept_outside: rep.kept_outside.iter().filter(|&&k| k).count(),
+        rounds: rep.rounds,
+        max_move: rep.max_move,
+        open_edges: rep.open_edges,
+        nonmanifold_edges: rep.nonmanifold_edges,
+        pieces: rep.pieces,
+        mirrored_surface: rep.mirrored_surface,
+        off_plane_centre: rep.off_plane_centre,
+    })
+}
+
+/// The fitted joints (j,3) float32 and what the fit did: outside_before / outside_after (joints
+/// outside the mesh, with their (j,) bool masks), kept_outside, rounds, max_move, open_edges,
+/// nonmanifold_edges, pieces, mirrored_surface (None without symmetry), off_plane_centre.
+#[pyclass(name = "FitResult", module = "miniskeleton_core", frozen, get_all)]
+pub struct PyFitResult {
+    joints: Py<PyArray2<f32>>,
+    outside_before: usize,
+    outside_after: usize,
+    outside_before_mask: Py<PyArray1<bool>>,
+    outside_after_mask: Py<PyArray1<bool>>,
+    kept_outside: usize,
+    rounds: usize,
+    max_move: f64,
+    open_edges: usize,
+    nonmanifold_edges: usize,
+    pieces: usize,
+    mirrored_surface: Option<f64>,
+    off_plane_centre: usize,
 }
 
 /// Which points (p,3) are inside the closed mesh (ray parity, majority of 7 directions): (p,) bool.
@@ -117,6 +135,7 @@ pub fn bone_mirror_indices<'py>(py: Python<'py>, names: Vec<String>) -> Bound<'p
 
 /// Add this area's functions to the module.
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_class::<PyFitResult>()?;
     m.add_function(wrap_pyfunction!(fit_joints, m)?)?;
     m.add_function(wrap_pyfunction!(points_inside, m)?)?;
     m.add_function(wrap_pyfunction!(mirror_name, m)?)?;

@@ -3,9 +3,10 @@
 
 use crate::convert::{index_matrix, index_rows, indices, matrix, rows, IndexRows, Indices};
 use crate::error::{guarded, to_py};
+use crate::options::{keyword, optional, read_options};
 use miniskeleton_core::mesh::Symmetry;
 use miniskeleton_core::weights::Influences;
-use miniskeleton_core::weights::{bilinear_weights as core_bilinear, BilinearOptions, Falloff};
+use miniskeleton_core::weights::{bilinear_weights as core_bilinear, BilinearOptions, Falloff, INVERSE_POWER};
 use miniskeleton_core::weights::{heat_sources as core_heat_sources, heat_weights as core_heat};
 use miniskeleton_core::weights::{
     heat_weights_many as core_heat_many, heat_weights_with_sources as core_heat_from_sources,
@@ -24,8 +25,46 @@ use std::sync::Mutex;
 
 type F32Rows<'py> = PyArrayLike2<'py, f32, AllowTypeChange>;
 type Pair<'py> = (Bound<'py, PyArray2<i32>>, Bound<'py, PyArray2<f32>>);
-/// Top-k weights with their report: bone indices int32 (n,k), weights float32 (n,k), report dict.
-type PairAndReport<'py> = (Bound<'py, PyArray2<i32>>, Bound<'py, PyArray2<f32>>, Bound<'py, PyDict>);
+
+/// What a heat or voxel bind did (`HeatReport`, and `VoxelReport`'s own fields, None for heat):
+/// pieces, fallback_pieces (saw no bone), rigid_pieces, boneless_pieces, spanning_pieces,
+/// isolated_vertices, welded_vertices, flipped_faces, mirrored_vertices, side_bones_paired,
+/// side_bones_unpaired, regularized, factorization_failed, timings (stage -> seconds); voxel:
+/// grid (3 ints), solid_voxels, outside_bones.
+#[pyclass(name = "WeightsReport", module = "miniskeleton_core", frozen, get_all)]
+pub struct PyWeightsReport {
+    pieces: usize,
+    fallback_pieces: usize,
+    rigid_pieces: usize,
+    boneless_pieces: usize,
+    spanning_pieces: usize,
+    isolated_vertices: usize,
+    welded_vertices: usize,
+    flipped_faces: usize,
+    mirrored_vertices: usize,
+    side_bones_paired: usize,
+    side_bones_unpaired: usize,
+    regularized: bool,
+    factorization_failed: bool,
+    timings: Py<PyDict>,
+    grid: Option<(usize, usize, usize)>,
+    solid_voxels: Option<usize>,
+    outside_bones: Option<usize>,
+}
+
+/// Top-k weights with their report: indices int32 (n,k) (-1 unused), weights float32 (n,k),
+/// report (`WeightsReport`).
+#[pyclass(name = "Weights", module = "miniskeleton_core", frozen, get_all)]
+pub struct PyWeights {
+    indices: Py<PyArray2<i32>>,
+    weights: Py<PyArray2<f32>>,
+    report: Py<PyWeightsReport>,
+}
+
+fn weights_result(py: Python<'_>, inf: Influences, report: PyWeightsReport) -> PyResult<PyWeights> {
+    let (indices, weights) = to_pair(py, inf)?;
+    Ok(PyWeights { indices: indices.unbind(), weights: weights.unbind(), report: Py::new(py, report)? })
+}
 
 fn to_pair<'py>(py: Python<'py>, inf: Influences) -> PyResult<Pair<'py>> {
     let n = inf.n();
@@ -59,22 +98,18 @@ pub fn idw_weights<'py>(
     to_pair(py, inf)
 }
 
-/// Nearest-bone weights with joint blending (see `bilinear.rs`).
+/// Nearest-bone weights with joint blending (see `bilinear.rs`). Keywords: max_influences,
+/// nearest, falloff ("gaussian" | "inverse_power"), sigma (gaussian), power (inverse_power);
+/// each left out keeps `BilinearOptions::default()`.
 #[pyfunction]
-#[pyo3(signature = (vertices, bone_heads, bone_tails, parents=None, *, max_influences=4, nearest=3,
-                    falloff="gaussian", sigma=None, power=2.0))]
-#[allow(clippy::too_many_arguments)]
+#[pyo3(signature = (vertices, bone_heads, bone_tails, parents=None, **options))]
 pub fn bilinear_weights<'py>(
     py: Python<'py>,
     vertices: F32Rows<'py>,
     bone_heads: F32Rows<'py>,
     bone_tails: F32Rows<'py>,
     parents: Option<Indices<'py>>,
-    max_influences: usize,
-    nearest: usize,
-    falloff: &str,
-    sigma: Option<f32>,
-    power: f32,
+    options: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<Pair<'py>> {
     let v = rows::<f32, 3>(&vertices, "vertices")?;
     let h = rows::<f32, 3>(&bone_heads, "bone_heads")?;
@@ -83,39 +118,55 @@ pub fn bilinear_weights<'py>(
         Some(p) => indices(&p, "parents")?,
         None => vec![-1; h.len()],
     };
-    let falloff = match falloff.to_ascii_lowercase().as_str() {
-        "gaussian" => Falloff::Gaussian { sigma },
-        "inverse_power" | "power" => Falloff::InversePower { power },
-        other => {
+    // The falloff's name and its parameters, in any order: (name, sigma, power).
+    let given = (None::<String>, None::<f32>, None::<f32>);
+    let (mut opts, (name, sigma, power)) =
+        read_options("bilinear_weights", options, (BilinearOptions::default(), given), |(o, f), key, value| {
+            match key {
+                "max_influences" => o.max_influences = positive_k(keyword(value, key)?)?,
+                "nearest" => o.nearest = keyword(value, key)?,
+                "falloff" => f.0 = Some(keyword(value, key)?),
+                "sigma" => f.1 = optional(value, key, Ok)?,
+                "power" => f.2 = Some(keyword(value, key)?),
+                _ => return Ok(false),
+            }
+            Ok(true)
+        })?;
+    opts.falloff = match name.as_deref().map(str::to_ascii_lowercase).as_deref() {
+        None | Some("gaussian") => Falloff::Gaussian { sigma },
+        Some("inverse_power" | "power") => Falloff::InversePower { power: power.unwrap_or(INVERSE_POWER) },
+        Some(other) => {
             return Err(PyValueError::new_err(format!("falloff must be 'gaussian' or 'inverse_power', got {other:?}")))
         }
     };
-    let opts = BilinearOptions { nearest, falloff, max_influences: positive_k(max_influences)? };
     let inf = guarded(py, || core_bilinear(&v, &h, &t, &p, &opts))?;
     to_pair(py, inf)
 }
 
-fn report_dict<'py>(py: Python<'py>, r: &HeatReport) -> PyResult<Bound<'py, PyDict>> {
-    let d = PyDict::new(py);
-    d.set_item("pieces", r.pieces)?;
-    d.set_item("fallback_pieces", r.fallback_pieces)?;
-    d.set_item("rigid_pieces", r.rigid_pieces)?;
-    d.set_item("boneless_pieces", r.boneless_pieces)?;
-    d.set_item("spanning_pieces", r.spanning_pieces)?;
-    d.set_item("isolated_vertices", r.isolated_vertices)?;
-    d.set_item("welded_vertices", r.welded_vertices)?;
-    d.set_item("flipped_faces", r.flipped_faces)?;
-    d.set_item("mirrored_vertices", r.mirrored_vertices)?;
-    d.set_item("side_bones_paired", r.side_bones_paired)?;
-    d.set_item("side_bones_unpaired", r.side_bones_unpaired)?;
-    d.set_item("regularized", r.regularized)?;
-    d.set_item("factorization_failed", r.factorization_failed)?;
-    let t = PyDict::new(py);
+fn heat_report(py: Python<'_>, r: &HeatReport) -> PyResult<PyWeightsReport> {
+    let timings = PyDict::new(py);
     for (name, secs) in &r.timings {
-        t.set_item(*name, *secs)?;
+        timings.set_item(*name, *secs)?;
     }
-    d.set_item("timings", t)?;
-    Ok(d)
+    Ok(PyWeightsReport {
+        pieces: r.pieces,
+        fallback_pieces: r.fallback_pieces,
+        rigid_pieces: r.rigid_pieces,
+        boneless_pieces: r.boneless_pieces,
+        spanning_pieces: r.spanning_pieces,
+        isolated_vertices: r.isolated_vertices,
+        welded_vertices: r.welded_vertices,
+        flipped_faces: r.flipped_faces,
+        mirrored_vertices: r.mirrored_vertices,
+        side_bones_paired: r.side_bones_paired,
+        side_bones_unpaired: r.side_bones_unpaired,
+        regularized: r.regularized,
+        factorization_failed: r.factorization_failed,
+        timings: timings.unbind(),
+        grid: None,
+        solid_voxels: None,
+        outside_bones: None,
+    })
 }
 
 /// The heat keywords shared by `heat_weights*` and `heat_sources`, read into `HeatOptions`:
@@ -123,62 +174,62 @@ fn report_dict<'py>(py: Python<'py>, r: &HeatReport) -> PyResult<Bound<'py, PyDi
 /// given, and an unknown keyword is a `TypeError` naming it (as Python's own). The symmetry
 /// plane is `symmetry_axis = 0` (default axis 0).
 fn heat_options(function: &str, options: Option<&Bound<'_, PyDict>>) -> PyResult<HeatOptions> {
-    let mut opts = HeatOptions::default();
-    let (mut bone_mirror, mut symmetry_axis) = (None, 0usize);
-    let (mut curve_points, mut curve_bones) = (None, None);
-    for (key, value) in options.into_iter().flat_map(|d| d.iter()) {
-        let key: String = key.extract()?;
-        let value = &value;
-        match key.as_str() {
-            "max_influences" => opts.max_influences = positive_k(keyword(value, &key)?)?,
-            "min_weight" => opts.min_weight = keyword(value, &key)?,
-            "visibility" => opts.visibility = keyword(value, &key)?,
-            "weld_tolerance" => opts.weld_tolerance = keyword(value, &key)?,
-            "heat_constant" => opts.heat_constant = keyword(value, &key)?,
-            "bone_mirror" => bone_mirror = optional(value, &key, |m: Indices| indices(&m, "bone_mirror"))?,
-            "symmetry_axis" => symmetry_axis = keyword(value, &key)?,
-            "symmetry_tolerance" => opts.mirror_tolerance = keyword(value, &key)?,
-            "parents" => opts.parents = optional(value, &key, |p: Indices| indices(&p, "parents"))?,
-            "curve_points" => curve_points = optional(value, &key, |p: F32Rows| rows::<f32, 3>(&p, "curve_points"))?,
-            "curve_bones" => curve_bones = optional(value, &key, |j: Indices| indices(&j, "curve_bones"))?,
-            _ => return Err(PyTypeError::new_err(format!("{function}() got an unexpected keyword argument '{key}'"))),
-        }
-    }
-    if symmetry_axis > 2 {
-        return Err(PyValueError::new_err("symmetry_axis must be 0, 1 or 2"));
-    }
-    opts.symmetry = bone_mirror.map(|mirror| Symmetry { axis: symmetry_axis, plane: 0.0, mirror });
-    opts.curves = match (curve_points, curve_bones) {
-        (None, None) => None,
-        (Some(points), Some(bone)) => Some(BoneCurves { points, bone }),
-        _ => return Err(PyValueError::new_err("curve_points and curve_bones go together")),
-    };
+    let (mut opts, bones) =
+        read_options(function, options, (HeatOptions::default(), BoneKeywords::default()), |(o, b), key, value| {
+            match key {
+                "max_influences" => o.max_influences = positive_k(keyword(value, key)?)?,
+                "min_weight" => o.min_weight = keyword(value, key)?,
+                "visibility" => o.visibility = keyword(value, key)?,
+                "weld_tolerance" => o.weld_tolerance = keyword(value, key)?,
+                "heat_constant" => o.heat_constant = keyword(value, key)?,
+                "symmetry_tolerance" => o.mirror_tolerance = keyword(value, key)?,
+                "parents" => o.parents = optional(value, key, |p: Indices| indices(&p, "parents"))?,
+                _ => return b.read(key, value),
+            }
+            Ok(true)
+        })?;
+    (opts.symmetry, opts.curves) = bones.finish()?;
     Ok(opts)
 }
 
-/// The keyword argument `value` of `key` as a `T`; a `TypeError` names the keyword, as pyo3
-/// names the arguments of a signature.
-fn keyword<'a, 'py, T: FromPyObject<'a, 'py>>(value: &'a Bound<'py, PyAny>, key: &str) -> PyResult<T> {
-    value.extract::<T>().map_err(|e| {
-        let e: PyErr = e.into();
-        if e.is_instance_of::<PyTypeError>(value.py()) {
-            PyTypeError::new_err(format!("argument '{key}': {}", e.value(value.py())))
-        } else {
-            e
-        }
-    })
+/// The keywords the heat and voxel bindings share about the bones: `bone_mirror` with
+/// `symmetry_axis` (0, 1 or 2; default 0), and bent bones as `curve_points` with `curve_bones`.
+#[derive(Default)]
+struct BoneKeywords {
+    bone_mirror: Option<Vec<i32>>,
+    symmetry_axis: usize,
+    curve_points: Option<Vec<[f32; 3]>>,
+    curve_bones: Option<Vec<u32>>,
 }
 
-/// An optional keyword argument: `None` (as not given), or `value` read as a `T` and converted.
-fn optional<'a, 'py, T: FromPyObject<'a, 'py>, U>(
-    value: &'a Bound<'py, PyAny>,
-    key: &str,
-    convert: impl FnOnce(T) -> PyResult<U>,
-) -> PyResult<Option<U>> {
-    if value.is_none() {
-        return Ok(None);
+impl BoneKeywords {
+    /// Take `key` if it is one of these; `Ok(false)` if not.
+    fn read(&mut self, key: &str, value: &Bound<'_, PyAny>) -> PyResult<bool> {
+        match key {
+            "bone_mirror" => self.bone_mirror = optional(value, key, |m: Indices| indices(&m, "bone_mirror"))?,
+            "symmetry_axis" => self.symmetry_axis = keyword(value, key)?,
+            "curve_points" => {
+                self.curve_points = optional(value, key, |p: F32Rows| rows::<f32, 3>(&p, "curve_points"))?
+            }
+            "curve_bones" => self.curve_bones = optional(value, key, |j: Indices| indices(&j, "curve_bones"))?,
+            _ => return Ok(false),
+        }
+        Ok(true)
     }
-    keyword(value, key).and_then(convert).map(Some)
+
+    /// The mirror across `x[symmetry_axis] = 0` and the bent bones, checked.
+    fn finish(self) -> PyResult<(Option<Symmetry>, Option<BoneCurves>)> {
+        if self.symmetry_axis > 2 {
+            return Err(PyValueError::new_err("symmetry_axis must be 0, 1 or 2"));
+        }
+        let symmetry = self.bone_mirror.map(|mirror| Symmetry { axis: self.symmetry_axis, plane: 0.0, mirror });
+        let curves = match (self.curve_points, self.curve_bones) {
+            (None, None) => None,
+            (Some(points), Some(bone)) => Some(BoneCurves { points, bone }),
+            _ => return Err(PyValueError::new_err("curve_points and curve_bones go together")),
+        };
+        Ok((symmetry, curves))
+    }
 }
 
 /// The four positional arrays of the single-mesh heat functions.
@@ -216,7 +267,7 @@ pub fn heat_weights<'py>(
     to_pair(py, inf)
 }
 
-/// As `heat_weights`, plus a report dict (pieces, fallback_pieces, rigid_pieces, timings, ...).
+/// As `heat_weights`, with its report: a `Weights` (indices, weights, report).
 #[pyfunction]
 #[pyo3(signature = (vertices, triangles, bone_heads, bone_tails, *, progress=None, **options))]
 pub fn heat_weights_report<'py>(
@@ -227,12 +278,11 @@ pub fn heat_weights_report<'py>(
     bone_tails: F32Rows<'py>,
     progress: Option<Py<PyAny>>,
     options: Option<&Bound<'py, PyDict>>,
-) -> PyResult<PairAndReport<'py>> {
+) -> PyResult<PyWeights> {
     let opts = heat_options("heat_weights_report", options)?;
     let inputs = mesh_and_bones(&vertices, &triangles, &bone_heads, &bone_tails)?;
     let (inf, report) = solve_heat(py, &inputs, &opts, progress)?;
-    let (i, w) = to_pair(py, inf)?;
-    Ok((i, w, report_dict(py, &report)?))
+    weights_result(py, inf, heat_report(py, &report)?)
 }
 
 /// `heat_weights` of the core with a Python progress callable (see [`with_progress`]).
@@ -281,7 +331,7 @@ fn with_progress<T: Send>(
 /// `heat_weights_report` of several independent meshes with the same bones and options, solved
 /// in parallel in one call (for many small meshes, where a call per mesh costs more than its
 /// solve). `meshes`: [(vertices (n,3), triangles (m,3))]. Returns one entry per mesh, in order:
-/// the tuple (indices, weights, report), or the exception that mesh raised (`ValueError` for
+/// its `Weights`, or the exception that mesh raised (`ValueError` for
 /// bad input, `RuntimeError` for a panic in its solve, caught per mesh in the core), returned
 /// rather than raised so that the other meshes' results stand.
 #[pyfunction]
@@ -305,10 +355,7 @@ pub fn heat_weights_many<'py>(
     solved
         .into_iter()
         .map(|r| match r {
-            Ok((inf, report)) => {
-                let (i, w) = to_pair(py, inf)?;
-                Ok((i, w, report_dict(py, &report)?).into_pyobject(py)?.into_any())
-            }
+            Ok((inf, report)) => Ok(Bound::new(py, weights_result(py, inf, heat_report(py, &report)?)?)?.into_any()),
             Err(e) => Ok(to_py(e).into_value(py).into_bound(py).into_any()),
         })
         .collect()
@@ -338,9 +385,7 @@ pub fn heat_sources<'py>(
 /// The keywords are those of `heat_weights_many`.
 #[pyfunction]
 #[pyo3(signature = (vertices, triangles, bone_heads, bone_tails, source_indices, source_weights, **options))]
-#[allow(clippy::too_many_arguments)]
 pub fn heat_weights_from_sources<'py>(
-    py: Python<'py>,
     vertices: F32Rows<'py>,
     triangles: IndexRows<'py>,
     bone_heads: F32Rows<'py>,
@@ -348,7 +393,8 @@ pub fn heat_weights_from_sources<'py>(
     source_indices: IndexRows<'py>,
     source_weights: F32Rows<'py>,
     options: Option<&Bound<'py, PyDict>>,
-) -> PyResult<PairAndReport<'py>> {
+) -> PyResult<PyWeights> {
+    let py = vertices.py();
     let opts = heat_options("heat_weights_from_sources", options)?;
     let (v, tri, h, t) = mesh_and_bones(&vertices, &triangles, &bone_heads, &bone_tails)?;
     let (shape, k) = (source_indices.as_array().dim(), source_weights.as_array().dim());
@@ -363,8 +409,7 @@ pub fn heat_weights_from_sources<'py>(
         weights: source_weights.as_array().iter().copied().collect(),
     };
     let (inf, report) = guarded(py, || core_heat_from_sources(&v, &tri, &h, &t, &sources, &opts, None))?;
-    let (i, w) = to_pair(py, inf)?;
-    Ok((i, w, report_dict(py, &report)?))
+    weights_result(py, inf, heat_report(py, &report)?)
 }
 
 /// Estimated peak bytes of one heat solve of `vertices` vertices and `bones` bones
@@ -374,14 +419,13 @@ pub fn heat_peak_bytes(vertices: usize, bones: usize) -> u64 {
     miniskeleton_core::weights::heat::heat_peak_bytes(vertices, bones)
 }
 
-/// Geodesic voxel binding (Dionne & de Lasa 2013): (indices, weights, report). `objects` (n,):
+/// Geodesic voxel binding (Dionne & de Lasa 2013): a `Weights` (indices, weights, report). `objects` (n,):
 /// the object of each vertex when several meshes are stacked (an object whose pieces hold no
 /// bone is a prop, bound rigidly); `bone_mirror` and `symmetry_axis` as for `heat_weights`.
+/// Keywords: resolution, falloff, max_influences, bone_mirror, symmetry_axis, parents,
+/// curve_points, curve_bones, objects; each left out keeps `VoxelOptions::default()`.
 #[pyfunction]
-#[pyo3(signature = (vertices, triangles, bone_heads, bone_tails, *, progress=None, resolution=64, falloff=0.02,
-                    max_influences=4, bone_mirror=None, symmetry_axis=0, parents=None, curve_points=None,
-                    curve_bones=None, objects=None))]
-#[allow(clippy::too_many_arguments)]
+#[pyo3(signature = (vertices, triangles, bone_heads, bone_tails, *, progress=None, **options))]
 pub fn voxel_weights<'py>(
     py: Python<'py>,
     vertices: F32Rows<'py>,
@@ -389,68 +433,53 @@ pub fn voxel_weights<'py>(
     bone_heads: F32Rows<'py>,
     bone_tails: F32Rows<'py>,
     progress: Option<Py<PyAny>>,
-    resolution: usize,
-    falloff: f32,
-    max_influences: usize,
-    bone_mirror: Option<Indices<'py>>,
-    symmetry_axis: usize,
-    parents: Option<Indices<'py>>,
-    curve_points: Option<F32Rows<'py>>,
-    curve_bones: Option<Indices<'py>>,
-    objects: Option<Indices<'py>>,
-) -> PyResult<PairAndReport<'py>> {
+    options: Option<&Bound<'py, PyDict>>,
+) -> PyResult<PyWeights> {
     let (v, tri, h, t) = mesh_and_bones(&vertices, &triangles, &bone_heads, &bone_tails)?;
-    if symmetry_axis > 2 {
-        return Err(PyValueError::new_err("symmetry_axis must be 0, 1 or 2"));
-    }
-    let opts = VoxelOptions {
-        resolution,
-        falloff,
-        max_influences: positive_k(max_influences)?,
-        symmetry: bone_mirror
-            .map(|m| Ok::<_, PyErr>(Symmetry { axis: symmetry_axis, plane: 0.0, mirror: indices(&m, "bone_mirror")? }))
-            .transpose()?,
-        parents: parents.map(|p| indices(&p, "parents")).transpose()?,
-        curves: bone_curves(curve_points, curve_bones)?,
-        objects: objects.map(|o| indices(&o, "objects")).transpose()?,
-        ..Default::default()
-    };
+    let opts = voxel_options("voxel_weights", options, &["resolution", "falloff", "max_influences", "objects"])?;
     let (inf, report) = with_progress(py, progress, |cb| core_voxel(&v, &tri, &h, &t, &opts, cb))?;
-    let (i, w) = to_pair(py, inf)?;
-    Ok((i, w, voxel_report_dict(py, &report)?))
+    weights_result(py, inf, voxel_report(py, &report)?)
 }
 
-/// Bent bones from the optional `curve_points` / `curve_bones` pair.
-fn bone_curves(points: Option<F32Rows<'_>>, bones: Option<Indices<'_>>) -> PyResult<Option<BoneCurves>> {
-    match (points, bones) {
-        (None, None) => Ok(None),
-        (Some(p), Some(b)) => {
-            Ok(Some(BoneCurves { points: rows::<f32, 3>(&p, "curve_points")?, bone: indices(&b, "curve_bones")? }))
-        }
-        _ => Err(PyValueError::new_err("curve_points and curve_bones go together")),
-    }
+/// The voxel keywords read into `VoxelOptions::default()`: `parents`, the bones' keywords
+/// ([`BoneKeywords`]) and those of `own` among resolution, falloff, max_influences and objects.
+fn voxel_options(function: &str, options: Option<&Bound<'_, PyDict>>, own: &[&str]) -> PyResult<VoxelOptions> {
+    let (mut opts, bones) =
+        read_options(function, options, (VoxelOptions::default(), BoneKeywords::default()), |(o, b), key, value| {
+            match key {
+                "parents" => o.parents = optional(value, key, |p: Indices| indices(&p, "parents"))?,
+                _ if !own.contains(&key) => return b.read(key, value),
+                "resolution" => o.resolution = keyword(value, key)?,
+                "falloff" => o.falloff = keyword(value, key)?,
+                "max_influences" => o.max_influences = positive_k(keyword(value, key)?)?,
+                "objects" => o.objects = optional(value, key, |j: Indices| indices(&j, "objects"))?,
+                _ => return Ok(false),
+            }
+            Ok(true)
+        })?;
+    (opts.symmetry, opts.curves) = bones.finish()?;
+    Ok(opts)
 }
 
-fn voxel_report_dict<'py>(py: Python<'py>, r: &VoxelReport) -> PyResult<Bound<'py, PyDict>> {
-    let d = report_dict(py, &r.heat)?;
-    d.set_item("grid", r.grid.to_vec())?;
-    d.set_item("solid_voxels", r.solid_voxels)?;
-    d.set_item("outside_bones", r.outside_bones)?;
-    let t = d.get_item("timings")?.expect("report_dict sets timings");
-    let t = t.cast::<PyDict>()?;
+fn voxel_report(py: Python<'_>, r: &VoxelReport) -> PyResult<PyWeightsReport> {
+    let report = heat_report(py, &r.heat)?;
+    let timings = report.timings.bind(py);
     for (name, secs) in &r.timings {
-        t.set_item(*name, *secs)?;
+        timings.set_item(*name, *secs)?;
     }
-    Ok(d)
+    let [x, y, z] = r.grid;
+    Ok(PyWeightsReport {
+        grid: Some((x, y, z)),
+        solid_voxels: Some(r.solid_voxels),
+        outside_bones: Some(r.outside_bones),
+        ..report
+    })
 }
 
 /// Debug and evaluation: each vertex's k nearest bones by geodesic distance through the voxel
-/// solid: (indices (n,k) int32, -1 unused; geodesic, straight distances (n,k) float32, bbox
-/// diagonals; cosines (n,k) float32 of the vertex normal and the direction from the bone).
+/// solid, a `VoxelDistances`.
 #[pyfunction]
-#[pyo3(signature = (vertices, triangles, bone_heads, bone_tails, *, k=8, resolution=64, parents=None,
-                    curve_points=None, curve_bones=None))]
-#[allow(clippy::too_many_arguments)]
+#[pyo3(signature = (vertices, triangles, bone_heads, bone_tails, *, k=8, **options))]
 pub fn voxel_distances<'py>(
     py: Python<'py>,
     vertices: F32Rows<'py>,
@@ -458,51 +487,76 @@ pub fn voxel_distances<'py>(
     bone_heads: F32Rows<'py>,
     bone_tails: F32Rows<'py>,
     k: usize,
-    resolution: usize,
-    parents: Option<Indices<'py>>,
-    curve_points: Option<F32Rows<'py>>,
-    curve_bones: Option<Indices<'py>>,
-) -> PyResult<VoxelQuad<'py>> {
+    options: Option<&Bound<'py, PyDict>>,
+) -> PyResult<PyVoxelDistances> {
     let (v, tri, h, t) = mesh_and_bones(&vertices, &triangles, &bone_heads, &bone_tails)?;
-    let opts = VoxelOptions {
-        resolution,
-        parents: parents.map(|p| indices(&p, "parents")).transpose()?,
-        curves: bone_curves(curve_points, curve_bones)?,
-        ..Default::default()
-    };
+    let opts = voxel_options("voxel_distances", options, &["resolution"])?;
     let out = guarded(py, || core_voxel_distances(&v, &tri, &h, &t, k, &opts))?;
     let n = out.bones.len() / k.max(1);
-    Ok((
-        matrix(py, out.bones, n, k)?,
-        matrix(py, out.geodesic, n, k)?,
-        matrix(py, out.euclid, n, k)?,
-        matrix(py, out.cos, n, k)?,
-    ))
+    Ok(PyVoxelDistances {
+        indices: matrix(py, out.bones, n, k)?.unbind(),
+        geodesic: matrix(py, out.geodesic, n, k)?.unbind(),
+        straight: matrix(py, out.euclid, n, k)?.unbind(),
+        cosines: matrix(py, out.cos, n, k)?.unbind(),
+    })
 }
 
-type VoxelQuad<'py> =
-    (Bound<'py, PyArray2<i32>>, Bound<'py, PyArray2<f32>>, Bound<'py, PyArray2<f32>>, Bound<'py, PyArray2<f32>>);
+/// Each vertex's k nearest bones through the voxel solid: indices (n,k) int32 (-1 unused);
+/// geodesic and straight distances (n,k) float32 in bbox diagonals; cosines (n,k) float32 of
+/// the vertex normal and the direction from the bone.
+#[pyclass(name = "VoxelDistances", module = "miniskeleton_core", frozen, get_all)]
+pub struct PyVoxelDistances {
+    indices: Py<PyArray2<i32>>,
+    geodesic: Py<PyArray2<f32>>,
+    straight: Py<PyArray2<f32>>,
+    cosines: Py<PyArray2<f32>>,
+}
+
+/// What a transfer did: garment vertices matched on the body, inpainted, given their nearest
+/// points' weights (`nearest`), and whether the solve was regularized.
+#[pyclass(name = "TransferReport", module = "miniskeleton_core", frozen, get_all)]
+pub struct PyTransferReport {
+    matched: usize,
+    inpainted: usize,
+    nearest: usize,
+    regularized: bool,
+}
+
+/// Transferred top-k weights: indices int32 (n,k), weights float32 (n,k), report
+/// (`TransferReport`).
+#[pyclass(name = "TransferredWeights", module = "miniskeleton_core", frozen, get_all)]
+pub struct PyTransferredWeights {
+    indices: Py<PyArray2<i32>>,
+    weights: Py<PyArray2<f32>>,
+    report: Py<PyTransferReport>,
+}
 
 /// Robust skin weights transfer (Abdrashitov et al. 2023): a body's weights onto a garment.
-/// `body_indices` / `body_weights` (nb,k): the body's top-k weights. Returns (indices, weights,
-/// report: matched, inpainted, nearest, regularized).
+/// `body_indices` / `body_weights` (nb,k): the body's top-k weights. Returns a
+/// `TransferredWeights`. Keywords: max_distance, max_angle, flipped,
+/// max_influences; each left out keeps `TransferOptions::default()`.
 #[pyfunction]
-#[pyo3(signature = (body_vertices, body_triangles, body_indices, body_weights, vertices, triangles, *,
-                    max_distance=0.05, max_angle=30.0, flipped=true, max_influences=4))]
-#[allow(clippy::too_many_arguments)]
+#[pyo3(signature = (body_vertices, body_triangles, body_indices, body_weights, vertices, triangles, **options))]
 pub fn transfer_weights<'py>(
-    py: Python<'py>,
     body_vertices: F32Rows<'py>,
     body_triangles: IndexRows<'py>,
     body_indices: IndexRows<'py>,
     body_weights: F32Rows<'py>,
     vertices: F32Rows<'py>,
     triangles: IndexRows<'py>,
-    max_distance: f32,
-    max_angle: f32,
-    flipped: bool,
-    max_influences: usize,
-) -> PyResult<PairAndReport<'py>> {
+    options: Option<&Bound<'py, PyDict>>,
+) -> PyResult<PyTransferredWeights> {
+    let py = vertices.py();
+    let opts = read_options("transfer_weights", options, TransferOptions::default(), |o, key, value| {
+        match key {
+            "max_distance" => o.max_distance = keyword(value, key)?,
+            "max_angle" => o.max_angle = keyword(value, key)?,
+            "flipped" => o.flipped = keyword(value, key)?,
+            "max_influences" => o.max_influences = positive_k(keyword(value, key)?)?,
+            _ => return Ok(false),
+        }
+        Ok(true)
+    })?;
     let bv = rows::<f32, 3>(&body_vertices, "body_vertices")?;
     let bt = index_rows::<u32, 3>(&body_triangles, "body_triangles")?;
     let v = rows::<f32, 3>(&vertices, "vertices")?;
@@ -518,24 +572,19 @@ pub fn transfer_weights<'py>(
         indices: index_matrix::<i32>(&body_indices, "body_indices")?,
         weights: body_weights.as_array().iter().copied().collect(),
     };
-    let opts = TransferOptions {
-        max_distance,
-        max_angle,
-        flipped,
-        max_influences: positive_k(max_influences)?,
-        ..Default::default()
-    };
     let (inf, r) = guarded(py, || core_transfer(&bv, &bt, &body, &v, &t, &opts))?;
-    let (i, w) = to_pair(py, inf)?;
-    let d = PyDict::new(py);
-    d.set_item("matched", r.matched)?;
-    d.set_item("inpainted", r.inpainted)?;
-    d.set_item("nearest", r.nearest)?;
-    d.set_item("regularized", r.regularized)?;
-    Ok((i, w, d))
+    let (indices, weights) = to_pair(py, inf)?;
+    let report =
+        PyTransferReport { matched: r.matched, inpainted: r.inpainted, nearest: r.nearest, regularized: r.regularized };
+    Ok(PyTransferredWeights { indices: indices.unbind(), weights: weights.unbind(), report: Py::new(py, report)? })
 }
 
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_class::<PyWeights>()?;
+    m.add_class::<PyWeightsReport>()?;
+    m.add_class::<PyVoxelDistances>()?;
+    m.add_class::<PyTransferredWeights>()?;
+    m.add_class::<PyTransferReport>()?;
     m.add_function(wrap_pyfunction!(voxel_weights, m)?)?;
     m.add_function(wrap_pyfunction!(transfer_weights, m)?)?;
     m.add_function(wrap_pyfunction!(voxel_distances, m)?)?;

@@ -64,18 +64,17 @@ const MIN_FIN: f64 = 0.08;
 const RESTING: f64 = 0.1;
 
 /// Read `tree` as a chain or winged body (`template`: `Chain`, `Winged`, or `Auto` for a
-/// legless body: Chain, or a refusal). `legs`: the feet of the legs that hold the body up.
-#[allow(clippy::too_many_arguments)]
+/// legless body: Chain, or a refusal; `forward`: the way the character faces, if given).
+/// `legs`: the feet of the legs that hold the body up; `ground` and `height`: the body's lowest
+/// point and its height.
 pub(crate) fn axial_body(
     tree: &Tree,
     vox: &Voxels,
     mirror: &Mirror,
     vertices: &[DVec3],
     legs: &[usize],
-    template: Template,
-    forward: Option<DVec3>,
-    ground: f64,
-    height: f64,
+    (template, forward): (Template, Option<DVec3>),
+    (ground, height): (f64, f64),
 ) -> Result<Body> {
     let leaves = tree.leaves();
     if leaves.len() < 2 {

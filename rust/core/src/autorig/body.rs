@@ -104,20 +104,20 @@ pub(crate) fn find_body(
         Template::Biped if feet.len() < 2 => return Err(needs("not standing upright")),
         Template::Biped | Template::Quadruped => legged(template)?,
         Template::Chain => {
-            axial::axial_body(tree, vox, &mirror, vertices, &[], Template::Chain, forward, ground, height)?
+            axial::axial_body(tree, vox, &mirror, vertices, &[], (Template::Chain, forward), (ground, height))?
         }
         Template::Winged => {
-            axial::axial_body(tree, vox, &mirror, vertices, &legs, Template::Winged, forward, ground, height)?
+            axial::axial_body(tree, vox, &mirror, vertices, &legs, (Template::Winged, forward), (ground, height))?
         }
         Template::Auto => {
             let winged =
-                axial::axial_body(tree, vox, &mirror, vertices, &legs, Template::Winged, forward, ground, height);
+                axial::axial_body(tree, vox, &mirror, vertices, &legs, (Template::Winged, forward), (ground, height));
             match winged {
                 Ok(b) => b,
                 Err(_) if n_legs >= 4 => legged(Template::Quadruped)?,
                 Err(_) if n_legs >= 2 => legged(Template::Biped)?,
                 Err(_) => {
-                    axial::axial_body(tree, vox, &mirror, vertices, &[], Template::Auto, forward, ground, height)?
+                    axial::axial_body(tree, vox, &mirror, vertices, &[], (Template::Auto, forward), (ground, height))?
                 }
             }
         }

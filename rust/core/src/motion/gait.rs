@@ -3,8 +3,8 @@
 //! rotations and a root offset that a caller turns into keyframes.
 //!
 //! Inputs
-//!   heads, tails  #B by 3 rest bone end points, +Z up (world space in the add-on)
-//!   parents       #B parent index, -1 for roots
+//!   skeleton      [`Skeleton`]: heads, tails #B by 3 rest bone end points, +Z up (world
+//!                 space in the add-on); parents #B parent index, -1 for roots; names
 //!   rest          #B rest orientations, row-major 3×3 whose columns are the bone's local
 //!                 X, Y (along the bone), Z axes in the same space (Blender:
 //!                 `armature.matrix_world.to_3x3() @ bone.matrix_local.to_3x3()`); scale is
@@ -57,241 +57,18 @@
 //! standing.
 
 use crate::error::{Error, Result};
+use crate::motion::clip::{frame_count, Cadence, Clip, GaitParams, Motion, Steer};
 use crate::motion::course::{Course, Steering};
-use crate::motion::footfalls::{
-    body_drop, foot_offset, foot_target, leaning_foot, leg_turns, planted_legs, stand_on, Ground,
-};
+use crate::motion::footfalls::{planted_legs, stand_on, Ground};
+use crate::motion::planting::{plant_legs, Planting};
+use crate::motion::pose::{new_poser, posed_frames, rider_pose, to_wxyz, Poser};
 use crate::motion::roles::{no_legs_message, BodyPlan, Limb, Roles, Side};
 use crate::motion::settle::{settle, Settle};
+use crate::motion::shake::head_shake;
 use crate::motion::skin::{arm_radius, elbow_clearance, hang_angle, leg_soles, Body, Hanging, Skin};
-use crate::motion::terrain::Terrain;
-use crate::skeleton::validate_parents;
-use glam::{Mat3, Quat, Vec3};
+use crate::skeleton::{validate_parents, Skeleton};
+use glam::{Quat, Vec3};
 use std::f32::consts::{PI, TAU};
-
-/// Which motion to make.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Motion {
-    HeadShake,
-    Walk,
-    Run,
-}
-
-/// Motion parameters. Angles in radians, times in seconds.
-#[derive(Debug, Clone, Copy)]
-pub struct GaitParams {
-    pub motion: Motion,
-    /// Frames per second of the scene.
-    pub fps: f32,
-    /// Gait cycles (WALK/RUN, rounded to whole frames) or shakes (HEAD_SHAKE).
-    pub cycles: f32,
-    /// HEAD_SHAKE length in seconds.
-    pub duration: f32,
-    /// HEAD_SHAKE yaw amplitude (radians, neck and head together).
-    pub amplitude: f32,
-    /// Stride multiplier (1 = the natural stride for the leg length).
-    pub stride: f32,
-    /// Cadence multiplier (1 = the natural cadence for the leg length).
-    pub speed: f32,
-    /// Move the root forward (else the character walks on the spot).
-    pub root_motion: bool,
-}
-
-impl Default for GaitParams {
-    fn default() -> Self {
-        GaitParams {
-            motion: Motion::Walk,
-            fps: 24.0,
-            cycles: 2.0,
-            duration: 2.0,
-            amplitude: 30f32.to_radians(),
-            stride: 1.0,
-            speed: 1.0,
-            root_motion: true,
-        }
-    }
-}
-
-/// Where a walk or run goes: along a course (`course.rs`; None: straight on along forward) and
-/// over a terrain (`terrain.rs`; level: the ground the feet rest on). With a course the clip
-/// covers its length (`cycles` is read from it) and needs root motion.
-#[derive(Debug, Clone, Default)]
-pub struct Steer {
-    pub course: Option<Course>,
-    pub terrain: Terrain,
-}
-
-/// Generated motion: `frames` frames, frame 0 first.
-#[derive(Debug, Clone)]
-pub struct Clip {
-    pub frames: usize,
-    pub bone_count: usize,
-    /// frames × bone_count local rotations (w, x, y, z); identity for bones not animated.
-    pub rotations: Vec<[f32; 4]>,
-    /// Root offset per frame in the input space (forward travel and vertical bob).
-    pub root_offset: Vec<[f32; 3]>,
-    /// Bones whose rotation this motion sets (sorted).
-    pub animated: Vec<usize>,
-    /// frames × bone_count local locations (Blender's `pose_bone.location` times the input's
-    /// scale); zero except for `located` bones.
-    pub locations: Vec<[f32; 3]>,
-    /// Bones whose location this motion sets: the feet riding on the root (`Roles::riders`).
-    pub located: Vec<usize>,
-    /// Whether `root_offset` is used (false for the head shake).
-    pub moves_root: bool,
-    /// Frames per gait cycle (HEAD_SHAKE: frames per shake).
-    pub frames_per_cycle: f32,
-}
-
-impl Clip {
-    pub fn rotation(&self, frame: usize, bone: usize) -> [f32; 4] {
-        self.rotations[frame * self.bone_count + bone]
-    }
-}
-
-/// Rest orientations as unit quaternions (columns orthonormalised, Y = bone axis kept).
-fn rest_quats(rest: &[[f32; 9]]) -> Vec<Quat> {
-    rest.iter()
-        .map(|m| {
-            // Row-major in. Entries near f32's limit would overflow the dot products below:
-            // scale them down.
-            let mut m = Mat3::from_cols_array(m).transpose();
-            let largest = m.abs().to_cols_array().into_iter().fold(0.0, f32::max);
-            if largest > 1e18 {
-                m *= 1.0 / largest;
-            }
-            let y = m.y_axis.normalize_or(Vec3::Y);
-            let mut x = m.x_axis - y * m.x_axis.dot(y);
-            if x.length_squared() < 1e-12 {
-                x = y.any_orthonormal_vector();
-            }
-            let x = x.normalize();
-            let z = x.cross(y);
-            Quat::from_mat3(&Mat3::from_cols(x, y, z)).normalize()
-        })
-        .collect()
-}
-
-fn to_wxyz(q: Quat) -> [f32; 4] {
-    [q.w, q.x, q.y, q.z]
-}
-
-/// Posed bone heads and tails by forward kinematics: `local` are the local rotations
-/// (w, x, y, z) per bone, `locations` (empty, or one per bone) move a bone's head along its
-/// rest axes as Blender's `pose_bone.location` does, `root_offset` is added to every root's
-/// head. Shapes as the inputs.
-pub fn posed_points(
-    heads: &[[f32; 3]],
-    tails: &[[f32; 3]],
-    parents: &[i32],
-    rest: &[[f32; 9]],
-    local: &[[f32; 4]],
-    locations: &[[f32; 3]],
-    root_offset: [f32; 3],
-) -> (Vec<[f32; 3]>, Vec<[f32; 3]>) {
-    let (delta, ph) = posed_frames(heads, parents, &rest_quats(rest), local, locations, root_offset);
-    let pt = (0..heads.len())
-        .map(|b| (ph[b] + delta[b] * (Vec3::from(tails[b]) - Vec3::from(heads[b]))).to_array())
-        .collect();
-    (ph.iter().map(|p| p.to_array()).collect(), pt)
-}
-
-/// Forward kinematics as rigid motions: each bone's world rotation from rest and posed head.
-pub(super) fn posed_frames(
-    heads: &[[f32; 3]],
-    parents: &[i32],
-    rq: &[Quat],
-    local: &[[f32; 4]],
-    locations: &[[f32; 3]],
-    root_offset: [f32; 3],
-) -> (Vec<Quat>, Vec<Vec3>) {
-    let n = heads.len();
-    let mut delta = vec![Quat::IDENTITY; n];
-    let mut ph = vec![Vec3::ZERO; n];
-    for b in preorder(parents) {
-        let q = Quat::from_xyzw(local[b][1], local[b][2], local[b][3], local[b][0]).normalize();
-        let moved = Vec3::from(heads[b]) + locations.get(b).map_or(Vec3::ZERO, |&l| rq[b] * Vec3::from(l));
-        let (pd, head) = match parents[b] {
-            p if p >= 0 => {
-                let p = p as usize;
-                (delta[p], ph[p] + delta[p] * (moved - Vec3::from(heads[p])))
-            }
-            _ => (Quat::IDENTITY, moved + Vec3::from(root_offset)),
-        };
-        delta[b] = pd * rq[b] * q * rq[b].inverse();
-        ph[b] = head;
-    }
-    (delta, ph)
-}
-
-/// Local rotation and location (in its rest frame, input units) that put `rider` -- a foot
-/// hanging off the root (`Roles::riders`) -- where its leg carries it: `delta`/`ph` are the
-/// frames with the rider on its leg, `real` those of the input hierarchy. Blender's pose
-/// maths: posed head = parent's motion applied to (rest head + rest rotation · location).
-fn rider_pose(
-    rider: usize,
-    heads: &[[f32; 3]],
-    parents: &[i32],
-    rq: &[Quat],
-    (delta, ph): (&[Quat], &[Vec3]),
-    (real_delta, real_ph): (&[Quat], &[Vec3]),
-) -> (Quat, Vec3) {
-    let (pd, from) = match parents[rider] {
-        p if p >= 0 => {
-            let p = p as usize;
-            (real_delta[p], real_ph[p] + real_delta[p] * (Vec3::from(heads[rider]) - Vec3::from(heads[p])))
-        }
-        _ => (Quat::IDENTITY, Vec3::from(heads[rider])),
-    };
-    let inv = rq[rider].inverse();
-    let rotation = inv * pd.inverse() * delta[rider] * rq[rider];
-    let location = inv * (pd.inverse() * (ph[rider] - from));
-    (rotation.normalize(), location)
-}
-
-fn preorder(parents: &[i32]) -> Vec<usize> {
-    let n = parents.len();
-    let mut kids = vec![Vec::new(); n];
-    for (b, &p) in parents.iter().enumerate() {
-        if p >= 0 {
-            kids[p as usize].push(b);
-        }
-    }
-    let mut out = Vec::with_capacity(n);
-    let mut stack: Vec<usize> = (0..n).filter(|&b| parents[b] < 0).collect();
-    while let Some(b) = stack.pop() {
-        out.push(b);
-        stack.extend(&kids[b]);
-    }
-    out
-}
-
-struct Poser {
-    rest: Vec<Quat>,
-    q: Vec<Quat>,
-    touched: Vec<bool>,
-}
-
-impl Poser {
-    /// Rotate bone `b` by `angle` about the world `axis` (expressed in its rest frame).
-    fn rotate(&mut self, b: usize, axis: Vec3, angle: f32) {
-        let local = self.rest[b].inverse() * axis;
-        self.q[b] *= Quat::from_axis_angle(local.normalize(), angle);
-        self.touched[b] = true;
-    }
-
-    /// Set bone `b`'s turn relative to its parent to `world` (in the rest pose's axes).
-    fn turn(&mut self, b: usize, world: Quat) {
-        self.q[b] = (self.rest[b].inverse() * world * self.rest[b]).normalize();
-        self.touched[b] = true;
-    }
-
-    /// Turn bone `b` by `world` (in the rest pose's axes) after its own turn.
-    fn pre_turn(&mut self, b: usize, world: Quat) {
-        self.q[b] = (self.rest[b].inverse() * world * self.rest[b] * self.q[b]).normalize();
-        self.touched[b] = true;
-    }
-}
 
 /// +1 or -1: the rotation about `axis` of bone `b` that brings its tail closer to `pivot`.
 fn flex_sign(heads: &[[f32; 3]], tails: &[[f32; 3]], b: usize, pivot: Vec3, axis: Vec3, default: f32) -> f32 {
@@ -316,11 +93,6 @@ fn swing_index(heads: &[[f32; 3]], tails: &[[f32; 3]], limb: &Limb) -> usize {
             -d.z >= 0.5 * d.length()
         })
         .unwrap_or(0)
-}
-
-fn smoothstep(e0: f32, e1: f32, x: f32) -> f32 {
-    let t = ((x - e0) / (e1 - e0)).clamp(0.0, 1.0);
-    t * t * (3.0 - 2.0 * t)
 }
 
 /// Phase offset of each leg (fraction of a cycle) for this body plan and gait.
@@ -361,14 +133,8 @@ fn leg_phases(roles: &Roles, motion: Motion) -> Vec<f32> {
         .collect()
 }
 
-fn check(
-    heads: &[[f32; 3]],
-    tails: &[[f32; 3]],
-    parents: &[i32],
-    rest: &[[f32; 9]],
-    roles: &Roles,
-    p: &GaitParams,
-) -> Result<()> {
+fn check(skeleton: &Skeleton, rest: &[[f32; 9]], roles: &Roles, p: &GaitParams) -> Result<()> {
+    let Skeleton { heads, tails, parents, .. } = *skeleton;
     let n = heads.len();
     if tails.len() != n || parents.len() != n || rest.len() != n {
         return Err(Error::Shape(format!(
@@ -417,30 +183,26 @@ fn check(
 /// Make the motion (see the module doc), reading the character's `skin` for its soles and its
 /// body's width beside the arms ([`Skin::NONE`]: the bones alone).
 pub fn motion_clip(
-    heads: &[[f32; 3]],
-    tails: &[[f32; 3]],
-    parents: &[i32],
+    skeleton: &Skeleton,
     rest: &[[f32; 9]],
     roles: &Roles,
     params: &GaitParams,
     skin: &Skin,
 ) -> Result<Clip> {
-    steered_clip(heads, tails, parents, rest, roles, (params, &Steer::default()), skin)
+    steered_clip(skeleton, rest, roles, (params, &Steer::default()), skin)
 }
 
 /// [`motion_clip`] steered (`steer`: along a course, over a terrain; see [`Steer`]). A course
 /// without root motion (in place) or with a stride of 0 is an error.
 pub fn steered_clip(
-    heads: &[[f32; 3]],
-    tails: &[[f32; 3]],
-    parents: &[i32],
+    skeleton: &Skeleton,
     rest: &[[f32; 9]],
     roles: &Roles,
     (params, steer): (&GaitParams, &Steer),
     skin: &Skin,
 ) -> Result<Clip> {
-    check(heads, tails, parents, rest, roles, params)?;
-    skin.check(heads.len())?;
+    check(skeleton, rest, roles, params)?;
+    skin.check(skeleton.len())?;
     if steer.course.is_some() && params.motion != Motion::HeadShake {
         if !params.root_motion {
             return Err(Error::InvalidArgument(
@@ -452,96 +214,10 @@ pub fn steered_clip(
         }
     }
     match params.motion {
-        Motion::HeadShake => head_shake(heads, tails, rest, roles, params),
+        Motion::HeadShake => head_shake(skeleton, rest, roles, params),
         Motion::Walk | Motion::Run if roles.legs.is_empty() => Err(Error::NoBones(no_legs_message())),
-        Motion::Walk | Motion::Run => gait(heads, tails, parents, rest, roles, (params, steer), skin),
+        Motion::Walk | Motion::Run => gait(skeleton, rest, roles, params, steer, skin),
     }
-}
-
-fn new_poser(rest: &[[f32; 9]]) -> Poser {
-    let rest = rest_quats(rest);
-    let n = rest.len();
-    Poser { rest, q: vec![Quat::IDENTITY; n], touched: vec![false; n] }
-}
-
-/// Most frames in a clip: Blender's last frame (`MAXFRAME`), so any clip fits a scene.
-pub const MAX_FRAMES: usize = 1_048_574;
-
-/// `count` frames (rounded, at least `min`) plus the closing frame; an error past [`MAX_FRAMES`]
-/// (a huge fps, duration or cycles, or a tiny speed), before anything is allocated.
-fn frame_count(count: f32, min: f32) -> Result<usize> {
-    let c = count.round().max(min);
-    if !(c < MAX_FRAMES as f32) {
-        return Err(Error::InvalidArgument(format!(
-            "the clip would have {c} frames; at most {MAX_FRAMES} (Blender's last frame): lower the fps, duration or cycles, or raise the speed"
-        )));
-    }
-    Ok(c as usize + 1)
-}
-
-fn head_shake(
-    heads: &[[f32; 3]],
-    tails: &[[f32; 3]],
-    rest: &[[f32; 9]],
-    roles: &Roles,
-    p: &GaitParams,
-) -> Result<Clip> {
-    let n = heads.len();
-    let frames = frame_count(p.duration * p.fps, 2.0)?;
-    let up = Vec3::from(roles.up);
-    let fwd = Vec3::from(roles.forward);
-    let mut poser = new_poser(rest);
-    let mut rotations = Vec::with_capacity(frames * n);
-    let neck_share = if roles.neck.is_empty() { 0.0 } else { 0.5 / roles.neck.len() as f32 };
-    let head_share = if roles.neck.is_empty() { 1.0 } else { 0.5 };
-    for k in 0..frames {
-        poser.q.fill(Quat::IDENTITY);
-        let u = k as f32 / (frames - 1) as f32;
-        let env = smoothstep(0.0, 0.15, u) * smoothstep(0.0, 0.15, 1.0 - u);
-        let yaw = p.amplitude * env * (TAU * p.cycles * u).sin();
-        for &b in &roles.neck {
-            poser.rotate(b, up, yaw * neck_share);
-        }
-        poser.rotate(roles.head, up, yaw * head_share);
-        let lag = 0.35 * p.amplitude * env * (TAU * p.cycles * u - 1.0).sin();
-        for &b in &roles.head_extras {
-            let d = (Vec3::from(tails[b]) - Vec3::from(heads[b])).normalize_or_zero();
-            let axis = if d.dot(up).abs() > 0.7 { fwd } else { up };
-            poser.rotate(b, axis, -lag);
-        }
-        rotations.extend(poser.q.iter().map(|&q| to_wxyz(q)));
-    }
-    let animated = (0..n).filter(|&b| poser.touched[b]).collect();
-    Ok(Clip {
-        frames,
-        bone_count: n,
-        rotations,
-        root_offset: vec![[0.0; 3]; frames],
-        animated,
-        locations: vec![[0.0; 3]; frames * n],
-        located: Vec::new(),
-        moves_root: false,
-        frames_per_cycle: (frames - 1) as f32 / p.cycles,
-    })
-}
-
-/// Timing and amplitudes of a walk or run.
-struct Cadence {
-    /// Frames per cycle, and in the clip.
-    fpc: f32,
-    frames: usize,
-    /// Share of a cycle a foot is on the ground.
-    duty: f32,
-    /// Ground covered per cycle, in the skeleton's units.
-    stride: f32,
-    hip_amp: f32,
-    knee_amp: f32,
-    knee_stance: f32,
-    ankle_amp: f32,
-    /// A rising femur's lift in swing (`LegJoints::lift`).
-    lift_amp: f32,
-    /// How high a planted leg's ankle rises in swing, in the skeleton's units.
-    foot_lift: f32,
 }
 
 /// The cadence follows a pendulum of the leg's length (assumed in metres; clamped so rigs in
@@ -837,14 +513,14 @@ fn pose_body(
 /// body settled onto one ground and lifted so that no foot goes below it, feet riding on the
 /// root carried by their legs.
 fn gait(
-    heads: &[[f32; 3]],
-    tails: &[[f32; 3]],
-    parents: &[i32],
+    skeleton: &Skeleton,
     rest: &[[f32; 9]],
     roles: &Roles,
-    (p, steer): (&GaitParams, &Steer),
+    p: &GaitParams,
+    steer: &Steer,
     skin: &Skin,
 ) -> Result<Clip> {
+    let Skeleton { heads, tails, parents, .. } = *skeleton;
     let n = heads.len();
     let run = p.motion == Motion::Run;
     let up = Vec3::from(roles.up);
@@ -1041,89 +717,6 @@ fn gait(
     })
 }
 
-/// What planting the legs reads besides the pose: the rest heads, the hierarchy with riding
-/// feet on their legs, the locations that move other trees' roots with the settled body, the
-/// forward axis and the ground's height.
-struct Planting<'a> {
-    heads: &'a [[f32; 3]],
-    carried: &'a [i32],
-    locations: &'a [[f32; 3]],
-    fwd: Vec3,
-    ground: &'a Ground<'a>,
-}
-
-/// Plant the legs at cycle fraction `phi` (see `footfalls`): each ankle's target, the body's
-/// offset (`base`: forward travel and the settle carried along the course, then up by the
-/// terrain's mean height under the feet and down as far as the legs need), then each leg's two
-/// bones by IK and its foot on the ground. Returns the root offset.
-fn plant_legs(
-    poser: &mut Poser,
-    ctx: &Planting,
-    legs: &[crate::motion::footfalls::PlantedLeg],
-    phases: &[f32],
-    c: &Cadence,
-    phi: f32,
-    (base, travel): (Vec3, f32),
-) -> Vec3 {
-    let fk = |poser: &Poser, offset: Vec3| {
-        let local: Vec<[f32; 4]> = poser.q.iter().map(|&q| to_wxyz(q)).collect();
-        posed_frames(ctx.heads, ctx.carried, &poser.rest, &local, ctx.locations, offset.to_array())
-    };
-    let right = ctx.fwd.cross(Vec3::Z).normalize();
-    let aims: Vec<_> = legs
-        .iter()
-        .zip(phases)
-        .map(|(leg, o)| {
-            let step = foot_offset((phi + o).fract(), c.duty, c.stride, c.foot_lift, travel);
-            (step, foot_target(leg, ctx.ground, step, ctx.fwd))
-        })
-        .collect();
-    let ground = ctx.ground;
-    let rise = aims.iter().map(|(_, (at, ..))| ground.terrain.height(*at, ground.level) - ground.level).sum::<f32>()
-        / aims.len().max(1) as f32;
-    let base = base + Vec3::Z * rise;
-    let (_, hips0) = fk(poser, base);
-    // each ankle's target, its foot's world turn and its toe's (an upright foot's toe stands on
-    // the ground, turned to it)
-    let (targets, leans): (Vec<Vec3>, Vec<(Quat, Quat)>) = legs
-        .iter()
-        .zip(&aims)
-        .map(|(leg, (step, (at, heading, tilt)))| {
-            let stand = *tilt * *heading;
-            let (at, turn) = leaning_foot(leg, hips0[leg.upper], (*at, step.lift), (ctx.fwd, right), stand);
-            (at, (turn, stand))
-        })
-        .unzip();
-    let reach: Vec<_> = legs.iter().zip(&targets).map(|(leg, &t)| (leg, hips0[leg.upper], t)).collect();
-    let offset = base + Vec3::Z * body_drop(&reach);
-    let turn_to = |poser: &mut Poser, b: usize, world: Quat, parent_turn: Quat| {
-        let rq = poser.rest[b];
-        poser.q[b] = (rq.inverse() * parent_turn.inverse() * world * rq).normalize();
-        poser.touched[b] = true;
-    };
-    let parent_turn = |turns: &[Quat], b: usize| match ctx.carried[b] {
-        p if p >= 0 => turns[p as usize],
-        _ => Quat::IDENTITY,
-    };
-    for ((leg, &target), &(lean, toe_turn)) in legs.iter().zip(&targets).zip(&leans) {
-        let (turns, posed) = fk(poser, offset);
-        let pelvis = parent_turn(&turns, leg.upper);
-        let (upper, lower) = leg_turns(leg, posed[leg.upper], target, pelvis);
-        turn_to(poser, leg.upper, upper, pelvis);
-        let (turns, _) = fk(poser, offset);
-        turn_to(poser, leg.lower, lower, parent_turn(&turns, leg.lower));
-        if let Some(foot) = leg.foot {
-            let (turns, _) = fk(poser, offset);
-            turn_to(poser, foot, lean, parent_turn(&turns, foot));
-        }
-        if let Some((toe, _)) = leg.toe {
-            let (turns, _) = fk(poser, offset);
-            turn_to(poser, toe, toe_turn, parent_turn(&turns, toe));
-        }
-    }
-    offset
-}
-
 /// The motion tests' rigs (`tests/common/rigs.rs`), for the unit tests of private helpers below.
 #[cfg(test)]
 #[path = "../../tests/common/rigs.rs"]
@@ -1133,22 +726,23 @@ mod test_rigs;
 /// Private helpers only: the clips are tested through the public API in `tests/gait.rs`.
 #[cfg(test)]
 mod tests {
-    use super::test_rigs::{biped, creature, hexapod, ik_biped, rest_of, spot, Skeleton};
+    use super::test_rigs::{biped, creature, hexapod, ik_biped, rest_of, spot, Rig};
     use super::*;
     use crate::motion::detect_roles;
+    use crate::motion::pose::rest_quats;
 
     /// A test rig with its rest matrices and roles: names, heads, tails, parents, rest, roles.
     type Prepared = (Vec<String>, Vec<[f32; 3]>, Vec<[f32; 3]>, Vec<i32>, Vec<[f32; 9]>, Roles);
 
-    fn prepare((names, h, t, p): Skeleton) -> Prepared {
+    fn prepare((names, h, t, p): Rig) -> Prepared {
         let rest = rest_of(&h, &t);
-        let roles = detect_roles(&h, &t, &p, &names).unwrap();
+        let roles = detect_roles(&Skeleton::new(&h, &t, &p, &names)).unwrap();
         (names, h, t, p, rest, roles)
     }
 
     #[test]
     fn only_an_insects_rising_femurs_lift_its_legs() {
-        let lifting = |skel: Skeleton| {
+        let lifting = |skel: Rig| {
             let (_, h, t, _, _, roles) = prepare(skel);
             let (fwd, up) = (Vec3::from(roles.forward), Vec3::from(roles.up));
             leg_joints(&h, &t, &roles, (fwd, fwd.cross(up).normalize())).iter().filter(|l| l.lift.is_some()).count()

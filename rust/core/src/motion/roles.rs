@@ -50,7 +50,7 @@
 
 use crate::error::{Error, Result};
 use crate::motion::hierarchy::{build_tree, joined_hierarchy, subtree, Tree, GROUND_FRACTION};
-use crate::skeleton::{name_side, validate_parents};
+use crate::skeleton::{name_side, validate_parents, Skeleton};
 use glam::Vec3;
 
 /// Which side of the body a limb is on: the side of bone names (`skeleton::names`).
@@ -165,7 +165,8 @@ pub(crate) fn no_legs_message() -> String {
     )
 }
 
-fn validate(heads: &[[f32; 3]], tails: &[[f32; 3]], parents: &[i32], names: &[String]) -> Result<()> {
+fn validate(skeleton: &Skeleton) -> Result<()> {
+    let Skeleton { heads, tails, parents, names } = *skeleton;
     let n = heads.len();
     if n == 0 {
         return Err(Error::NoBones("the armature has no bones".into()));
@@ -246,8 +247,9 @@ fn mirror_normal(points: &[Vec3], centre: Vec3, across: Option<Vec3>) -> Vec3 {
 /// Find the roles of a skeleton's bones (see the module doc). Fails with
 /// [`Error::NoBones`] naming what is missing when no head can be found; a rig without legs
 /// gets [`BodyPlan::Legless`] and no legs (a walk or run refuses it, a head shake works).
-pub fn detect_roles(heads: &[[f32; 3]], tails: &[[f32; 3]], parents: &[i32], names: &[String]) -> Result<Roles> {
-    validate(heads, tails, parents, names)?;
+pub fn detect_roles(skeleton: &Skeleton) -> Result<Roles> {
+    validate(skeleton)?;
+    let Skeleton { heads, tails, parents, names } = *skeleton;
     let (joined, riders) = joined_hierarchy(heads, tails, parents);
     let rig = Rig::new(heads, tails, names, &joined)?;
     let legs = find_legs(&rig);
@@ -291,7 +293,7 @@ pub fn detect_roles(heads: &[[f32; 3]], tails: &[[f32; 3]], parents: &[i32], nam
         .map(|(_, c)| Limb { bones: c.clone(), side: limb_side(&rig, mid.centre, c, left), group: 0 })
         .collect();
     let is_arm_top = |b: usize| arm_chains.iter().any(|(_, c)| c[0] == b);
-    let tail = find_tail(&rig, &legs, &mid, &trunk, &reversed, &on_axis, is_arm_top, &reach, forward);
+    let tail = find_tail(&rig, &legs, &mid, &trunk, (&reversed, &on_axis), is_arm_top, (&reach, forward));
 
     // does moving the root bone move every role bone (one real tree)?
     let real_root = |mut b: usize| {
@@ -827,18 +829,15 @@ fn leg_limbs(rig: &Rig, legs: &Legs, centre: Vec3, forward: Vec3, left: Vec3) ->
 
 /// Step 6's tail: the midline chain off the spine (or off the axis bones `behind` the hips,
 /// [`reversed_tail`]) pointing furthest backwards (more than 0.05 h), not on the axis, a leg,
-/// a leg carrier or an arm.
-#[allow(clippy::too_many_arguments)]
+/// a leg carrier or an arm (`is_arm_top`); `reach` per bone, as [`Rig::chain_down`] reads it.
 fn find_tail(
     rig: &Rig,
     legs: &Legs,
     mid: &Midplane,
     trunk: &Trunk,
-    behind: &[usize],
-    on_axis: &[bool],
+    (behind, on_axis): (&[usize], &[bool]),
     is_arm_top: impl Fn(usize) -> bool,
-    reach: &[f32],
-    forward: Vec3,
+    (reach, forward): (&[f32], Vec3),
 ) -> Vec<usize> {
     let mut tail = Vec::new();
     let mut best = 0.0f32;

@@ -20,6 +20,9 @@ pub enum Falloff {
     InversePower { power: f32 },
 }
 
+/// The power of [`Falloff::InversePower`] when none is given.
+pub const INVERSE_POWER: f32 = 2.0;
+
 /// Options of [`bilinear_weights`].
 #[derive(Debug, Clone, PartialEq)]
 pub struct BilinearOptions {

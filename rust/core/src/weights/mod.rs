@@ -17,7 +17,7 @@ pub mod symmetry;
 pub mod transfer;
 pub mod voxel;
 
-pub use bilinear::{bilinear_weights, BilinearOptions, Falloff};
+pub use bilinear::{bilinear_weights, BilinearOptions, Falloff, INVERSE_POWER};
 pub use heat::{heat_sources, heat_weights, heat_weights_many, heat_weights_with_sources};
 pub use heat::{BoneCurves, HeatOptions, HeatReport, MeshRef};
 pub use idw::{idw_weights, IdwOptions};

@@ -5,7 +5,7 @@
 use glam::{Mat3, Vec3};
 
 /// A test rig: bone names, heads, tails, parent indices (-1: root).
-pub type Skeleton = (Vec<String>, Vec<[f32; 3]>, Vec<[f32; 3]>, Vec<i32>);
+pub type Rig = (Vec<String>, Vec<[f32; 3]>, Vec<[f32; 3]>, Vec<i32>);
 /// One bone of a hand-written rig: name, head, tail, parent's name (`None`: root).
 pub type BoneSpec = (String, [f32; 3], [f32; 3], Option<String>);
 
@@ -15,7 +15,7 @@ pub fn bone(names: &[String], name: &str) -> usize {
 }
 
 /// The add-on's generated quadruped (scripts/creature.py), faces -Y.
-pub fn creature() -> Skeleton {
+pub fn creature() -> Rig {
     let mut joints: Vec<(&str, [f32; 3])> = vec![
         ("hips", [0.0, 0.55, 1.00]),
         ("spine", [0.0, 0.05, 1.05]),
@@ -81,7 +81,7 @@ pub fn creature() -> Skeleton {
 }
 
 /// A hand-written rig as arrays, parents looked up by name.
-pub fn skeleton_of(b: &[BoneSpec]) -> Skeleton {
+pub fn skeleton_of(b: &[BoneSpec]) -> Rig {
     let names: Vec<String> = b.iter().map(|x| x.0.clone()).collect();
     let idx = |n: &str| bone(&names, n) as i32;
     let parents = b.iter().map(|x| x.3.as_deref().map_or(-1, idx)).collect();
@@ -90,7 +90,7 @@ pub fn skeleton_of(b: &[BoneSpec]) -> Skeleton {
 
 /// A simple human, facing -Y, arms down: hips root, 3 spine bones, neck, head,
 /// clavicle/upper arm/forearm/hand, thigh/shin/foot/toe.
-pub fn biped() -> Skeleton {
+pub fn biped() -> Rig {
     skeleton_of(&biped_bones())
 }
 
@@ -122,7 +122,7 @@ pub fn biped_bones() -> Vec<BoneSpec> {
 /// A six-legged insect facing -Y, Z up: abdomen (root) -> thorax -> head, and three pairs
 /// of legs off the thorax, each a femur rising outward and a tibia down to the ground, with
 /// a short foot.
-pub fn hexapod() -> Skeleton {
+pub fn hexapod() -> Rig {
     let mut b: Vec<BoneSpec> = vec![
         ("abdomen".into(), [0.0, 0.7, 0.5], [0.0, 0.3, 0.5], None),
         ("thorax".into(), [0.0, 0.3, 0.5], [0.0, -0.3, 0.5], Some("abdomen".into())),
@@ -148,7 +148,7 @@ pub fn hexapod() -> Skeleton {
 /// ankle; with `invented_tails`, every bone has a tiny tail along its direction (glTF stores
 /// joints only: RobotExpressive imports so), and the shins end at the knee.
 /// Faces -Y, Z up.
-pub fn ik_biped(invented_tails: bool) -> Skeleton {
+pub fn ik_biped(invented_tails: bool) -> Rig {
     let mut b: Vec<BoneSpec> = vec![
         ("Root".into(), [0.0, 0.2, 0.0], [0.0, 0.2, 0.35], None),
         ("Body".into(), [0.0, 0.05, 0.95], [0.0, 0.05, 1.2], Some("Root".into())),
@@ -190,7 +190,7 @@ pub fn ik_biped(invented_tails: bool) -> Skeleton {
 /// A generated rig with the structure of Spot the cow's hand-made one (not its data): seven
 /// separate root trees meeting at shared joints (chest, hips, skull), glTF-style "_leaf"
 /// bones pointing straight down, legs about 40 units long, facing +Y, Z up.
-pub fn spot() -> Skeleton {
+pub fn spot() -> Rig {
     let chest = [0.0, 0.0, -2.0];
     let hips = [0.0, -20.0, 0.0];
     let skull = [0.0, 19.0, 10.0];
@@ -260,7 +260,7 @@ pub fn rest_of(h: &[[f32; 3]], t: &[[f32; 3]]) -> Vec<[f32; 9]> {
 }
 
 /// [`biped`] in a T-pose: clavicles, arms and hands held out level along X.
-pub fn t_pose_biped() -> Skeleton {
+pub fn t_pose_biped() -> Rig {
     let mut b = biped_bones();
     for bone in b.iter_mut() {
         let x = if bone.0.ends_with(".L") { 1.0 } else { -1.0 };
@@ -282,7 +282,7 @@ pub fn t_pose_biped() -> Skeleton {
 /// leg chains stop at the hock and wrist, and every leaf's tail continues its parent's line for
 /// half its span (the tails an importer invents, read through `skeleton::joint_tails`). Faces
 /// -Y, Z up, about 0.8 tall.
-pub fn ik_quadruped() -> Skeleton {
+pub fn ik_quadruped() -> Rig {
     let mut b: Vec<BoneSpec> = vec![
         ("Root".into(), [0.0, 0.0, 0.0], [0.0, 0.2, 0.0], None),
         ("Hips".into(), [0.0, 0.30, 0.55], [0.0, 0.05, 0.57], Some("Root".into())),

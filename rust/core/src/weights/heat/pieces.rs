@@ -29,7 +29,7 @@
 //!
 //! [`HeatOptions::rigid_accessories`]: crate::weights::heat::HeatOptions::rigid_accessories
 
-use super::sources::{nearest_bones, Source, Ties};
+use super::sources::{nearest_bones, Segments, Source, Ties};
 use crate::mesh::visibility::RayMesh;
 use glam::{DVec3, Vec3};
 
@@ -212,29 +212,41 @@ fn owned_shares(rigid: &[Option<Ties>], labels: &[u32], sources: &[Source], area
     owned.iter().zip(&total).map(|(&o, &t)| if t > 0.0 { o / t } else { 0.0 }).collect()
 }
 
+/// Per welded vertex: its piece (`labels`), its heat sources, and its area (`area()`, made
+/// only when needed).
+pub(crate) struct VertexPieces<'a> {
+    pub(crate) labels: &'a [u32],
+    pub(crate) sources: &'a [Source],
+    pub(crate) area: &'a dyn Fn() -> Vec<f64>,
+}
+
+/// The object of each piece (`groups` `(pieces,)`) and, when faces decide it, whether each
+/// piece's object holds a bone (`holds` `(pieces,)`).
+#[derive(Clone, Copy)]
+pub(crate) struct PieceObjects<'a> {
+    pub(crate) groups: &'a [u32],
+    pub(crate) holds: Option<&'a [bool]>,
+}
+
 /// The bone(s) each piece is bound to rigidly, `None` for pieces solved by heat (the rules
-/// are in the module doc; `groups` `(pieces,)` is the object of each piece, a prop being an
-/// object whose pieces hold no bone, or with `holds` `(pieces,)`, whose pieces' object holds
-/// none; one object when all are equal). `accessories`: apply the
-/// accessory rules
-/// (`inside[i]`: piece `i` holds a bone; `labels`, `sources` and `area()`, per welded vertex
-/// its piece, its sources and its area, for the owner test); with or without them, a piece
-/// that sees no bone and is no larger than its nearest bone (`bone_len`, per bone) is rigid
-/// on that bone.
-#[allow(clippy::too_many_arguments)]
+/// are in the module doc; `objects.groups` `(pieces,)` is the object of each piece, a prop
+/// being an object whose pieces hold no bone, or with `objects.holds` `(pieces,)`, whose
+/// pieces' object holds none; one object when all are equal). `accessories`: apply the
+/// accessory rules (`inside[i]`: piece `i` holds a bone; `vertices`, per welded vertex its
+/// piece, its sources and its area, for the owner test); with or without them, a piece that
+/// sees no bone and is no larger than its nearest bone (`bone_len`, per bone, of the segments
+/// `bones`) is rigid on that bone.
 pub(crate) fn rigid_pieces(
     pieces: &[PieceStats],
     inside: &[bool],
-    segs: &[(DVec3, DVec3)],
-    owner: &[u32],
+    bones: Segments,
     bone_len: &[f64],
     accessories: bool,
-    labels: &[u32],
-    sources: &[Source],
-    area: &dyn Fn() -> Vec<f64>,
-    groups: &[u32],
-    holds: Option<&[bool]>,
+    vertices: VertexPieces,
+    objects: PieceObjects,
 ) -> (Vec<Option<Ties>>, PieceCounts) {
+    let (Segments { segs, owner }, PieceObjects { groups, holds }) = (bones, objects);
+    let VertexPieces { labels, sources, area } = vertices;
     let npieces = pieces.len();
     let mut rigid: Vec<Option<Ties>> = vec![None; npieces];
     let mut counts = PieceCounts::default();

@@ -34,23 +34,29 @@ pub(crate) struct Source {
     pub(crate) nearest_dist: f64,
 }
 
+/// The segments standing for the bones, `segs` `(s,)` (head, tail), and each one's bone
+/// (`owner` `(s,)`).
+#[derive(Clone, Copy)]
+pub(crate) struct Segments<'a> {
+    pub(crate) segs: &'a [(DVec3, DVec3)],
+    pub(crate) owner: &'a [u32],
+}
+
 /// The heat source of every welded vertex: `wpos`, outward `normals` (zero: none) and piece
-/// `labels` per vertex; the segments `segs` standing for the bones and each one's bone
-/// (`owner`); `rays` for the visibility test (`None`: every bone is visible). A vertex that
+/// `labels` per vertex; the segments standing for the bones (`bones`); `rays` for the visibility test (`None`: every bone is visible). A vertex that
 /// sees no bone, in a mesh of several pieces (`tri_piece`, the piece of each triangle) whose
 /// own piece holds a bone (`inside`), looks again through its own piece only (see [`Sight`]).
 /// Returned in bones, not segments.
-#[allow(clippy::too_many_arguments)]
 pub(crate) fn vertex_sources(
     wpos: &[DVec3],
     normals: &[DVec3],
     labels: &[u32],
-    segs: &[(DVec3, DVec3)],
-    owner: &[u32],
+    bones: Segments,
     rays: Option<&RayMesh>,
     tri_piece: Option<&[u32]>,
     inside: &[bool],
 ) -> Vec<Source> {
+    let Segments { segs, owner } = bones;
     let mut sources: Vec<Source> = Vec::with_capacity(wpos.len());
     let segs: Vec<Segment> = segs.iter().map(|(h, t)| Segment::new(*h, *t)).collect();
     let segs = &segs[..];

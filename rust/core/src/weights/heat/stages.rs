@@ -28,9 +28,11 @@
 use super::blocks::{block_weights, bone_blocks, Rows, RunningTopK};
 use super::cholesky::{factor_first, symbolic_factor, Factor};
 use super::dissection::{nested_dissection, DISSECTION_MIN};
-use super::pieces::{mark_sources, piece_contains_bone, piece_stats, rigid_pieces, PieceStats};
+use super::pieces::{
+    mark_sources, piece_contains_bone, piece_stats, rigid_pieces, PieceObjects, PieceStats, VertexPieces,
+};
 use super::reach::reach_segments;
-use super::sources::{vertex_sources, Shares, Source, Ties, MAX_TIES};
+use super::sources::{vertex_sources, Segments, Shares, Source, Ties, MAX_TIES};
 use super::{BoneCurves, HeatOptions, HeatReport, HEAT_SCALE, MIN_DISTANCE, REGULARIZATION};
 use crate::mesh::bones_in_frame;
 use crate::mesh::cotan::{cotan_laplacian, stiffness_lower_csc, triangle_cotangents, LowerCsc};
@@ -354,7 +356,8 @@ fn visibility(prep: &Prepared, opts: &HeatOptions) -> Visibility {
         _ => vec![false; npieces],
     };
     let tri_piece: Option<Vec<u32>> = (npieces > 1).then(|| tris.iter().map(|t| labels[t[0] as usize]).collect());
-    let sources = vertex_sources(wpos, &normals, &labels, &segs, &owner, rays, tri_piece.as_deref(), &inside);
+    let bones = Segments { segs: &segs, owner: &owner };
+    let sources = vertex_sources(wpos, &normals, &labels, bones, rays, tri_piece.as_deref(), &inside);
     let secs = (t_bvh, s.elapsed().as_secs_f64());
     Visibility { ray_mesh, labels, oriented, normals, flipped, pieces, segs, owner, inside, sources, secs }
 }
@@ -418,15 +421,11 @@ fn bind_pieces(
     let (rigid, counts) = rigid_pieces(
         &vis.pieces,
         held.as_ref().map_or(&vis.inside, |h| &h.0),
-        &vis.segs,
-        &vis.owner,
+        Segments { segs: &vis.segs, owner: &vis.owner },
         &bone_len,
         accessories,
-        &vis.labels,
-        &vis.sources,
-        &area,
-        &groups,
-        held.as_ref().map(|h| &h.1[..]),
+        VertexPieces { labels: &vis.labels, sources: &vis.sources, area: &area },
+        PieceObjects { groups: &groups, holds: held.as_ref().map(|h| &h.1[..]) },
     );
     report.pieces = counts.pieces;
     report.fallback_pieces = counts.fallback;
