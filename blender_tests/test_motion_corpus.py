@@ -232,23 +232,15 @@ def test_a_legless_rig_is_refused_no_legs_with_nothing_keyed_and_shakes_its_head
 # ---------------------------------------------------------------------------- steering
 
 STEERED = ["ik_biped_gltf", "ik_quadruped_gltf"]
-# Rows that miss a target on one Blender release, with what was measured (issue #59 left open).
-KNOWN_STEER_MISSES = {
-    ((4, 2), "ik_biped_gltf", "step"): "a foot 1.05 % of the diagonal into the step on 4.2's glTF "
-    "import of this rig (0.97 % on 5.0.1; swing clearance changes nothing: the contact is in stance)",
-}
 
 
 @pytest.mark.parametrize("case", ["circle", "s_curve", "slope", "bumps", "step", "in_place"])
 @pytest.mark.parametrize("name", STEERED)
-def test_a_steered_walk_keeps_its_feet_planted_on_the_ground_and_heads_along_the_path(name, case, request):
+def test_a_steered_walk_keeps_its_feet_planted_on_the_ground_and_heads_along_the_path(name, case):
     """testkit/motion_corpus.py's steering rows (``steer_row``): along a half circle of radius 2
     body lengths and an S-curve, up a 15 degree slope, over bumps and up a step of 15 % of the
     leg: no skate in the ground's frame, each standing foot on the surface under it, nothing
     through it, the body turning with the path; in place, no travel."""
-    miss = KNOWN_STEER_MISSES.get((tuple(bpy.app.version[:2]), name, case))
-    if miss:
-        request.applymarker(pytest.mark.xfail(reason=miss, strict=True))
     row = corpus.steer_row(built(name), case)
     assert row["result"] == "FINISHED", row["error"]
     t = corpus.STEER_TARGET

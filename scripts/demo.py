@@ -129,15 +129,15 @@ def facing(rig):
     return way.normalized() if way.length > 0 else Vector((0.0, -1.0, 0.0))
 
 
-def s_curve(meshes, rig):
+def s_curve(meshes, rig, radius: float = 1.0):
     """A poly curve from under the rig's root bone: a quarter turn left then one right, each of a
-    radius of the character's size, so it ends heading the way it started (the run goes on
-    straight). Returns its name."""
+    radius of ``radius`` times the character's size, so it ends heading the way it started (the
+    run goes on straight). Returns its name."""
     import bpy
     import numpy as np
 
     box = posed_box(meshes)
-    size = float(np.linalg.norm(box[1] - box[0]))
+    size = radius * float(np.linalg.norm(box[1] - box[0]))
     fwd = np.array(facing(rig)[:])
     left = np.array([-fwd[1], fwd[0], 0.0])
     root = next(b for b in rig.data.bones if b.parent is None)

@@ -732,9 +732,9 @@ def main(argv=None) -> None:
     blender_session.write_report(Path(args.out), text)
 
 
-def timed_path(rig, repeats: int = 3) -> tuple[float, float]:
-    """Least seconds of Add Motion (walk) on ``rig`` over ``repeats`` runs: along a quarter circle
-    4 strides long (4 cycles), and straight on for 4 cycles."""
+def timed_path(rig, repeats: int = 3) -> tuple[tuple[float, float], tuple[float, float]]:
+    """Least (wall, CPU) seconds of Add Motion (walk) on ``rig`` over ``repeats`` runs: along a
+    quarter circle 4 strides long (4 cycles), and straight on for 4 cycles."""
     import bpy
 
     frame = rig_frame(rig.arm)
@@ -752,9 +752,9 @@ def timed_path(rig, repeats: int = 3) -> tuple[float, float]:
             reset_rig(rig.arm, rig.arm.matrix_basis.copy())
             bpy.context.view_layer.objects.active = rig.arm
             with captured_output():
-                start_t = time.perf_counter()
+                start_t, start_cpu = time.perf_counter(), time.process_time()
                 bpy.ops.pose.miniskeleton_add_motion(motion="WALK", **props)
-                secs = time.perf_counter() - start_t
+                secs = (time.perf_counter() - start_t, time.process_time() - start_cpu)
             best[key] = min(best.get(key, secs), secs)
     reset_rig(rig.arm, rig.arm.matrix_basis.copy())
     data = path.data
@@ -779,8 +779,9 @@ def steer_main(args, rig_corpus) -> None:
             rig = rig_corpus.build(name)
         if name == "rigify_human":
             along, straight = timed_path(rig)
-            notes.append(f"Add Motion (walk, 4 cycles) on rigify_human: {along:.2f} s along a path, "
-                           f"{straight:.2f} s straight on (least of 3)")
+            notes.append(f"Add Motion (walk, 4 cycles) on rigify_human, least of 3: {along[0]:.2f} s along a path "
+                         f"({along[1]:.2f} CPU s), {straight[0]:.2f} s straight on ({straight[1]:.2f} CPU s); "
+                         f"load average {os.getloadavg()[0]:.1f}")
             print(notes[-1], flush=True)
         for case in cases:
             for motion in ["WALK"] + (["RUN"] if case in ("circle", "slope") else []):

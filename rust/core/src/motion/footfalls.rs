@@ -65,6 +65,9 @@ pub(crate) struct PlantedLeg {
     /// above the ground it stands on ([`stand_on`]; until then above its own rest height).
     pub stand: Vec3,
     pub ankle_height: f32,
+    /// How far the foot reads the ground behind and ahead of its ankle ([`footing`]): at least
+    /// [`FOOTPRINT`] of the leg, and as far as its skin reaches (heel, toes; [`stand_on`]).
+    pub print: (f32, f32),
     /// Bone lengths and the reach that sets the body's height.
     pub l1: f32,
     pub l2: f32,
@@ -167,7 +170,23 @@ fn plan_leg(
         }
         _ => None,
     };
-    Some(PlantedLeg { upper, lower, foot, toe, hip, knee, ankle, stand: ankle, ankle_height: 0.0, l1, l2, reach, pole })
+    let print = FOOTPRINT * (l1 + l2);
+    Some(PlantedLeg {
+        upper,
+        lower,
+        foot,
+        toe,
+        hip,
+        knee,
+        ankle,
+        stand: ankle,
+        ankle_height: 0.0,
+        print: (print, print),
+        l1,
+        l2,
+        reach,
+        pole,
+    })
 }
 
 /// A foot is upright when its toe's head lies below its ankle within 45 degrees of straight down
@@ -215,7 +234,9 @@ pub(crate) fn leaning_foot(
 
 /// Stand `legs` (of `limbs`, one each) on a level ground at height `ground`, the body settled
 /// by `settle`: each ankle stands where the settled body carries it, at its rest height above
-/// its leg's sole (`soles`, per leg; None: the ankle keeps its own rest height). Along `fwd`,
+/// its leg's sole (`soles`, per leg; None: the ankle keeps its own rest height), and reads the
+/// ground as far behind and ahead as its foot reaches (`reach`, per leg, from
+/// `skin::foot_reach`). Along `fwd`,
 /// each leg stands as far ahead of its hip as the legs of its group do on average: a scan in
 /// mid-stride (one front hoof ahead, the other behind) walks from a square stance, and a rig
 /// standing square keeps its own.
@@ -223,6 +244,7 @@ pub(crate) fn stand_on(
     legs: &mut [PlantedLeg],
     limbs: &[Limb],
     soles: &[Option<f32>],
+    reach: &[Option<(f32, f32)>],
     (ground, fwd): (f32, Vec3),
     settle: &Settle,
 ) {
@@ -233,7 +255,7 @@ pub(crate) fn stand_on(
         mean[limb.group].0 += ahead(leg);
         mean[limb.group].1 += 1;
     }
-    for ((leg, limb), sole) in legs.iter_mut().zip(limbs).zip(soles) {
+    for (((leg, limb), sole), reach) in legs.iter_mut().zip(limbs).zip(soles).zip(reach) {
         let (sum, count) = mean[limb.group];
         let square = leg.ankle + fwd * (sum / count.max(1) as f32 - ahead(leg));
         leg.stand = settle.apply(square);
@@ -241,6 +263,9 @@ pub(crate) fn stand_on(
             Some(sole) => leg.ankle.z - sole,
             None => leg.ankle.z - ground,
         };
+        if let Some((behind, ahead)) = reach {
+            leg.print = (leg.print.0.max(*behind), leg.print.1.max(*ahead));
+        }
     }
 }
 
@@ -276,9 +301,10 @@ const SWING_CLEAR: f32 = 2.0;
 
 /// The plane a foot stands on at distance `a` along `fwd` (straight-line gait) of `leg`'s
 /// standing place: fitted (least squares) to the ground at 5 x 3 points over its footprint
-/// ([`FOOTPRINT`] ahead and behind, half as far to each side), then raised to clear every one
-/// (a foot across a step's edge rests on the edge, not in it). Returns the world point under
-/// the ankle (on the plane) and the plane's unit normal.
+/// (`leg.print` behind and ahead, [`FOOTPRINT`] / 2 to each side), then raised to clear the
+/// ground at [`CLEAR_ALONG`] x 3 points over it (a foot across a step's edge rests on the edge,
+/// not in it). Returns the world point under the ankle (on the plane) and the plane's unit
+/// normal.
 fn footing(leg: &PlantedLeg, ground: &Ground, a: f32, fwd: Vec3) -> (Vec3, Vec3) {
     let map = &ground.steering;
     let print = FOOTPRINT * (leg.l1 + leg.l2);
@@ -286,14 +312,16 @@ fn footing(leg: &PlantedLeg, ground: &Ground, a: f32, fwd: Vec3) -> (Vec3, Vec3)
     let centre = map.place(leg.stand + fwd * a);
     let heading = map.turn(map.distance(leg.stand + fwd * a)) * fwd;
     let right = heading.cross(Vec3::Z).normalize_or(side);
-    // samples as (along, across, height) about the centre, in the foot's heading
-    let mut samples = [(0.0f32, 0.0f32, 0.0f32); 15];
-    for (k, s) in samples.iter_mut().enumerate() {
-        let (u, v) = ((k % 5) as f32 * 0.5 - 1.0, (k / 5) as f32 * 0.5 - 0.5);
-        let p = map.place(leg.stand + fwd * (a + u * print) + side * (v * print));
+    // a sample as (along, across, height) about the centre, in the foot's heading, from its
+    // share u of the way from heel to toe and v of the way across
+    let sample = |u: f32, v: f32| {
+        let along = -leg.print.0 + u * (leg.print.0 + leg.print.1);
+        let p = map.place(leg.stand + fwd * (a + along) + side * (v * print));
         let d = p - centre;
-        *s = (d.dot(heading), d.dot(right), ground.terrain.height(p, ground.level));
-    }
+        (d.dot(heading), d.dot(right), ground.terrain.height(p, ground.level))
+    };
+    let samples: Vec<(f32, f32, f32)> =
+        (0..15).map(|k| sample((k % 5) as f32 * 0.25, (k / 5) as f32 * 0.5 - 0.5)).collect();
     let n = samples.len() as f32;
     let mean = samples.iter().fold(Vec3::ZERO, |m, &(x, y, z)| m + Vec3::new(x, y, z)) / n;
     let (mut sxx, mut sxz, mut syy, mut syz) = (0.0f32, 0.0f32, 0.0f32, 0.0f32);
@@ -303,10 +331,19 @@ fn footing(leg: &PlantedLeg, ground: &Ground, a: f32, fwd: Vec3) -> (Vec3, Vec3)
     }
     let (gx, gy) = (sxz / sxx.max(f32::MIN_POSITIVE), syz / syy.max(f32::MIN_POSITIVE));
     let plane = |x: f32, y: f32| mean.z + gx * (x - mean.x) + gy * (y - mean.y);
-    let rise = samples.iter().map(|&(x, y, z)| z - plane(x, y)).fold(0.0f32, f32::max);
+    let last = (CLEAR_ALONG - 1) as f32;
+    let rise = (0..3 * CLEAR_ALONG)
+        .map(|k| sample((k % CLEAR_ALONG) as f32 / last, (k / CLEAR_ALONG) as f32 * 0.5 - 0.5))
+        .map(|(x, y, z)| z - plane(x, y))
+        .fold(0.0f32, f32::max);
     let normal = (Vec3::Z - heading * gx - right * gy).normalize();
     (centre.with_z(plane(0.0, 0.0) + rise), normal)
 }
+
+/// How many points along a foot's footprint, heel to toe, its plane clears ([`footing`]): the
+/// ground between two of them can rise above the plane by the plane's slope times their
+/// spacing at most.
+const CLEAR_ALONG: usize = 17;
 
 /// Where `leg`'s ankle goes (the one place that reads the ground): its standing place moved
 /// `step.ahead` along `fwd`, mapped to the world through the course at the foot's own distance,
@@ -415,9 +452,8 @@ mod tests {
         }
     }
 
-    #[test]
-    fn the_body_drops_just_enough_for_a_far_foot() {
-        let leg = PlantedLeg {
+    fn test_leg() -> PlantedLeg {
+        PlantedLeg {
             upper: 0,
             lower: 1,
             foot: None,
@@ -427,11 +463,43 @@ mod tests {
             toe: None,
             stand: Vec3::ZERO,
             ankle_height: 0.0,
+            print: (0.25, 0.25),
             l1: 0.5,
             l2: 0.5,
             reach: 1.0,
             pole: Vec3::X,
+        }
+    }
+
+    #[test]
+    fn a_foot_across_a_steps_edge_rests_on_the_edge_not_in_it() {
+        // a step 0.15 high whose edge runs across +X, 0.3 ahead of the ankle, on 0.01 cells
+        let (cell, nx, ny, edge) = (0.01f32, 201usize, 41usize, 0.3f32);
+        let heights: Vec<f32> =
+            (0..nx * ny).map(|i| if (i % nx) as f32 * cell - 1.0 > edge { 0.15 } else { 0.0 }).collect();
+        let terrain = Terrain::field([-1.0, -0.2], cell, (nx, ny), &heights).unwrap();
+        let ground = Ground {
+            terrain: &terrain,
+            level: 0.0,
+            steering: Steering { course: None, origin: Vec3::ZERO, fwd: Vec3::X },
         };
+        // the foot's toes reach 0.4 ahead of its ankle, its heel 0.25 behind
+        let mut leg = test_leg();
+        leg.print = (0.25, 0.4);
+        let (under, normal) = footing(&leg, &ground, 0.0, Vec3::X);
+        let sole = |x: f32| under.z - normal.x * x / normal.z;
+        let worst = (0..=650)
+            .map(|k| -0.25 + k as f32 * 0.001)
+            .map(|x| terrain.height(Vec3::new(x, 0.0, 0.0), 0.0) - sole(x))
+            .fold(f32::MIN, f32::max);
+        // the ground rises above the sole by at most the sole's slope over a sample spacing
+        assert!(worst <= 0.01, "the step's edge is {worst} above the sole");
+        assert!(normal.x < 0.0 && under.z > 0.0, "the foot tilts up onto the step: {normal} {under}");
+    }
+
+    #[test]
+    fn the_body_drops_just_enough_for_a_far_foot() {
+        let leg = test_leg();
         let hip = leg.hip;
         assert_eq!(body_drop(&[(&leg, hip, Vec3::ZERO)]), 0.0);
         let drop = body_drop(&[(&leg, hip, Vec3::new(0.3, 0.0, 0.0))]);

@@ -107,6 +107,34 @@ pub(crate) fn leg_soles(skin: &Skin, roles: &Roles, parents: &[i32]) -> Vec<Opti
         .collect()
 }
 
+/// Per leg of `roles` with a sole (`soles`, [`leg_soles`]), its rest ankle in `ankles`: how
+/// far its foot's underside reaches behind and ahead of the ankle along `fwd` (heel, toes), read
+/// from the leg's skin points in the lower half between its sole and its ankle; None without
+/// such points.
+pub(crate) fn foot_reach(
+    skin: &Skin,
+    roles: &Roles,
+    parents: &[i32],
+    soles: &[Option<f32>],
+    (ankles, fwd): (&[Vec3], Vec3),
+) -> Vec<Option<(f32, f32)>> {
+    roles
+        .legs
+        .iter()
+        .zip(soles.iter().zip(ankles))
+        .map(|(leg, (sole, ankle))| {
+            let (sole, ankle) = ((*sole)?, *ankle);
+            let low = sole + 0.5 * (ankle.z - sole).max(0.0);
+            let owned = below(leg.bones.iter().copied(), parents);
+            let along = skin.owned_by(&owned).filter(|p| p.z <= low).map(|p| (p - ankle).dot(fwd));
+            along.fold(None, |r: Option<(f32, f32)>, d| {
+                let (behind, ahead) = r.unwrap_or((f32::MIN, f32::MIN));
+                Some((behind.max(-d), ahead.max(d)))
+            })
+        })
+        .collect()
+}
+
 /// The torso beside the arms: skin points of the spine and neck bones (or, without skin, the
 /// ends of those bones, each standing for a ball of `BONE_BODY` of the height). A hand hangs
 /// beside the thigh, as a person's does, not out of its way.
