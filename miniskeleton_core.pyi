@@ -8,7 +8,7 @@ float32 (n, k), rows summing to 1, with k = min(max_influences, number of bones)
 numbers in range, or ValueError.
 """
 
-from typing import Callable, List, Optional, Sequence, Tuple, TypedDict, Union, Unpack, final
+from typing import Callable, Iterator, List, Optional, Sequence, Tuple, TypedDict, Union, Unpack, final
 
 import numpy as np
 import numpy.typing as npt
@@ -22,7 +22,18 @@ def _raise_test_panic() -> None:
     """Panic inside the core's boundary on purpose; raises RuntimeError on every platform."""
 
 ArrayLike = npt.ArrayLike
-Influences = Tuple[npt.NDArray[np.int32], npt.NDArray[np.float32]]
+
+@final
+class Influences:
+    """Top-k weights: indices (n,k) int32 (-1 unused), weights (n,k) float32. They unpack and
+    index in that order: ``indices, weights = heat_weights(...)``."""
+    @property
+    def indices(self) -> npt.NDArray[np.int32]: ...
+    @property
+    def weights(self) -> npt.NDArray[np.float32]: ...
+    def __iter__(self) -> Iterator[npt.NDArray[np.generic]]: ...
+    def __len__(self) -> int: ...
+    def __getitem__(self, key: int, /) -> npt.NDArray[np.generic]: ...
 
 def idw_weights(
     vertices: ArrayLike, bone_heads: ArrayLike, bone_tails: ArrayLike, *,
@@ -170,10 +181,21 @@ def heat_weights_many(
     raised (ValueError for bad input, RuntimeError for an internal error in its solve, caught per
     mesh), returned so that the others' results stand."""
 
-def weld_points(points: ArrayLike, tolerance: float
-                ) -> Tuple[npt.NDArray[np.int32], npt.NDArray[np.float64]]:
+@final
+class WeldedPoints:
+    """weld_points' result: map (n,) int32, each point's welded point; welded (k,3) float64.
+    They unpack in that order."""
+    @property
+    def map(self) -> npt.NDArray[np.int32]: ...
+    @property
+    def welded(self) -> npt.NDArray[np.float64]: ...
+    def __iter__(self) -> Iterator[npt.NDArray[np.generic]]: ...
+    def __len__(self) -> int: ...
+    def __getitem__(self, key: int, /) -> npt.NDArray[np.generic]: ...
+
+def weld_points(points: ArrayLike, tolerance: float) -> WeldedPoints:
     """Weld points (n,3) (float64 or float32) closer than tolerance, an absolute distance in the
-    points' own units: (map (n,) int32, each point's welded point; welded (k,3) float64). Greedy
+    points' own units: map (n,) int32, each point's welded point; welded (k,3) float64. Greedy
     in input order: a point joins a welded point within tolerance of it, else it becomes a new
     one; a welded point is the first point of its cluster, unchanged (not a mean), and clusters
     do not chain (a point near another member but farther than tolerance from the first starts a
@@ -186,7 +208,7 @@ def heat_sources(
     vertices: ArrayLike, triangles: ArrayLike, bone_heads: ArrayLike, bone_tails: ArrayLike,
     **options: Unpack[HeatOptions],
 ) -> Influences:
-    """Debug and evaluation: the heat sources heat_weights finds, as (indices (n,4), weights (n,4)):
+    """Debug and evaluation: the heat sources heat_weights finds, as Influences (indices and weights (n,4)):
     per vertex its nearest visible bone (near-ties share equally; in a piece that sees no bone,
     its nearest bone by distance), an empty row where the vertex holds no heat."""
 
@@ -321,16 +343,40 @@ def catmull_clark_limit(vertices: ArrayLike, face_sizes: ArrayLike, face_vertice
     keep_corners: a boundary vertex of one face stays put (Blender's "Keep Corners"); loose and
     non-manifold vertices stay where they are."""
 
+@final
+class TriangleMesh:
+    """A generated mesh: vertices (n,3) float32, triangles (m,3) uint32. They unpack in that
+    order."""
+    @property
+    def vertices(self) -> npt.NDArray[np.float32]: ...
+    @property
+    def triangles(self) -> npt.NDArray[np.uint32]: ...
+    def __iter__(self) -> Iterator[npt.NDArray[np.generic]]: ...
+    def __len__(self) -> int: ...
+    def __getitem__(self, key: int, /) -> npt.NDArray[np.generic]: ...
+
+@final
+class BoneChain:
+    """A generated bone chain: heads (b,3) float32, tails (b,3) float32, parents (b,) int32.
+    They unpack in that order."""
+    @property
+    def heads(self) -> npt.NDArray[np.float32]: ...
+    @property
+    def tails(self) -> npt.NDArray[np.float32]: ...
+    @property
+    def parents(self) -> npt.NDArray[np.int32]: ...
+    def __iter__(self) -> Iterator[npt.NDArray[np.generic]]: ...
+    def __len__(self) -> int: ...
+    def __getitem__(self, key: int, /) -> npt.NDArray[np.generic]: ...
+
 def capped_cylinder(radius: float = 0.5, height: float = 4.0, rings: int = 32, segments: int = 32
-                    ) -> Tuple[npt.NDArray[np.float32], npt.NDArray[np.uint32]]:
+                    ) -> TriangleMesh:
     """Closed capped cylinder along +Z from z=0 to z=height."""
 
-def bone_chain(height: float = 4.0, bones: int = 4
-               ) -> Tuple[npt.NDArray[np.float32], npt.NDArray[np.float32], npt.NDArray[np.int32]]:
-    """Straight chain of equal bones along +Z inside a cylinder of that height: (heads, tails, parents)."""
+def bone_chain(height: float = 4.0, bones: int = 4) -> BoneChain:
+    """Straight chain of equal bones along +Z inside a cylinder of that height."""
 
-def split_flat(vertices: ArrayLike, triangles: ArrayLike
-               ) -> Tuple[npt.NDArray[np.float32], npt.NDArray[np.uint32]]:
+def split_flat(vertices: ArrayLike, triangles: ArrayLike) -> TriangleMesh:
     """Flat-shaded copy: three vertices per triangle. ValueError for a triangle with an index past
     the vertices (or negative), naming the triangle."""
 

@@ -224,7 +224,7 @@ def test_messy_meshes_and_bones(seed):
 
         # Several meshes in one call: the spoiled one gets its error in its place, the good one
         # its weights; an index that is not a whole number in range is refused for the call.
-        good = msc.capped_cylinder(0.5, 4.0, 3, 6)
+        good = tuple(msc.capped_cylinder(0.5, 4.0, 3, 6))
         many = outcome(expect.get("heat") if fault == "negative index" else None,
                        msc.heat_weights_many, [(v, t), good], heads, tails, **opts)
         if many is not None:

@@ -18,10 +18,10 @@ def test_weld_points_keeps_each_clusters_first_point_and_does_not_chain():
     m32, w32 = msc.weld_points(pts.astype(np.float32), 1.0)
     np.testing.assert_array_equal(m32, m)
     np.testing.assert_array_equal(w32, pts.astype(np.float32)[[0, 2]])
-    assert msc.weld_points(pts.tolist(), 1.0)[0].tolist() == m.tolist()
+    assert msc.weld_points(pts.tolist(), 1.0).map.tolist() == m.tolist()
     # the scale is the caller's: the same points in centimetres need a tolerance in centimetres
-    assert msc.weld_points(pts * 100, 1.0)[0].tolist() == [0, 1, 2, 3, 4, 0]
-    assert msc.weld_points(pts * 100, 100.0)[0].tolist() == m.tolist()
+    assert msc.weld_points(pts * 100, 1.0).map.tolist() == [0, 1, 2, 3, 4, 0]
+    assert msc.weld_points(pts * 100, 100.0).map.tolist() == m.tolist()
 
 
 def test_weld_points_a_point_near_two_welded_points_joins_one_of_them():
@@ -99,3 +99,21 @@ def test_weld_points_rebuilds_a_skeletons_joint_graph():
     np.testing.assert_array_equal(by_weld, ends)
     np.testing.assert_array_equal(welded, np.array(joints))
     assert len(welded) < 2 * n - 10   # ends did merge
+
+
+def test_results_are_named_and_unpack_in_order():
+    """Results are classes with named fields that also unpack and index, as a NamedTuple's do."""
+    mesh = msc.capped_cylinder(0.5, 2.0, 4, 8)
+    vertices, triangles = mesh
+    assert vertices is mesh.vertices and triangles is mesh.triangles and len(mesh) == 2
+    chain = msc.bone_chain(2.0, 3)
+    heads, tails, parents = chain
+    assert heads is chain.heads and tails is chain.tails and parents is chain.parents and len(chain) == 3
+    weights = msc.idw_weights(mesh.vertices, chain.heads, chain.tails, max_influences=2)
+    indices, w = weights
+    assert indices is weights.indices and w is weights.weights and indices.shape == (len(vertices), 2)
+    welded = msc.weld_points(np.zeros((3, 3)), 0.1)
+    assert welded.map.tolist() == [0, 0, 0] and welded.welded.shape == (1, 3) and len(welded) == 2
+    assert welded[0] is welded.map and welded[-1] is welded.welded
+    with pytest.raises(IndexError):
+        welded[2]

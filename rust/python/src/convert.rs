@@ -98,3 +98,32 @@ pub fn from_rows<'py, T: numpy::Element + Copy, const C: usize>(
     let flat: Vec<T> = data.iter().flat_map(|r| r.iter().copied()).collect();
     matrix(py, flat, data.len(), C)
 }
+
+/// `#[pymethods]` for a frozen result class whose named fields also unpack and index in order,
+/// as a `NamedTuple`'s do (`indices, weights = heat_weights(...)`): `__iter__`, `__len__` and
+/// `__getitem__`.
+macro_rules! unpacks_as {
+    ($ty:ty, $($field:ident),+) => {
+        #[pymethods]
+        impl $ty {
+            fn __iter__<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, pyo3::types::PyIterator>> {
+                self.fields(py)?.as_any().try_iter()
+            }
+
+            fn __len__(&self) -> usize {
+                [$(stringify!($field)),+].len()
+            }
+
+            fn __getitem__<'py>(&self, py: Python<'py>, index: isize) -> PyResult<Bound<'py, PyAny>> {
+                self.fields(py)?.as_any().get_item(index)
+            }
+        }
+
+        impl $ty {
+            fn fields<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, pyo3::types::PyTuple>> {
+                pyo3::types::PyTuple::new(py, [$(self.$field.clone_ref(py).into_any()),+])
+            }
+        }
+    };
+}
+pub(crate) use unpacks_as;

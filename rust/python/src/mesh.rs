@@ -1,15 +1,21 @@
 //! Bindings for `miniskeleton_core::mesh`: welding points, which meshes meet along a seam, and
 //! Catmull-Clark limit positions.
 
-use crate::convert::{from_rows, index_rows, indices, rows, IndexRows, Indices};
+use crate::convert::{from_rows, index_rows, indices, rows, unpacks_as, IndexRows, Indices};
 use crate::error::guarded;
 use numpy::{AllowTypeChange, PyArray1, PyArray2, PyArrayLike2};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 
 type F32Rows<'py> = PyArrayLike2<'py, f32, AllowTypeChange>;
-/// Welded points for Python: map int32 (n,), welded float64 (k,3).
-type Welded<'py> = (Bound<'py, PyArray1<i32>>, Bound<'py, PyArray2<f64>>);
+/// Welded points: map int32 (n,), the welded point of each point; welded float64 (k,3); they
+/// unpack in that order.
+#[pyclass(name = "WeldedPoints", module = "miniskeleton_core", frozen, get_all)]
+pub struct PyWeldedPoints {
+    map: Py<PyArray1<i32>>,
+    welded: Py<PyArray2<f64>>,
+}
+unpacks_as!(PyWeldedPoints, map, welded);
 
 /// Weld points (n,3) (float64, or anything cast to it) closer than `tolerance`: an absolute
 /// distance in the points' own units. Returns (map (n,) int32, the welded point of each point;
@@ -24,13 +30,14 @@ pub fn weld_points<'py>(
     py: Python<'py>,
     points: PyArrayLike2<'py, f64, AllowTypeChange>,
     tolerance: f64,
-) -> PyResult<Welded<'py>> {
+) -> PyResult<PyWeldedPoints> {
     let p = rows::<f64, 3>(&points, "points")?;
     if p.len() > i32::MAX as usize {
         return Err(PyValueError::new_err(format!("{} points: at most 2^31 - 1", p.len())));
     }
     let (map, welded) = guarded(py, move || Ok(miniskeleton_core::mesh::weld::weld_points(&p, tolerance)))?;
-    Ok((PyArray1::from_vec(py, map.into_iter().map(|w| w as i32).collect()), from_rows(py, &welded)?))
+    let map = PyArray1::from_vec(py, map.into_iter().map(|w| w as i32).collect()).unbind();
+    Ok(PyWeldedPoints { map, welded: from_rows(py, &welded)?.unbind() })
 }
 
 /// Which meshes meet along a seam: `vertices` (n,3) of all meshes stacked, `mesh_of` (n,) the
@@ -82,6 +89,7 @@ pub fn catmull_clark_limit<'py>(
 }
 
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_class::<PyWeldedPoints>()?;
     m.add_function(wrap_pyfunction!(weld_points, m)?)?;
     m.add_function(wrap_pyfunction!(touching_meshes, m)?)?;
     m.add_function(wrap_pyfunction!(catmull_clark_limit, m)?)?;

@@ -1,7 +1,7 @@
 //! Bindings for `miniskeleton_core::weights` (heat, bilinear, inverse distance): skinning weights
 //! as dense top-k arrays.
 
-use crate::convert::{index_matrix, index_rows, indices, matrix, rows, IndexRows, Indices};
+use crate::convert::{index_matrix, index_rows, indices, matrix, rows, unpacks_as, IndexRows, Indices};
 use crate::error::{guarded, to_py};
 use crate::options::{keyword, optional, read_options};
 use miniskeleton_core::mesh::Symmetry;
@@ -24,7 +24,15 @@ use pyo3::types::PyDict;
 use std::sync::Mutex;
 
 type F32Rows<'py> = PyArrayLike2<'py, f32, AllowTypeChange>;
-type Pair<'py> = (Bound<'py, PyArray2<i32>>, Bound<'py, PyArray2<f32>>);
+
+/// Top-k weights: indices int32 (n,k) (-1 unused), weights float32 (n,k); they unpack in that
+/// order.
+#[pyclass(name = "Influences", module = "miniskeleton_core", frozen, get_all)]
+pub struct PyInfluences {
+    indices: Py<PyArray2<i32>>,
+    weights: Py<PyArray2<f32>>,
+}
+unpacks_as!(PyInfluences, indices, weights);
 
 /// What a heat or voxel bind did (`HeatReport`, and `VoxelReport`'s own fields, None for heat):
 /// pieces, fallback_pieces (saw no bone), rigid_pieces, boneless_pieces, spanning_pieces,
@@ -62,13 +70,14 @@ pub struct PyWeights {
 }
 
 fn weights_result(py: Python<'_>, inf: Influences, report: PyWeightsReport) -> PyResult<PyWeights> {
-    let (indices, weights) = to_pair(py, inf)?;
-    Ok(PyWeights { indices: indices.unbind(), weights: weights.unbind(), report: Py::new(py, report)? })
+    let PyInfluences { indices, weights } = to_influences(py, inf)?;
+    Ok(PyWeights { indices, weights, report: Py::new(py, report)? })
 }
 
-fn to_pair<'py>(py: Python<'py>, inf: Influences) -> PyResult<Pair<'py>> {
+fn to_influences(py: Python<'_>, inf: Influences) -> PyResult<PyInfluences> {
     let n = inf.n();
-    Ok((matrix(py, inf.indices, n, inf.k)?, matrix(py, inf.weights, n, inf.k)?))
+    let indices = matrix(py, inf.indices, n, inf.k)?.unbind();
+    Ok(PyInfluences { indices, weights: matrix(py, inf.weights, n, inf.k)?.unbind() })
 }
 
 fn positive_k(max_influences: usize) -> PyResult<usize> {
@@ -89,13 +98,13 @@ pub fn idw_weights<'py>(
     max_influences: usize,
     power: f32,
     epsilon: f32,
-) -> PyResult<Pair<'py>> {
+) -> PyResult<PyInfluences> {
     let v = rows::<f32, 3>(&vertices, "vertices")?;
     let h = rows::<f32, 3>(&bone_heads, "bone_heads")?;
     let t = rows::<f32, 3>(&bone_tails, "bone_tails")?;
     let opts = IdwOptions { power, max_influences: positive_k(max_influences)?, epsilon };
     let inf = guarded(py, || core_idw(&v, &h, &t, &opts))?;
-    to_pair(py, inf)
+    to_influences(py, inf)
 }
 
 /// Nearest-bone weights with joint blending (see `bilinear.rs`). Keywords: max_influences,
@@ -110,7 +119,7 @@ pub fn bilinear_weights<'py>(
     bone_tails: F32Rows<'py>,
     parents: Option<Indices<'py>>,
     options: Option<&Bound<'py, PyDict>>,
-) -> PyResult<Pair<'py>> {
+) -> PyResult<PyInfluences> {
     let v = rows::<f32, 3>(&vertices, "vertices")?;
     let h = rows::<f32, 3>(&bone_heads, "bone_heads")?;
     let t = rows::<f32, 3>(&bone_tails, "bone_tails")?;
@@ -140,7 +149,7 @@ pub fn bilinear_weights<'py>(
         }
     };
     let inf = guarded(py, || core_bilinear(&v, &h, &t, &p, &opts))?;
-    to_pair(py, inf)
+    to_influences(py, inf)
 }
 
 fn heat_report(py: Python<'_>, r: &HeatReport) -> PyResult<PyWeightsReport> {
@@ -261,10 +270,10 @@ pub fn heat_weights<'py>(
     bone_tails: F32Rows<'py>,
     progress: Option<Py<PyAny>>,
     options: Option<&Bound<'py, PyDict>>,
-) -> PyResult<Pair<'py>> {
+) -> PyResult<PyInfluences> {
     let opts = heat_options("heat_weights", options)?;
     let (inf, _) = solve_heat(py, &mesh_and_bones(&vertices, &triangles, &bone_heads, &bone_tails)?, &opts, progress)?;
-    to_pair(py, inf)
+    to_influences(py, inf)
 }
 
 /// As `heat_weights`, with its report: a `Weights` (indices, weights, report).
@@ -373,11 +382,11 @@ pub fn heat_sources<'py>(
     bone_heads: F32Rows<'py>,
     bone_tails: F32Rows<'py>,
     options: Option<&Bound<'py, PyDict>>,
-) -> PyResult<Pair<'py>> {
+) -> PyResult<PyInfluences> {
     let opts = heat_options("heat_sources", options)?;
     let (v, tri, h, t) = mesh_and_bones(&vertices, &triangles, &bone_heads, &bone_tails)?;
     let inf = guarded(py, || core_heat_sources(&v, &tri, &h, &t, &opts))?;
-    to_pair(py, inf)
+    to_influences(py, inf)
 }
 
 /// Debug and evaluation: `heat_weights_report` with the heat sources given, per vertex, as
@@ -573,13 +582,14 @@ pub fn transfer_weights<'py>(
         weights: body_weights.as_array().iter().copied().collect(),
     };
     let (inf, r) = guarded(py, || core_transfer(&bv, &bt, &body, &v, &t, &opts))?;
-    let (indices, weights) = to_pair(py, inf)?;
+    let PyInfluences { indices, weights } = to_influences(py, inf)?;
     let report =
         PyTransferReport { matched: r.matched, inpainted: r.inpainted, nearest: r.nearest, regularized: r.regularized };
-    Ok(PyTransferredWeights { indices: indices.unbind(), weights: weights.unbind(), report: Py::new(py, report)? })
+    Ok(PyTransferredWeights { indices, weights, report: Py::new(py, report)? })
 }
 
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_class::<PyInfluences>()?;
     m.add_class::<PyWeights>()?;
     m.add_class::<PyWeightsReport>()?;
     m.add_class::<PyVoxelDistances>()?;
