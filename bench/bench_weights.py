@@ -32,6 +32,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import os
 import subprocess
 import sys
 import time
@@ -54,9 +55,8 @@ SHAPES = {
 # read as VmHWM (`ru_maxrss` would keep the peak of the bench process it was forked from).
 PEAK_SCRIPT = """
 import sys
-sys.path.insert(0, sys.argv[1])
 import miniskeleton_core as core
-rings, segments, height, bones = int(sys.argv[2]), int(sys.argv[3]), float(sys.argv[4]), int(sys.argv[5])
+rings, segments, height, bones = int(sys.argv[1]), int(sys.argv[2]), float(sys.argv[3]), int(sys.argv[4])
 v, t = core.capped_cylinder(0.5, height, rings, segments)
 heads, tails, _ = core.bone_chain(height, bones)
 core.heat_weights_report(v, t, heads, tails)
@@ -68,8 +68,9 @@ with open("/proc/self/status") as status:
 def core_peak_mb(core, rings, segments, height, bones):
     """Peak resident memory (MB) of a fresh process making the cylinder and calling the core."""
     where = str(Path(core.__file__).resolve().parent.parent)
-    args = [sys.executable, "-c", PEAK_SCRIPT, where, str(rings), str(segments), str(height), str(bones)]
-    return float(subprocess.run(args, check=True, capture_output=True, text=True).stdout.split()[-1])
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [where, os.environ.get("PYTHONPATH")])))
+    args = [sys.executable, "-c", PEAK_SCRIPT, str(rings), str(segments), str(height), str(bones)]
+    return float(subprocess.run(args, check=True, capture_output=True, text=True, env=env).stdout.split()[-1])
 
 
 def cylinder_object(bpy, core, rings, segments, height):
