@@ -737,6 +737,17 @@ fn a_head_shake_turns_neck_and_head_by_the_amplitude_and_its_cycle_is_one_shake(
     let params = GaitParams { motion: Motion::HeadShake, ..Default::default() };
     let alone = motion_clip(&Skeleton::new(&h, &t, &p, &[]), &rest, &neckless, &params, &Skin::NONE).unwrap();
     assert!((most_turned(&alone, roles.head) - amp).abs() < 0.05 * amp);
+    // more shakes than Blender has frames is an error, not a clip of NaN (a fuzz finding:
+    // 7.6e37 shakes overflowed the sine's phase)
+    let skeleton = Skeleton::new(&h, &t, &p, &[]);
+    for cycles in [2e6, 7.6e37] {
+        let params = GaitParams { motion: Motion::HeadShake, cycles, ..Default::default() };
+        let err = motion_clip(&skeleton, &rest, &roles, &params, &Skin::NONE).unwrap_err().to_string();
+        assert!(err.contains("cycles must be at most"), "{err}");
+    }
+    let params = GaitParams { motion: Motion::HeadShake, cycles: 1e6, ..Default::default() };
+    let fast = motion_clip(&skeleton, &rest, &roles, &params, &Skin::NONE).unwrap();
+    assert!(fast.rotations.iter().flatten().all(|c| c.is_finite()));
 }
 
 #[test]

@@ -57,7 +57,7 @@
 //! standing.
 
 use crate::error::{Error, Result};
-use crate::motion::clip::{frame_count, Cadence, Clip, GaitParams, Motion, Steer};
+use crate::motion::clip::{frame_count, Cadence, Clip, GaitParams, Motion, Steer, MAX_FRAMES};
 use crate::motion::course::{Course, Steering};
 use crate::motion::footfalls::{planted_legs, stand_on, Ground};
 use crate::motion::planting::{plant_legs, Planting};
@@ -173,6 +173,13 @@ fn check(skeleton: &Skeleton, rest: &[[f32; 9]], roles: &Roles, p: &GaitParams) 
     }
     if p.motion == Motion::HeadShake && !(p.duration > 0.0 && p.duration.is_finite()) {
         return Err(Error::InvalidArgument(format!("duration must be positive, got {}", p.duration)));
+    }
+    // more shakes than Blender has frames mean nothing (and overflow the sine's phase)
+    if p.motion == Motion::HeadShake && p.cycles > MAX_FRAMES as f32 {
+        return Err(Error::InvalidArgument(format!(
+            "cycles must be at most {MAX_FRAMES} for a head shake (Blender's last frame), got {}",
+            p.cycles
+        )));
     }
     if !p.amplitude.is_finite() {
         return Err(Error::InvalidArgument("amplitude must be finite".into()));
