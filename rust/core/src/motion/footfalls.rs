@@ -264,7 +264,11 @@ pub(crate) fn stand_on(
             None => leg.ankle.z - ground,
         };
         if let Some((behind, ahead)) = reach {
-            leg.print = (leg.print.0.max(*behind), leg.print.1.max(*ahead));
+            // a skin reaching further than the leg is long is not its foot (nor is one so far
+            // out that the distance overflows)
+            let most = FOOT_MOST * (leg.l1 + leg.l2);
+            let fit = |r: f32| if r.is_finite() { r.min(most) } else { 0.0 };
+            leg.print = (leg.print.0.max(fit(*behind)), leg.print.1.max(fit(*ahead)));
         }
     }
 }
@@ -295,6 +299,9 @@ pub(crate) struct Step {
 /// How far ahead and behind the ankle a foot reads the ground, as a share of the leg's two
 /// bones (and half as far to each side): about a foot's length.
 const FOOTPRINT: f32 = 0.25;
+/// The furthest a foot's skin counts ahead of or behind its ankle ([`stand_on`]), as a share of
+/// the leg's two bones.
+const FOOT_MOST: f32 = 1.0;
 /// How much further than its footprint a lifted foot clears the ground ahead and behind (a
 /// biped's toes reach about 0.4 of its leg ahead of the ankle).
 const SWING_CLEAR: f32 = 2.0;
