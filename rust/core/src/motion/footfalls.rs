@@ -235,8 +235,8 @@ pub(crate) fn leaning_foot(
 /// Stand `legs` (of `limbs`, one each) on a level ground at height `ground`, the body settled
 /// by `settle`: each ankle stands where the settled body carries it, at its rest height above
 /// its leg's sole (`soles`, per leg; None: the ankle keeps its own rest height), and reads the
-/// ground as far behind and ahead as its foot reaches (`reach`, per leg, from
-/// `skin::foot_reach`). Along `fwd`,
+/// ground as far behind and ahead as its foot extends (`extents`, per leg, from
+/// `skin::foot_extents`). Along `fwd`,
 /// each leg stands as far ahead of its hip as the legs of its group do on average: a scan in
 /// mid-stride (one front hoof ahead, the other behind) walks from a square stance, and a rig
 /// standing square keeps its own.
@@ -244,7 +244,7 @@ pub(crate) fn stand_on(
     legs: &mut [PlantedLeg],
     limbs: &[Limb],
     soles: &[Option<f32>],
-    reach: &[Option<(f32, f32)>],
+    extents: &[Option<(f32, f32)>],
     (ground, fwd): (f32, Vec3),
     settle: &Settle,
 ) {
@@ -255,7 +255,7 @@ pub(crate) fn stand_on(
         mean[limb.group].0 += ahead(leg);
         mean[limb.group].1 += 1;
     }
-    for (((leg, limb), sole), reach) in legs.iter_mut().zip(limbs).zip(soles).zip(reach) {
+    for (((leg, limb), sole), extent) in legs.iter_mut().zip(limbs).zip(soles).zip(extents) {
         let (sum, count) = mean[limb.group];
         let square = leg.ankle + fwd * (sum / count.max(1) as f32 - ahead(leg));
         leg.stand = settle.apply(square);
@@ -263,7 +263,7 @@ pub(crate) fn stand_on(
             Some(sole) => leg.ankle.z - sole,
             None => leg.ankle.z - ground,
         };
-        if let Some((behind, ahead)) = reach {
+        if let Some((behind, ahead)) = extent {
             // a skin reaching further than the leg is long is not its foot (nor is one so far
             // out that the distance overflows)
             let most = FOOT_MOST * (leg.l1 + leg.l2);
@@ -327,8 +327,8 @@ fn footing(leg: &PlantedLeg, ground: &Ground, a: f32, fwd: Vec3) -> (Vec3, Vec3)
         let d = p - centre;
         (d.dot(heading), d.dot(right), ground.terrain.height(p, ground.level))
     };
-    let samples: Vec<(f32, f32, f32)> =
-        (0..15).map(|k| sample((k % 5) as f32 * 0.25, (k / 5) as f32 * 0.5 - 0.5)).collect();
+    let samples: [(f32, f32, f32); 15] =
+        std::array::from_fn(|k| sample((k % 5) as f32 * 0.25, (k / 5) as f32 * 0.5 - 0.5));
     let n = samples.len() as f32;
     let mean = samples.iter().fold(Vec3::ZERO, |m, &(x, y, z)| m + Vec3::new(x, y, z)) / n;
     let (mut sxx, mut sxz, mut syy, mut syz) = (0.0f32, 0.0f32, 0.0f32, 0.0f32);

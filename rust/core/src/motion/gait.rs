@@ -65,7 +65,7 @@ use crate::motion::pose::{new_poser, posed_frames, rider_pose, to_wxyz, Poser};
 use crate::motion::roles::{no_legs_message, BodyPlan, Limb, Roles, Side};
 use crate::motion::settle::{settle, Settle};
 use crate::motion::shake::head_shake;
-use crate::motion::skin::{arm_radius, elbow_clearance, foot_reach, hang_angle, leg_soles, Body, Hanging, Skin};
+use crate::motion::skin::{arm_radius, elbow_clearance, foot_extents, hang_angle, leg_soles, Body, Hanging, Skin};
 use crate::skeleton::{validate_parents, Skeleton};
 use glam::{Quat, Vec3};
 use std::f32::consts::{PI, TAU};
@@ -564,8 +564,8 @@ fn gait(
     let ground = ground.unwrap_or(roles.ground);
     if let Some(plant) = &mut planted {
         let ankles: Vec<Vec3> = plant.iter().map(|l| l.ankle).collect();
-        let reach = foot_reach(skin, roles, parents, &soles, (&ankles, fwd));
-        stand_on(plant, &roles.legs, &soles, &reach, (ground, fwd), &settled);
+        let extents = foot_extents(skin, roles, parents, &soles, (&ankles, fwd));
+        stand_on(plant, &roles.legs, &soles, &extents, (ground, fwd), &settled);
     }
     let arms = arm_joints(heads, tails, roles, (skin, ground), (up, fwd, right));
     // The settle turns every tree the roles lie in about its root: the main root through the

@@ -111,7 +111,7 @@ pub(crate) fn leg_soles(skin: &Skin, roles: &Roles, parents: &[i32]) -> Vec<Opti
 /// far its foot's underside reaches behind and ahead of the ankle along `fwd` (heel, toes), read
 /// from the leg's skin points in the lower half between its sole and its ankle; None without
 /// such points.
-pub(crate) fn foot_reach(
+pub(crate) fn foot_extents(
     skin: &Skin,
     roles: &Roles,
     parents: &[i32],
