@@ -65,7 +65,9 @@ use crate::motion::pose::{new_poser, posed_frames, rider_pose, to_wxyz, Poser};
 use crate::motion::roles::{no_legs_message, BodyPlan, Limb, Roles, Side};
 use crate::motion::settle::{settle, Settle};
 use crate::motion::shake::head_shake;
-use crate::motion::skin::{arm_radius, elbow_clearance, foot_extents, hang_angle, leg_soles, Body, Hanging, Skin};
+use crate::motion::skin::{
+    arm_radius, elbow_clearance, foot_extents, hang_angle, leg_soles, skin_reach, Body, Hanging, Skin,
+};
 use crate::skeleton::{validate_parents, Skeleton};
 use glam::{Quat, Vec3};
 use std::f32::consts::{PI, TAU};
@@ -327,16 +329,18 @@ const RISING: f32 = 0.2;
 /// How each arm hangs: its upper arm is the longer of its first two bones, each measured to the
 /// next bone's head (an imported rig's tails are stubs of one length, so the clavicle-or-upper-
 /// arm choice went by rounding, and by scale), the elbow the next. The arm is lowered from its
-/// rest pose (a T- or A-pose) to hang from the shoulder straight, at the least angle from
-/// straight down that keeps it, as thick as its skin, clear of the body (`skin::hang_angle`);
-/// an arm whose hand would then come lower than [`HAND_LIFT`] above the `ground` bends its elbow
-/// forward until it does not (`skin::elbow_clearance`).
+/// rest pose (a T- or A-pose) to hang from the shoulder, at the least angle from straight down
+/// that keeps it, as thick as its skin and its forearm bent as the gait bends it, clear of the
+/// body (`skin::hang_angle`);
+/// an arm whose hand would then come lower than [`HAND_LIFT`] above the `ground` (its bones, or
+/// the skin of the forearm and below: fingers, a prop held) bends its elbow forward until it
+/// does not (`skin::elbow_clearance`).
 fn arm_joints(
-    heads: &[[f32; 3]],
-    tails: &[[f32; 3]],
+    (heads, tails, parents): (&[[f32; 3]], &[[f32; 3]], &[i32]),
     roles: &Roles,
     (skin, ground): (&Skin, f32),
     (up, fwd, right): (Vec3, Vec3, Vec3),
+    run: bool,
 ) -> Vec<ArmJoints> {
     let hv = |b: usize| Vec3::from(heads[b]);
     let upper_of = |a: &Limb| {
@@ -380,20 +384,24 @@ fn arm_joints(
             }
             let radius = arm_radius(skin, &owners, &[shoulder, elbow, wrist, tip]).min(0.1 * roles.height);
             let out = if a.side == Side::Left { left } else { -left };
-            let hanging = Hanging { shoulder, reach, radius, out };
-            let (slab, margin) = (HANG_SLAB * roles.height, HANG_MARGIN * roles.height);
-            let angle = hang_angle(&body, &hanging, mid, (up, fwd), slab, margin);
+            let fore_reach = chain.iter().skip(1).flat_map(|&b| [hv(b), Vec3::from(tails[b])]);
+            let fore_reach = fore_reach.map(|p| (p - elbow).length()).fold(0.0, f32::max);
+            let fore_reach = fore_reach.max(skin_reach(skin, &a.bones[i0 + 1..], parents, elbow));
+            let lowest = ground + HAND_LIFT * roles.height + radius;
+            let arm_lengths = ((elbow - shoulder).length(), fore_reach);
+            let bend_at = |angle: f32| fore.map_or(0.0, |_| elbow_clearance(shoulder.z, angle, arm_lengths, lowest));
+            let reach = reach.max(arm_lengths.0 + fore_reach);
+            let hanging = Hanging { shoulder, upper: arm_lengths.0, reach, radius, out };
+            let slab_margin = (HANG_SLAB * roles.height, HANG_MARGIN * roles.height);
+            let flexed = |angle: f32| fore.map_or(0.0, |_| bend_at(angle).max(elbow_flex(run)));
+            let angle = hang_angle(&body, &hanging, mid, (up, fwd), slab_margin, &flexed);
             let hang = -up * angle.cos() + out * angle.sin();
             let lower = Quat::from_rotation_arc((elbow - shoulder).normalize_or(hang), hang);
             let straighten = fore.map_or(Quat::IDENTITY, |_| {
                 let along = lower * (wrist - elbow).normalize_or(elbow - shoulder);
                 lower.inverse() * Quat::from_rotation_arc(along.normalize_or(hang), hang) * lower
             });
-            let fore_reach = chain.iter().skip(1).flat_map(|&b| [hv(b), Vec3::from(tails[b])]);
-            let fore_reach = fore_reach.map(|p| (p - elbow).length()).fold(0.0, f32::max);
-            let lowest = ground + HAND_LIFT * roles.height + radius;
-            let arm_lengths = ((elbow - shoulder).length(), fore_reach);
-            let bend = fore.map_or(0.0, |_| elbow_clearance(shoulder.z, angle, arm_lengths, lowest));
+            let bend = bend_at(angle);
             ArmJoints { upper, fore, lower, straighten, bend, side: a.side }
         })
         .collect()
@@ -451,9 +459,16 @@ fn pose_legs(
     (left_hip, right_hip)
 }
 
+/// The elbow's bend forward (radians) at the middle of an arm's swing: a little walking, about
+/// a right angle running.
+fn elbow_flex(run: bool) -> f32 {
+    if run { 75f32 } else { 12.0 }.to_radians()
+}
+
 /// Arms hang (`ArmJoints::lower`) and swing about the right axis against the leg of their side
 /// (`hips`: the left and right legs' swing angles), the elbow bent forward: a little walking,
-/// about a right angle running, and at least as far as keeps a long arm's hand off the ground.
+/// about a right angle running, and at least as far as keeps a long arm's hand off the ground,
+/// the upper arm swung back included (the forearm then keeps its angle forward of hanging).
 fn pose_arms(poser: &mut Poser, arms: &[ArmJoints], (left_hip, right_hip): (f32, f32), run: bool, right: Vec3) {
     for arm in arms {
         let leg = if arm.side == Side::Left { left_hip } else { right_hip };
@@ -461,7 +476,8 @@ fn pose_arms(poser: &mut Poser, arms: &[ArmJoints], (left_hip, right_hip): (f32,
         let upper = Quat::from_axis_angle(right, swing) * arm.lower;
         poser.turn(arm.upper, upper);
         if let Some(fore) = arm.fore {
-            let flex = if run { 75f32 } else { 12.0 }.to_radians().max(arm.bend) + 0.3 * leg.abs();
+            let flex = elbow_flex(run) + 0.3 * leg.abs();
+            let flex = flex.max(arm.bend - swing.min(0.0));
             poser.turn(fore, arm.lower.inverse() * Quat::from_axis_angle(right, flex) * arm.lower * arm.straighten);
         }
     }
@@ -567,7 +583,7 @@ fn gait(
         let extents = foot_extents(skin, roles, parents, &soles, (&ankles, fwd));
         stand_on(plant, &roles.legs, &soles, &extents, (ground, fwd), &settled);
     }
-    let arms = arm_joints(heads, tails, roles, (skin, ground), (up, fwd, right));
+    let arms = arm_joints((heads, tails, parents), roles, (skin, ground), (up, fwd, right), run);
     // The settle turns every tree the roles lie in about its root: the main root through the
     // root offset, the others (a rig of several trees) through their location.
     let mut tree_roots: Vec<usize> = Vec::new();

@@ -22,7 +22,7 @@
 
 use crate::error::{Error, Result};
 use crate::motion::roles::Roles;
-use glam::Vec3;
+use glam::{Quat, Vec3};
 
 /// Skin points and the bone that weighs most on each (see the module doc).
 #[derive(Debug, Clone, Copy, Default)]
@@ -187,9 +187,18 @@ pub(crate) fn arm_radius(skin: &Skin, owners: &[bool], chain: &[Vec3]) -> f32 {
     *d.select_nth_unstable_by(k, |a, b| a.partial_cmp(b).unwrap_or(std::cmp::Ordering::Equal)).1
 }
 
-/// How an arm hangs: from its shoulder, reaching `reach` down to the fingertips, `radius` thick.
+/// How far from `from` the skin of the bones `tops`, and of every bone below them in `parents`,
+/// reaches: the farthest such point (a hand's fingers, a prop it holds); 0 without such points.
+pub(crate) fn skin_reach(skin: &Skin, tops: &[usize], parents: &[i32], from: Vec3) -> f32 {
+    let owned = below(tops.iter().copied(), parents);
+    skin.owned_by(&owned).map(|p| (p - from).length()).fold(0.0, f32::max)
+}
+
+/// How an arm hangs: from its shoulder, its elbow `upper` away, reaching `reach` to the
+/// fingertips (or to what the hand holds), `radius` thick.
 pub(crate) struct Hanging {
     pub shoulder: Vec3,
+    pub upper: f32,
     pub reach: f32,
     pub radius: f32,
     /// Unit direction out of the body on the arm's side (horizontal).
@@ -202,26 +211,31 @@ pub(crate) const HANG_MIN: f32 = 8.0 * std::f32::consts::PI / 180.0;
 pub(crate) const HANG_MAX: f32 = 40.0 * std::f32::consts::PI / 180.0;
 
 /// The least angle from straight down (radians, [`HANG_MIN`] to [`HANG_MAX`]) at which the arm
-/// `arm` hangs clear of `body`: at each of 12 points from half its reach (about the elbow) to its
-/// end (the upper arm meets the torso at the armpit), the arm's outer reach less its radius lies
-/// beyond the body's widest point on that side within `slab` above or below it and within the
-/// arm's thickness plus `slab` ahead or behind it, by `margin`. `mid` is a point on the body's
-/// middle plane, `(up, fwd)` the body's axes.
+/// `arm` hangs clear of `body`, its forearm bent forward at the elbow by `bend(angle)` (radians;
+/// a long arm bends further to keep its hand off the ground): at each of 12 points from half its
+/// reach (about the elbow) to its end (the upper arm meets the torso at the armpit), the arm's
+/// outer reach less its radius lies beyond the body's widest point on that side within `slab`
+/// above or below it and within the arm's thickness plus `slab` ahead or behind it, by
+/// `margin`. `mid` is a point on the body's middle plane, `(up, fwd)` the body's axes.
 pub(crate) fn hang_angle(
     body: &Body,
     arm: &Hanging,
     mid: Vec3,
     (up, fwd): (Vec3, Vec3),
-    slab: f32,
-    margin: f32,
+    (slab, margin): (f32, f32),
+    bend: &dyn Fn(f32) -> f32,
 ) -> f32 {
     let side = |p: Vec3| (p - mid).dot(arm.out);
+    let right = fwd.cross(up);
     let step = 1f32.to_radians();
     let mut a = HANG_MIN;
     while a < HANG_MAX {
         let dir = -up * a.cos() + arm.out * a.sin();
+        let elbow = arm.shoulder + dir * arm.upper;
+        let fore = Quat::from_axis_angle(right, bend(a)) * dir;
         let clear = (0..12).all(|k| {
-            let q = arm.shoulder + dir * arm.reach * (0.5 + 0.5 * k as f32 / 11.0);
+            let along = arm.reach * (0.5 + 0.5 * k as f32 / 11.0);
+            let q = if along <= arm.upper { arm.shoulder + dir * along } else { elbow + fore * (along - arm.upper) };
             let wide = body
                 .points
                 .iter()
@@ -259,7 +273,7 @@ mod tests {
     #[test]
     fn a_wider_body_lifts_the_arm_further_out() {
         let (up, fwd) = (Vec3::Z, Vec3::NEG_Y);
-        let arm = Hanging { shoulder: Vec3::new(0.2, 0.0, 1.4), reach: 0.7, radius: 0.04, out: Vec3::X };
+        let arm = Hanging { shoulder: Vec3::new(0.2, 0.0, 1.4), upper: 0.3, reach: 0.7, radius: 0.04, out: Vec3::X };
         let body_of = |w: f32| {
             let mut points = Vec::new();
             for k in 0..=40 {
@@ -271,13 +285,56 @@ mod tests {
             }
             Body { points, pad: 0.0 }
         };
-        let narrow = hang_angle(&body_of(0.12), &arm, Vec3::ZERO, (up, fwd), 0.03, 0.01);
-        let wide = hang_angle(&body_of(0.25), &arm, Vec3::ZERO, (up, fwd), 0.03, 0.01);
+        let straight = |_: f32| 0.0;
+        let narrow = hang_angle(&body_of(0.12), &arm, Vec3::ZERO, (up, fwd), (0.03, 0.01), &straight);
+        let wide = hang_angle(&body_of(0.25), &arm, Vec3::ZERO, (up, fwd), (0.03, 0.01), &straight);
         assert_eq!(narrow, HANG_MIN, "a slim body: the least angle");
         assert!(wide > narrow + 5f32.to_radians() && wide < HANG_MAX, "{wide}");
         // the arm at that angle is clear of the wide body at its hand
         let hand = arm.shoulder + (-up * wide.cos() + Vec3::X * wide.sin()) * arm.reach;
         assert!(hand.x - arm.radius >= 0.25 + 0.01 - 1e-4, "{hand}");
+    }
+
+    #[test]
+    fn a_forearm_bent_forward_clears_a_belly_the_straight_arm_passes_behind() {
+        let (up, fwd) = (Vec3::Z, Vec3::NEG_Y);
+        let arm = Hanging { shoulder: Vec3::new(0.2, 0.0, 1.4), upper: 0.3, reach: 0.7, radius: 0.04, out: Vec3::X };
+        // a slim torso, and a belly ahead of it (0.15 to 0.3 forward, 0.32 to each side) at the
+        // height of the elbow and below
+        let mut points = Vec::new();
+        for k in 0..=40 {
+            let z = 0.7 + 0.02 * k as f32;
+            for j in 0..16 {
+                let t = j as f32 / 16.0 * std::f32::consts::TAU;
+                points.push(Vec3::new(0.12 * t.cos(), 0.1 * t.sin(), z));
+                if (0.85..=1.1).contains(&z) {
+                    points.push(Vec3::new(0.32 * t.cos(), -0.225 + 0.075 * t.sin(), z));
+                }
+            }
+        }
+        let body = Body { points, pad: 0.0 };
+        let angle = |bend: f32| hang_angle(&body, &arm, Vec3::ZERO, (up, fwd), (0.03, 0.01), &|_| bend);
+        let (straight, bent) = (angle(0.0), angle(70f32.to_radians()));
+        assert_eq!(straight, HANG_MIN, "the straight arm hangs behind the belly");
+        assert!(bent > straight + 5f32.to_radians(), "{bent}");
+        // at that angle the bent forearm's end is beside the belly, not in it
+        let dir = -up * bent.cos() + Vec3::X * bent.sin();
+        let fore = Quat::from_axis_angle(fwd.cross(up), 70f32.to_radians()) * dir;
+        let end = arm.shoulder + dir * arm.upper + fore * (arm.reach - arm.upper);
+        assert!(end.y < -0.15 && end.x - arm.radius >= 0.32, "{end}");
+    }
+
+    #[test]
+    fn a_prop_held_in_the_hand_and_the_fingers_count_in_the_hands_reach() {
+        // bones: 0 upper arm, 1 forearm, 2 hand, 3 finger (child of the hand), 4 spine
+        let parents = [4, 0, 1, 2, -1];
+        let points = [[0.0, 0.0, 0.0], [0.0, -0.9, 0.0], [0.0, 0.0, -0.5], [3.0, 0.0, 0.0]];
+        let skin = Skin { points: &points, bones: &[1, 2, 3, 4] };
+        let from = Vec3::ZERO;
+        // the forearm and below: the prop 0.9 away (the hand's), the finger's point 0.5; not the spine's
+        assert_eq!(skin_reach(&skin, &[1], &parents, from), 0.9);
+        assert_eq!(skin_reach(&skin, &[3], &parents, from), 0.5);
+        assert_eq!(skin_reach(&Skin::NONE, &[1], &parents, from), 0.0);
     }
 
     #[test]
