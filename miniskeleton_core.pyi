@@ -62,8 +62,9 @@ class HeatOptions(TypedDict, total=False):
     """The keywords of the heat functions (heat_weights, heat_weights_report, heat_weights_many,
     heat_sources, heat_weights_from_sources); each one left out takes its default.
 
-    max_influences (4): bones kept per vertex (>= 1). min_weight (1e-3): weights below it,
-    relative to the vertex's total, are dropped. visibility (True): ray test (a vertex takes
+    max_influences (4): bones kept per vertex (>= 1), the weakest fading out as a bone leaves
+    them (with t the strongest left out, a kept w < 2 t becomes 2 (w - t)). min_weight (1e-3):
+    weights below it, relative to the vertex's total, are dropped. visibility (True): ray test (a vertex takes
     the nearest bone it sees through the mesh); False: the nearest bone. weld_tolerance (1e-5)
     and every other length are relative to the bounding box of the vertices that faces use (a
     stray loose vertex does not change them). heat_constant (1.0): c in H = 4 c / d^2.

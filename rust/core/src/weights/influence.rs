@@ -101,6 +101,34 @@ pub fn insert_ranked(j: i32, w: f32, idx: &mut [i32], ws: &mut [f32], used: usiz
     (used + 1).min(k)
 }
 
+/// Keep the first `k` of the first `used` entries of a sorted list (from [`insert_ranked`])
+/// so that a bone's kept weight falls continuously to 0 where it leaves the top `k`: with a
+/// `(k + 1)`-th entry of weight `t`, a kept weight `w` below `2 t` becomes `2 (w - t)` (0 at
+/// `t`, itself again at `2 t`), larger ones stay; the entries left at 0 and those past `k` are
+/// cleared (`-1` / `0`). A plain cut keeps the first `k` as they are, and two neighbouring
+/// vertices whose `k`-th and `(k + 1)`-th bones swap then differ by that whole weight: a seam
+/// that LBS shears (Blender's Limit Total cuts so). The map is the same for every kept entry
+/// and increasing, so swaps within the first `k` change nothing and the order stays. A list
+/// whose first `k + 1` entries are all equal keeps its first `k` as they are (nothing would be
+/// left). Returns the slots kept; normalize with [`normalize_pruned`].
+pub fn cut_continuously(idx: &mut [i32], ws: &mut [f32], used: usize, k: usize) -> usize {
+    if used <= k {
+        return used;
+    }
+    let next = ws[k];
+    let kept = if ws[0] > next {
+        ws[..k].iter_mut().filter(|w| **w < 2.0 * next).for_each(|w| *w = 2.0 * (*w - next));
+        ws[..k].iter().take_while(|&&w| w > 0.0).count()
+    } else {
+        k
+    };
+    for s in kept..used {
+        ws[s] = 0.0;
+        idx[s] = -1;
+    }
+    kept
+}
+
 /// Normalize the first `used` entries of a sorted list (from [`insert_ranked`]) to sum 1,
 /// drop those below `min_weight` (never the first; the others from the first that falls
 /// below), set the dropped slots to `-1` / `0` and renormalize. Returns the slots kept.
@@ -196,6 +224,38 @@ mod tests {
             }
             assert_eq!((used, idx, ws), (3, [4, 0, 1], [0.5, 0.25, 0.25]), "order {order:?}");
         }
+    }
+
+    /// The continuous cut: a bone leaving the top k fades out instead of jumping. Across a
+    /// line where the 2nd and 3rd bones of three swap (k = 2), the plain cut's weights jump by
+    /// 0.34 (the 3rd bone's share), the continuous cut's by 0.07.
+    #[test]
+    fn a_bone_leaving_the_top_k_fades_out() {
+        let cut = |values: [f32; 3]| {
+            let (mut idx, mut ws, mut used) = ([-1; 3], [0.0; 3], 0);
+            for (j, &w) in values.iter().enumerate() {
+                used = insert_ranked(j as i32, w, &mut idx, &mut ws, used);
+            }
+            let kept = cut_continuously(&mut idx, &mut ws, used, 2);
+            normalize_pruned(&mut idx, &mut ws, kept, 0.0);
+            let mut dense = [0.0f32; 3];
+            for s in 0..kept {
+                dense[idx[s] as usize] = ws[s];
+            }
+            (kept, dense)
+        };
+        let (before, after) = (cut([0.5, 0.26, 0.24]), cut([0.5, 0.24, 0.26]));
+        assert_eq!((before.0, after.0), (2, 2));
+        let jump = (0..3).map(|j| (before.1[j] - after.1[j]).abs()).fold(0.0f32, f32::max);
+        assert!(jump < 0.1, "{before:?} {after:?}");
+        assert_eq!(before.1[2], 0.0);
+        // 0.5 >= 2 x 0.24 stays, 0.26 -> 2 (0.26 - 0.24).
+        assert!((before.1[0] - 0.5 / 0.54).abs() < 1e-5, "{before:?}");
+        // Fewer entries than k: unchanged; all equal: the first k as they are.
+        assert_eq!(cut([0.5, 0.5, 0.0]), (2, [0.5, 0.5, 0.0]));
+        assert_eq!(cut([0.3, 0.3, 0.3]), (2, [0.5, 0.5, 0.0]));
+        // The (k + 1)-th equal to the k-th: the k-th goes.
+        assert_eq!(cut([0.6, 0.2, 0.2]), (1, [1.0, 0.0, 0.0]));
     }
 
     /// The pruning threshold is relative to the kept total, so it does not depend on the

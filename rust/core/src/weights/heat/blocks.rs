@@ -12,7 +12,7 @@ use super::cholesky::Factor;
 use super::sources::{Shares, Source, Ties};
 use crate::mesh::mirror::Symmetry;
 use crate::weights::influence::weight_limit;
-use crate::weights::influence::{insert_ranked, normalize_pruned, Influences};
+use crate::weights::influence::{cut_continuously, insert_ranked, normalize_pruned, Influences};
 use crate::weights::symmetry::symmetrize_columns;
 use rayon::prelude::*;
 use std::time::Instant;
@@ -208,8 +208,11 @@ pub(crate) struct RunningTopK {
 }
 
 impl RunningTopK {
-    pub(crate) fn new(nw: usize, k: usize) -> RunningTopK {
-        let (ramped, raw) = (Influences::empty(nw, k), Influences::empty(nw, k));
+    /// Each of `nw` vertices' largest `k` weights of `b` bones, and the `(k + 1)`-th when there
+    /// is one (for [`cut_continuously`]).
+    pub(crate) fn new(nw: usize, k: usize, b: usize) -> RunningTopK {
+        let held = (k + 1).min(b.max(k));
+        let (ramped, raw) = (Influences::empty(nw, held), Influences::empty(nw, held));
         RunningTopK { ramped, ramped_used: vec![0; nw], raw, raw_used: vec![0; nw] }
     }
 
@@ -238,32 +241,47 @@ impl RunningTopK {
             });
     }
 
-    /// Each row normalized and pruned ([`normalize_pruned`]); a row whose weights all fell below
-    /// the ramp keeps them unramped, an empty row takes the vertex's nearest bone.
-    pub(crate) fn finish(mut self, min_weight: f32, sources: &[Source]) -> Influences {
-        let k = self.ramped.k;
+    /// Each row cut to its `k` largest ([`cut_continuously`]: a bone leaving them fades out),
+    /// normalized and pruned ([`normalize_pruned`]); a row whose weights all fell below the
+    /// ramp keeps them unramped, an empty row takes the vertex's nearest bone.
+    pub(crate) fn finish(mut self, k: usize, min_weight: f32, sources: &[Source]) -> Influences {
+        let held = self.ramped.k;
         let raw = &self.raw;
         let (raw_used, ramped_used) = (&self.raw_used, &self.ramped_used);
         self.ramped
             .indices
-            .par_chunks_mut(k)
-            .zip(self.ramped.weights.par_chunks_mut(k))
+            .par_chunks_mut(held)
+            .zip(self.ramped.weights.par_chunks_mut(held))
             .enumerate()
             .with_min_len(1024)
             .for_each(|(v, (idx, w))| {
-                if ramped_used[v] > 0 {
-                    normalize_pruned(idx, w, ramped_used[v], min_weight);
+                let used = if ramped_used[v] > 0 {
+                    ramped_used[v]
                 } else if raw_used[v] > 0 {
                     let (ri, rw) = raw.row(v);
                     idx.copy_from_slice(ri);
                     w.copy_from_slice(rw);
-                    normalize_pruned(idx, w, raw_used[v], min_weight);
+                    raw_used[v]
                 } else {
                     idx[0] = sources[v].nearest.bones[0] as i32;
                     w[0] = 1.0;
-                }
+                    return;
+                };
+                let kept = cut_continuously(idx, w, used, k);
+                normalize_pruned(idx, w, kept, min_weight);
             });
-        self.ramped
+        if held == k {
+            return self.ramped;
+        }
+        let mut out = Influences::empty(ramped_used.len(), k);
+        let rows = out.indices.par_chunks_mut(k).zip(out.weights.par_chunks_mut(k));
+        rows.zip(self.ramped.indices.par_chunks(held).zip(self.ramped.weights.par_chunks(held)))
+            .with_min_len(1024)
+            .for_each(|((oi, ow), (i, w))| {
+                oi.copy_from_slice(&i[..k]);
+                ow.copy_from_slice(&w[..k]);
+            });
+        out
     }
 }
 

@@ -35,7 +35,8 @@ use stages::{run, sources_found, Given, Inputs};
 /// Options of [`heat_weights`].
 #[derive(Debug, Clone, PartialEq)]
 pub struct HeatOptions {
-    /// Bones kept per vertex (>= 1; the result has min(this, bones) columns). Default 4.
+    /// Bones kept per vertex (>= 1; the result has min(this, bones) columns), cut continuously
+    /// ([`cut_continuously`](crate::weights::influence::cut_continuously)). Default 4.
     pub max_influences: usize,
     /// Pruning threshold relative to the kept total, see
     /// [`top_k_normalized`](crate::weights::influence::top_k_normalized). Default 1e-3.
@@ -202,7 +203,9 @@ const REGULARIZATION: [f64; 3] = [1e-10, 1e-6, 1e-3];
 /// cotangent stiffness, `M` the lumped mass), `p_j,i = 1` when `j` is the nearest bone vertex
 /// `i` sees through the mesh (near-ties share), `H_ii = HEAT_SCALE c / d_i^2` with `d_i` that
 /// distance; one sparse Cholesky factor serves every bone; then clip, Blender's small-weight
-/// ramp, top k, normalize.
+/// ramp, top k cut continuously (a bone leaving the top k fades out rather than dropping its
+/// weight at once, see [`cut_continuously`](crate::weights::influence::cut_continuously)),
+/// normalize.
 ///
 /// Limits: heat flows along the surface only, so pieces do not blend with each other (small
 /// ones with no bone inside are rigid, see [`HeatOptions::rigid_accessories`]); sight is a

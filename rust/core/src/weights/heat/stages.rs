@@ -633,7 +633,7 @@ fn solve(
     let threads = rayon::current_num_threads().max(1);
     let mirror = opts.symmetry.as_ref().map(|s| &s.mirror[..]);
     let blocks = bone_blocks(b, prep.wpos.len(), opts.block_bones, threads, mirror);
-    let mut best = RunningTopK::new(prep.wpos.len(), opts.max_influences.min(b));
+    let mut best = RunningTopK::new(prep.wpos.len(), opts.max_influences.min(b), b);
     let (mut secs, mut done) = (0.0, 0usize);
     let sym = opts.symmetry.as_ref().zip(vm.as_deref());
     let mut x = Vec::new();
@@ -648,7 +648,7 @@ fn solve(
 
 /// Each welded vertex's top k normalized and pruned, copied to every input vertex.
 fn finish(best: RunningTopK, prep: &Prepared, vis: &Visibility, opts: &HeatOptions) -> Influences {
-    let welded = best.finish(opts.min_weight, &vis.sources);
+    let welded = best.finish(opts.max_influences.min(prep.bones.len()).max(1), opts.min_weight, &vis.sources);
     unweld(&welded, &prep.map)
 }
 
