@@ -73,6 +73,9 @@ fn ear_tips_inside(bones: &mut [Bone], unit: &[[f32; 3]], triangles: &[[u32; 3]]
     let tips: Vec<usize> = (0..bones.len())
         .filter(|&i| EAR_NAMES.iter().any(|e| bones[i].name.starts_with(e)) && bones[i].name.ends_with(".001"))
         .collect();
+    if tips.is_empty() {
+        return;
+    }
     let pts: Vec<[f32; 3]> = tips
         .iter()
         .flat_map(|&i| (0..steps).map(move |k| (i, k)))
