@@ -540,7 +540,8 @@ def bone_mirror_indices(names: list[str]) -> npt.NDArray[np.int32]:
 @final
 class AutoRig:
     """Auto Rig's skeleton: template ('BIPED'|'QUADRUPED'|'CHAIN'|'WINGED'), reason (why that
-    template), names (basic_human / basic_quadruped / shark / bird names), heads, tails (k,3)
+    template), names (basic_human / basic_quadruped / shark / bird names; ears as the horse's
+    ear.L / ear.L.001), heads, tails (k,3)
     float32 (input units), parents (k,) int64 (-1 root; parents first), connected (k,) bool,
     forward, left (3,) float32 (left = the .L side), tail (tail bones were built),
     centre_points (c,3) float32, centre_edges (e,2) uint32 (the centre-line tree the bones

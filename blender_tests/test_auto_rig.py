@@ -101,13 +101,18 @@ def axis(arm, name: str, k: int):
     return (arm.matrix_world.to_3x3() @ arm.data.bones[name].matrix_local.to_3x3()).col[k]
 
 
-def assert_rigged(arm, meshes, template, tail=None):
+def assert_rigged(arm, meshes, template, tail=None, ears=False):
     """Bone names and parents as Rigify's metarig ``template``, limb chains connected, the heel a
-    loose childless child of the foot, every joint inside the meshes, and every vertex weighted."""
+    loose childless child of the foot, every joint inside the meshes, and every vertex weighted.
+    ``ears``: a pair of ears from the head, as on Rigify's horse metarig (and no other pair)."""
     want = dict(BIPED if template == "BIPED" else QUADRUPED)
     names = [b.name for b in arm.data.bones]
     if template == "QUADRUPED" and (tail or (tail is None and "spine.003" in names)):
         want.update(TAIL)
+    if ears:
+        head = "spine.006" if template == "BIPED" else "spine.011"
+        for s in SIDES:
+            want.update({f"ear.{s}": head, f"ear.{s}.001": f"ear.{s}"})
     got = {b.name: b.parent.name if b.parent else None for b in arm.data.bones}
     assert got == want, sorted(set(got.items()) ^ set(want.items()))
     bones = arm.data.bones
@@ -422,16 +427,39 @@ def _bare_model(name):
     return rig_corpus.bare_model(path)
 
 
-@pytest.mark.parametrize("name,template", [("CesiumMan.gltf", "BIPED"), ("Fox.glb", "QUADRUPED"),
-                                           ("spot_rig.glb", "QUADRUPED"), ("cow.obj", "QUADRUPED"),
-                                           ("horse.ply", "QUADRUPED")])
-def test_shared_models_auto_rig_inside_and_bound(capfd, name, template):
+@pytest.mark.parametrize("name,template,ears", [("CesiumMan.gltf", "BIPED", False), ("Fox.glb", "QUADRUPED", True),
+                                                ("spot_rig.glb", "QUADRUPED", False),
+                                                ("cow.obj", "QUADRUPED", True), ("horse.ply", "QUADRUPED", False)])
+def test_shared_models_auto_rig_inside_and_bound(capfd, name, template, ears):
+    """The shared models get their template, the fox its ears and the cow a pair of ears or
+    horns (spot_rig's are not leaves of its centre line, the horse's too short)."""
     meshes = _bare_model(name)
     result, console = run(capfd, meshes)
     assert result == {"FINISHED"}, console
     assert f"Auto Rig: {template.lower()}" in console, console
     (arm,) = armatures()
-    assert_rigged(arm, meshes, template)
+    assert_rigged(arm, meshes, template, ears=ears)
+
+
+def test_ears_on_a_head_are_a_pair_of_tentacles_that_generate(capfd):
+    """A hare's two long ears are rigged as Rigify's horse metarig rigs its ears (two bones from
+    the head, a tentacle each side), inside and bound, and Generate Rig makes their controls; the
+    quadruped without ears gets none (``test_quadruped_with_tail_gets...``)."""
+    body = shapes.build("hare")
+    bpy.context.view_layer.update()
+    result, console = run(capfd, [body])
+    assert result == {"FINISHED"}, console
+    (arm,) = armatures()
+    assert_rigged(arm, [body], "QUADRUPED", ears=True)
+    left, right = (arm.matrix_world @ arm.data.bones[f"ear.{s}.001"].tail_local for s in SIDES)
+    assert left.x > 0.05 and right.x < -0.05 and min(left.z, right.z) > 1.5, (left, right)
+    assert arm.data.bones["ear.L.001"].use_connect
+    result, error = rigify_generate(arm)
+    assert result == {"FINISHED"}, error
+    for s in SIDES:
+        assert arm.pose.bones[f"ear.{s}"].rigify_type == "limbs.simple_tentacle"
+    deform = {b.name for b in arm.data.rigify_target_rig.data.bones if b.use_deform}
+    assert {"DEF-ear.L", "DEF-ear.L.001", "DEF-ear.R", "DEF-ear.R.001"} <= deform, sorted(deform)
 
 
 # ---------------------------------------------------------------------------- shape classes

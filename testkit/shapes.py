@@ -2,7 +2,8 @@
 (``rig_corpus.skin_body``), in metres, +Z up. Each is a shape class Auto Rig must read: a long,
 low lizard on splayed legs (faces -Y), a snake lying in curves (head at -Y), a fish resting on
 its fins (faces +X), a bird on two legs with its wings spread (faces -Y), an upright moth on its
-abdomen and hind wing tips, and a cone on four flippers.
+abdomen and hind wing tips, a cone on four flippers, and a hare on four legs with two long
+ears on its head (faces -Y).
 
     import shapes
     body = shapes.build("lizard")   # a mesh object in the current scene
@@ -62,9 +63,22 @@ for _sx in (-1, 1):
         _cone.append([((0, 0, 0.35), 0.3), ((0.3 * _sx, 0.18 * _sy, 0.3), 0.07), ((0.6 * _sx, 0.32 * _sy, 0.0), 0.04)])
 SHAPES["cone"] = _cone
 
+_hare = [[((0, 0.75, 0.85), 0.06), ((0, 0.55, 0.8), 0.17), ((0, 0.4, 0.8), 0.2), ((0, 0.0, 0.8), 0.2),
+          ((0, -0.4, 0.82), 0.19), ((0, -0.6, 0.95), 0.1), ((0, -0.75, 1.15), 0.09), ((0, -0.85, 1.2), 0.12),
+          ((0, -1.05, 1.12), 0.07)],
+         [((0, 0.75, 0.85), 0.06), ((0, 0.95, 0.75), 0.03)]]
+for _y in (0.4, -0.4):
+    _hleg = [((0.1, _y, 0.72), 0.08), ((0.15, _y + 0.02, 0.35), 0.055), ((0.15, _y, 0.04), 0.045),
+             ((0.15, _y - 0.1, 0.03), 0.035)]
+    _hip = ((0, _y, 0.8 if _y > 0 else 0.82), 0.2)
+    _hare += [[_hip] + _hleg, [_hip] + _mirrored(_hleg)]
+_ear = [((0, -0.85, 1.2), 0.12), ((0.05, -0.85, 1.32), 0.035), ((0.09, -0.83, 1.5), 0.03), ((0.12, -0.8, 1.68), 0.015)]
+SHAPES["hare"] = _hare + [_ear, _mirrored(_ear)]
+
 # What each shape is: the template Auto Rig should read, its facing, and whether it has legs.
 EXPECTED = {"lizard": ("QUADRUPED", "-Y", True), "snake": ("CHAIN", None, False), "fish": ("CHAIN", "+X", False),
-            "bird": ("WINGED", "-Y", True), "moth": ("WINGED", None, False), "cone": ("CHAIN", None, False)}
+            "bird": ("WINGED", "-Y", True), "moth": ("WINGED", None, False), "cone": ("CHAIN", None, False),
+            "hare": ("QUADRUPED", "-Y", True)}
 
 
 def graph(name):

@@ -36,6 +36,11 @@ FORWARDS = {"+X": (1.0, 0.0, 0.0), "-X": (-1.0, 0.0, 0.0), "+Y": (0.0, 1.0, 0.0)
 FORWARD_ITEMS = [("AUTO", "Auto", "Found from the mesh (where the head and the toes point)")] + [
     (key, key, f"The character faces {key}") for key in FORWARDS]
 
+# The head's ears, horns and antennae (the core's pairs, longest first), as Rigify's horse
+# metarig rigs its ears: a chain of two bones from the head, a tentacle.
+HEAD_APPENDAGES = ("ear", "horn", "antenna")
+_APPENDAGE_TYPES = {f"{name}.S": ("limbs.simple_tentacle", {}, {}) for name in HEAD_APPENDAGES}
+
 # Rigify rig types on the pose bones, as in Rigify's Basic metarigs: template -> bone -> (rig
 # type, parameters, bone collections of its FK and tweak controls). ".S" stands for both sides
 # (.L and .R). Parameters that are enum names (strings), and the control collections, are set
@@ -50,6 +55,7 @@ RIGIFY_TYPES = {
         "thigh.S": ("limbs.leg", {"extra_ik_toe": True, "ik_local_location": False},
                     {"fk": "Leg.S (FK)", "tweak": "Leg.S (Tweak)"}),
         "upper_arm.S": ("limbs.arm", {"ik_local_location": False}, {"fk": "Arm.S (FK)", "tweak": "Arm.S (Tweak)"}),
+        **_APPENDAGE_TYPES,
     },
     "QUADRUPED": {
         "spine.004": ("spines.basic_spine", {"pivot_pos": 4}, {"fk": "Spine (Tweak)", "tweak": "Spine (Tweak)"}),
@@ -59,6 +65,7 @@ RIGIFY_TYPES = {
         "thigh.S": ("limbs.rear_paw", {"ik_local_location": False}, {"fk": "Leg.S (FK)", "tweak": "Leg.S (Tweak)"}),
         "front_thigh.S": ("limbs.front_paw", {"ik_local_location": False},
                           {"fk": "Arm.S (FK)", "tweak": "Arm.S (Tweak)"}),
+        **_APPENDAGE_TYPES,
     },
     # Rigify's shark metarig: its torso spine.003 > spine.008 > spine.004 > spine.005, the head
     # spine.006 > spine.007, the tail spine.002 > spine.001 > spine, fins as tentacles.

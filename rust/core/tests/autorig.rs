@@ -442,3 +442,49 @@ fn the_report_says_what_was_built() {
     let rig = auto_rig(&m.0, &m.1, &AutoRigOptions::default()).unwrap();
     assert_eq!(rig.reason, "4 legs hold the body up");
 }
+
+/// `m` with two ears on its head: capped cylinders from `base` (and its mirror image across
+/// x = 0 or y = 0, `across`) up to `tip`.
+fn with_ears(mut m: Mesh, base: [f64; 3], tip: [f64; 3], across: usize) -> Mesh {
+    let flip = |mut p: [f64; 3]| {
+        p[across] = -p[across];
+        p
+    };
+    limb(&mut m, base, tip, 0.03);
+    limb(&mut m, flip(base), flip(tip), 0.03);
+    m
+}
+
+fn appendages(rig: &miniskeleton_core::autorig::AutoRig) -> Vec<&str> {
+    names(rig).into_iter().filter(|n| ["ear", "horn", "antenna"].iter().any(|a| n.starts_with(a))).collect()
+}
+
+#[test]
+fn a_head_with_two_ears_gets_an_ear_pair_and_one_without_none() {
+    for (plain, eared, head, side) in [
+        (biped(), with_ears(biped(), [0.05, 0.0, 1.72], [0.12, 0.0, 2.1], 0), "spine.006", 0),
+        (quadruped(), with_ears(quadruped(), [0.9, 0.05, 1.2], [0.85, 0.12, 1.55], 1), "spine.011", 1),
+    ] {
+        let rig = auto_rig(&plain.0, &plain.1, &AutoRigOptions::default()).unwrap();
+        assert!(appendages(&rig).is_empty(), "{:?}", appendages(&rig));
+        let rig = auto_rig(&eared.0, &eared.1, &AutoRigOptions::default()).unwrap();
+        assert_eq!(appendages(&rig), ["ear.L", "ear.L.001", "ear.R", "ear.R.001"]);
+        let parent = |n: &str| rig.bones[bone(&rig, n).parent as usize].name.clone();
+        assert_eq!(parent("ear.L"), head);
+        assert_eq!(parent("ear.R.001"), "ear.R");
+        assert!(bone(&rig, "ear.L.001").connected && !bone(&rig, "ear.L").connected);
+        // Each on its side, reaching up the ear, mirror images of each other.
+        let left = DVec3::from_array(rig.left);
+        let (l, r) = (bone(&rig, "ear.L.001"), bone(&rig, "ear.R.001"));
+        let tip = |b: &miniskeleton_core::autorig::RigBone| DVec3::from_array(b.tail.map(f64::from));
+        assert!(tip(l).dot(left) > 0.05 && tip(r).dot(left) < -0.05, "{:?} {:?}", l.tail, r.tail);
+        assert!(l.tail[2] > if side == 0 { 1.95 } else { 1.4 }, "{:?}", l.tail);
+        assert!(
+            (l.tail[2] - r.tail[2]).abs() < 0.03 && (l.tail[side] + r.tail[side]).abs() < 0.03,
+            "{:?} {:?}",
+            l.tail,
+            r.tail
+        );
+        all_joints_inside(&eared, &rig);
+    }
+}

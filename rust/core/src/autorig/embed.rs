@@ -14,12 +14,13 @@
 //! the head, whose bone ends one head radius past its centre. Pairs are made exactly mirrored
 //! across the mesh's vertical mirror plane.
 
+use super::appendages::head_appendages;
 use super::bones::{hip, leg_line, limb_points, spine_names, straightness, Bone, Builder};
 use super::centreline::Tree;
 use super::chain;
 use super::line::Line;
 use super::parts::{Body, Template};
-use crate::skeleton::{fit_joints, FitOptions};
+use crate::skeleton::{fit_joints, points_inside, FitOptions};
 use glam::DVec3;
 
 /// A pair whose joints differ from each other's mirror images by more than this (unit frame)
@@ -33,6 +34,8 @@ const TAIL_MIN: f64 = 0.2;
 const ANKLE: f64 = 0.08;
 /// ...or higher, up to this fraction, where the leg turns onto a long, flat foot.
 const HEEL: f64 = 0.25;
+/// The head's appendages, pair by pair, longest first (`appendages.rs`).
+const EAR_NAMES: [&str; 3] = ["ear", "horn", "antenna"];
 
 /// The bones for `body`, unit frame: laid along the tree, mirrored, then settled into the
 /// mesh by Fit Skeleton (`unit`, `triangles`: the mesh in the unit frame): each joint moves to
@@ -58,7 +61,32 @@ pub(crate) fn embed(
     let symmetric = mirror(&mut b.bones, body, None);
     settle(&mut b.bones, unit, triangles);
     mirror(&mut b.bones, body, Some(symmetric));
+    ear_tips_inside(&mut b.bones, unit, triangles);
     b.bones
+}
+
+/// An ear's tip (its chain's last tail) outside the mesh moves back along its bone, a tenth of
+/// it at a time, to the first point inside: a thin ear's end voxel can lie past its surface,
+/// farther out than settling pulls a joint in.
+fn ear_tips_inside(bones: &mut [Bone], unit: &[[f32; 3]], triangles: &[[u32; 3]]) {
+    let steps = 10;
+    let tips: Vec<usize> = (0..bones.len())
+        .filter(|&i| EAR_NAMES.iter().any(|e| bones[i].name.starts_with(e)) && bones[i].name.ends_with(".001"))
+        .collect();
+    if tips.is_empty() {
+        return;
+    }
+    let pts: Vec<[f32; 3]> = tips
+        .iter()
+        .flat_map(|&i| (0..steps).map(move |k| (i, k)))
+        .map(|(i, k)| bones[i].tail.lerp(bones[i].head, k as f64 / steps as f64).as_vec3().to_array())
+        .collect();
+    let Ok(inside) = points_inside(unit, triangles, &pts) else { return };
+    for (n, &i) in tips.iter().enumerate() {
+        if let Some(k) = (0..steps).find(|&k| inside[n * steps + k]) {
+            bones[i].tail = bones[i].tail.lerp(bones[i].head, k as f64 / steps as f64);
+        }
+    }
 }
 
 /// Move the joints with [`fit_joints`] (heel markers stay on the ground).
@@ -188,6 +216,8 @@ fn biped(b: &mut Builder, tree: &Tree, body: &Body, vertices: &[DVec3]) {
     b.chain(&spine_names(0, 7), &pts, None, false);
     // spine.004 (the neck) starts its own rig in Rigify's metarig.
     b.bones[4].connected = false;
+    let taken: Vec<usize> = body.feet.iter().copied().chain(body.hands.into_iter().flatten()).collect();
+    ears(b, tree, body, &taken, (spine.at(s_hc), r_head), "spine.006");
 
     for (side, line, s_hip, hip) in legs {
         let foot_z = ground + ANKLE * (hip.z - ground);
@@ -285,6 +315,8 @@ fn quadruped(b: &mut Builder, tree: &Tree, body: &Body) {
     // The neck starts its own rig in Rigify (not connected), where the torso ends.
     let neck = [pts[5], spine.at(0.5 * (s_nb + s_hb)), spine.at(s_hb), head_end];
     b.chain(&spine_names(9, 3), &neck, Some("spine.008"), false);
+    let taken: Vec<usize> = body.feet.iter().copied().chain(body.tail).collect();
+    ears(b, tree, body, &taken, (spine.at(s_hc), spine.radius(s_hc)), "spine.011");
     // Tail: from the torso's root, as in Rigify's metarig, back along the tree to the tip.
     if let Some(tail) = body.tail {
         let nodes = tree.path(body.hips, tail);
@@ -327,6 +359,20 @@ fn quadruped(b: &mut Builder, tree: &Tree, body: &Body) {
     }
 }
 
+/// The head's appendages (`appendages.rs`) as two-bone chains under the head bone `head`, named
+/// as on Rigify's horse metarig (`ear.L` -> `ear.L.001`); a second and third pair, which
+/// geometry cannot tell from the first, `horn` and `antenna`. `taken`: the leaves the body uses;
+/// `ball`: the head's centre and radius.
+fn ears(b: &mut Builder, tree: &Tree, body: &Body, taken: &[usize], ball: (DVec3, f64), head: &str) {
+    let pairs = head_appendages(tree, taken, body.hips, ball, (body.left, body.plane));
+    for (pair, base) in pairs.iter().zip(EAR_NAMES) {
+        for (chain, side) in pair.iter().zip(["L", "R"]) {
+            let names = [format!("{base}.{side}"), format!("{base}.{side}.001")];
+            b.chain(&names, chain, Some(head), false);
+        }
+    }
+}
+
 /// Make pairs exact mirror images and centre bones lie on the body's mirror plane (found from
 /// its legs; the spine's own path may wander into an ear or a horn) -- where the pose is
 /// symmetric: a limb whose root or end strays more than [`ASYMMETRY`] from its twin's mirror
@@ -337,7 +383,7 @@ fn mirror(bones: &mut [Bone], body: &Body, decided: Option<Symmetric>) -> Symmet
     let plane = body.plane;
     let reflect = |p: DVec3| p - n * (2.0 * (p.dot(n) - plane));
     let twin = |bones: &[Bone], i: usize| {
-        let name = bones[i].name.strip_suffix(".L")?.to_string() + ".R";
+        let name = twin_name(&bones[i].name)?;
         bones.iter().position(|b| b.name == name)
     };
     // The limb of a side bone: its first side ancestor's name.
@@ -446,13 +492,27 @@ struct Symmetric {
     on_plane: Vec<[bool; 2]>,
 }
 
-/// `Some(true)` for a left bone, `Some(false)` for a right one, `None` on the centre line.
+/// `Some(true)` for a left bone, `Some(false)` for a right one, `None` on the centre line: the
+/// side is the name's last part, or the one before a chain's number (`ear.L.001`).
 fn side_of(name: &str) -> Option<bool> {
-    if name.ends_with(".L") {
+    let stem = match name.rsplit_once('.') {
+        Some((stem, n)) if !n.is_empty() && n.bytes().all(|c| c.is_ascii_digit()) => stem,
+        _ => name,
+    };
+    if stem.ends_with(".L") {
         Some(true)
-    } else if name.ends_with(".R") {
+    } else if stem.ends_with(".R") {
         Some(false)
     } else {
         None
     }
+}
+
+/// The right twin's name of a left bone (`thigh.L` -> `thigh.R`, `ear.L.001` -> `ear.R.001`).
+fn twin_name(name: &str) -> Option<String> {
+    if side_of(name) != Some(true) {
+        return None;
+    }
+    let at = name.rfind(".L")?;
+    Some(format!("{}.R{}", &name[..at], &name[at + 2..]))
 }

@@ -14,7 +14,7 @@
 //! - `axial`: a legless or winged body read along its spine (ends, wings, side chains);
 //! - `line`: a path of the tree as a polyline (heights, tube starts, bends);
 //! - `embed`: the template's joints along the tree's paths, with Rigify's names; `chain`: those
-//!   of the Chain and Winged templates.
+//!   of the Chain and Winged templates; `appendages`: a head's ears, horns and antennae.
 //!
 //! Why a voxel centre line: it reads a mesh in many pieces (eyes, teeth, clothes, a hat) as one
 //! solid without any repair, costs a few Dijkstra passes on a coarse grid whatever the vertex
@@ -26,6 +26,7 @@
 //! Known limits: limbs touching the body (arms against the sides) merge with it and are not
 //! found; a character not standing upright on its feet is refused; fingers are not rigged.
 
+mod appendages;
 mod axial;
 mod body;
 mod bones;
@@ -106,8 +107,9 @@ pub struct AutoRig {
 /// Output: [`AutoRig`], bones in Rigify's metarig order and names (`basic_human`: spine ..
 /// spine.006, thigh/shin/foot/toe/heel.02, shoulder/upper_arm/forearm/hand; `basic_quadruped`:
 /// spine.004 .. spine.011, a tail spine.003 .. spine, thigh/shin/foot/toe, shoulder and
-/// front_thigh/front_shin/front_foot/front_toe; `shark` for Chain, `bird` for Winged: see
-/// `chain.rs`).
+/// front_thigh/front_shin/front_foot/front_toe; both with a pair of ears ear.L/ear.L.001 from
+/// the head when the head has them, as on Rigify's horse; `shark` for Chain, `bird` for Winged:
+/// see `chain.rs`).
 /// Errors: an empty or non-finite mesh, a resolution out of range, a mesh enclosing no volume,
 /// and [`Error::Unsuitable`] for a shape the templates do not fit (no ground contact, not
 /// standing, too few feet, no head, a round blob, no wings for Winged).
