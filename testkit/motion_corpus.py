@@ -299,14 +299,16 @@ class Anatomy:
                 self.legs.append((side, leg[0], leg[-1]))
         self.torso = rows(set(roles["spine"]) | set(roles["neck"]))
         self.arms = []
-        for side, chain in roles["arms"]:
-            chain = [n for n in chain if n in bones]
-            if len(chain) < 3:
-                continue
-            # the upper arm as the core takes it: the longer of the first two bones, each to the
-            # next one's head (the first may be a clavicle)
+        chains = [(side, [n for n in chain if n in bones]) for side, chain in roles["arms"]]
+        chains = [(side, chain) for side, chain in chains if len(chain) >= 3]
+        # the upper arm as the core takes it: the longer of the first two bones, each to the next
+        # one's head (the first may be a clavicle), summed over the arms (both sides alike)
+        spans = np.zeros(2)
+        for _side, chain in chains:
             heads = [np.array(bones[n].head_local) for n in chain[:3]]
-            k = int(np.linalg.norm(heads[1] - heads[0]) < np.linalg.norm(heads[2] - heads[1]))
+            spans += [np.linalg.norm(heads[1] - heads[0]), np.linalg.norm(heads[2] - heads[1])]
+        k = int(spans[0] < spans[1])
+        for side, chain in chains:
             wrist = chain[k + 2] if k + 2 < len(chain) else None
             hand = rows(below(chain[k + 2:])) if wrist else np.zeros(0, dtype=np.int64)
             self.arms.append(dict(side=side, upper=chain[k], elbow=chain[k + 1], wrist=wrist, hand=hand))

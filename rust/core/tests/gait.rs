@@ -355,6 +355,22 @@ fn an_imported_rigs_arms_swing_from_their_upper_arms_at_any_size() {
 }
 
 #[test]
+fn a_clavicle_longer_on_one_side_still_stays_and_the_upper_arm_swings() {
+    // Auto Rig on a round body can start one clavicle across the middle (q_Bunny's right one,
+    // longer than its upper arm): the pair is read alike, so that arm hangs from its shoulder
+    // joint as the other does, not from the spine.
+    let (names, mut h, t, p) = t_pose_biped();
+    let clav = bone(&names, "shoulder.R");
+    h[clav] = [0.16, 0.0, 1.45];
+    let a = run((names.clone(), h, t, p), Motion::Walk);
+    for s in ["L", "R"] {
+        let [clav, upper] = ["shoulder", "upper_arm"].map(|n| bone(&names, &format!("{n}.{s}")));
+        assert!(most_turned(&a.6, clav) < 1e-4, "{s}: the clavicle swings");
+        assert!(most_turned(&a.6, upper) > 0.1, "{s}: the upper arm does not swing");
+    }
+}
+
+#[test]
 fn feet_hanging_off_the_root_walk_with_their_legs() {
     for invented_tails in [false, true] {
         check_walk(ik_biped(invented_tails), Motion::Walk);

@@ -328,7 +328,8 @@ const RISING: f32 = 0.2;
 
 /// How each arm hangs: its upper arm is the longer of its first two bones, each measured to the
 /// next bone's head (an imported rig's tails are stubs of one length, so the clavicle-or-upper-
-/// arm choice went by rounding, and by scale), the elbow the next. The arm is lowered from its
+/// arm choice went by rounding, and by scale), summed over the arms so that both sides choose
+/// alike; the elbow the next. The arm is lowered from its
 /// rest pose (a T- or A-pose) to hang from the shoulder, at the least angle from straight down
 /// that keeps it, as thick as its skin and its forearm bent as the gait bends it, clear of the
 /// body (`skin::hang_angle`);
@@ -343,14 +344,12 @@ fn arm_joints(
     run: bool,
 ) -> Vec<ArmJoints> {
     let hv = |b: usize| Vec3::from(heads[b]);
-    let upper_of = |a: &Limb| {
-        let span = |k: usize| (hv(a.bones[k + 1]) - hv(a.bones[k])).length();
-        if a.bones.len() >= 3 && span(0) < span(1) {
-            1
-        } else {
-            0
-        }
-    };
+    // the arms' chains are read alike: a pair posed apart (a round body's one long clavicle)
+    // takes the upper arm its two sides give together
+    let span = |a: &Limb, k: usize| (hv(a.bones[k + 1]) - hv(a.bones[k])).length();
+    let long = roles.arms.iter().filter(|a| a.bones.len() >= 3);
+    let (first, second) = long.fold((0.0, 0.0), |(f, s), a| (f + span(a, 0), s + span(a, 1)));
+    let upper_of = |a: &Limb| usize::from(a.bones.len() >= 3 && first < second);
     let body = Body::of(skin, roles, heads, tails);
     let shoulders: Vec<Vec3> = roles.arms.iter().map(|a| hv(a.bones[upper_of(a)])).collect();
     let mid = match shoulders.len() {
