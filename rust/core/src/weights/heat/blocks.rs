@@ -9,6 +9,7 @@
 //! the blocks.
 
 use super::cholesky::Factor;
+use super::memory::zeroed;
 use super::sources::{Shares, Source, Ties};
 use crate::mesh::mirror::Symmetry;
 use crate::weights::influence::weight_limit;
@@ -59,13 +60,13 @@ pub(crate) fn block_width(nw: usize, threads: usize) -> usize {
 
 /// The right-hand sides `M H P` of the bones in `block`, column-major `(n, block.len())`, into
 /// `x` (its memory reused from block to block): each vertex's heat `heat[v]` (`M_ii H_ii`)
-/// shared among its source bones (`shares`).
-fn source_columns(x: &mut Vec<f64>, shares: &Shares, heat: &[f64], block: &[usize]) {
+/// shared among its source bones (`shares`), in row `place[v]` (`v` without `place`).
+fn source_columns(x: &mut Vec<f64>, shares: &Shares, heat: &[f64], place: Option<&[usize]>, block: &[usize]) {
     let nw = heat.len();
     let col = block_columns(block);
     let len = nw * block.len();
     if x.capacity() < len {
-        *x = vec![0.0; len];
+        *x = zeroed(len).expect("memory for a block of right-hand sides");
     } else {
         x.truncate(len);
         x.par_iter_mut().with_min_len(1 << 16).for_each(|w| *w = 0.0);
@@ -75,7 +76,7 @@ fn source_columns(x: &mut Vec<f64>, shares: &Shares, heat: &[f64], block: &[usiz
         if h > 0.0 {
             for (j, divisor) in shares.row(v) {
                 if let Some(c) = col(j) {
-                    x[c * nw + v] += h / divisor;
+                    x[c * nw + place.map_or(v, |p| p[v])] += h / divisor;
                 }
             }
         }
@@ -84,14 +85,14 @@ fn source_columns(x: &mut Vec<f64>, shares: &Shares, heat: &[f64], block: &[usiz
 
 /// Where the factorization failed: each vertex's source bones take their shares of it as
 /// weights (with the sources found here, the nearest-bone weights), for the bones of `block`.
-fn source_weights(x: &mut [f64], shares: &Shares, block: &[usize]) {
+fn source_weights(x: &mut [f64], rows: &Rows, block: &[usize]) {
     let nw = x.len() / block.len().max(1);
     let col = block_columns(block);
     x.par_iter_mut().for_each(|w| *w = 0.0);
     for v in 0..nw {
-        for (j, divisor) in shares.row(v) {
+        for (j, divisor) in rows.shares.row(v) {
             if let Some(c) = col(j) {
-                x[c * nw + v] = 1.0 / divisor;
+                x[c * nw + rows.row(v)] = 1.0 / divisor;
             }
         }
     }
@@ -99,7 +100,8 @@ fn source_weights(x: &mut [f64], shares: &Shares, block: &[usize]) {
 
 /// Per welded vertex, what [`block_weights`] needs: its source (for its nearest bone), the
 /// bones that share its heat, its heat `M_ii H_ii`, its mass (0: in no usable triangle,
-/// isolated), its piece, and each piece's rigid bone(s).
+/// isolated), its piece, and each piece's rigid bone(s); and the row of the blocks that holds
+/// it.
 pub(crate) struct Rows<'a> {
     pub sources: &'a [Source],
     pub shares: &'a Shares,
@@ -107,13 +109,25 @@ pub(crate) struct Rows<'a> {
     pub mass: &'a [f64],
     pub labels: &'a [u32],
     pub rigid: &'a [Option<Ties>],
+    /// `(nw,)` the row of welded vertex `v` in the blocks: the factor's elimination order
+    /// (`Factor::order`'s inverse), so that the solves read and write the rows in place;
+    /// `None`: row `v` (no factor, or no reordering).
+    pub place: Option<&'a [usize]>,
+}
+
+impl Rows<'_> {
+    /// The blocks' row of welded vertex `v`.
+    pub(crate) fn row(&self, v: usize) -> usize {
+        self.place.map_or(v, |p| p[v])
+    }
 }
 
 /// The weights of the bones of `block`, column-major `(n, block.len())`, into `x` (its memory
 /// reused from block to block), and the seconds spent solving: solved against the factor `llt` and clipped to `[0, 1]` (without a factor, the
 /// sources' shares), then rigid pieces and isolated vertices at 100% on their bone(s),
-/// then averaged with the mirror images (`sym`: the symmetry and the vertex mirror map; a
-/// block holds every bone's mirror partner).
+/// then averaged with the mirror images (`sym`: the symmetry and the mirror map of the rows; a
+/// block holds every bone's mirror partner). The rows are in `rows.place`'s order, which must
+/// be `llt`'s elimination order.
 pub(crate) fn block_weights(
     block: &[usize],
     rows: &Rows,
@@ -122,7 +136,7 @@ pub(crate) fn block_weights(
     x: &mut Vec<f64>,
 ) -> f64 {
     let nw = rows.sources.len();
-    source_columns(x, rows.shares, rows.heat, block);
+    source_columns(x, rows.shares, rows.heat, rows.place, block);
     let s = Instant::now();
     match llt {
         // One block of columns per worker, all solved at once: faer's supernodal solve is
@@ -136,7 +150,7 @@ pub(crate) fn block_weights(
                 *w = if w.is_finite() { w.clamp(0.0, 1.0) } else { 0.0 };
             });
         }
-        None => source_weights(x, rows.shares, block),
+        None => source_weights(x, rows, block),
     }
     let secs = s.elapsed().as_secs_f64();
     // Rigid pieces and isolated vertices: 100% to one bone (or shared by exact ties).
@@ -146,7 +160,7 @@ pub(crate) fn block_weights(
         if let Some(t) = ties {
             for (col, &j) in block.iter().enumerate() {
                 let on = t.bones[..t.count as usize].contains(&(j as u32));
-                x[col * nw + v] = if on { 1.0 / t.count as f64 } else { 0.0 };
+                x[col * nw + rows.row(v)] = if on { 1.0 / t.count as f64 } else { 0.0 };
             }
         }
     }
@@ -168,13 +182,13 @@ fn solve_live_columns(llt: &Factor, x: &mut [f64], nw: usize) {
     let k = x.len() / nw.max(1);
     let live: Vec<usize> = (0..k).filter(|&c| x[c * nw..(c + 1) * nw].iter().any(|&v| v != 0.0)).collect();
     if live.len() == k {
-        llt.solve_columns(x, nw);
+        llt.solve_ordered_columns(x, nw);
         return;
     }
     for (to, &from) in live.iter().enumerate() {
         x.copy_within(from * nw..(from + 1) * nw, to * nw);
     }
-    llt.solve_columns(&mut x[..live.len() * nw], nw);
+    llt.solve_ordered_columns(&mut x[..live.len() * nw], nw);
     for (to, &from) in live.iter().enumerate().rev() {
         x.copy_within(to * nw..(to + 1) * nw, from * nw);
     }
@@ -185,6 +199,15 @@ fn solve_live_columns(llt: &Factor, x: &mut [f64], nw: usize) {
     for c in (0..k).filter(|&c| !is_live[c]) {
         x[c * nw..(c + 1) * nw].fill(0.0);
     }
+}
+
+/// The vertex of each row: the inverse of `place`.
+fn inverse_of(place: Option<&[usize]>) -> Option<Vec<usize>> {
+    place.map(|p| {
+        let mut vertex = vec![0usize; p.len()];
+        p.iter().enumerate().for_each(|(v, &r)| vertex[r] = v);
+        vertex
+    })
 }
 
 /// Bone `j`'s column in `block` (sorted), if it is there.
@@ -235,7 +258,10 @@ impl RunningTopK {
                         let (value, at) = (value as f32, r * k..(r + 1) * k);
                         let limited = weight_limit(value, start, end);
                         used[r] = insert_ranked(j as i32, limited, &mut idx[at.clone()], &mut w[at.clone()], used[r]);
-                        rused[r] = insert_ranked(j as i32, value, &mut ridx[at.clone()], &mut rw[at], rused[r]);
+                        // The unramped list serves only rows whose ramped one stays empty.
+                        if used[r] == 0 {
+                            rused[r] = insert_ranked(j as i32, value, &mut ridx[at.clone()], &mut rw[at], rused[r]);
+                        }
                     }
                 }
             });
@@ -243,8 +269,10 @@ impl RunningTopK {
 
     /// Each row cut to its `k` largest ([`cut_continuously`]: a bone leaving them fades out),
     /// normalized and pruned ([`normalize_pruned`]); a row whose weights all fell below the
-    /// ramp keeps them unramped, an empty row takes the vertex's nearest bone.
-    pub(crate) fn finish(mut self, k: usize, min_weight: f32, sources: &[Source]) -> Influences {
+    /// ramp keeps them unramped, an empty row takes the vertex's nearest bone (the rows are
+    /// the blocks' rows, `rows.place`'s order; so are the result's).
+    pub(crate) fn finish(mut self, k: usize, min_weight: f32, rows: &Rows) -> Influences {
+        let vertex = inverse_of(rows.place);
         let held = self.ramped.k;
         let raw = &self.raw;
         let (raw_used, ramped_used) = (&self.raw_used, &self.ramped_used);
@@ -254,16 +282,16 @@ impl RunningTopK {
             .zip(self.ramped.weights.par_chunks_mut(held))
             .enumerate()
             .with_min_len(1024)
-            .for_each(|(v, (idx, w))| {
-                let used = if ramped_used[v] > 0 {
-                    ramped_used[v]
-                } else if raw_used[v] > 0 {
-                    let (ri, rw) = raw.row(v);
+            .for_each(|(r, (idx, w))| {
+                let used = if ramped_used[r] > 0 {
+                    ramped_used[r]
+                } else if raw_used[r] > 0 {
+                    let (ri, rw) = raw.row(r);
                     idx.copy_from_slice(ri);
                     w.copy_from_slice(rw);
-                    raw_used[v]
+                    raw_used[r]
                 } else {
-                    idx[0] = sources[v].nearest.bones[0] as i32;
+                    idx[0] = rows.sources[vertex.as_ref().map_or(r, |of| of[r])].nearest.bones[0] as i32;
                     w[0] = 1.0;
                     return;
                 };
@@ -307,7 +335,7 @@ mod tests {
             let mut sum = [0.0; 4];
             for block in &blocks {
                 let mut x = Vec::new();
-                source_columns(&mut x, &sources, &heat, block);
+                source_columns(&mut x, &sources, &heat, None, block);
                 for (c, column) in x.chunks(4).enumerate() {
                     assert_eq!(column.len(), 4, "column {c}");
                     sum.iter_mut().zip(column).for_each(|(s, w)| *s += w);
@@ -316,7 +344,10 @@ mod tests {
             assert_eq!(sum, heat);
         }
         let mut x = vec![9.0; 12];
-        source_columns(&mut x, &sources, &heat, &[2]);
+        source_columns(&mut x, &sources, &heat, None, &[2]);
         assert_eq!(x, vec![0.0, 1.5, 0.5, 0.0]);
+        // In the factor's order: vertex v in row place[v].
+        source_columns(&mut x, &sources, &heat, Some(&[2, 0, 3, 1]), &[2]);
+        assert_eq!(x, vec![1.5, 0.0, 0.0, 0.5]);
     }
 }

@@ -4,6 +4,7 @@
 //! right-hand sides against the one factor, split across the rayon pool (a supernodal factor's
 //! by [`solve_sparse_columns`], whose forward pass skips the columns that are still zero).
 
+use super::memory::zeroed;
 use super::sparse_solve::solve_sparse_columns;
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::cholesky::llt::factor::LltRegularization;
@@ -22,21 +23,39 @@ pub(crate) struct Factor {
 }
 
 impl Factor {
+    /// The elimination order `P` as (forward, inverse): `forward[k]` is the row eliminated
+    /// `k`-th, `inverse[v]` the place of row `v`; `None` for the identity.
+    pub(crate) fn order(&self) -> Option<(&[usize], &[usize])> {
+        self.symbolic.perm().map(|p| p.arrays())
+    }
+
     /// Solve `A X = B` in place for the column-major `(n, k)` block `cols`, columns split
     /// across the rayon pool (each worker solves sequentially: many cheap supernodes make
     /// fine-grained parallelism inside one solve a loss): a supernodal factor by
     /// [`solve_sparse_columns`] (in place, no copy of the block), a simplicial one (small
     /// matrices) by faer's own solve.
     pub(crate) fn solve_columns(&self, cols: &mut [f64], n: usize) {
+        self.solve(cols, n, false);
+    }
+
+    /// [`Factor::solve_columns`] for a block whose rows are already in elimination order
+    /// ([`Factor::order`]): `P A P^T Y = P B`, `Y = P X`. A caller that builds its right-hand
+    /// sides and reads its solutions in that order skips two gathers through `P` a column.
+    pub(crate) fn solve_ordered_columns(&self, cols: &mut [f64], n: usize) {
+        self.solve(cols, n, true);
+    }
+
+    fn solve(&self, cols: &mut [f64], n: usize, ordered: bool) {
         let k = cols.len() / n.max(1);
         if k == 0 {
             return;
         }
         let threads = rayon::current_num_threads().max(1);
         let per = k.div_ceil(threads).max(1);
+        let order = self.order();
         cols.par_chunks_mut(per * n).for_each(|chunk| {
             if let SymbolicCholeskyRaw::Supernodal(supernodal) = self.symbolic.raw() {
-                let perm = self.symbolic.perm().map(|p| p.arrays().0);
+                let perm = if ordered { None } else { order.map(|(fwd, _)| fwd) };
                 solve_sparse_columns(supernodal, &self.values, perm, chunk, n);
                 return;
             }
@@ -49,13 +68,30 @@ impl Factor {
                 chunk.fill(f64::NAN);
                 return;
             };
+            // faer's simplicial solve applies `P` itself: back to the rows' own order first.
+            let (fwd, inv) = order.filter(|_| ordered).unzip();
+            if let Some(fwd) = fwd {
+                permute_columns(chunk, n, fwd);
+            }
             llt.solve_in_place_with_conj(
                 Conj::No,
                 MatMut::from_column_major_slice_mut(chunk, n, kc),
                 Par::Seq,
                 MemStack::new(&mut buf),
             );
+            if let Some(inv) = inv {
+                permute_columns(chunk, n, inv);
+            }
         });
+    }
+}
+
+/// Each `n`-row column of `cols` scattered through `to`: row `r` moves to row `to[r]`.
+fn permute_columns(cols: &mut [f64], n: usize, to: &[usize]) {
+    let mut column = vec![0.0f64; n];
+    for col in cols.chunks_exact_mut(n) {
+        column.copy_from_slice(col);
+        to.iter().zip(&column).for_each(|(&t, &y)| col[t] = y);
     }
 }
 
@@ -103,11 +139,7 @@ fn numeric_factor(
     a: SparseColMatRef<'_, usize, f64>,
 ) -> std::result::Result<Factor, SymbolicCholesky<usize>> {
     let par = Par::rayon(0);
-    let mut values = Vec::new();
-    if values.try_reserve_exact(symbolic.len_val()).is_err() {
-        return Err(symbolic);
-    }
-    values.resize(symbolic.len_val(), 0.0);
+    let Some(mut values) = zeroed(symbolic.len_val()) else { return Err(symbolic) };
     let req = symbolic.factorize_numeric_llt_scratch::<f64>(par, Default::default());
     let Ok(mut buf) = MemBuffer::try_new(req) else { return Err(symbolic) };
     let ok = symbolic
@@ -157,6 +189,42 @@ mod tests {
         factor.solve_columns(&mut cols, 3);
         for (got, want) in cols.iter().zip(xs.iter().flatten()) {
             assert!((got - want).abs() < 1e-12, "{cols:?}");
+        }
+    }
+
+    /// In elimination order or not, a cylinder's `L + I` (small: faer factors it simplicial;
+    /// larger: supernodal) solves to the same columns, moved through the order.
+    #[test]
+    fn ordered_columns_solve_as_the_vertex_ordered_ones() {
+        use crate::mesh::cotan::{cotan_laplacian, stiffness_lower_csc};
+        use crate::primitives::capped_cylinder;
+        use glam::DVec3;
+        for (rings, segments) in [(6, 8), (200, 200)] {
+            let (v, t) = capped_cylinder(0.5, 4.0, rings, segments);
+            let pos: Vec<DVec3> = v.iter().map(|p| DVec3::from(p.map(|c| c as f64))).collect();
+            let n = pos.len();
+            let csc = stiffness_lower_csc(n, &cotan_laplacian(&pos, &t).edges);
+            let pattern = SymbolicSparseColMatRef::new_checked(n, n, &csc.col_ptr, None, &csc.row_idx);
+            let symbolic = symbolic_factor(pattern, None).unwrap();
+            let with_identity = |_: f64| {
+                let mut values = csc.values.clone();
+                csc.diag_pos.iter().for_each(|&d| values[d] += 1.0);
+                values
+            };
+            let (factor, _) = factor_first(symbolic, pattern, &[0.0], with_identity).unwrap();
+            let supernodal = matches!(factor.symbolic.raw(), SymbolicCholeskyRaw::Supernodal(_));
+            assert_eq!(supernodal, rings > 6, "{rings} rings");
+            let (forward, _) = factor.order().expect("AMD reorders a cylinder");
+            let b: Vec<f64> = (0..3 * n).map(|i| ((i * 7) % 11) as f64 - 5.0).collect();
+            let mut x = b.clone();
+            factor.solve_columns(&mut x, n);
+            let mut y: Vec<f64> = b.chunks(n).flat_map(|col| forward.iter().map(|&v| col[v])).collect();
+            factor.solve_ordered_columns(&mut y, n);
+            for (xc, yc) in x.chunks(n).zip(y.chunks(n)) {
+                for (k, &v) in forward.iter().enumerate() {
+                    assert!((yc[k] - xc[v]).abs() <= 1e-12 * xc[v].abs().max(1.0), "{} against {}", yc[k], xc[v]);
+                }
+            }
         }
     }
 

@@ -20,6 +20,7 @@
 //! more.
 
 use super::blocks::block_width;
+use rayon::prelude::*;
 
 /// Bytes per vertex of everything but the bones' right-hand sides, up to a million vertices.
 const PER_VERTEX: f64 = 1700.0;
@@ -31,6 +32,17 @@ pub fn heat_peak_bytes(vertices: usize, bones: usize) -> u64 {
     let growth = (n.max(2.0).log2() / 20.0).max(1.0);
     let columns = bones.min(block_width(vertices, threads));
     (n * PER_VERTEX * growth + 2.0 * 8.0 * n * columns as f64) as u64
+}
+
+/// `len` zeros, or `None` when they do not fit. The pages are first written by the worker
+/// threads in parallel: zeroed memory from the allocator (`vec![0.0; len]`) maps the kernel's
+/// shared zero page and takes a copy-on-write fault, with a TLB flush on every core, on each
+/// page's first write, and a serial `resize` faults every page on one thread.
+pub(crate) fn zeroed(len: usize) -> Option<Vec<f64>> {
+    let mut v = Vec::new();
+    v.try_reserve_exact(len).ok()?;
+    v.par_extend(rayon::iter::repeat_n(0.0, len).with_min_len(1 << 16));
+    Some(v)
 }
 
 #[cfg(test)]
@@ -49,5 +61,15 @@ mod tests {
         // Past a million vertices the factor grows faster than linearly.
         assert!(heat_peak_bytes(10_000_000, 1) > 10 * heat_peak_bytes(1_000_000, 1));
         assert_eq!(heat_peak_bytes(0, 0), 0);
+    }
+
+    #[test]
+    fn zeroed_is_all_zeros_of_its_length() {
+        for len in [0, 1, 70_000, 300_001] {
+            let v = zeroed(len).unwrap();
+            assert_eq!((v.len(), v.capacity()), (len, len));
+            assert!(v.iter().all(|&x| x == 0.0));
+        }
+        assert!(zeroed(usize::MAX / 8).is_none());
     }
 }

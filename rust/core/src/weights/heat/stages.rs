@@ -137,11 +137,12 @@ pub(crate) fn run(
         mass: &mass,
         labels: &vis.labels,
         rigid: &rigid,
+        place: llt.as_ref().and_then(Factor::order).map(|(_, inverse)| inverse),
     };
-    let solved = solve(&prep, &rows, llt, &opts, &clock, &mut report)?;
+    let solved = solve(&prep, &rows, llt.as_ref(), &opts, &clock, &mut report)?;
     // "solve" is the solves and the clip alone; the blocks' other work counts in "finish".
     let bookkeeping = clock.lap_as(&mut report, "solve", solved.secs);
-    let out = finish(solved.best, &prep, &vis, &opts);
+    let out = finish(solved.best, &prep, &rows, &opts);
     clock.lap_plus(&mut report, "finish", bookkeeping);
     report.timings.push(("total", clock.total()));
     clock.tick(1.0)?;
@@ -161,7 +162,7 @@ pub(super) fn sources_found(inputs: &Inputs, opts: &HeatOptions) -> Result<Influ
         welded.indices[v * MAX_TIES..v * MAX_TIES + n].iter_mut().zip(&s.bones).for_each(|(i, &j)| *i = j as i32);
         welded.weights[v * MAX_TIES..v * MAX_TIES + n].fill(1.0 / n as f32);
     }
-    Ok(unweld(&welded, &prep.map))
+    Ok(unweld(&welded, &prep.map, None))
 }
 
 /// The first stages of [`run`] alone: the inputs checked, the mesh prepared, and what the rays
@@ -612,7 +613,7 @@ struct Solved {
 fn solve(
     prep: &Prepared,
     rows: &Rows,
-    llt: Option<Factor>,
+    llt: Option<&Factor>,
     opts: &HeatOptions,
     clock: &Clock,
     report: &mut HeatReport,
@@ -635,10 +636,18 @@ fn solve(
     let blocks = bone_blocks(b, prep.wpos.len(), opts.block_bones, threads, mirror);
     let mut best = RunningTopK::new(prep.wpos.len(), opts.max_influences.min(b), b);
     let (mut secs, mut done) = (0.0, 0usize);
+    // The mirror map of the blocks' rows.
+    let vm = vm.map(|vm| {
+        let mut of_rows = vec![-1i32; vm.len()];
+        for (v, &m) in vm.iter().enumerate() {
+            of_rows[rows.row(v)] = usize::try_from(m).map_or(-1, |m| rows.row(m) as i32);
+        }
+        of_rows
+    });
     let sym = opts.symmetry.as_ref().zip(vm.as_deref());
     let mut x = Vec::new();
     for block in &blocks {
-        secs += block_weights(block, rows, llt.as_ref(), sym, &mut x);
+        secs += block_weights(block, rows, llt, sym, &mut x);
         best.merge(&x, block, opts.weight_limit_start, opts.weight_limit_end);
         done += block.len();
         clock.tick(0.6 + 0.3 * done as f32 / b as f32)?;
@@ -647,18 +656,19 @@ fn solve(
 }
 
 /// Each welded vertex's top k normalized and pruned, copied to every input vertex.
-fn finish(best: RunningTopK, prep: &Prepared, vis: &Visibility, opts: &HeatOptions) -> Influences {
-    let welded = best.finish(opts.max_influences.min(prep.bones.len()).max(1), opts.min_weight, &vis.sources);
-    unweld(&welded, &prep.map)
+fn finish(best: RunningTopK, prep: &Prepared, rows: &Rows, opts: &HeatOptions) -> Influences {
+    let welded = best.finish(opts.max_influences.min(prep.bones.len()).max(1), opts.min_weight, rows);
+    unweld(&welded, &prep.map, rows.place)
 }
 
-/// The rows of `welded` copied to every input vertex (`map[i]`: the welded vertex of input `i`).
-fn unweld(welded: &Influences, map: &[u32]) -> Influences {
+/// The rows of `welded` copied to every input vertex (`map[i]`: the welded vertex of input `i`,
+/// in row `place[map[i]]` of `welded`, or `map[i]` without `place`).
+fn unweld(welded: &Influences, map: &[u32], place: Option<&[usize]>) -> Influences {
     let k = welded.k;
     let mut out = Influences::empty(map.len(), k);
     out.indices.par_chunks_mut(k).zip(out.weights.par_chunks_mut(k)).zip(map.par_iter()).with_min_len(1024).for_each(
         |((idx, w), &m)| {
-            let (si, sw) = welded.row(m as usize);
+            let (si, sw) = welded.row(place.map_or(m as usize, |p| p[m as usize]));
             idx.copy_from_slice(si);
             w.copy_from_slice(sw);
         },
