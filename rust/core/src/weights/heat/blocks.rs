@@ -123,11 +123,12 @@ impl Rows<'_> {
 }
 
 /// The weights of the bones of `block`, column-major `(n, block.len())`, into `x` (its memory
-/// reused from block to block), and the seconds spent solving: solved against the factor `llt` and clipped to `[0, 1]` (without a factor, the
-/// sources' shares), then rigid pieces and isolated vertices at 100% on their bone(s),
-/// then averaged with the mirror images (`sym`: the symmetry and the mirror map of the rows; a
-/// block holds every bone's mirror partner). The rows are in `rows.place`'s order, which must
-/// be `llt`'s elimination order.
+/// reused from block to block), and the seconds spent solving: solved against the factor `llt`
+/// (without a factor, the sources' shares), then rigid pieces and isolated vertices at 100% on
+/// their bone(s), then clipped to `[0, 1]` and averaged with the mirror images (`sym`: the
+/// symmetry and the mirror map of the rows; a block holds every bone's mirror partner); without
+/// `sym` [`RunningTopK::merge`] clips. The rows are in `rows.place`'s order, which must be
+/// `llt`'s elimination order.
 pub(crate) fn block_weights(
     block: &[usize],
     rows: &Rows,
@@ -145,10 +146,10 @@ pub(crate) fn block_weights(
         // more efficiently than narrower rounds or one call with faer's own parallelism.
         Some(llt) => {
             solve_live_columns(llt, x, nw);
-            // Clip; non-finite (should not happen) counts as 0.
-            x.par_iter_mut().with_min_len(8192).for_each(|w| {
-                *w = if w.is_finite() { w.clamp(0.0, 1.0) } else { 0.0 };
-            });
+            // The mirror averages clipped weights; without it the merge clips as it reads.
+            if sym.is_some() {
+                x.par_iter_mut().with_min_len(8192).for_each(|w| *w = clip(*w));
+            }
         }
         None => source_weights(x, rows, block),
     }
@@ -172,6 +173,16 @@ pub(crate) fn block_weights(
         symmetrize_columns(x, nw, vm, &local);
     }
     secs
+}
+
+/// A solved weight clipped to `[0, 1]`; non-finite (should not happen) counts as 0.
+#[inline]
+fn clip(w: f64) -> f64 {
+    if w.is_finite() {
+        w.clamp(0.0, 1.0)
+    } else {
+        0.0
+    }
 }
 
 /// Solve `A X = B` for the column-major `(n, k)` block `x` against the factor, skipping the
@@ -239,8 +250,8 @@ impl RunningTopK {
         RunningTopK { ramped, ramped_used: vec![0; nw], raw, raw_used: vec![0; nw] }
     }
 
-    /// Merge the column-major `(n, block.len())` weights `x` of the bones of `block`: rows in
-    /// runs of [`MERGE_ROWS`], each run reading the block column by column.
+    /// Merge the column-major `(n, block.len())` weights `x` of the bones of `block`, clipped
+    /// to `[0, 1]`: rows in runs of [`MERGE_ROWS`], each run reading the block column by column.
     pub(crate) fn merge(&mut self, x: &[f64], block: &[usize], start: f32, end: f32) {
         let (k, nw) = (self.ramped.k, self.ramped_used.len());
         let rows =
@@ -255,7 +266,7 @@ impl RunningTopK {
                 for (c, &j) in block.iter().enumerate() {
                     let column = &x[c * nw + first..c * nw + first + used.len()];
                     for (r, &value) in column.iter().enumerate() {
-                        let (value, at) = (value as f32, r * k..(r + 1) * k);
+                        let (value, at) = (clip(value) as f32, r * k..(r + 1) * k);
                         let limited = weight_limit(value, start, end);
                         used[r] = insert_ranked(j as i32, limited, &mut idx[at.clone()], &mut w[at.clone()], used[r]);
                         // The unramped list serves only rows whose ramped one stays empty.
