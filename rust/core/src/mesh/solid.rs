@@ -42,25 +42,10 @@ impl Solid {
     /// `merge` in it) and `triangles` `(m, 3)` (indices validated); vertices within `weld`
     /// join pieces.
     pub fn new(vertices: &[[f32; 3]], triangles: &[[u32; 3]], weld_distance: f64, merge: f32) -> Solid {
-        let pos: Vec<DVec3> = vertices.iter().map(|p| Vec3::from_array(*p).as_dvec3()).collect();
-        let (map, welded) = weld(&pos, weld_distance);
-        let tris: Vec<[u32; 3]> = triangles.iter().map(|t| t.map(|i| map[i as usize])).collect();
-        let (labels, _) = connected_components(welded.len(), &tris);
-        // Renumber to the pieces triangles use.
-        let mut renumber = vec![u32::MAX; welded.len()];
-        let mut pieces = 0u32;
-        let piece = tris
-            .iter()
-            .map(|t| {
-                let l = labels[t[0] as usize] as usize;
-                if renumber[l] == u32::MAX {
-                    renumber[l] = pieces;
-                    pieces += 1;
-                }
-                renumber[l]
-            })
-            .collect();
-        Solid { rays: RayMesh::new(vertices, triangles), piece, pieces: pieces as usize, merge }
+        // The pieces (a weld and a search, one thread) and the ray hierarchy side by side.
+        let ((piece, pieces), rays) =
+            rayon::join(|| pieces_of(vertices, triangles, weld_distance), || RayMesh::new(vertices, triangles));
+        Solid { rays, piece, pieces, merge }
     }
 
     /// Number of pieces.
@@ -140,6 +125,30 @@ fn merged(sorted: impl Iterator<Item = f32>, merge: f32) -> Vec<f32> {
         }
     }
     out
+}
+
+/// The piece of every triangle of `vertices` / `triangles` once vertices within
+/// `weld_distance` are joined (numbered in the order the triangles reach them), and their count.
+fn pieces_of(vertices: &[[f32; 3]], triangles: &[[u32; 3]], weld_distance: f64) -> (Vec<u32>, usize) {
+    let pos: Vec<DVec3> = vertices.iter().map(|p| Vec3::from_array(*p).as_dvec3()).collect();
+    let (map, welded) = weld(&pos, weld_distance);
+    let tris: Vec<[u32; 3]> = triangles.iter().map(|t| t.map(|i| map[i as usize])).collect();
+    let (labels, _) = connected_components(welded.len(), &tris);
+    // Renumber to the pieces triangles use.
+    let mut renumber = vec![u32::MAX; welded.len()];
+    let mut pieces = 0u32;
+    let piece = tris
+        .iter()
+        .map(|t| {
+            let l = labels[t[0] as usize] as usize;
+            if renumber[l] == u32::MAX {
+                renumber[l] = pieces;
+                pieces += 1;
+            }
+            renumber[l]
+        })
+        .collect();
+    (piece, pieces as usize)
 }
 
 #[cfg(test)]

@@ -30,17 +30,22 @@ use rayon::prelude::*;
 /// counts crossings, ignored by the any-hit test), and a mesh of one triangle repeated a
 /// million times would put them all in one leaf of the hierarchy, every ray testing each.
 fn repeated_triangles(triangles: &[[u32; 3]]) -> Vec<bool> {
-    let sorted = |t: &[u32; 3]| {
-        let mut s = *t;
-        s.sort_unstable();
-        s
-    };
-    let mut order: Vec<u32> = (0..triangles.len() as u32).collect();
-    order.par_sort_unstable_by_key(|&k| (sorted(&triangles[k as usize]), k));
+    // Each triangle's vertices in increasing order, then its index: sorted, the copies of a
+    // triangle are adjacent, the first one first.
+    let mut keyed: Vec<([u32; 3], u32)> = triangles
+        .par_iter()
+        .enumerate()
+        .map(|(k, t)| {
+            let mut s = *t;
+            s.sort_unstable();
+            (s, k as u32)
+        })
+        .collect();
+    keyed.par_sort_unstable();
     let mut repeated = vec![false; triangles.len()];
-    for w in order.windows(2) {
-        if sorted(&triangles[w[0] as usize]) == sorted(&triangles[w[1] as usize]) {
-            repeated[w[1] as usize] = true;
+    for w in keyed.windows(2) {
+        if w[0].0 == w[1].0 {
+            repeated[w[1].1 as usize] = true;
         }
     }
     repeated
