@@ -20,7 +20,10 @@ use super::centreline::Tree;
 use super::chain;
 use super::line::Line;
 use super::parts::{Body, Template};
-use crate::skeleton::{fit_joints, points_inside, FitOptions};
+use crate::mesh::solid::Solid;
+use crate::skeleton::fit::{fit_in, Fitted};
+use crate::skeleton::sections::inside;
+use crate::skeleton::FitOptions;
 use glam::DVec3;
 
 /// A pair whose joints differ from each other's mirror images by more than this (unit frame)
@@ -38,16 +41,10 @@ const HEEL: f64 = 0.25;
 const EAR_NAMES: [&str; 3] = ["ear", "horn", "antenna"];
 
 /// The bones for `body`, unit frame: laid along the tree, mirrored, then settled into the
-/// mesh by Fit Skeleton (`unit`, `triangles`: the mesh in the unit frame): each joint moves to
+/// mesh by Fit Skeleton (`mesh`: the mesh in the unit frame and its solid): each joint moves to
 /// the middle of its bones' cross-sections, at most [`SETTLE_MOVE`], and joints outside (a
 /// centre joint projected onto the mirror plane between a pair of horns) are pulled in.
-pub(crate) fn embed(
-    tree: &Tree,
-    body: &Body,
-    vertices: &[DVec3],
-    unit: &[[f32; 3]],
-    triangles: &[[u32; 3]],
-) -> Vec<Bone> {
+pub(crate) fn embed(tree: &Tree, body: &Body, vertices: &[DVec3], mesh: &Fitted) -> Vec<Bone> {
     let mut b = Builder { bones: Vec::new() };
     match body.template {
         Template::Quadruped => quadruped(&mut b, tree, body),
@@ -55,20 +52,20 @@ pub(crate) fn embed(
         _ => biped(&mut b, tree, body, vertices),
     }
     if !body.symmetric {
-        settle(&mut b.bones, unit, triangles);
+        settle(&mut b.bones, mesh);
         return b.bones;
     }
     let symmetric = mirror(&mut b.bones, body, None);
-    settle(&mut b.bones, unit, triangles);
+    settle(&mut b.bones, mesh);
     mirror(&mut b.bones, body, Some(symmetric));
-    ear_tips_inside(&mut b.bones, unit, triangles);
+    ear_tips_inside(&mut b.bones, mesh.solid);
     b.bones
 }
 
 /// An ear's tip (its chain's last tail) outside the mesh moves back along its bone, a tenth of
 /// it at a time, to the first point inside: a thin ear's end voxel can lie past its surface,
 /// farther out than settling pulls a joint in.
-fn ear_tips_inside(bones: &mut [Bone], unit: &[[f32; 3]], triangles: &[[u32; 3]]) {
+fn ear_tips_inside(bones: &mut [Bone], solid: &Solid) {
     let steps = 10;
     let tips: Vec<usize> = (0..bones.len())
         .filter(|&i| EAR_NAMES.iter().any(|e| bones[i].name.starts_with(e)) && bones[i].name.ends_with(".001"))
@@ -76,12 +73,11 @@ fn ear_tips_inside(bones: &mut [Bone], unit: &[[f32; 3]], triangles: &[[u32; 3]]
     if tips.is_empty() {
         return;
     }
-    let pts: Vec<[f32; 3]> = tips
+    let inside: Vec<bool> = tips
         .iter()
         .flat_map(|&i| (0..steps).map(move |k| (i, k)))
-        .map(|(i, k)| bones[i].tail.lerp(bones[i].head, k as f64 / steps as f64).as_vec3().to_array())
+        .map(|(i, k)| inside(solid, bones[i].tail.lerp(bones[i].head, k as f64 / steps as f64)))
         .collect();
-    let Ok(inside) = points_inside(unit, triangles, &pts) else { return };
     for (n, &i) in tips.iter().enumerate() {
         if let Some(k) = (0..steps).find(|&k| inside[n * steps + k]) {
             bones[i].tail = bones[i].tail.lerp(bones[i].head, k as f64 / steps as f64);
@@ -89,8 +85,9 @@ fn ear_tips_inside(bones: &mut [Bone], unit: &[[f32; 3]], triangles: &[[u32; 3]]
     }
 }
 
-/// Move the joints with [`fit_joints`] (heel markers stay on the ground).
-fn settle(bones: &mut [Bone], unit: &[[f32; 3]], triangles: &[[u32; 3]]) {
+/// Move the joints with Fit Skeleton ([`fit_in`], on Auto Rig's own solid; heel markers stay
+/// on the ground).
+fn settle(bones: &mut [Bone], mesh: &Fitted) {
     // Joints: a bone starting on its parent's tail (connected, or a chain Rigify joins by
     // position: the neck) or head (the tail) shares that joint.
     let mut joints: Vec<[f32; 3]> = Vec::new();
@@ -120,7 +117,7 @@ fn settle(bones: &mut [Bone], unit: &[[f32; 3]], triangles: &[[u32; 3]]) {
         }
     }
     let opts = FitOptions { max_move: SETTLE_MOVE, ..FitOptions::default() };
-    let Ok((moved, _)) = fit_joints(unit, triangles, &joints, &ends, &movable, &opts) else {
+    let Ok((moved, _)) = fit_in(mesh, &joints, &ends, &movable, &opts) else {
         return;
     };
     let p = |j: u32| DVec3::from_array(moved[j as usize].map(f64::from));

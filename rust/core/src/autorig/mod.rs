@@ -43,8 +43,9 @@ pub use parts::Template;
 
 use crate::mesh::solid::Solid;
 use crate::mesh::{validate_mesh, Frame};
+use crate::skeleton::fit::{self, Fitted};
 use crate::{Error, Result};
-use glam::DVec3;
+use glam::{DVec3, Vec3};
 
 /// Grid resolution limits (voxels along the longest side).
 pub const MIN_RESOLUTION: usize = 16;
@@ -141,13 +142,17 @@ pub fn auto_rig(vertices: &[[f32; 3]], triangles: &[[u32; 3]], opts: &AutoRigOpt
     let unit_all: Vec<[f32; 3]> = vertices.iter().map(|p| frame.to_unit(*p).as_vec3().to_array()).collect();
     let lo = unit.iter().fold(DVec3::INFINITY, |a, p| a.min(*p));
     let hi = unit.iter().fold(DVec3::NEG_INFINITY, |a, p| a.max(*p));
-    let solid = Solid::new(&unit_all, triangles, 1e-6, 1e-6);
+    let solid = Solid::new(&unit_all, triangles, fit::WELD, fit::DEDUP);
     let vox = voxels::Voxels::new(&solid, lo, hi, opts.resolution);
     let tree = centreline::centre_tree(&vox).ok_or_else(|| {
         Error::Unsuitable("the mesh encloses no volume (a flat or open surface?): Auto Rig needs a solid body".into())
     })?;
     let body = body::find_body(&tree, &vox, &unit, opts.template, forward)?;
-    let bones = embed::embed(&tree, &body, &unit, &unit_all, triangles);
+    // Settling the joints fits them in this frame, on this solid.
+    let unit_v: Vec<DVec3> = unit_all.iter().map(|p| Vec3::from_array(*p).as_dvec3()).collect();
+    let frame_unit = Frame { centre: DVec3::ZERO, diagonal: 1.0 };
+    let mesh = Fitted { frame: frame_unit, unit_v: &unit_v, unit: &unit_all, solid: &solid };
+    let bones = embed::embed(&tree, &body, &unit, &mesh);
     let out = |p: DVec3| frame.from_unit(p).as_vec3().to_array();
     Ok(AutoRig {
         template: body.template,

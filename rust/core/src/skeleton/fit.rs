@@ -182,9 +182,9 @@ pub const MIRROR_SAMPLES: usize = 4096;
 /// A mirrored vertex this close to the surface (fraction of the diagonal) has a mirror image.
 pub const MIRROR_NEAR: f64 = 0.01;
 /// Hits closer than this (unit frame) along one ray count once (shared edges report twice).
-const DEDUP: f32 = 1e-6;
+pub(crate) const DEDUP: f32 = 1e-6;
 /// Vertices this close (unit frame) are one: pieces and mesh checks are taken after welding.
-const WELD: f64 = 1e-6;
+pub(crate) const WELD: f64 = 1e-6;
 /// Eigenvalues (ascending) and unit eigenvectors of a symmetric 3x3 matrix (faer's
 /// self-adjoint eigendecomposition); `None` if it does not converge (a non-finite matrix).
 fn sym_eigen(m: DMat3) -> Option<([f64; 3], [DVec3; 3])> {
@@ -281,33 +281,62 @@ pub fn fit_joints(
     movable: &[bool],
     opts: &FitOptions,
 ) -> Result<(Vec<[f32; 3]>, FitReport)> {
-    validate(vertices, triangles, joints, bones, movable, opts)?;
-    let nj = joints.len();
+    validate_mesh(vertices, triangles, true)?;
+    validate(joints, bones, movable, opts)?;
     let frame = Frame::of_mesh(vertices, triangles);
+    if let Some(s) = &opts.symmetry {
+        Mirror::new(s, joints.len(), &frame)?;
+    }
+    let unit_v = frame.normalize(vertices);
+    let unit: Vec<[f32; 3]> = unit_v.iter().map(|p| p.as_vec3().to_array()).collect();
+    // Both are mostly serial (weld, components, parry's BVH build): side by side they take the
+    // time of the longer.
+    let ((open_edges, nonmanifold_edges, pieces), rm) =
+        rayon::join(|| topology(&unit_v, triangles), || Solid::new(&unit, triangles, WELD, DEDUP));
+    let (out, report) =
+        fit_in(&Fitted { frame, unit_v: &unit_v, unit: &unit, solid: &rm }, joints, bones, movable, opts)?;
+    Ok((out, FitReport { open_edges, nonmanifold_edges, pieces, ..report }))
+}
+
+/// A mesh prepared for [`fit_in`]: its frame, its vertices in the frame's unit coordinates
+/// (`f64` and `f32`) and the solid built on them with [`WELD`] and [`DEDUP`].
+pub(crate) struct Fitted<'a> {
+    pub frame: Frame,
+    pub unit_v: &'a [DVec3],
+    pub unit: &'a [[f32; 3]],
+    pub solid: &'a Solid,
+}
+
+/// [`fit_joints`] on a mesh already prepared (a caller that holds its solid: Auto Rig), joints
+/// in the mesh's input units; the report's mesh checks (open and non-manifold edges, pieces)
+/// are left at 0.
+pub(crate) fn fit_in(
+    mesh: &Fitted,
+    joints: &[[f32; 3]],
+    bones: &[[u32; 2]],
+    movable: &[bool],
+    opts: &FitOptions,
+) -> Result<(Vec<[f32; 3]>, FitReport)> {
+    validate(joints, bones, movable, opts)?;
+    let Fitted { frame, unit_v, unit, solid: rm } = *mesh;
+    let nj = joints.len();
     let mut sym = opts.symmetry.as_ref().map(|s| Mirror::new(s, nj, &frame)).transpose()?;
     let mut p: Vec<DVec3> = joints.iter().map(|j| frame.to_unit(*j)).collect();
     let off_plane_centre = sym.as_mut().map_or(0, |m| m.free_far_centre(&p, opts.max_move));
     if let (Some(m), Some(s)) = (&sym, &opts.symmetry) {
         m.check_plane(&p, s.plane)?;
     }
-
-    let unit_v = frame.normalize(vertices);
-    let unit: Vec<[f32; 3]> = unit_v.iter().map(|p| p.as_vec3().to_array()).collect();
-    // Both are mostly serial (weld, components, parry's BVH build): side by side they take the
-    // time of the longer (1M vertices: 0.44 s and 1.13 s, 1.55 s one after the other).
-    let ((open_edges, nonmanifold_edges, pieces), rm) =
-        rayon::join(|| topology(&unit_v, triangles), || Solid::new(&unit, triangles, WELD, DEDUP));
     if rm.rays.triangle_count() == 0 {
         return Err(Error::EmptyMesh("every triangle of the mesh is degenerate".into()));
     }
 
-    let mirrored_surface = sym.as_ref().map(|m| mirrored_share(&rm.rays, &unit, m.axis, m.plane));
+    let mirrored_surface = sym.as_ref().map(|m| mirrored_share(&rm.rays, unit, m.axis, m.plane));
     let mut incident: Vec<Vec<usize>> = vec![Vec::new(); nj];
     for (e, b) in bones.iter().enumerate() {
         incident[b[0] as usize].push(e);
         incident[b[1] as usize].push(e);
     }
-    let outside_before: Vec<bool> = p.par_iter().map(|q| !inside(&rm, *q)).collect();
+    let outside_before: Vec<bool> = p.par_iter().map(|q| !inside(rm, *q)).collect();
     // A joint farther outside than a rough joint can be from its place (`max_move` from the
     // nearest point inside) was put there on purpose (a root on the ground, a pole target, a
     // tail tip past the mesh): it keeps its place.
@@ -318,7 +347,7 @@ pub fn fit_joints(
                 return false;
             }
             let others = incident[j].iter().map(|&e| p[(bones[e][0] + bones[e][1]) as usize - j]);
-            pull_inside(&rm, p[j], None, &toward(&unit_v, p[j], others))
+            pull_inside(rm, p[j], None, &toward(unit_v, p[j], others))
                 .is_none_or(|c| (c - p[j]).length() > opts.max_move)
         })
         .collect();
@@ -362,7 +391,7 @@ pub fn fit_joints(
                     return lines[e].clone();
                 }
                 let junction = incident[b[0] as usize].len() >= 3;
-                centre_line(&rm, a, t, junction, &fractions, &line_opts)
+                centre_line(rm, a, t, junction, &fractions, &line_opts)
             })
             .collect();
         lines_at = p.clone();
@@ -396,7 +425,7 @@ pub fn fit_joints(
     }
 
     // 3. Joints still outside: middle of the nearest chord (centre-line joints stay on the plane).
-    let outside: Vec<bool> = p.par_iter().map(|q| !inside(&rm, *q)).collect();
+    let outside: Vec<bool> = p.par_iter().map(|q| !inside(rm, *q)).collect();
     let pulled: Vec<Option<DVec3>> = (0..nj)
         .into_par_iter()
         .map(|j| {
@@ -405,7 +434,7 @@ pub fn fit_joints(
             }
             let plane = sym.as_ref().and_then(|m| (m.mirror[j] == Some(j)).then_some(m.axis));
             let others = incident[j].iter().map(|&e| p[(bones[e][0] + bones[e][1]) as usize - j]);
-            pull_inside(&rm, p[j], plane, &toward(&unit_v, p[j], others))
+            pull_inside(rm, p[j], plane, &toward(unit_v, p[j], others))
         })
         .collect();
     for j in 0..nj {
@@ -425,7 +454,7 @@ pub fn fit_joints(
         }
         symmetrize(&mut p);
     }
-    let outside_after: Vec<bool> = p.par_iter().map(|q| !inside(&rm, *q)).collect();
+    let outside_after: Vec<bool> = p.par_iter().map(|q| !inside(rm, *q)).collect();
 
     let mut out: Vec<[f32; 3]> = p
         .iter()
@@ -443,26 +472,18 @@ pub fn fit_joints(
         kept_outside,
         rounds,
         max_move,
-        open_edges,
-        nonmanifold_edges,
-        pieces,
+        open_edges: 0,
+        nonmanifold_edges: 0,
+        pieces: 0,
         mirrored_surface,
         off_plane_centre,
     };
     Ok((out, report))
 }
 
-/// Check the inputs and options of [`fit_joints`] (its errors but the mesh's degeneracy and
-/// the symmetry's).
-fn validate(
-    vertices: &[[f32; 3]],
-    triangles: &[[u32; 3]],
-    joints: &[[f32; 3]],
-    bones: &[[u32; 2]],
-    movable: &[bool],
-    opts: &FitOptions,
-) -> Result<()> {
-    validate_mesh(vertices, triangles, true)?;
+/// Check the joints, bones and options of [`fit_joints`] (its errors but the mesh's and the
+/// symmetry's).
+fn validate(joints: &[[f32; 3]], bones: &[[u32; 2]], movable: &[bool], opts: &FitOptions) -> Result<()> {
     let nj = joints.len();
     if nj == 0 {
         return Err(Error::NoBones("no joints to fit".into()));

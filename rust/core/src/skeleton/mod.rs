@@ -13,7 +13,7 @@ mod bones;
 pub mod fit;
 mod names;
 mod parents;
-mod sections;
+pub(crate) mod sections;
 mod tails;
 
 pub use bones::Skeleton;
