@@ -28,6 +28,7 @@
 use super::blocks::{block_weights, bone_blocks, Rows, RunningTopK};
 use super::cholesky::{factor_first, symbolic_factor, Factor};
 use super::dissection::{nested_dissection, DISSECTION_MIN};
+use super::memory::zeroed;
 use super::pieces::{
     mark_sources, piece_contains_bone, piece_stats, rigid_pieces, PieceObjects, PieceStats, VertexPieces,
 };
@@ -127,7 +128,10 @@ pub(crate) fn run(
     clock.lap(&mut report, "assemble");
     clock.tick(0.3)?;
     let Matrix { mass, csc, symbolic, .. } = matrix;
-    let llt = factor(symbolic, csc, &mass, &heat.heat, &mut report);
+    // The solve's memory is first written by the core the factorization leaves idle (its
+    // many small supernodes run one after the other).
+    let (llt, work) =
+        rayon::join(|| factor(symbolic, csc, &mass, &heat.heat, &mut report), || Workspace::new(&prep, &opts));
     clock.lap(&mut report, "factor");
     clock.tick(0.6)?;
     let rows = Rows {
@@ -139,7 +143,7 @@ pub(crate) fn run(
         rigid: &rigid,
         place: llt.as_ref().and_then(Factor::order).map(|(_, inverse)| inverse),
     };
-    let solved = solve(&prep, &rows, llt.as_ref(), &opts, &clock, &mut report)?;
+    let solved = solve(&prep, &rows, llt.as_ref(), work, &opts, &clock, &mut report)?;
     // "solve" is the solves and the clip alone; the blocks' other work counts in "finish".
     let bookkeeping = clock.lap_as(&mut report, "solve", solved.secs);
     let out = finish(solved.best, &prep, &rows, &opts);
@@ -608,12 +612,32 @@ struct Solved {
     secs: f64,
 }
 
+/// The bones' blocks, the running top k and the first block's memory, made before the solve.
+struct Workspace {
+    blocks: Vec<Vec<usize>>,
+    best: RunningTopK,
+    x: Vec<f64>,
+}
+
+impl Workspace {
+    fn new(prep: &Prepared, opts: &HeatOptions) -> Workspace {
+        let (nw, b) = (prep.wpos.len(), prep.bones.len());
+        let threads = rayon::current_num_threads().max(1);
+        let mirror = opts.symmetry.as_ref().map(|s| &s.mirror[..]);
+        let blocks = bone_blocks(b, nw, opts.block_bones, threads, mirror);
+        let first = nw * blocks.first().map_or(0, Vec::len);
+        let x = zeroed(first).expect("memory for a block of right-hand sides");
+        Workspace { blocks, best: RunningTopK::new(nw, opts.max_influences.min(b), b), x }
+    }
+}
+
 /// Solve every bone, in blocks of columns: see [`block_weights`]. Reports the progress
 /// after each block and counts the mirrored vertices.
 fn solve(
     prep: &Prepared,
     rows: &Rows,
     llt: Option<&Factor>,
+    work: Workspace,
     opts: &HeatOptions,
     clock: &Clock,
     report: &mut HeatReport,
@@ -631,10 +655,7 @@ fn solve(
     if let Some(vm) = &vm {
         report.mirrored_vertices = prep.map.iter().filter(|&&w| vm[w as usize] >= 0).count();
     }
-    let threads = rayon::current_num_threads().max(1);
-    let mirror = opts.symmetry.as_ref().map(|s| &s.mirror[..]);
-    let blocks = bone_blocks(b, prep.wpos.len(), opts.block_bones, threads, mirror);
-    let mut best = RunningTopK::new(prep.wpos.len(), opts.max_influences.min(b), b);
+    let Workspace { blocks, mut best, mut x } = work;
     let (mut secs, mut done) = (0.0, 0usize);
     // The mirror map of the blocks' rows.
     let vm = vm.map(|vm| {
@@ -645,7 +666,6 @@ fn solve(
         of_rows
     });
     let sym = opts.symmetry.as_ref().zip(vm.as_deref());
-    let mut x = Vec::new();
     for block in &blocks {
         secs += block_weights(block, rows, llt, sym, &mut x);
         best.merge(&x, block, opts.weight_limit_start, opts.weight_limit_end);
