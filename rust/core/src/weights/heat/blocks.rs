@@ -58,12 +58,48 @@ pub(crate) fn block_width(nw: usize, threads: usize) -> usize {
     (BLOCK_BYTES / (8 * nw.max(1))).max(threads).max(1)
 }
 
-/// The right-hand sides `M H P` of the bones in `block`, column-major `(n, block.len())`, into
-/// `x` (its memory reused from block to block): each vertex's heat `heat[v]` (`M_ii H_ii`)
-/// shared among its source bones (`shares`), in row `place[v]` (`v` without `place`).
-fn source_columns(x: &mut Vec<f64>, shares: &Shares, heat: &[f64], place: Option<&[usize]>, block: &[usize]) {
-    let nw = heat.len();
-    let col = block_columns(block);
+/// The non-zeros of the right-hand sides `M H P`, bone by bone: each vertex's heat `heat[v]`
+/// (`M_ii H_ii`) shared among its source bones (`shares`), listed under each of them, so that
+/// a block of bones reads its own and not every vertex's.
+pub(crate) struct SourceColumns {
+    /// `(b + 1,)` bone `j`'s entries are `start[j]..start[j + 1]`.
+    start: Vec<usize>,
+    /// The vertex of each entry, increasing within a bone.
+    vertex: Vec<u32>,
+    /// Its share of the vertex's heat.
+    amount: Vec<f64>,
+}
+
+impl SourceColumns {
+    /// The columns of `b` bones from `shares` and `heat` (`(nw,)`).
+    pub(crate) fn new(shares: &Shares, heat: &[f64], b: usize) -> SourceColumns {
+        let entries = || {
+            heat.iter().enumerate().filter(|(_, &h)| h > 0.0).flat_map(move |(v, &h)| {
+                shares
+                    .row(v)
+                    .filter(move |&(j, _)| (j as usize) < b)
+                    .map(move |(j, divisor)| (j as usize, v, h / divisor))
+            })
+        };
+        let mut start = vec![0usize; b + 1];
+        entries().for_each(|(j, _, _)| start[j + 1] += 1);
+        for j in 0..b {
+            start[j + 1] += start[j];
+        }
+        let mut fill = start.clone();
+        let (mut vertex, mut amount) = (vec![0u32; start[b]], vec![0.0f64; start[b]]);
+        for (j, v, a) in entries() {
+            (vertex[fill[j]], amount[fill[j]]) = (v as u32, a);
+            fill[j] += 1;
+        }
+        SourceColumns { start, vertex, amount }
+    }
+}
+
+/// The right-hand sides of the bones in `block`, column-major `(n, block.len())`, into `x` (its
+/// memory reused from block to block): [`SourceColumns`] in row `place[v]` (`v` without
+/// `place`).
+fn source_columns(x: &mut Vec<f64>, nw: usize, sources: &SourceColumns, place: Option<&[usize]>, block: &[usize]) {
     let len = nw * block.len();
     if x.capacity() < len {
         *x = zeroed(len).expect("memory for a block of right-hand sides");
@@ -72,13 +108,11 @@ fn source_columns(x: &mut Vec<f64>, shares: &Shares, heat: &[f64], place: Option
         x.par_iter_mut().with_min_len(1 << 16).for_each(|w| *w = 0.0);
         x.resize(len, 0.0);
     }
-    for (v, &h) in heat.iter().enumerate() {
-        if h > 0.0 {
-            for (j, divisor) in shares.row(v) {
-                if let Some(c) = col(j) {
-                    x[c * nw + place.map_or(v, |p| p[v])] += h / divisor;
-                }
-            }
+    for (c, &j) in block.iter().enumerate() {
+        let entries = sources.start[j]..sources.start[j + 1];
+        for (&v, &a) in sources.vertex[entries.clone()].iter().zip(&sources.amount[entries]) {
+            let v = v as usize;
+            x[c * nw + place.map_or(v, |p| p[v])] += a;
         }
     }
 }
@@ -98,14 +132,13 @@ fn source_weights(x: &mut [f64], rows: &Rows, block: &[usize]) {
     }
 }
 
-/// Per welded vertex, what [`block_weights`] needs: its source (for its nearest bone), the
-/// bones that share its heat, its heat `M_ii H_ii`, its mass (0: in no usable triangle,
-/// isolated), its piece, and each piece's rigid bone(s); and the row of the blocks that holds
-/// it.
+/// Per welded vertex, what [`block_weights`] needs besides the right-hand sides: its source
+/// (for its nearest bone), the bones that share its heat (when the factorization failed), its
+/// mass (0: in no usable triangle, isolated), its piece, and each piece's rigid bone(s); and
+/// the row of the blocks that holds it.
 pub(crate) struct Rows<'a> {
     pub sources: &'a [Source],
     pub shares: &'a Shares,
-    pub heat: &'a [f64],
     pub mass: &'a [f64],
     pub labels: &'a [u32],
     pub rigid: &'a [Option<Ties>],
@@ -131,13 +164,14 @@ impl Rows<'_> {
 /// `llt`'s elimination order.
 pub(crate) fn block_weights(
     block: &[usize],
+    sources: &SourceColumns,
     rows: &Rows,
     llt: Option<&Factor>,
     sym: Option<(&Symmetry, &[i32])>,
     x: &mut Vec<f64>,
 ) -> f64 {
     let nw = rows.sources.len();
-    source_columns(x, rows.shares, rows.heat, rows.place, block);
+    source_columns(x, nw, sources, rows.place, block);
     let s = Instant::now();
     match llt {
         // One block of columns per worker, all solved at once: faer's supernodal solve is
@@ -342,11 +376,12 @@ mod tests {
         let sources = [source(&[0]), source(&[0, 2]), source(&[1, 2, 3]), source(&[3])];
         let sources = Shares::of_sources(&sources);
         let heat = [2.0, 3.0, 1.5, 0.0];
+        let columns = SourceColumns::new(&sources, &heat, 4);
         for blocks in [vec![vec![0, 1, 2, 3]], vec![vec![0, 2], vec![1, 3]]] {
             let mut sum = [0.0; 4];
             for block in &blocks {
                 let mut x = Vec::new();
-                source_columns(&mut x, &sources, &heat, None, block);
+                source_columns(&mut x, 4, &columns, None, block);
                 for (c, column) in x.chunks(4).enumerate() {
                     assert_eq!(column.len(), 4, "column {c}");
                     sum.iter_mut().zip(column).for_each(|(s, w)| *s += w);
@@ -355,10 +390,10 @@ mod tests {
             assert_eq!(sum, heat);
         }
         let mut x = vec![9.0; 12];
-        source_columns(&mut x, &sources, &heat, None, &[2]);
+        source_columns(&mut x, 4, &columns, None, &[2]);
         assert_eq!(x, vec![0.0, 1.5, 0.5, 0.0]);
         // In the factor's order: vertex v in row place[v].
-        source_columns(&mut x, &sources, &heat, Some(&[2, 0, 3, 1]), &[2]);
+        source_columns(&mut x, 4, &columns, Some(&[2, 0, 3, 1]), &[2]);
         assert_eq!(x, vec![1.5, 0.0, 0.0, 0.5]);
     }
 }

@@ -25,7 +25,7 @@
 //!    at 100%; symmetry; each vertex's running top k after the small-weight ramp.
 //! 8. [`finish`]: each vertex's top k normalized and pruned, copied back to every input vertex.
 
-use super::blocks::{block_weights, bone_blocks, Rows, RunningTopK};
+use super::blocks::{block_weights, bone_blocks, Rows, RunningTopK, SourceColumns};
 use super::cholesky::{factor_first, symbolic_factor, Factor};
 use super::dissection::{nested_dissection, DISSECTION_MIN};
 use super::memory::zeroed;
@@ -131,13 +131,12 @@ pub(crate) fn run(
     // The solve's memory is first written by the core the factorization leaves idle (its
     // many small supernodes run one after the other).
     let (llt, work) =
-        rayon::join(|| factor(symbolic, csc, &mass, &heat.heat, &mut report), || Workspace::new(&prep, &opts));
+        rayon::join(|| factor(symbolic, csc, &mass, &heat.heat, &mut report), || Workspace::new(&prep, &heat, &opts));
     clock.lap(&mut report, "factor");
     clock.tick(0.6)?;
     let rows = Rows {
         sources: &vis.sources,
         shares: &heat.shares,
-        heat: &heat.heat,
         mass: &mass,
         labels: &vis.labels,
         rigid: &rigid,
@@ -612,22 +611,25 @@ struct Solved {
     secs: f64,
 }
 
-/// The bones' blocks, the running top k and the first block's memory, made before the solve.
+/// The bones' blocks, their right-hand sides' non-zeros, the running top k and the first
+/// block's memory, made before the solve.
 struct Workspace {
     blocks: Vec<Vec<usize>>,
+    sources: SourceColumns,
     best: RunningTopK,
     x: Vec<f64>,
 }
 
 impl Workspace {
-    fn new(prep: &Prepared, opts: &HeatOptions) -> Workspace {
+    fn new(prep: &Prepared, heat: &Heat, opts: &HeatOptions) -> Workspace {
         let (nw, b) = (prep.wpos.len(), prep.bones.len());
         let threads = rayon::current_num_threads().max(1);
         let mirror = opts.symmetry.as_ref().map(|s| &s.mirror[..]);
         let blocks = bone_blocks(b, nw, opts.block_bones, threads, mirror);
         let first = nw * blocks.first().map_or(0, Vec::len);
         let x = zeroed(first).expect("memory for a block of right-hand sides");
-        Workspace { blocks, best: RunningTopK::new(nw, opts.max_influences.min(b), b), x }
+        let sources = SourceColumns::new(&heat.shares, &heat.heat, b);
+        Workspace { blocks, sources, best: RunningTopK::new(nw, opts.max_influences.min(b), b), x }
     }
 }
 
@@ -655,7 +657,7 @@ fn solve(
     if let Some(vm) = &vm {
         report.mirrored_vertices = prep.map.iter().filter(|&&w| vm[w as usize] >= 0).count();
     }
-    let Workspace { blocks, mut best, mut x } = work;
+    let Workspace { blocks, sources, mut best, mut x } = work;
     let (mut secs, mut done) = (0.0, 0usize);
     // The mirror map of the blocks' rows.
     let vm = vm.map(|vm| {
@@ -667,7 +669,7 @@ fn solve(
     });
     let sym = opts.symmetry.as_ref().zip(vm.as_deref());
     for block in &blocks {
-        secs += block_weights(block, rows, llt, sym, &mut x);
+        secs += block_weights(block, &sources, rows, llt, sym, &mut x);
         best.merge(&x, block, opts.weight_limit_start, opts.weight_limit_end);
         done += block.len();
         clock.tick(0.6 + 0.3 * done as f32 / b as f32)?;
