@@ -9,7 +9,7 @@
 //! the blocks.
 
 use super::cholesky::Factor;
-use super::memory::zeroed;
+use super::memory::{block_width, zeroed};
 use super::sources::{Shares, Source, Ties};
 use crate::mesh::mirror::Symmetry;
 use crate::weights::influence::weight_limit;
@@ -17,13 +17,6 @@ use crate::weights::influence::{cut_continuously, insert_ranked, normalize_prune
 use crate::weights::symmetry::symmetrize_columns;
 use rayon::prelude::*;
 use std::time::Instant;
-
-/// Bytes of dense weights (`f64`, vertices x bones) solved at once: the bones go in blocks of
-/// at most this much (but at least one column per thread), so memory stays bounded on a mesh
-/// of millions of vertices with hundreds of bones (1M x 300 would take 2.4 GB at once). Meshes
-/// up to 206k vertices and 160 bones (or 1M and 33) are one block; wider blocks read the
-/// factor fewer times but were no faster at 1M vertices with 200 bones.
-pub const BLOCK_BYTES: usize = 256 << 20;
 
 /// The bones in blocks of at most `cap` bones (0: as many `nw`-vertex columns as fit in
 /// [`BLOCK_BYTES`], at least `threads`), in increasing order; with `mirror`, a bone and its
@@ -50,12 +43,6 @@ pub(crate) fn bone_blocks(b: usize, nw: usize, cap: usize, threads: usize, mirro
         block.sort_unstable();
     }
     blocks
-}
-
-/// Bones in a block by default: as many `nw`-vertex columns as fit in [`BLOCK_BYTES`], at
-/// least `threads` (one column per thread).
-pub(crate) fn block_width(nw: usize, threads: usize) -> usize {
-    (BLOCK_BYTES / (8 * nw.max(1))).max(threads).max(1)
 }
 
 /// The non-zeros of the right-hand sides `M H P`, bone by bone: each vertex's heat `heat[v]`

@@ -1,5 +1,7 @@
 //! The peak memory of one heat solve, estimated before it starts, so that a caller can refuse a
-//! solve that would not fit instead of being killed by the system.
+//! solve that would not fit instead of being killed by the system; the size of the blocks of
+//! bones that bounds it ([`BLOCK_BYTES`]); and large zeroed buffers written first in parallel
+//! ([`zeroed`]).
 //!
 //! Inputs
 //!   vertices  vertices of the mesh (welded or not: the estimate takes them all)
@@ -19,8 +21,20 @@
 //! far from a surface (a volume's tetrahedra surfaces, dense sliver fans) fill their factor
 //! more.
 
-use super::blocks::block_width;
 use rayon::prelude::*;
+
+/// Bytes of dense weights (`f64`, vertices x bones) solved at once: the bones go in blocks of
+/// at most this much (but at least one column per thread), so memory stays bounded on a mesh
+/// of millions of vertices with hundreds of bones (1M x 300 would take 2.4 GB at once). Meshes
+/// up to 206k vertices and 160 bones (or 1M and 33) are one block; wider blocks read the
+/// factor fewer times but were no faster at 1M vertices with 200 bones.
+pub const BLOCK_BYTES: usize = 256 << 20;
+
+/// Bones in a block by default: as many `nw`-vertex columns as fit in [`BLOCK_BYTES`], at
+/// least `threads` (one column per thread).
+pub(crate) fn block_width(nw: usize, threads: usize) -> usize {
+    (BLOCK_BYTES / (8 * nw.max(1))).max(threads).max(1)
+}
 
 /// Bytes per vertex of everything but the bones' right-hand sides, up to a million vertices.
 const PER_VERTEX: f64 = 1700.0;
@@ -48,7 +62,6 @@ pub(crate) fn zeroed(len: usize) -> Option<Vec<f64>> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::weights::heat::BLOCK_BYTES;
 
     #[test]
     fn grows_with_vertices_and_bones_up_to_one_block() {

@@ -27,8 +27,8 @@ pub use crate::weights::influence::weight_limit;
 use crate::weights::influence::Influences;
 use crate::weights::symmetry::validate_bone_mirror;
 use crate::{Error, Result};
-pub use blocks::BLOCK_BYTES;
 pub use memory::heat_peak_bytes;
+pub use memory::BLOCK_BYTES;
 use rayon::prelude::*;
 use stages::{run, sources_found, Given, Inputs};
 
