@@ -147,7 +147,7 @@ pub fn auto_rig(vertices: &[[f32; 3]], triangles: &[[u32; 3]], opts: &AutoRigOpt
         Error::Unsuitable("the mesh encloses no volume (a flat or open surface?): Auto Rig needs a solid body".into())
     })?;
     let body = body::find_body(&tree, &vox, &unit, opts.template, forward)?;
-    let bones = embed::embed(&tree, &body, &unit, &unit_all, triangles);
+    let bones = embed::embed(&tree, &vox, &body, &unit, &unit_all, triangles);
     let out = |p: DVec3| frame.from_unit(p).as_vec3().to_array();
     Ok(AutoRig {
         template: body.template,
