@@ -11,7 +11,8 @@
 //! hock); a biped's ankle is where the leg comes down to the foot's height and its toes reach
 //! the front of the foot's vertices. The spine runs from the hips' junction along the path to
 //! the head: chest and neck split it at the shoulders' height and at the narrowest point below
-//! the head, whose bone ends one head radius past its centre. Pairs are made exactly mirrored
+//! the head, whose bone ends one head radius past its centre (its base and centre in the middle
+//! of the solid across them). Pairs are made exactly mirrored
 //! across the mesh's vertical mirror plane.
 
 use super::appendages::head_appendages;
@@ -217,7 +218,8 @@ fn biped(b: &mut Builder, tree: &Tree, vox: &Voxels, body: &Body, vertices: &[DV
     let fr = [0.0, 0.23, 0.44, 0.70, 1.0];
     let mut pts: Vec<DVec3> = fr.iter().map(|f| spine.at(f * s_nb)).collect();
     pts.push(spine.at(0.5 * (s_nb + s_hb)));
-    pts.push(spine.at(s_hb));
+    // The head's base, too, is the middle of the solid across the neck there.
+    pts.push(middle_across(vox, spine.at(s_hb), body.left));
     pts.push(head_top);
     b.chain(&spine_names(0, 7), &pts, None, false);
     // spine.004 (the neck) starts its own rig in Rigify's metarig.
