@@ -25,6 +25,11 @@ The rigs of ``testkit/rig_corpus.py`` the tests build around an artist's skeleto
 Rigify's generated human and quadruped, the Mixamo-style humanoid through glTF and FBX) are
 measured the same way, against their deform bones; the median is over the shared legged models.
 
+The shapes of ``testkit/shapes.py`` (a lizard, a snake, a fish, a bird, a moth, a cone, a hare:
+Skin-modifier bodies over small graphs) are measured against the graph they were skinned over
+(its points the joints, its edges the bones), with the template each should read; they are
+shown, not in the median.
+
 The legless models (q_Dragon, q_Orc, q_Cat) have no skeleton to compare with in the same
 sense (their artists' rigs are 4-13 bones): their rows give the template Auto Rig reads, why,
 and the joints outside.
@@ -52,6 +57,8 @@ SCANS = ["horse.ply"]
 # rigs of testkit/rig_corpus.py the tests build (a body around an artist's skeleton): Rigify's
 # generated human and quadruped (their DEF bones), the Mixamo-style humanoid through glTF and FBX
 CORPUS = ["rigify_basic_human", "rigify_basic_quadruped", "mixamo_gltf", "mixamo_fbx"]
+# the test shapes of testkit/shapes.py, against the Skin graph they were built over
+SHAPES = ["lizard", "snake", "fish", "bird", "moth", "cone", "hare"]
 
 
 def core():
@@ -63,8 +70,19 @@ def core():
 
 def character(bpy, path):
     """(vertices (n,3), triangles (m,3), artist segments [(head, tail)], artist joints (k,3)).
-    ``path``: a glTF file, or the name of a rig of testkit/rig_corpus.py (``CORPUS``)."""
+    ``path``: a glTF file, the name of a rig of testkit/rig_corpus.py (``CORPUS``) or of a shape of
+    testkit/shapes.py (``SHAPES``: its Skin graph is the skeleton)."""
     blender_session.reset_scene()
+    if str(path) in SHAPES:
+        from testkit import shapes
+
+        ob = shapes.build(str(path))
+        v, t = mesh_arrays(bpy, [ob])
+        points, edges, _ = shapes.graph(str(path))
+        character.labels = [f"{path}.{i}" for i in range(len(points))]
+        segs = [(points[a], points[b]) for a, b in edges]
+        character.links = (segs, points)
+        return v, t, segs, points
     if str(path) in CORPUS:
         from testkit import rig_corpus
 
@@ -77,22 +95,7 @@ def character(bpy, path):
         meshes = [ob for ob in bpy.data.objects if ob.type == "MESH" and ob not in shapes]
     for a in arms:
         a.data.pose_position = "REST"
-    bpy.context.view_layer.update()
-    deps = bpy.context.evaluated_depsgraph_get()
-    verts, tris, base = [], [], 0
-    for ob in meshes:
-        ev = ob.evaluated_get(deps)
-        me = ev.to_mesh()
-        me.calc_loop_triangles()
-        co = np.empty(len(me.vertices) * 3)
-        me.vertices.foreach_get("co", co)
-        m = np.array(ob.matrix_world)
-        verts.append(co.reshape(-1, 3) @ m[:3, :3].T + m[:3, 3])
-        t = np.empty(len(me.loop_triangles) * 3, dtype=np.int64)
-        me.loop_triangles.foreach_get("vertices", t)
-        tris.append(t.reshape(-1, 3) + base)
-        base += len(me.vertices)
-        ev.to_mesh_clear()
+    verts, tris = mesh_arrays(bpy, meshes)
     weighted = {ob.parent_bone for ob in meshes if ob.parent_type == "BONE" and ob.parent_bone}
     for ob in meshes:
         names = {g.index: g.name for g in ob.vertex_groups}
@@ -124,7 +127,28 @@ def character(bpy, path):
             heads.append(h)
     character.labels = labels
     character.links = (links, np.array(heads))
-    return np.concatenate(verts), np.concatenate(tris), segs, np.array(joints)
+    return verts, tris, segs, np.array(joints)
+
+
+def mesh_arrays(bpy, meshes):
+    """The evaluated ``meshes`` as one mesh in world space: (vertices (n, 3), triangles (m, 3))."""
+    bpy.context.view_layer.update()
+    deps = bpy.context.evaluated_depsgraph_get()
+    verts, tris, base = [], [], 0
+    for ob in meshes:
+        ev = ob.evaluated_get(deps)
+        me = ev.to_mesh()
+        me.calc_loop_triangles()
+        co = np.empty(len(me.vertices) * 3)
+        me.vertices.foreach_get("co", co)
+        m = np.array(ob.matrix_world)
+        verts.append(co.reshape(-1, 3) @ m[:3, :3].T + m[:3, 3])
+        t = np.empty(len(me.loop_triangles) * 3, dtype=np.int64)
+        me.loop_triangles.foreach_get("vertices", t)
+        tris.append(t.reshape(-1, 3) + base)
+        base += len(me.vertices)
+        ev.to_mesh_clear()
+    return np.concatenate(verts), np.concatenate(tris)
 
 
 def point_segment(p, a, b):
@@ -161,11 +185,12 @@ def main(argv=None):
         return 0
     bpy = blender_session.start()
     msc = core()
-    wanted = [m for m in MODELS + LEGLESS + CORPUS if not args.models or m.split(".")[0] in args.models.split(",")]
+    picked = args.models.split(",")
+    wanted = [m for m in MODELS + LEGLESS + CORPUS + SHAPES if not args.models or m.split(".")[0] in picked]
     rows, biggest = [], None
     for name in wanted:
-        path = name if name in CORPUS else MODELS_DIR / name
-        if name not in CORPUS and not path.exists():
+        path = name if name in CORPUS + SHAPES else MODELS_DIR / name
+        if name not in CORPUS + SHAPES and not path.exists():
             print(f"[bench_autorig] {name}: missing, skipped")
             continue
         v, t, art_segs, art_joints = character(bpy, path)
@@ -210,7 +235,12 @@ def main(argv=None):
             np.savez(Path(args.dump) / f"{Path(name).stem}.npz", heads=heads, tails=tails, names=np.array(rig.names),
                      parents=rig.parents, art=np.array([np.concatenate(s) for s in art_segs]),
                      vertices=v, forward=rig.forward, cp=rig.centre_points, ce=rig.centre_edges)
-        rows.append((name, len(v), rig.template, f"{len(rig.names)}", 100 * cd / diag, 100 * a / diag,
+        template = rig.template
+        if name in SHAPES:
+            from testkit.shapes import EXPECTED
+
+            template += " (as expected)" if EXPECTED[name][0] == rig.template else f" (expected {EXPECTED[name][0]})"
+        rows.append((name, len(v), template, f"{len(rig.names)}", 100 * cd / diag, 100 * a / diag,
                      100 * b / diag, secs, outside, len(body), 100 * cd_links / diag))
         print(f"[bench_autorig] {name}: {rig.template} {len(rig.names)} bones, tail {rig.tail}, "
               f"CD-J2B {100 * cd / diag:.2f} % (ours->artist {100 * a / diag:.2f}, artist->ours "

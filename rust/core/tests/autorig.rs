@@ -488,3 +488,20 @@ fn a_head_with_two_ears_gets_an_ear_pair_and_one_without_none() {
         all_joints_inside(&eared, &rig);
     }
 }
+
+#[test]
+fn a_wide_head_keeps_its_bone_in_its_middle() {
+    // A head much wider than tall (a robot's, a helmet): the centre line's path to it ends at
+    // one of its ends, off the middle; the head bone still rises from the neck through the
+    // head's middle, on the mirror plane.
+    let mut m = biped();
+    m.0.truncate(m.0.len() - capped_cylinder(0.11, 0.22, 12, 16).0.len());
+    m.1.truncate(m.1.len() - capped_cylinder(0.11, 0.22, 12, 16).1.len());
+    limb(&mut m, [-0.3, 0.0, 1.72], [0.3, 0.0, 1.72], 0.14);
+    let rig = auto_rig(&m.0, &m.1, &AutoRigOptions::default()).unwrap();
+    assert_eq!(rig.template, Template::Biped);
+    let head = bone(&rig, "spine.006");
+    assert!(head.head[0].abs() < 0.02 && head.tail[0].abs() < 0.02, "{:?} {:?}", head.head, head.tail);
+    assert!(head.tail[2] > 1.72 && head.tail[2] > head.head[2] + 0.1, "{:?} {:?}", head.head, head.tail);
+    all_joints_inside(&m, &rig);
+}

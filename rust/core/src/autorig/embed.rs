@@ -11,7 +11,8 @@
 //! hock); a biped's ankle is where the leg comes down to the foot's height and its toes reach
 //! the front of the foot's vertices. The spine runs from the hips' junction along the path to
 //! the head: chest and neck split it at the shoulders' height and at the narrowest point below
-//! the head, whose bone ends one head radius past its centre. Pairs are made exactly mirrored
+//! the head, whose bone ends one head radius past its centre (its base and centre in the middle
+//! of the solid across them). Pairs are made exactly mirrored
 //! across the mesh's vertical mirror plane.
 
 use super::appendages::head_appendages;
@@ -20,6 +21,7 @@ use super::centreline::Tree;
 use super::chain;
 use super::line::Line;
 use super::parts::{Body, Template};
+use super::voxels::Voxels;
 use crate::mesh::solid::Solid;
 use crate::skeleton::fit::{fit_in, Fitted};
 use crate::skeleton::sections::inside;
@@ -40,16 +42,17 @@ const HEEL: f64 = 0.25;
 /// The head's appendages, pair by pair, longest first (`appendages.rs`).
 const EAR_NAMES: [&str; 3] = ["ear", "horn", "antenna"];
 
-/// The bones for `body`, unit frame: laid along the tree, mirrored, then settled into the
-/// mesh by Fit Skeleton (`mesh`: the mesh in the unit frame and its solid): each joint moves to
-/// the middle of its bones' cross-sections, at most [`SETTLE_MOVE`], and joints outside (a
-/// centre joint projected onto the mirror plane between a pair of horns) are pulled in.
-pub(crate) fn embed(tree: &Tree, body: &Body, vertices: &[DVec3], mesh: &Fitted) -> Vec<Bone> {
+/// The bones for `body`, unit frame: laid along the tree (`vox`: the solid it runs through),
+/// mirrored, then settled into the mesh by Fit Skeleton (`mesh`: the mesh in the unit frame
+/// and its solid): each joint moves to the middle of its bones' cross-sections, at most
+/// [`SETTLE_MOVE`], and joints outside (a centre joint projected onto the mirror plane between
+/// a pair of horns) are pulled in.
+pub(crate) fn embed(tree: &Tree, vox: &Voxels, body: &Body, vertices: &[DVec3], mesh: &Fitted) -> Vec<Bone> {
     let mut b = Builder { bones: Vec::new() };
     match body.template {
         Template::Quadruped => quadruped(&mut b, tree, body),
         Template::Chain | Template::Winged => chain::chain(&mut b, tree, body),
-        _ => biped(&mut b, tree, body, vertices),
+        _ => biped(&mut b, tree, vox, body, vertices),
     }
     if !body.symmetric {
         settle(&mut b.bones, mesh);
@@ -127,7 +130,7 @@ fn settle(bones: &mut [Bone], mesh: &Fitted) {
     }
 }
 
-fn biped(b: &mut Builder, tree: &Tree, body: &Body, vertices: &[DVec3]) {
+fn biped(b: &mut Builder, tree: &Tree, vox: &Voxels, body: &Body, vertices: &[DVec3]) {
     let (fwd, left, ground) = (body.forward, body.left, body.ground);
     // Hips: half a leg's radius above the crotch, when the crotch is found.
     let lines = [0, 1].map(|k| leg_line(tree, body.hips, body.feet[k]));
@@ -204,11 +207,15 @@ fn biped(b: &mut Builder, tree: &Tree, body: &Body, vertices: &[DVec3]) {
     let s_nb = s_sh + 0.37 * (s_hb - s_sh);
     let s_nb = s_nb.min(s_hb - 0.02 * len).max(0.6 * s_sh);
     let top = vertices.iter().map(|p| p.z).fold(f64::NEG_INFINITY, f64::max);
-    let head_top = spine.at(s_hc) + DVec3::Z * r_head.min(top - spine.at(s_hc).z);
+    // The head's centre is the middle of the solid across it: the path to the head's leaf can
+    // end in a corner of a wide head, off its middle.
+    let head_centre = middle_across(vox, spine.at(s_hc), body.left);
+    let head_top = head_centre + DVec3::Z * r_head.min(top - head_centre.z);
     let fr = [0.0, 0.23, 0.44, 0.70, 1.0];
     let mut pts: Vec<DVec3> = fr.iter().map(|f| spine.at(f * s_nb)).collect();
     pts.push(spine.at(0.5 * (s_nb + s_hb)));
-    pts.push(spine.at(s_hb));
+    // The head's base, too, is the middle of the solid across the neck there.
+    pts.push(middle_across(vox, spine.at(s_hb), body.left));
     pts.push(head_top);
     b.chain(&spine_names(0, 7), &pts, None, false);
     // spine.004 (the neck) starts its own rig in Rigify's metarig.
@@ -368,6 +375,12 @@ fn ears(b: &mut Builder, tree: &Tree, body: &Body, taken: &[usize], ball: (DVec3
             b.chain(&names, chain, Some(head), false);
         }
     }
+}
+
+/// `p` moved along the unit direction `dir` to the middle of the solid's chord through it (as
+/// far as the solid goes from `p` each way, at most the unit frame's size).
+fn middle_across(vox: &Voxels, p: DVec3, dir: DVec3) -> DVec3 {
+    p + dir * (0.5 * (vox.reach(p, dir, 1.0) - vox.reach(p, -dir, 1.0)))
 }
 
 /// Make pairs exact mirror images and centre bones lie on the body's mirror plane (found from

@@ -152,7 +152,7 @@ pub fn auto_rig(vertices: &[[f32; 3]], triangles: &[[u32; 3]], opts: &AutoRigOpt
     let unit_v: Vec<DVec3> = unit_all.iter().map(|p| Vec3::from_array(*p).as_dvec3()).collect();
     let frame_unit = Frame { centre: DVec3::ZERO, diagonal: 1.0 };
     let mesh = Fitted { frame: frame_unit, unit_v: &unit_v, unit: &unit_all, solid: &solid };
-    let bones = embed::embed(&tree, &body, &unit, &mesh);
+    let bones = embed::embed(&tree, &vox, &body, &unit, &mesh);
     let out = |p: DVec3| frame.from_unit(p).as_vec3().to_array();
     Ok(AutoRig {
         template: body.template,
