@@ -281,6 +281,8 @@ pub fn fit_joints(
     movable: &[bool],
     opts: &FitOptions,
 ) -> Result<(Vec<[f32; 3]>, FitReport)> {
+    // Everything is checked before the solid is built; fit_in checks the joints and the
+    // symmetry again for its other caller, Auto Rig.
     validate_mesh(vertices, triangles, true)?;
     validate(joints, bones, movable, opts)?;
     let frame = Frame::of_mesh(vertices, triangles);

@@ -129,16 +129,26 @@ pub(crate) struct Rows<'a> {
     pub mass: &'a [f64],
     pub labels: &'a [u32],
     pub rigid: &'a [Option<Ties>],
-    /// `(nw,)` the row of welded vertex `v` in the blocks: the factor's elimination order
-    /// (`Factor::order`'s inverse), so that the solves read and write the rows in place;
-    /// `None`: row `v` (no factor, or no reordering).
-    pub place: Option<&'a [usize]>,
+    /// The rows of the blocks in the factor's elimination order ([`Factor::order`]: the
+    /// vertex of each row, and each vertex's row), so that the solves read and write them in
+    /// place; `None`: row `v` is vertex `v` (no factor, or no reordering).
+    pub order: Option<(&'a [usize], &'a [usize])>,
 }
 
 impl Rows<'_> {
     /// The blocks' row of welded vertex `v`.
     pub(crate) fn row(&self, v: usize) -> usize {
-        self.place.map_or(v, |p| p[v])
+        self.order.map_or(v, |(_, place)| place[v])
+    }
+
+    /// The welded vertex in the blocks' row `r`.
+    fn vertex(&self, r: usize) -> usize {
+        self.order.map_or(r, |(vertex, _)| vertex[r])
+    }
+
+    /// Each welded vertex's row, `None` for the identity.
+    pub(crate) fn place(&self) -> Option<&[usize]> {
+        self.order.map(|(_, place)| place)
     }
 }
 
@@ -147,8 +157,8 @@ impl Rows<'_> {
 /// (without a factor, the sources' shares), then rigid pieces and isolated vertices at 100% on
 /// their bone(s), then clipped to `[0, 1]` and averaged with the mirror images (`sym`: the
 /// symmetry and the mirror map of the rows; a block holds every bone's mirror partner); without
-/// `sym` [`RunningTopK::merge`] clips. The rows are in `rows.place`'s order, which must be
-/// `llt`'s elimination order.
+/// `sym` [`RunningTopK::merge`] clips. The rows are in `rows.order`, which must be `llt`'s
+/// elimination order.
 pub(crate) fn block_weights(
     block: &[usize],
     sources: &SourceColumns,
@@ -158,7 +168,7 @@ pub(crate) fn block_weights(
     x: &mut Vec<f64>,
 ) -> f64 {
     let nw = rows.sources.len();
-    source_columns(x, nw, sources, rows.place, block);
+    source_columns(x, nw, sources, rows.place(), block);
     let s = Instant::now();
     match llt {
         // One block of columns per worker, all solved at once: faer's supernodal solve is
@@ -233,15 +243,6 @@ fn solve_live_columns(llt: &Factor, x: &mut [f64], nw: usize) {
     }
 }
 
-/// The vertex of each row: the inverse of `place`.
-fn inverse_of(place: Option<&[usize]>) -> Option<Vec<usize>> {
-    place.map(|p| {
-        let mut vertex = vec![0usize; p.len()];
-        p.iter().enumerate().for_each(|(v, &r)| vertex[r] = v);
-        vertex
-    })
-}
-
 /// Bone `j`'s column in `block` (sorted), if it is there.
 fn block_columns(block: &[usize]) -> impl Fn(u32) -> Option<usize> + '_ {
     move |j| block.binary_search(&(j as usize)).ok()
@@ -302,9 +303,8 @@ impl RunningTopK {
     /// Each row cut to its `k` largest ([`cut_continuously`]: a bone leaving them fades out),
     /// normalized and pruned ([`normalize_pruned`]); a row whose weights all fell below the
     /// ramp keeps them unramped, an empty row takes the vertex's nearest bone (the rows are
-    /// the blocks' rows, `rows.place`'s order; so are the result's).
+    /// the blocks' rows, in `rows.order`; so are the result's).
     pub(crate) fn finish(mut self, k: usize, min_weight: f32, rows: &Rows) -> Influences {
-        let vertex = inverse_of(rows.place);
         let held = self.ramped.k;
         let raw = &self.raw;
         let (raw_used, ramped_used) = (&self.raw_used, &self.ramped_used);
@@ -323,7 +323,7 @@ impl RunningTopK {
                     w.copy_from_slice(rw);
                     raw_used[r]
                 } else {
-                    idx[0] = rows.sources[vertex.as_ref().map_or(r, |of| of[r])].nearest.bones[0] as i32;
+                    idx[0] = rows.sources[rows.vertex(r)].nearest.bones[0] as i32;
                     w[0] = 1.0;
                     return;
                 };

@@ -5,7 +5,7 @@
 //! by [`solve_sparse_columns`], whose forward pass skips the columns that are still zero).
 
 use super::memory::zeroed;
-use super::sparse_solve::solve_sparse_columns;
+use super::sparse_solve::{scatter_rows, solve_sparse_columns};
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::cholesky::llt::factor::LltRegularization;
 use faer::perm::PermRef;
@@ -71,7 +71,7 @@ impl Factor {
             // faer's simplicial solve applies `P` itself: back to the rows' own order first.
             let (fwd, inv) = order.filter(|_| ordered).unzip();
             if let Some(fwd) = fwd {
-                permute_columns(chunk, n, fwd);
+                scatter_rows(chunk, n, fwd);
             }
             llt.solve_in_place_with_conj(
                 Conj::No,
@@ -80,18 +80,9 @@ impl Factor {
                 MemStack::new(&mut buf),
             );
             if let Some(inv) = inv {
-                permute_columns(chunk, n, inv);
+                scatter_rows(chunk, n, inv);
             }
         });
-    }
-}
-
-/// Each `n`-row column of `cols` scattered through `to`: row `r` moves to row `to[r]`.
-fn permute_columns(cols: &mut [f64], n: usize, to: &[usize]) {
-    let mut column = vec![0.0f64; n];
-    for col in cols.chunks_exact_mut(n) {
-        column.copy_from_slice(col);
-        to.iter().zip(&column).for_each(|(&t, &y)| col[t] = y);
     }
 }
 

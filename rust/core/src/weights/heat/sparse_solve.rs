@@ -45,12 +45,8 @@ pub(crate) fn solve_sparse_columns(
     if k == 0 || n == 0 {
         return;
     }
-    let mut column = vec![0.0f64; n];
     if let Some(p) = perm {
-        for col in x.chunks_exact_mut(n) {
-            column.copy_from_slice(col);
-            col.iter_mut().zip(p).for_each(|(y, &from)| *y = column[from]);
-        }
+        gather_rows(x, n, p);
     }
     let llt = SupernodalLltRef::new(symbolic, values);
     let (mut gathered, mut below, mut live) = (Vec::new(), Vec::new(), Vec::with_capacity(k));
@@ -107,10 +103,25 @@ pub(crate) fn solve_sparse_columns(
         solve_upper_triangular_in_place(top.transpose(), x_top, Par::Seq);
     }
     if let Some(p) = perm {
-        for col in x.chunks_exact_mut(n) {
-            column.copy_from_slice(col);
-            p.iter().zip(&column).for_each(|(&to, &y)| col[to] = y);
-        }
+        scatter_rows(x, n, p);
+    }
+}
+
+/// Each `n`-row column of `cols` gathered through `from`: row `r` takes row `from[r]`.
+fn gather_rows(cols: &mut [f64], n: usize, from: &[usize]) {
+    let mut column = vec![0.0f64; n];
+    for col in cols.chunks_exact_mut(n) {
+        column.copy_from_slice(col);
+        col.iter_mut().zip(from).for_each(|(y, &f)| *y = column[f]);
+    }
+}
+
+/// Each `n`-row column of `cols` scattered through `to`: row `r` moves to row `to[r]`.
+pub(crate) fn scatter_rows(cols: &mut [f64], n: usize, to: &[usize]) {
+    let mut column = vec![0.0f64; n];
+    for col in cols.chunks_exact_mut(n) {
+        column.copy_from_slice(col);
+        to.iter().zip(&column).for_each(|(&t, &y)| col[t] = y);
     }
 }
 

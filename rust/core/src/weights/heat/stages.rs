@@ -140,7 +140,7 @@ pub(crate) fn run(
         mass: &mass,
         labels: &vis.labels,
         rigid: &rigid,
-        place: llt.as_ref().and_then(Factor::order).map(|(_, inverse)| inverse),
+        order: llt.as_ref().and_then(Factor::order),
     };
     let solved = solve(&prep, &rows, llt.as_ref(), work, &opts, &clock, &mut report)?;
     // "solve" is the solves and the clip alone; the blocks' other work counts in "finish".
@@ -680,7 +680,7 @@ fn solve(
 /// Each welded vertex's top k normalized and pruned, copied to every input vertex.
 fn finish(best: RunningTopK, prep: &Prepared, rows: &Rows, opts: &HeatOptions) -> Influences {
     let welded = best.finish(opts.max_influences.min(prep.bones.len()).max(1), opts.min_weight, rows);
-    unweld(&welded, &prep.map, rows.place)
+    unweld(&welded, &prep.map, rows.place())
 }
 
 /// The rows of `welded` copied to every input vertex (`map[i]`: the welded vertex of input `i`,
