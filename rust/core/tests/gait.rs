@@ -864,3 +864,21 @@ fn fk_identity_is_rest() {
         assert!((Vec3::from(pt[b]) - Vec3::from(t[b])).length() < 1e-5);
     }
 }
+
+/// The lowest root height of a clip, as a share of the leg's length (0: the rest height).
+fn lowest_root(skel: Rig, motion: Motion) -> f32 {
+    let (.., roles, clip) = run(skel, motion);
+    clip.root_offset.iter().map(|o| o[2]).fold(f32::INFINITY, f32::min) / roles.leg_length
+}
+
+#[test]
+fn a_walk_on_four_legs_keeps_the_body_level_while_a_biped_and_a_gallop_sink_it() {
+    // On four legs a far foot lifts off early rather than pull the body down and bend the
+    // other knees; a biped's feet at double support and a runner's springing legs lower it.
+    let walk = lowest_root(creature(), Motion::Walk);
+    assert!(walk.abs() < 1e-6, "a walking quadruped sinks {walk} of its leg");
+    let run = lowest_root(creature(), Motion::Run);
+    assert!(run < -0.01, "a galloping quadruped stays up ({run})");
+    let biped_walk = lowest_root(biped(), Motion::Walk);
+    assert!(biped_walk < -0.01, "a walking biped stays up ({biped_walk})");
+}

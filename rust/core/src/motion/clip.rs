@@ -119,4 +119,6 @@ pub(super) struct Cadence {
     pub(super) lift_amp: f32,
     /// How high a planted leg's ankle rises in swing, in the skeleton's units.
     pub(super) foot_lift: f32,
+    /// The share of a leg's reach the body may sink so that a far foot reaches its target.
+    pub(super) drop: f32,
 }

@@ -399,23 +399,24 @@ pub(crate) fn foot_offset(ph: f32, duty: f32, stride: f32, lift: f32, travel: f3
     Step { ahead, lift: lift * up, up, from, to, eased }
 }
 
-/// A leg lowers the body by at most this fraction of its reach; a foot further out is left
-/// short of its target (it lifts off a little early or lands a little late), as a body sunk
-/// further would fold a bent leg's knee or elbow into the ground.
-const MAX_DROP: f32 = 0.06;
+/// A leg lowers the body by at most this fraction of its reach (in a run, and in a biped's
+/// walk; see `gait.rs`' `WALK_LEVEL`); a foot further out is left short of its target (it lifts
+/// off a little early or lands a little late), as a body sunk further would fold a bent leg's
+/// knee or elbow into the ground.
+pub(crate) const MAX_DROP: f32 = 0.06;
 
 /// How far the body may go up (negative: down) so that every leg reaches its target, each leg
-/// lowering it by at most [`MAX_DROP`] of its reach: the legs with their posed hips (the body
+/// lowering it by at most `most` of its reach (at most [`MAX_DROP`]): the legs with their posed hips (the body
 /// settled and carried forward) and their ankles' targets. Never above 0 (the settled rest
 /// height).
-pub(crate) fn body_drop(legs: &[(&PlantedLeg, Vec3, Vec3)]) -> f32 {
+pub(crate) fn body_drop(legs: &[(&PlantedLeg, Vec3, Vec3)], most: f32) -> f32 {
     legs.iter()
         .map(|(leg, hip, target)| {
             let mut flat = *target - *hip;
             flat.z = 0.0;
             let h2 = leg.reach * leg.reach - flat.length_squared();
             let allowed = if h2 > 0.0 { target.z + h2.sqrt() } else { target.z };
-            (allowed - hip.z).max(-MAX_DROP * leg.reach)
+            (allowed - hip.z).max(-most * leg.reach)
         })
         .fold(0.0f32, f32::min)
 }
@@ -508,13 +509,13 @@ mod tests {
     fn the_body_drops_just_enough_for_a_far_foot() {
         let leg = test_leg();
         let hip = leg.hip;
-        assert_eq!(body_drop(&[(&leg, hip, Vec3::ZERO)]), 0.0);
-        let drop = body_drop(&[(&leg, hip, Vec3::new(0.3, 0.0, 0.0))]);
+        assert_eq!(body_drop(&[(&leg, hip, Vec3::ZERO)], MAX_DROP), 0.0);
+        let drop = body_drop(&[(&leg, hip, Vec3::new(0.3, 0.0, 0.0))], MAX_DROP);
         assert!((drop - ((1.0f32 - 0.09).sqrt() - 1.0)).abs() < 1e-5, "{drop}");
         // A foot far out lowers the body by at most MAX_DROP of the reach.
-        let drop = body_drop(&[(&leg, hip, Vec3::new(0.6, 0.0, 0.0))]);
+        let drop = body_drop(&[(&leg, hip, Vec3::new(0.6, 0.0, 0.0))], MAX_DROP);
         assert!((drop + MAX_DROP).abs() < 1e-6, "{drop}");
         // A hip carried over the foot needs no drop.
-        assert!(body_drop(&[(&leg, hip + Vec3::new(0.3, 0.0, 0.0), Vec3::new(0.3, 0.0, 0.0))]).abs() < 1e-6);
+        assert!(body_drop(&[(&leg, hip + Vec3::new(0.3, 0.0, 0.0), Vec3::new(0.3, 0.0, 0.0))], MAX_DROP).abs() < 1e-6);
     }
 }

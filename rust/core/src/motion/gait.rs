@@ -22,7 +22,7 @@
 //! expressed in the bone's rest frame, so a chain rotated about one axis bends in one plane.
 //! - Legs: planted by `footfalls` (each stance foot fixed in the world, the gait phase the
 //!   distance travelled over the stride, two-bone IK from the posed hip, the body as high as
-//!   every leg reaches). A leg without two bones above a foot swings instead (per leg phase φ,
+//!   every leg reaches; a walk on four legs or more keeps it level, a far foot lifting early). A leg without two bones above a foot swings instead (per leg phase φ,
 //!   duty factor d): the hip from +A to -A linearly during stance and back with a cosine in
 //!   swing, the knee flexing by K sin(π s) in swing, the ankle keeping the foot level, each
 //!   joint flexing the way that brings the limb's end closer to the joint above; A =
@@ -59,7 +59,7 @@
 use crate::error::{Error, Result};
 use crate::motion::clip::{frame_count, Cadence, Clip, GaitParams, Motion, Steer, MAX_FRAMES};
 use crate::motion::course::{Course, Steering};
-use crate::motion::footfalls::{planted_legs, stand_on, Ground};
+use crate::motion::footfalls::{planted_legs, stand_on, Ground, MAX_DROP};
 use crate::motion::planting::{plant_legs, Planting};
 use crate::motion::pose::{new_poser, posed_frames, rider_pose, to_wxyz, Poser};
 use crate::motion::roles::{no_legs_message, BodyPlan, Limb, Roles, Side};
@@ -229,6 +229,14 @@ pub fn steered_clip(
     }
 }
 
+/// A walk on this many legs or more keeps its body level: whenever a far foot would pull it
+/// lower, at least two others stand, so that foot lifts off a little early or lands a little
+/// late instead (a horse's or a dog's back stays level as it walks). Sinking the body for it
+/// bends every other leg's knee and folds the skin of the flank and rump with the thighs. A
+/// biped's body sinks at double support, when both its feet are out (the low point of the
+/// inverted pendulum), and a runner's legs give in stance, so those sink up to [`MAX_DROP`].
+const WALK_LEVEL: usize = 4;
+
 /// The cadence follows a pendulum of the leg's length (assumed in metres; clamped so rigs in
 /// other units, centimetres or a 60-unit cow, still get a plausible one); the stride a fixed
 /// number of leg lengths.
@@ -271,6 +279,7 @@ fn cadence(roles: &Roles, p: &GaitParams, course: Option<&Course>) -> Result<Cad
         ankle_amp: if run { 30f32 } else { 20.0 }.to_radians(),
         lift_amp: if run { 35f32 } else { 25.0 }.to_radians(),
         foot_lift: if run { 0.15 } else { 0.08 } * l,
+        drop: if run || roles.legs.len() < WALK_LEVEL { MAX_DROP } else { 0.0 },
     })
 }
 

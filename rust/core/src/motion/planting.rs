@@ -61,7 +61,7 @@ pub(super) fn plant_legs(
         })
         .unzip();
     let reach: Vec<_> = legs.iter().zip(&targets).map(|(leg, &t)| (leg, hips0[leg.upper], t)).collect();
-    let offset = base + Vec3::Z * body_drop(&reach);
+    let offset = base + Vec3::Z * body_drop(&reach, c.drop);
     let turn_to = |poser: &mut Poser, b: usize, world: Quat, parent_turn: Quat| {
         let rq = poser.rest[b];
         poser.q[b] = (rq.inverse() * parent_turn.inverse() * world * rq).normalize();
