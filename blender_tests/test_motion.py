@@ -450,8 +450,9 @@ def test_feet_hanging_off_the_root_walk_with_their_legs(invented_tails, scale, c
 
 def test_a_walk_appended_to_one_ending_mid_stride_bobs_through_the_same_heights():
     """The root continues from where the walk left it but without its last frame's bob: a walk
-    appended to one that ends mid-stride rises and sinks through the same heights."""
-    arm = creature.build_armature()
+    appended to one that ends mid-stride rises and sinks through the same heights (a biped's:
+    a walk on four legs keeps its body level)."""
+    arm = biped_rig()
     scene = bpy.context.scene
     assert add_motion(arm, motion="WALK", cycles=1.25) == {"FINISHED"}
     first_end = int(keying().last_key_frame(arm))
