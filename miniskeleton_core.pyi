@@ -228,7 +228,7 @@ def heat_weights_from_sources(
 
 class VoxelOptions(TypedDict, total=False):
     """The keywords of voxel_weights; each one left out takes the core's default (resolution 64,
-    falloff 0.02, max_influences 4, objects None: one object). bone_mirror, symmetry_axis,
+    falloff 0.002, max_influences 4, objects None: one object). bone_mirror, symmetry_axis,
     parents, curve_points, curve_bones: as in HeatOptions."""
     resolution: int
     falloff: float

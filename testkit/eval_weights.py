@@ -4,7 +4,7 @@ process; and Transfer Weights onto the other skinned meshes of a model and onto 
 
     .venv/bin/python -m testkit.eval_weights [--models Fox,CesiumMan] [--no-blender] [--detail 5] [--symmetry X]
         [--clips 3] [--frames 20] [--actions ThumbsUp,Wave] [--bone-extent AUTO|TAIL|CHILDREN]
-        [--resolution 64] [--falloff 0.02] [--no-transfer]
+        [--resolution 64] [--falloff 0.002] [--no-transfer]
 
 Models are read from ``../shared/models/`` relative to the project root (never copied into the
 repository); a missing folder or file is skipped with a message. For each model the glTF is
@@ -113,7 +113,7 @@ def strip(meshes, bones):
 
 SYMMETRY = {"value": "NONE"}  # our operator's Symmetry option (--symmetry)
 BONE_EXTENT = {"value": "AUTO"}  # our operator's Bone Extent option (--bone-extent)
-VOXEL = {"resolution": 64, "voxel_falloff": 0.02}  # our Geodesic Voxel's options (--resolution, --falloff)
+VOXEL = {"resolution": 64, "voxel_falloff": 0.002}  # our Geodesic Voxel's options (--resolution, --falloff)
 # The sides of a rebinding: our methods and Blender's.
 SIDES = {"ours": "HEAT", "voxel": "VOXEL", "Blender": None}
 
@@ -655,7 +655,7 @@ def main(argv=None):
     ap.add_argument("--frames", type=int, default=20, help="frames sampled per action")
     ap.add_argument("--detail", type=int, default=5, help="rows in the per-model detail lists")
     ap.add_argument("--resolution", type=int, default=64, help="our Geodesic Voxel's Resolution")
-    ap.add_argument("--falloff", type=float, default=0.02, help="our Geodesic Voxel's Falloff")
+    ap.add_argument("--falloff", type=float, default=0.002, help="our Geodesic Voxel's Falloff")
     ap.add_argument("--no-transfer", action="store_true", help="skip the Transfer Weights tables")
     ap.add_argument("--out", default=str(ROOT / "out" / "eval_weights.md"))
     args = ap.parse_args(argv)

@@ -82,7 +82,7 @@ class MINISKELETON_OT_auto_weights(bpy.types.Operator):
         description="Voxels along the longest side of the meshes; parts closer than a voxel merge "
         "(the time grows with the cube of it)")
     voxel_falloff: FloatProperty(
-        name="Falloff", default=0.02, min=0.0, max=1.0, precision=3,
+        name="Falloff", default=0.002, min=0.0, max=1.0, precision=3, step=0.1,
         description="How far a vertex shares its weight with bones farther than its nearest one, "
         "relative to its distance (0: the nearest bone alone, then smoothed)")
     # IDW

@@ -4,6 +4,7 @@
 mod common;
 use common::assert_rows_sum_to_one;
 use miniskeleton_core::primitives::{add_box, bone_chain, capped_cylinder};
+use miniskeleton_core::weights::{heat_weights, HeatOptions};
 use miniskeleton_core::weights::{transfer_weights, voxel_weights, Influences, TransferOptions, VoxelOptions};
 use miniskeleton_core::Error;
 
@@ -27,6 +28,29 @@ fn a_cylinder_chain_follows_its_bones() {
     assert_rows_sum_to_one(&inf);
     assert!(report.solid_voxels > 0 && report.outside_bones == 0);
     strongest_bone_is_the_one_at_its_height(&v, &inf);
+}
+
+/// Where every vertex sees its bone and nothing is shared (falloff 0), the voxel sources are
+/// heat's (the nearest visible bone, ties sharing) and so is the heat term's distance (the
+/// normal-weighted one): the weights are heat's, to single precision (the voxel stages' plain
+/// distance in the heat term instead differs by 1e-4 here).
+#[test]
+fn with_no_falloff_a_body_that_sees_its_bones_binds_as_heat() {
+    let (v, t) = capped_cylinder(0.3, 4.0, 41, 16);
+    let (h, tl, _) = bone_chain(4.0, 4);
+    let opts = VoxelOptions { falloff: 0.0, ..Default::default() };
+    let (voxel, _) = voxel_weights(&v, &t, &h, &tl, &opts, None).unwrap();
+    let (heat, _) = heat_weights(&v, &t, &h, &tl, &HeatOptions::default(), None).unwrap();
+    let dense = |inf: &Influences, i: usize| {
+        let mut row = [0.0f32; 4];
+        let (idx, w) = inf.row(i);
+        idx.iter().zip(w).filter(|(&j, _)| j >= 0).for_each(|(&j, &x)| row[j as usize] += x);
+        row
+    };
+    let worst = (0..v.len())
+        .flat_map(|i| dense(&voxel, i).into_iter().zip(dense(&heat, i)).map(|(a, b)| (a - b).abs()))
+        .fold(0.0f32, f32::max);
+    assert!(worst < 1e-6, "largest difference from heat's weights: {worst}");
 }
 
 /// A mesh with no faces (a point cloud) has no solid: each vertex takes its nearest bone by the

@@ -23,7 +23,7 @@ use std::sync::Mutex;
 /// Default [`VoxelOptions::resolution`]: voxels along the longest side.
 pub const RESOLUTION: usize = 64;
 /// Default [`VoxelOptions::falloff`].
-pub const FALLOFF: f32 = 0.02;
+pub const FALLOFF: f32 = 0.002;
 
 /// Options of [`voxel_weights`].
 #[derive(Debug, Clone, PartialEq)]
@@ -130,11 +130,13 @@ pub struct VoxelReport {
 /// 4. falloff: the nearest bones share the vertex's heat by `exp(-(r - r_min) / (falloff
 ///    r_min))`;
 /// 5. smoothing: heat's screened solve on the surface, `(L + M H) w_j = M H s_j` with `s_j`
-///    those shares and `H = 4 / d^2`, `d` the vertex's geodesic distance; heat's rigid
-///    accessories and props (per object), symmetry, small-weight ramp and top-k.
+///    those shares and `H = 4 / d^2`: `d` is heat's (the ranked distance) where the vertex
+///    sees a bone; where it sees none, its geodesic distance, with part of the heat (between
+///    heat's none and a full source); heat's rigid accessories and props (per object),
+///    symmetry, small-weight ramp and top-k.
 ///
 /// The paper weighs the distances directly, `w = 1 / ((1 - a) d + a d^2)^2`; on the real models
-/// of `bench/eval_weights.py` that spreads every vertex over its nearest bones (a round head
+/// of `testkit/eval_weights.py` that spreads every vertex over its nearest bones (a round head
 /// over all four of q_Cat's) and deforms 3 to 10 times more than heat, so the distances here
 /// choose the sources and heat's solve shapes the falloff (see docs/weights.md).
 ///

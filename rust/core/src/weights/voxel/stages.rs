@@ -34,6 +34,12 @@ const LEAST_SHARE: f32 = 1e-3;
 const STRAIGHT_RATIO: f32 = 1.1;
 /// See [`STRAIGHT_RATIO`]: in voxels (the seed's and the vertex's offsets from the voxel centres).
 const STRAIGHT_SLACK: f32 = 2.0;
+/// The heat a vertex that sees no bone holds, as a fraction of what its geodesic distance
+/// gives (`H = 4 UNSEEN_HEAT / d^2`): between heat's rule (none: its weights diffuse from the
+/// vertices around it, which mixes the bones they see) and a full source on the bone nearest
+/// through the solid (which overrides an artist's blend there). Measured on the models of
+/// `testkit/eval_weights.py` (docs/journal.md).
+const UNSEEN_HEAT: f64 = 0.4;
 
 /// The voxels and their nearest bones.
 pub(super) struct Solid {
@@ -173,9 +179,10 @@ pub(super) fn vertex_distances(prep: &Prepared, vis: &Visibility, solid: &Solid,
 /// Bones are ranked by Blender's normal-weighted distance on it, `r = d / ((cos + 1.001) / 2)`.
 /// A vertex that sees a bone (heat's nearest visible bones in `vis`, ties) takes those as its
 /// nearest: bones ranked nearer that it does not see are dropped, and the seen ones share the
-/// least rank among them; a vertex that sees none keeps the geodesic ranking. Bone `j` takes
-/// the share `exp(-(r_j - r_min) / (falloff r_min))` of the nearest's (up to [`SHARED`]
-/// bones); the distance in the heat term is the nearest's `d`.
+/// least rank among them; its heat term takes that rank as the distance, as heat's does. A
+/// vertex that sees none keeps the geodesic ranking, and its heat term the nearest's `d` with
+/// [`UNSEEN_HEAT`] of the heat (the distance over its square root). Bone `j` takes the share
+/// `exp(-(r_j - r_min) / (falloff r_min))` of the nearest's (up to [`SHARED`] bones).
 pub(super) fn sources(near: &Nearest, vis: &Visibility, falloff: f32, step: f64) -> Provided {
     let slack = STRAIGHT_SLACK * step as f32;
     let (k, nw) = (near.k, near.bone.len() / near.k.max(1));
@@ -199,12 +206,16 @@ pub(super) fn sources(near: &Nearest, vis: &Visibility, falloff: f32, step: f64)
             let mut ranked = ranked;
             let src = &vis.sources[v];
             let seen = |j: i32| src.bones[..src.count as usize].contains(&(j as u32));
-            if let Some(rv) = ranked.iter().filter(|c| seen(c.0)).map(|c| c.1).reduce(f32::min) {
+            let sees = ranked.iter().filter(|c| seen(c.0)).map(|c| c.1).reduce(f32::min);
+            if let Some(rv) = sees {
                 ranked.retain(|c| c.1 >= rv || seen(c.0));
                 ranked.iter_mut().filter(|c| seen(c.0)).for_each(|c| c.1 = rv);
             }
             let Some(&(_, rmin, gmin)) = ranked.iter().min_by(|a, b| a.1.total_cmp(&b.1)) else { return };
-            *d = gmin as f64;
+            *d = match sees {
+                Some(_) => rmin as f64,
+                None => gmin as f64 / UNSEEN_HEAT.sqrt(),
+            };
             let width = (falloff * rmin).max(f32::MIN_POSITIVE);
             let mut used = 0;
             for &(j, rj, _) in &ranked {
