@@ -41,6 +41,10 @@ const ANKLE: f64 = 0.08;
 const HEEL: f64 = 0.25;
 /// The head's appendages, pair by pair, longest first (`appendages.rs`).
 const EAR_NAMES: [&str; 3] = ["ear", "horn", "antenna"];
+/// A quadruped leg's root lies at most this many times the torso's depth off the mirror plane...
+const ROOT_IN: f64 = 0.4;
+/// ...and this share of the way up from the leg's path at the hip's height to the spine's.
+const ROOT_RAISE: f64 = 0.75;
 
 /// The bones for `body`, unit frame: laid along the tree (`vox`: the solid it runs through),
 /// mirrored, then settled into the mesh by Fit Skeleton (`mesh`: the mesh in the unit frame
@@ -50,7 +54,7 @@ const EAR_NAMES: [&str; 3] = ["ear", "horn", "antenna"];
 pub(crate) fn embed(tree: &Tree, vox: &Voxels, body: &Body, vertices: &[DVec3], mesh: &Fitted) -> Vec<Bone> {
     let mut b = Builder { bones: Vec::new() };
     match body.template {
-        Template::Quadruped => quadruped(&mut b, tree, body),
+        Template::Quadruped => quadruped(&mut b, tree, vox, body),
         Template::Chain | Template::Winged => chain::chain(&mut b, tree, body),
         _ => biped(&mut b, tree, vox, body, vertices),
     }
@@ -280,7 +284,7 @@ fn biped(b: &mut Builder, tree: &Tree, vox: &Voxels, body: &Body, vertices: &[DV
     }
 }
 
-fn quadruped(b: &mut Builder, tree: &Tree, body: &Body) {
+fn quadruped(b: &mut Builder, tree: &Tree, vox: &Voxels, body: &Body) {
     let (fwd, left) = (body.forward, body.left);
     let chest = body.chest.unwrap_or(body.head);
     // The torso starts above the hind legs' hip joints (the tree's junction of the hind legs
@@ -340,9 +344,10 @@ fn quadruped(b: &mut Builder, tree: &Tree, body: &Body) {
     // Legs: hind then front.
     let parts = [(0, "", "spine.004", [0.29, 0.62, 0.85]), (2, "front_", "spine.008", [0.33, 0.67, 0.84])];
     for (first, prefix, parent, fr) in parts {
+        let roots = side_roots([&legs[first], &legs[first + 1]], fr[0], body, &spine, vox);
         for (k, side) in ["L", "R"].iter().enumerate() {
             let line = &legs[first + k];
-            let (s_hip, hip) = hip(line, None);
+            let (s_hip, hip) = roots[k];
             let bend = if first == 0 { -1.0 } else { 1.0 };
             let pts = limb_points(line, s_hip, hip, &fr, fwd * bend);
             let names: Vec<String> =
@@ -381,6 +386,44 @@ fn ears(b: &mut Builder, tree: &Tree, body: &Body, taken: &[usize], ball: (DVec3
 /// far as the solid goes from `p` each way, at most the unit frame's size).
 fn middle_across(vox: &Voxels, p: DVec3, dir: DVec3) -> DVec3 {
     p + dir * (0.5 * (vox.reach(p, dir, 1.0) - vox.reach(p, -dir, 1.0)))
+}
+
+/// A pair of legs' root joints (the thigh's and the upper arm's heads) and their arc lengths,
+/// at the body's sides: each at [`hip`]'s place along the body on its leg's line, raised
+/// [`ROOT_RAISE`] of the way from there to the spine's height if it lies below it, and off the
+/// mirror plane as far as the leg's line is a share `fr` of the way on to its foot (the upper
+/// leg, which a rigger lines the root up above; at most [`ROOT_IN`] times the torso's depth
+/// there, the `spine`'s radius), the farther of the pair. The leg's path runs up from the foot
+/// to the spine's junction on the mirror plane, so its own point at the hip's height can lie
+/// near the plane (the two roots can cross it) and low in the chest: the chest and the rump
+/// between the roots would then be the legs' and swing with them. The rule moves roots out and
+/// up, never in or down: a [`hip`] already further out stays as far out (Spot's); where the
+/// move would take a root out of the solid `vox` (a lizard's splayed legs, Rigify's quadruped's
+/// thin ones), both stay at their [`hip`]s.
+fn side_roots(lines: [&Line; 2], fr: f64, body: &Body, spine: &Line, vox: &Voxels) -> [(f64, DVec3); 2] {
+    let off = |p: DVec3| p.dot(body.left) - body.plane;
+    let hips = lines.map(|l| hip(l, None));
+    let upper = (0..2)
+        .map(|k| {
+            let (l, (s, at)) = (lines[k], hips[k]);
+            let depth = spine.radius(spine.nearest(at));
+            off(l.at(s + fr * (l.len() - s))).abs().min(ROOT_IN * depth)
+        })
+        .fold(0.0, f64::max);
+    let place = |reach: f64| {
+        [0, 1].map(|k| {
+            let (s, p) = hips[k];
+            let sign = if k == 0 { 1.0 } else { -1.0 };
+            let spine_z = spine.at(spine.nearest(p)).z;
+            (s, p + body.left * (sign * reach - off(p)) + DVec3::Z * ROOT_RAISE * (spine_z - p.z).max(0.0))
+        })
+    };
+    let out = place(hips.iter().map(|h| off(h.1).abs()).fold(upper, f64::max));
+    if out.iter().all(|r| vox.inside_at(r.1)) {
+        out
+    } else {
+        hips
+    }
 }
 
 /// Make pairs exact mirror images and centre bones lie on the body's mirror plane (found from
