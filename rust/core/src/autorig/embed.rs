@@ -168,7 +168,7 @@ fn biped(b: &mut Builder, tree: &Tree, vox: &Voxels, body: &Body, vertices: &[DV
         // Both arms leave the torso as far from the mirror plane, the farther of where their
         // tubes start (however the hands are posed: an arm thick in its middle, a sleeve or a
         // held prop, reads its tube's start inside the torso).
-        let off = |p: DVec3| (p.dot(body.left) - body.plane).abs();
+        let off = |p: DVec3| body.side(p).abs();
         let starts = lines.each_ref().map(|l| l.tube_start(0.0).max(0.15 * l.len()));
         let reach = off(lines[0].at(starts[0])).max(off(lines[1].at(starts[1])));
         for (k, side) in ["L", "R"].iter().enumerate() {
@@ -401,24 +401,21 @@ fn middle_across(vox: &Voxels, p: DVec3, dir: DVec3) -> DVec3 {
 /// move would take a root out of the solid `vox` (a lizard's splayed legs, Rigify's quadruped's
 /// thin ones), both stay at their [`hip`]s.
 fn side_roots(lines: [&Line; 2], fr: f64, body: &Body, spine: &Line, vox: &Voxels) -> [(f64, DVec3); 2] {
-    let off = |p: DVec3| p.dot(body.left) - body.plane;
     let hips = lines.map(|l| hip(l, None));
     let upper = (0..2)
         .map(|k| {
             let (l, (s, at)) = (lines[k], hips[k]);
             let depth = spine.radius(spine.nearest(at));
-            off(l.at(s + fr * (l.len() - s))).abs().min(ROOT_IN * depth)
+            body.side(l.at(s + fr * (l.len() - s))).abs().min(ROOT_IN * depth)
         })
         .fold(0.0, f64::max);
-    let place = |reach: f64| {
-        [0, 1].map(|k| {
-            let (s, p) = hips[k];
-            let sign = if k == 0 { 1.0 } else { -1.0 };
-            let spine_z = spine.at(spine.nearest(p)).z;
-            (s, p + body.left * (sign * reach - off(p)) + DVec3::Z * ROOT_RAISE * (spine_z - p.z).max(0.0))
-        })
-    };
-    let out = place(hips.iter().map(|h| off(h.1).abs()).fold(upper, f64::max));
+    let reach = hips.iter().map(|h| body.side(h.1).abs()).fold(upper, f64::max);
+    let out = [0, 1].map(|k| {
+        let (s, p) = hips[k];
+        let sign = if k == 0 { 1.0 } else { -1.0 };
+        let spine_z = spine.at(spine.nearest(p)).z;
+        (s, p + body.left * (sign * reach - body.side(p)) + DVec3::Z * ROOT_RAISE * (spine_z - p.z).max(0.0))
+    });
     if out.iter().all(|r| vox.inside_at(r.1)) {
         out
     } else {
@@ -433,8 +430,7 @@ fn side_roots(lines: [&Line; 2], fr: f64, body: &Body, spine: &Line, vox: &Voxel
 /// head turned aside).
 fn mirror(bones: &mut [Bone], body: &Body, decided: Option<Symmetric>) -> Symmetric {
     let n = body.left;
-    let plane = body.plane;
-    let reflect = |p: DVec3| p - n * (2.0 * (p.dot(n) - plane));
+    let reflect = |p: DVec3| p - n * (2.0 * body.side(p));
     let twin = |bones: &[Bone], i: usize| {
         let name = twin_name(&bones[i].name)?;
         bones.iter().position(|b| b.name == name)
@@ -472,8 +468,7 @@ fn mirror(bones: &mut [Bone], body: &Body, decided: Option<Symmetric>) -> Symmet
             .iter()
             .map(|b| {
                 let torso = torso_ends(&b.name, body.template);
-                let near =
-                    [b.head, b.tail].map(|p| side_of(&b.name).is_none() && (p.dot(n) - plane).abs() <= ASYMMETRY);
+                let near = [b.head, b.tail].map(|p| side_of(&b.name).is_none() && body.side(p).abs() <= ASYMMETRY);
                 [near[0] || torso[0], near[1] || torso[1]]
             })
             .collect();
@@ -484,7 +479,7 @@ fn mirror(bones: &mut [Bone], body: &Body, decided: Option<Symmetric>) -> Symmet
             None => {
                 for (p, on) in [&mut bones[i].head, &mut bones[i].tail].into_iter().zip(decided.on_plane[i]) {
                     if on {
-                        *p -= n * (p.dot(n) - plane);
+                        *p -= n * body.side(*p);
                     }
                 }
             }

@@ -65,6 +65,13 @@ pub(crate) struct Body {
     pub axial: Option<Axial>,
 }
 
+impl Body {
+    /// How far `p` lies off the mirror plane, to the `left` (negative: to the right).
+    pub(crate) fn side(&self, p: DVec3) -> f64 {
+        p.dot(self.left) - self.plane
+    }
+}
+
 pub(crate) fn horizontal(v: DVec3) -> DVec3 {
     DVec3::new(v.x, v.y, 0.0)
 }
