@@ -406,9 +406,9 @@ pub(crate) fn foot_offset(ph: f32, duty: f32, stride: f32, lift: f32, travel: f3
 pub(crate) const MAX_DROP: f32 = 0.06;
 
 /// How far the body may go up (negative: down) so that every leg reaches its target, each leg
-/// lowering it by at most `most` of its reach (at most [`MAX_DROP`]): the legs with their posed hips (the body
-/// settled and carried forward) and their ankles' targets. Never above 0 (the settled rest
-/// height).
+/// lowering it by at most `most` of its reach (at most [`MAX_DROP`]): the legs with their
+/// posed hips (the body settled and carried forward) and their ankles' targets. Never above 0
+/// (the settled rest height).
 pub(crate) fn body_drop(legs: &[(&PlantedLeg, Vec3, Vec3)], most: f32) -> f32 {
     legs.iter()
         .map(|(leg, hip, target)| {

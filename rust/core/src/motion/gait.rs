@@ -22,11 +22,12 @@
 //! expressed in the bone's rest frame, so a chain rotated about one axis bends in one plane.
 //! - Legs: planted by `footfalls` (each stance foot fixed in the world, the gait phase the
 //!   distance travelled over the stride, two-bone IK from the posed hip, the body as high as
-//!   every leg reaches; a walk on four legs or more keeps it level, a far foot lifting early). A leg without two bones above a foot swings instead (per leg phase φ,
-//!   duty factor d): the hip from +A to -A linearly during stance and back with a cosine in
-//!   swing, the knee flexing by K sin(π s) in swing, the ankle keeping the foot level, each
-//!   joint flexing the way that brings the limb's end closer to the joint above; A =
-//!   asin(stride · d / 2L) for leg length L. An insect's rising femur lifts the leg in swing.
+//!   every leg reaches; a walk on four legs or more keeps it level, a far foot lifting early).
+//!   A leg without two bones above a foot swings instead (per leg phase φ, duty factor d):
+//!   the hip from +A to -A linearly during stance and back with a cosine in swing, the knee
+//!   flexing by K sin(π s) in swing, the ankle keeping the foot level, each joint flexing the
+//!   way that brings the limb's end closer to the joint above; A = asin(stride · d / 2L) for
+//!   leg length L. An insect's rising femur lifts the leg in swing.
 //! - Phases: biped L 0 / R ½; quadruped walk in diagonal pairs (front L 0, front R ½, back R
 //!   0.15, back L 0.65: back legs offset); quadruped run as a rotary gallop (back L 0, back R
 //!   0.1, front R 0.45, front L 0.55); more legs alternate by group (tripod-like).
