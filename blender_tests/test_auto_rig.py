@@ -104,15 +104,16 @@ def axis(arm, name: str, k: int):
 def assert_rigged(arm, meshes, template, tail=None, ears=False):
     """Bone names and parents as Rigify's metarig ``template``, limb chains connected, the heel a
     loose childless child of the foot, every joint inside the meshes, and every vertex weighted.
-    ``ears``: a pair of ears from the head, as on Rigify's horse metarig (and no other pair)."""
+    ``ears``: how many pairs of ears from the head, as on Rigify's horse metarig (``ear``, then
+    ``horn``; and no other pair)."""
     want = dict(BIPED if template == "BIPED" else QUADRUPED)
     names = [b.name for b in arm.data.bones]
     if template == "QUADRUPED" and (tail or (tail is None and "spine.003" in names)):
         want.update(TAIL)
-    if ears:
-        head = "spine.006" if template == "BIPED" else "spine.011"
+    head = "spine.006" if template == "BIPED" else "spine.011"
+    for base in ("ear", "horn", "antenna")[:int(ears)]:
         for s in SIDES:
-            want.update({f"ear.{s}": head, f"ear.{s}.001": f"ear.{s}"})
+            want.update({f"{base}.{s}": head, f"{base}.{s}.001": f"{base}.{s}"})
     got = {b.name: b.parent.name if b.parent else None for b in arm.data.bones}
     assert got == want, sorted(set(got.items()) ^ set(want.items()))
     bones = arm.data.bones
@@ -427,12 +428,13 @@ def _bare_model(name):
     return rig_corpus.bare_model(path)
 
 
-@pytest.mark.parametrize("name,template,ears", [("CesiumMan.gltf", "BIPED", False), ("Fox.glb", "QUADRUPED", True),
-                                                ("spot_rig.glb", "QUADRUPED", False),
-                                                ("cow.obj", "QUADRUPED", True), ("horse.ply", "QUADRUPED", False)])
+@pytest.mark.parametrize("name,template,ears", [("CesiumMan.gltf", "BIPED", 0), ("Fox.glb", "QUADRUPED", 1),
+                                                ("spot_rig.glb", "QUADRUPED", 2),
+                                                ("cow.obj", "QUADRUPED", 1), ("horse.ply", "QUADRUPED", 0)])
 def test_shared_models_auto_rig_inside_and_bound(capfd, name, template, ears):
-    """The shared models get their template, the fox its ears and the cow a pair of ears or
-    horns (spot_rig's are not leaves of its centre line, the horse's too short)."""
+    """The shared models get their template, the fox its ears, the cow a pair of ears or horns
+    and spot_rig its horns and its ears (short beside its big head: no leaves of its centre
+    line; the horse's are too short)."""
     meshes = _bare_model(name)
     result, console = run(capfd, meshes)
     assert result == {"FINISHED"}, console

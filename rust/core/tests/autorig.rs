@@ -490,6 +490,24 @@ fn a_head_with_two_ears_gets_an_ear_pair_and_one_without_none() {
 }
 
 #[test]
+fn short_horns_on_a_big_head_get_a_pair_and_the_head_bone_keeps_to_the_snout() {
+    // A cow's head: big, with horns that reach less than its radius out of it, inside what the
+    // centre line's path through the head covers (the tree has no branch to them).
+    let mut m = quadruped();
+    limb(&mut m, [0.8, 0.0, 1.2], [1.15, 0.0, 1.05], 0.15);
+    let m = with_ears(m, [0.82, 0.08, 1.3], [0.8, 0.14, 1.45], 1);
+    let rig = auto_rig(&m.0, &m.1, &AutoRigOptions::default()).unwrap();
+    assert_eq!(rig.template, Template::Quadruped);
+    assert!((DVec3::from_array(rig.forward) - DVec3::X).length() < 0.1, "{:?}", rig.forward);
+    assert_eq!(appendages(&rig), ["ear.L", "ear.L.001", "ear.R", "ear.R.001"]);
+    let tip = bone(&rig, "ear.L.001").tail;
+    assert!(tip[2] > 1.4 && tip[1].abs() > 0.12, "{tip:?}");
+    let head = bone(&rig, "spine.011").tail;
+    assert!(head[0] > 1.1 && head[1].abs() < 0.02 && head[2] < 1.2, "{head:?}");
+    all_joints_inside(&m, &rig);
+}
+
+#[test]
 fn a_wide_head_keeps_its_bone_in_its_middle() {
     // A head much wider than tall (a robot's, a helmet): the centre line's path to it ends at
     // one of its ends, off the middle; the head bone still rises from the neck through the

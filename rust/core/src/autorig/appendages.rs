@@ -1,28 +1,37 @@
 //! Head appendages: ears, horns and antennae, long protrusions of the head in pairs.
 //!
-//! Inputs: the centre-line [`Tree`], the leaves the body already uses (feet, hands, tail; not
-//! the head's own leaf, which may be an ear: a biped's head is its highest leaf), the head as a
-//! ball (`centre`, `radius`, unit frame) and the mirror plane (`p . left = plane`). Output: pairs
-//! `[left, right]` of chains, each its root, middle and tip (unit frame), longest pair first.
+//! Inputs: the centre-line [`Tree`] and its [`Voxels`], the leaves the body already uses (feet,
+//! hands, tail; not the head's own leaf, which may be an ear: a biped's head is its highest
+//! leaf), the head as a ball (`centre`, `radius`, unit frame) and the mirror plane
+//! (`p . left = plane`). Output: pairs `[left, right]` of chains, each its root, middle and tip
+//! (unit frame), longest pair first.
 //!
 //! Method: a free leaf whose path into the body (towards `hips`) enters the head's ball
 //! ([`BALL`] of its radius) without running along a limb (the paths of the leaves taken: a
 //! finger is no ear) grows from the head; the stretch outside the ball is the appendage. It
 //! counts when it reaches at least [`REACH`] of the head's radius out of the ball, is thin beside
 //! the head (its median radius at most [`THIN`] of the head's) and rises ([`RISE`]): a corner of
-//! a wide, boxy head, a snout or a pair of eyes is not one. Appendages pair across the mirror
+//! a wide, boxy head, a snout or a pair of eyes is not one. The tree has no branch to a short
+//! appendage of a big head (a cow's horns and ears: TEASAR covers what lies within twice the
+//! head's depth of its path), so the voxels outside the ball are read too: each part of them
+//! that ends within [`OUT`] head radii (the neck runs on) is a protrusion, and counts when it is
+//! [`LONG`] times as long as it is thick, thin beside the head and its tip rises [`LOW_RISE`]
+//! above the head's centre (a snout, a jaw do not). Appendages pair across the mirror
 //! plane, each with the one on the other side nearest its mirror image, within [`PAIR`] of
 //! their length (ears may be posed apart); a lone one (a unicorn's horn, one ear of an
 //! asymmetric pose) is left out. The chain runs from where the path leaves the ball to one
 //! radius short of the leaf (a thin ear's tip voxel may lie outside its surface), its middle
-//! joint at the sharpest bend near half way (`line.rs`).
+//! joint at the sharpest bend near half way (`line.rs`); a protrusion's from the middle of its
+//! base through the middle of its cross-section half way out to the middle of its far end.
+//! [`snout`] is where a head bone ends when the head's path runs up one of them.
 //!
-//! Known limits: an appendage thinner than a voxel is lost with its voxels (a cow's flat ears
-//! at the default resolution); ears lying along the head (a lop-eared rabbit) merge with it;
-//! geometry cannot tell an ear from a horn, so the pairs are named by length only (`embed.rs`).
+//! Known limits: an appendage thinner than a voxel is lost with its voxels; ears lying along
+//! the head (a lop-eared rabbit) merge with it; geometry cannot tell an ear from a horn, so
+//! the pairs are named by length only (`embed.rs`).
 
-use super::centreline::Tree;
+use super::centreline::{neighbours, Tree};
 use super::line::Line;
+use super::voxels::Voxels;
 use glam::DVec3;
 
 /// The head's ball, this many times the head's radius: what the path of an appendage leaves.
@@ -37,6 +46,14 @@ const RISE: f64 = 2.0;
 /// Two appendages pair when one's tip lies within this share of the longer one's length of the
 /// other's mirror image.
 const PAIR: f64 = 0.6;
+/// The solid's parts off the head's ball that end within this many head radii beyond it are
+/// its protrusions (the neck runs on).
+const OUT: f64 = 4.0;
+/// A protrusion is at least this many times as long as it is thick (a box's corner is not)...
+const LONG: f64 = 3.0;
+/// ...and its tip rises at least this many head radii above the head's centre (a snout, a
+/// jaw, a beard do not).
+const LOW_RISE: f64 = 0.5;
 
 /// One appendage's joints: root (on the head's ball), middle, tip; unit frame.
 pub(super) type Appendage = [DVec3; 3];
@@ -45,6 +62,7 @@ pub(super) type Appendage = [DVec3; 3];
 /// `taken`: the leaves the body uses; `hips`: a node of the body, where paths lead.
 pub(super) fn head_appendages(
     tree: &Tree,
+    vox: &Voxels,
     taken: &[usize],
     hips: usize,
     (centre, radius): (DVec3, f64),
@@ -89,6 +107,20 @@ pub(super) fn head_appendages(
             found.push((line, side.signum()));
         }
     }
+    // The solid's own protrusions off the ball, which the tree may have left out.
+    for line in protrusions(vox, (centre, radius)) {
+        let len = line.len();
+        let tip = line.at(len);
+        let near = found.iter().any(|(f, _)| (f.at(f.len()) - tip).length() < 0.5 * len.max(f.len()));
+        let thick = line.median_radius(0.0, len);
+        if near || len < LONG * thick || thick > THIN * radius || tip.z - centre.z < LOW_RISE * radius {
+            continue;
+        }
+        let side = tip.dot(left) - plane;
+        if side.abs() > 1e-9 {
+            found.push((line, side.signum()));
+        }
+    }
     let reflect = |p: DVec3| p - left * (2.0 * (p.dot(left) - plane));
     let tip = |line: &Line| line.at(line.len());
     // Pairs, nearest mirror images first; each appendage in one pair at most.
@@ -126,4 +158,94 @@ pub(super) fn head_appendages(
             })
         })
         .collect()
+}
+
+/// The tip of the head's snout: of the protrusions off the head's ball (`centre`, `radius`) that
+/// lie on the mirror plane (`p . left = plane`) within their own length and point ahead
+/// (`forward`) more than up, the one reaching farthest ahead, its tip on the plane; without one,
+/// the front of the solid ahead of the centre.
+pub(super) fn snout(
+    vox: &Voxels,
+    (centre, radius): (DVec3, f64),
+    (forward, left, plane): (DVec3, DVec3, f64),
+) -> DVec3 {
+    let on_plane = |p: DVec3| p - left * (p.dot(left) - plane);
+    protrusions(vox, (centre, radius))
+        .into_iter()
+        .map(|l| (l.at(l.len()), l.len()))
+        .filter(|&(tip, len)| {
+            let d = tip - centre;
+            (tip.dot(left) - plane).abs() < len && d.dot(forward) > d.z.max(0.0)
+        })
+        .max_by(|a, b| (a.0 - centre).dot(forward).total_cmp(&(b.0 - centre).dot(forward)))
+        .map_or_else(|| centre + forward * vox.reach(centre, forward, 1.0), |(tip, _)| on_plane(tip))
+}
+
+/// The parts of the solid `vox` outside the ball [`BALL`] times `radius` round `centre` that end
+/// within [`OUT`] radii beyond it (the neck and the body run on, out of that shell), each as a
+/// line from the middle of its base on the ball through the middle of its cross-section half way
+/// out to the middle of its far end, with its median depth as the radius (unit frame).
+fn protrusions(vox: &Voxels, (centre, radius): (DVec3, f64)) -> Vec<Line> {
+    let (ball, outer) = (BALL * radius, (BALL + OUT) * radius);
+    let step = vox.step;
+    let lo = ((centre - DVec3::splat(outer) - vox.origin) / step).floor().max(DVec3::ZERO);
+    let hi = ((centre + DVec3::splat(outer) - vox.origin) / step).ceil();
+    let d = vox.dims;
+    let hi = [hi.x.min(d[0] as f64 - 1.0), hi.y.min(d[1] as f64 - 1.0), hi.z.min(d[2] as f64 - 1.0)]
+        .map(|x| x.max(0.0) as usize);
+    let lo = [lo.x as usize, lo.y as usize, lo.z as usize];
+    let dist = |v: usize| (vox.centre(v) - centre).length();
+    let shell = |v: usize| vox.inside[v] && dist(v) > ball;
+    let mut seen = vec![false; vox.inside.len()];
+    let mut out = Vec::new();
+    for k in lo[2]..=hi[2] {
+        for j in lo[1]..=hi[1] {
+            for i in lo[0]..=hi[0] {
+                let s = vox.index([i, j, k]);
+                if !shell(s) || dist(s) > outer || std::mem::replace(&mut seen[s], true) {
+                    continue;
+                }
+                // One part of the shell, breadth first; it runs on when it reaches the outer sphere.
+                let mut part = vec![s];
+                let mut open = false;
+                let mut at = 0;
+                while at < part.len() {
+                    let v = part[at];
+                    at += 1;
+                    for (w, _) in neighbours(vox, v) {
+                        if !shell(w) || std::mem::replace(&mut seen[w], true) {
+                            continue;
+                        }
+                        if dist(w) > outer {
+                            open = true;
+                            continue;
+                        }
+                        part.push(w);
+                    }
+                }
+                if open {
+                    continue;
+                }
+                let far = part.iter().map(|&v| dist(v)).fold(0.0, f64::max);
+                if far - ball < 2.0 * step {
+                    continue; // a bump
+                }
+                let mean_at = |r: f64| {
+                    let near: Vec<DVec3> =
+                        part.iter().filter(|&&v| (dist(v) - r).abs() <= step).map(|&v| vox.centre(v)).collect();
+                    (!near.is_empty()).then(|| near.iter().copied().sum::<DVec3>() / near.len() as f64)
+                };
+                let (Some(root), Some(mid), Some(tip)) =
+                    (mean_at(ball + 0.5 * step), mean_at(0.5 * (ball + far)), mean_at(far - step))
+                else {
+                    continue;
+                };
+                let mut depths: Vec<f64> = part.iter().map(|&v| vox.depth[v] as f64 * step).collect();
+                depths.sort_by(f64::total_cmp);
+                let r = depths[depths.len() / 2];
+                out.push(Line::from_points([(root, r), (mid, r), (tip, r)].into_iter()));
+            }
+        }
+    }
+    out
 }

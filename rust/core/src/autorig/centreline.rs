@@ -200,7 +200,7 @@ fn largest_part(vox: &Voxels) -> Option<Vec<usize>> {
 }
 
 /// Inside 26-neighbours of `v` with the edge length (voxels).
-fn neighbours(vox: &Voxels, v: usize) -> impl Iterator<Item = (usize, f64)> + '_ {
+pub(super) fn neighbours(vox: &Voxels, v: usize) -> impl Iterator<Item = (usize, f64)> + '_ {
     let [i, j, k] = vox.coords(v);
     let d = vox.dims;
     (0..27usize).filter_map(move |c| {

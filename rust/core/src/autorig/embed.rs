@@ -15,7 +15,7 @@
 //! of the solid across them). Pairs are made exactly mirrored
 //! across the mesh's vertical mirror plane.
 
-use super::appendages::head_appendages;
+use super::appendages::{head_appendages, snout, Appendage};
 use super::bones::{hip, leg_line, limb_points, spine_names, straightness, Bone, Builder};
 use super::centreline::Tree;
 use super::chain;
@@ -225,7 +225,8 @@ fn biped(b: &mut Builder, tree: &Tree, vox: &Voxels, body: &Body, vertices: &[DV
     // spine.004 (the neck) starts its own rig in Rigify's metarig.
     b.bones[4].connected = false;
     let taken: Vec<usize> = body.feet.iter().copied().chain(body.hands.into_iter().flatten()).collect();
-    ears(b, tree, body, &taken, (spine.at(s_hc), r_head), "spine.006");
+    let pairs = head_appendages(tree, vox, &taken, body.hips, (spine.at(s_hc), r_head), (body.left, body.plane));
+    ears(b, &pairs, "spine.006");
 
     for (side, line, s_hip, hip) in legs {
         let foot_z = ground + ANKLE * (hip.z - ground);
@@ -318,13 +319,22 @@ fn quadruped(b: &mut Builder, tree: &Tree, vox: &Voxels, body: &Body) {
         .unwrap_or(s_nb)
         .max(s_nb + 0.1 * (len - s_nb))
         .min(s_hc - 0.05 * (len - s_nb));
-    let head_end = spine.at((len - spine.radius(len)).max(s_hc + 0.05 * (len - s_nb)));
+    let taken: Vec<usize> = body.feet.iter().copied().chain(body.tail).collect();
+    let ball = (spine.at(s_hc), spine.radius(s_hc));
+    let pairs = head_appendages(tree, vox, &taken, body.hips, ball, (body.left, body.plane));
+    // The path to the head's leaf may end in a horn or an ear (the head's farthest point); the
+    // head then ends at its snout.
+    let leaf = spine.at(len);
+    let head_end = if pairs.iter().flatten().any(|c| (c[2] - leaf).length() < (c[2] - c[0]).length()) {
+        snout(vox, ball, (fwd, left, body.plane))
+    } else {
+        spine.at((len - spine.radius(len)).max(s_hc + 0.05 * (len - s_nb)))
+    };
     b.chain(&spine_names(4, 5), &pts, None, false);
     // The neck starts its own rig in Rigify (not connected), where the torso ends.
     let neck = [pts[5], spine.at(0.5 * (s_nb + s_hb)), spine.at(s_hb), head_end];
     b.chain(&spine_names(9, 3), &neck, Some("spine.008"), false);
-    let taken: Vec<usize> = body.feet.iter().copied().chain(body.tail).collect();
-    ears(b, tree, body, &taken, (spine.at(s_hc), spine.radius(s_hc)), "spine.011");
+    ears(b, &pairs, "spine.011");
     // Tail: from the torso's root, as in Rigify's metarig, back along the tree to the tip.
     if let Some(tail) = body.tail {
         let nodes = tree.path(body.hips, tail);
@@ -368,12 +378,10 @@ fn quadruped(b: &mut Builder, tree: &Tree, vox: &Voxels, body: &Body) {
     }
 }
 
-/// The head's appendages (`appendages.rs`) as two-bone chains under the head bone `head`, named
-/// as on Rigify's horse metarig (`ear.L` -> `ear.L.001`); a second and third pair, which
-/// geometry cannot tell from the first, `horn` and `antenna`. `taken`: the leaves the body uses;
-/// `ball`: the head's centre and radius.
-fn ears(b: &mut Builder, tree: &Tree, body: &Body, taken: &[usize], ball: (DVec3, f64), head: &str) {
-    let pairs = head_appendages(tree, taken, body.hips, ball, (body.left, body.plane));
+/// The head's appendage `pairs` (`appendages.rs`) as two-bone chains under the head bone
+/// `head`, named as on Rigify's horse metarig (`ear.L` -> `ear.L.001`); a second and third pair,
+/// which geometry cannot tell from the first, `horn` and `antenna`.
+fn ears(b: &mut Builder, pairs: &[[Appendage; 2]], head: &str) {
     for (pair, base) in pairs.iter().zip(EAR_NAMES) {
         for (chain, side) in pair.iter().zip(["L", "R"]) {
             let names = [format!("{base}.{side}"), format!("{base}.{side}.001")];
