@@ -8,6 +8,8 @@ use glam::DVec3;
 
 /// Shortest bone, unit frame.
 pub(super) const MIN_BONE: f64 = 2e-3;
+/// A tail shorter than this share of the torso is a rump: no tail bones.
+pub(super) const TAIL_MIN: f64 = 0.2;
 
 /// One bone of the result, unit frame.
 #[derive(Debug, Clone, PartialEq)]

@@ -21,7 +21,7 @@
 //! sit at the shares of [`WING`], [`LEG`] and [`FRONT_LEG`], moved to the sharpest bend near
 //! each (`embed::limb_points`).
 
-use super::bones::{hip, leg_line, limb_points, spine_names, Builder, MIN_BONE};
+use super::bones::{hip, leg_line, limb_points, spine_names, Builder, MIN_BONE, TAIL_MIN};
 use super::centreline::Tree;
 use super::line::Line;
 use super::parts::{Body, Template};
@@ -45,8 +45,6 @@ const WINGED_STANDING: Proportions = Proportions { root: 0.0, neck: 0.75 };
 /// The neck's base is searched this share of the length either side of its proportion for the
 /// narrowest point.
 const NECK_WINDOW: f64 = 0.1;
-/// A tail shorter than this share of the torso is a rump: no tail bones.
-const TAIL_MIN: f64 = 0.2;
 /// The neck's base lies this share of the way from where the wings join to the head's end.
 const WING_NECK: f64 = 0.15;
 /// Wing joints (forearm, hand, tip bone's start) at these shares of the wing past its shoulder.

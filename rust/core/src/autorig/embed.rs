@@ -16,7 +16,7 @@
 //! across the mesh's vertical mirror plane.
 
 use super::appendages::{head_appendages, snout, Appendage};
-use super::bones::{hip, leg_line, limb_points, spine_names, straightness, Bone, Builder};
+use super::bones::{hip, leg_line, limb_points, spine_names, straightness, Bone, Builder, TAIL_MIN};
 use super::centreline::Tree;
 use super::chain;
 use super::line::Line;
@@ -33,8 +33,6 @@ use glam::DVec3;
 const ASYMMETRY: f64 = 0.02;
 /// Fit Skeleton moves a joint at most this far (unit frame) when settling.
 const SETTLE_MOVE: f64 = 0.03;
-/// A tail bone chain is at least this fraction of the torso's length.
-const TAIL_MIN: f64 = 0.2;
 /// A biped's ankle lies at this fraction of the hip's height above the ground...
 const ANKLE: f64 = 0.08;
 /// ...or higher, up to this fraction, where the leg turns onto a long, flat foot.
