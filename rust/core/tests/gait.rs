@@ -872,13 +872,15 @@ fn lowest_root(skel: Rig, motion: Motion) -> f32 {
 }
 
 #[test]
-fn a_walk_on_four_legs_keeps_the_body_level_while_a_biped_and_a_gallop_sink_it() {
+fn a_body_on_four_legs_keeps_its_level_while_a_biped_sinks() {
     // On four legs a far foot lifts off early rather than pull the body down and bend the
-    // other knees; a biped's feet at double support and a runner's springing legs lower it.
-    let walk = lowest_root(creature(), Motion::Walk);
-    assert!(walk.abs() < 1e-6, "a walking quadruped sinks {walk} of its leg");
-    let run = lowest_root(creature(), Motion::Run);
-    assert!(run < -0.01, "a galloping quadruped stays up ({run})");
-    let biped_walk = lowest_root(biped(), Motion::Walk);
-    assert!(biped_walk < -0.01, "a walking biped stays up ({biped_walk})");
+    // other knees, walking and galloping; a biped's feet at double support and a runner's
+    // springing legs lower it.
+    // (a gallop sinks by at most 1 % of the reach, for its far feet to touch down)
+    for (motion, most) in [(Motion::Walk, 1e-6), (Motion::Run, 0.0101)] {
+        let quad = lowest_root(creature(), motion);
+        assert!(quad >= -most, "{motion:?}: a quadruped sinks {quad} of its leg");
+        let biped = lowest_root(biped(), motion);
+        assert!(biped < -0.02, "{motion:?}: a biped stays up ({biped})");
+    }
 }

@@ -198,14 +198,15 @@ const UPRIGHT: f32 = 0.7;
 const HIGH_ANKLE: f32 = 0.15;
 
 /// How much of a leg's swing about the hip (the angle of the hip-to-toe line, from its rest
-/// angle) an upright foot takes, turning about its toe: the cannon bone leans with the leg, so
-/// the thigh swings less than a leg whose foot stays upright, and folds the hip's skin less.
-const FOOT_TILT: f32 = 0.6;
+/// angle) an upright foot takes, turning about its toe: all of it, so the cannon bone keeps its
+/// rest angle to that line and the hip-to-ankle line turns as the hip-to-toe line does; the
+/// thigh then swings less than a leg whose foot stays upright, and folds the hip's skin less.
+const FOOT_TILT: f32 = 1.0;
 /// How much of a swinging foot's lift an upright foot takes by folding back at the ankle (the
 /// hock or the wrist flexing), the rest lifting the ankle: a leg that lifted its hoof by the
 /// ankle alone folds the knee up and swings the thigh far forward (a horse's femur through 80
 /// degrees in a gallop).
-const FOOT_FOLD: f32 = 0.7;
+const FOOT_FOLD: f32 = 0.9;
 
 /// Where a planted leg's ankle goes when its upright foot stands on its toe's head (the toe's
 /// rest head carried as the ankle is to `ankle_at`): the foot leans with the leg from the posed

@@ -22,7 +22,7 @@
 //! expressed in the bone's rest frame, so a chain rotated about one axis bends in one plane.
 //! - Legs: planted by `footfalls` (each stance foot fixed in the world, the gait phase the
 //!   distance travelled over the stride, two-bone IK from the posed hip, the body as high as
-//!   every leg reaches; a walk on four legs or more keeps it level, a far foot lifting early).
+//!   every leg reaches; a body on four legs or more keeps it level, a far foot lifting early).
 //!   A leg without two bones above a foot swings instead (per leg phase φ, duty factor d):
 //!   the hip from +A to -A linearly during stance and back with a cosine in swing, the knee
 //!   flexing by K sin(π s) in swing, the ankle keeping the foot level, each joint flexing the
@@ -230,13 +230,20 @@ pub fn steered_clip(
     }
 }
 
-/// A walk on this many legs or more keeps its body level: whenever a far foot would pull it
-/// lower, at least two others stand, so that foot lifts off a little early or lands a little
-/// late instead (a horse's or a dog's back stays level as it walks). Sinking the body for it
-/// bends every other leg's knee and folds the skin of the flank and rump with the thighs. A
-/// biped's body sinks at double support, when both its feet are out (the low point of the
-/// inverted pendulum), and a runner's legs give in stance, so those sink up to [`MAX_DROP`].
-const WALK_LEVEL: usize = 4;
+/// A body on this many legs or more keeps its level, walking, and nearly so running
+/// ([`LEVEL_RUN_DROP`]): whenever a far foot would pull it lower, other feet stand or the body
+/// is in the air, so that foot lifts off a little early or lands a little late instead (a
+/// horse's or a dog's back stays level as it walks, and highest in a gallop's flight). Sinking
+/// the body for it bends every other leg's knee and folds the skin of the flank and rump with
+/// the thighs (the gallop's gathered flight, hind legs forward under a body sunk for the front
+/// feet just lifted behind). A biped's body sinks, up to [`MAX_DROP`]: at double support in a
+/// walk, when both its feet are out (the low point of the inverted pendulum), and in a run's
+/// stance, its legs giving.
+const LEVEL_LEGS: usize = 4;
+/// How far such a body sinks in a run, as a share of a leg's reach: enough for a far foot to
+/// touch down and lift off on the ground (kept wholly level, a gallop's far feet hung just above
+/// it, and the test creature's feet were down 72 % of the cycle, 75 wanted).
+const LEVEL_RUN_DROP: f32 = 0.01;
 
 /// The cadence follows a pendulum of the leg's length (assumed in metres; clamped so rigs in
 /// other units, centimetres or a 60-unit cow, still get a plausible one); the stride a fixed
@@ -250,7 +257,8 @@ fn cadence(roles: &Roles, p: &GaitParams, course: Option<&Course>) -> Result<Cad
     let fpc = (period * p.fps).round().max(8.0);
     // A run keeps a foot on the ground at least 75 % of the cycle: a gallop's four feet in
     // stance 0.3 of it each cover 0.8; two or six feet take turns, in stance 0.4 each. Its
-    // stride is what the legs reach in that time with the body no lower than `MAX_DROP`. A
+    // stride is what the legs reach in that time with the body no lower than `MAX_DROP` (not
+    // at all on four legs, `LEVEL_LEGS`: the far feet lift off early instead). A
     // quadruped's legs sweep less than a biped's (a horse's or a cow's thigh turns the skin of
     // its flank and chest with it).
     let duty = match (run, quad) {
@@ -280,7 +288,11 @@ fn cadence(roles: &Roles, p: &GaitParams, course: Option<&Course>) -> Result<Cad
         ankle_amp: if run { 30f32 } else { 20.0 }.to_radians(),
         lift_amp: if run { 35f32 } else { 25.0 }.to_radians(),
         foot_lift: if run { 0.15 } else { 0.08 } * l,
-        drop: if run || roles.legs.len() < WALK_LEVEL { MAX_DROP } else { 0.0 },
+        drop: match (roles.legs.len() < LEVEL_LEGS, run) {
+            (true, _) => MAX_DROP,
+            (false, true) => LEVEL_RUN_DROP,
+            (false, false) => 0.0,
+        },
     })
 }
 
