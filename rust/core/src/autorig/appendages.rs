@@ -2,8 +2,8 @@
 //!
 //! Inputs: the centre-line [`Tree`] and its [`Voxels`], the leaves the body already uses (feet,
 //! hands, tail; not the head's own leaf, which may be an ear: a biped's head is its highest
-//! leaf), the head as a ball (`centre`, `radius`, unit frame) and the mirror plane
-//! (`p . left = plane`). Output: pairs `[left, right]` of chains, each its root, middle and tip
+//! leaf), the head as a ball (`centre`, `radius`, unit frame), the solid's [`protrusions`] off
+//! that ball and the [`Body`] (its mirror plane). Output: pairs `[left, right]` of chains, each its root, middle and tip
 //! (unit frame), longest pair first.
 //!
 //! Method: a free leaf whose path into the body (towards `hips`) enters the head's ball
@@ -31,6 +31,7 @@
 
 use super::centreline::{neighbours, Tree};
 use super::line::Line;
+use super::parts::Body;
 use super::voxels::Voxels;
 use glam::DVec3;
 
@@ -59,15 +60,16 @@ const LOW_RISE: f64 = 0.5;
 pub(super) type Appendage = [DVec3; 3];
 
 /// The paired appendages of the head (`centre`, `radius`), `[left, right]`, longest first.
-/// `taken`: the leaves the body uses; `hips`: a node of the body, where paths lead.
+/// `taken`: the leaves the body uses (`body.hips`, a node of the body, is where paths lead);
+/// `protruding`: the [`protrusions`] off the same ball.
 pub(super) fn head_appendages(
     tree: &Tree,
-    vox: &Voxels,
+    body: &Body,
     taken: &[usize],
-    hips: usize,
     (centre, radius): (DVec3, f64),
-    (left, plane): (DVec3, f64),
+    protruding: &[Line],
 ) -> Vec<[Appendage; 2]> {
+    let hips = body.hips;
     let ball = BALL * radius;
     // The limbs' nodes: an appendage does not run along an arm (a finger is no ear).
     let limbs: std::collections::HashSet<usize> = taken.iter().flat_map(|&t| tree.path(t, hips)).collect();
@@ -102,13 +104,13 @@ pub(super) fn head_appendages(
         {
             continue;
         }
-        let side = tree.pos[l].dot(left) - plane;
+        let side = body.side(tree.pos[l]);
         if side.abs() > 1e-9 {
             found.push((line, side.signum()));
         }
     }
     // The solid's own protrusions off the ball, which the tree may have left out.
-    for line in protrusions(vox, (centre, radius)) {
+    for line in protruding {
         let len = line.len();
         let tip = line.at(len);
         let near = found.iter().any(|(f, _)| (f.at(f.len()) - tip).length() < 0.5 * len.max(f.len()));
@@ -116,12 +118,12 @@ pub(super) fn head_appendages(
         if near || len < LONG * thick || thick > THIN * radius || tip.z - centre.z < LOW_RISE * radius {
             continue;
         }
-        let side = tip.dot(left) - plane;
+        let side = body.side(tip);
         if side.abs() > 1e-9 {
-            found.push((line, side.signum()));
+            found.push((line.clone(), side.signum()));
         }
     }
-    let reflect = |p: DVec3| p - left * (2.0 * (p.dot(left) - plane));
+    let reflect = |p: DVec3| p - body.left * (2.0 * body.side(p));
     let tip = |line: &Line| line.at(line.len());
     // Pairs, nearest mirror images first; each appendage in one pair at most.
     let mut candidates: Vec<(f64, usize, usize)> = Vec::new();
@@ -160,22 +162,18 @@ pub(super) fn head_appendages(
         .collect()
 }
 
-/// The tip of the head's snout: of the protrusions off the head's ball (`centre`, `radius`) that
-/// lie on the mirror plane (`p . left = plane`) within their own length and point ahead
-/// (`forward`) more than up, the one reaching farthest ahead, its tip on the plane; without one,
-/// the front of the solid ahead of the centre.
-pub(super) fn snout(
-    vox: &Voxels,
-    (centre, radius): (DVec3, f64),
-    (forward, left, plane): (DVec3, DVec3, f64),
-) -> DVec3 {
-    let on_plane = |p: DVec3| p - left * (p.dot(left) - plane);
-    protrusions(vox, (centre, radius))
-        .into_iter()
+/// The tip of the head's snout: of the `protruding` parts off the head's ball round `centre`
+/// ([`protrusions`]) that lie on the body's mirror plane within their own length and point
+/// ahead (`forward`) more than up, the one reaching farthest ahead, its tip on the plane; without
+/// one, the front of the solid `vox` ahead of the centre.
+pub(super) fn snout(vox: &Voxels, body: &Body, centre: DVec3, forward: DVec3, protruding: &[Line]) -> DVec3 {
+    let on_plane = |p: DVec3| p - body.left * body.side(p);
+    protruding
+        .iter()
         .map(|l| (l.at(l.len()), l.len()))
         .filter(|&(tip, len)| {
             let d = tip - centre;
-            (tip.dot(left) - plane).abs() < len && d.dot(forward) > d.z.max(0.0)
+            body.side(tip).abs() < len && d.dot(forward) > d.z.max(0.0)
         })
         .max_by(|a, b| (a.0 - centre).dot(forward).total_cmp(&(b.0 - centre).dot(forward)))
         .map_or_else(|| centre + forward * vox.reach(centre, forward, 1.0), |(tip, _)| on_plane(tip))
@@ -185,7 +183,7 @@ pub(super) fn snout(
 /// within [`OUT`] radii beyond it (the neck and the body run on, out of that shell), each as a
 /// line from the middle of its base on the ball through the middle of its cross-section half way
 /// out to the middle of its far end, with its median depth as the radius (unit frame).
-fn protrusions(vox: &Voxels, (centre, radius): (DVec3, f64)) -> Vec<Line> {
+pub(super) fn protrusions(vox: &Voxels, (centre, radius): (DVec3, f64)) -> Vec<Line> {
     let (ball, outer) = (BALL * radius, (BALL + OUT) * radius);
     let step = vox.step;
     let lo = ((centre - DVec3::splat(outer) - vox.origin) / step).floor().max(DVec3::ZERO);

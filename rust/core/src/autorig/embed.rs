@@ -15,7 +15,7 @@
 //! of the solid across them). Pairs are made exactly mirrored
 //! across the mesh's vertical mirror plane.
 
-use super::appendages::{head_appendages, snout, Appendage};
+use super::appendages::{head_appendages, protrusions, snout, Appendage};
 use super::bones::{hip, leg_line, limb_points, spine_names, straightness, Bone, Builder, TAIL_MIN};
 use super::centreline::Tree;
 use super::chain;
@@ -223,7 +223,8 @@ fn biped(b: &mut Builder, tree: &Tree, vox: &Voxels, body: &Body, vertices: &[DV
     // spine.004 (the neck) starts its own rig in Rigify's metarig.
     b.bones[4].connected = false;
     let taken: Vec<usize> = body.feet.iter().copied().chain(body.hands.into_iter().flatten()).collect();
-    let pairs = head_appendages(tree, vox, &taken, body.hips, (spine.at(s_hc), r_head), (body.left, body.plane));
+    let ball = (spine.at(s_hc), r_head);
+    let pairs = head_appendages(tree, body, &taken, ball, &protrusions(vox, ball));
     ears(b, &pairs, "spine.006");
 
     for (side, line, s_hip, hip) in legs {
@@ -319,12 +320,13 @@ fn quadruped(b: &mut Builder, tree: &Tree, vox: &Voxels, body: &Body) {
         .min(s_hc - 0.05 * (len - s_nb));
     let taken: Vec<usize> = body.feet.iter().copied().chain(body.tail).collect();
     let ball = (spine.at(s_hc), spine.radius(s_hc));
-    let pairs = head_appendages(tree, vox, &taken, body.hips, ball, (body.left, body.plane));
+    let protruding = protrusions(vox, ball);
+    let pairs = head_appendages(tree, body, &taken, ball, &protruding);
     // The path to the head's leaf may end in a horn or an ear (the head's farthest point); the
     // head then ends at its snout.
     let leaf = spine.at(len);
     let head_end = if pairs.iter().flatten().any(|c| (c[2] - leaf).length() < (c[2] - c[0]).length()) {
-        snout(vox, ball, (fwd, left, body.plane))
+        snout(vox, body, ball.0, fwd, &protruding)
     } else {
         spine.at((len - spine.radius(len)).max(s_hc + 0.05 * (len - s_nb)))
     };

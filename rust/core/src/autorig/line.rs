@@ -13,6 +13,7 @@ const MIN_BEND_DEG: f64 = 15.0;
 const TUBE: f64 = 1.3;
 
 /// A polyline with radii and arc length.
+#[derive(Clone)]
 pub(crate) struct Line {
     pub p: Vec<DVec3>,
     r: Vec<f64>,
