@@ -78,8 +78,7 @@ BIPEDS = [name for name in EXPECTED if EXPECTED[name]["plan"] == "biped"] + ["au
 # Clips whose skin still folds past the targets, and why (bench/fold_causes.py binds the same
 # skeleton four ways: its own weights, our Heat, Blender's bone heat, nearest segments, and
 # counts the vertices torn from their copies). Strict: each fails the day it passes.
-_POSES = "folds under every binding: the poses (hip and shoulder swing on this body)"
-KNOWN_FOLDS = {("autorig_spot", "WALK"): _POSES}
+KNOWN_FOLDS: dict = {}
 # Clips whose feet do not meet the targets yet, and why. Strict: each fails the day it passes.
 KNOWN_SLIPS: dict = {}
 

@@ -31,6 +31,24 @@ fn quadruped_made_of_separate_trees() {
     assert!(["head", "neck_mid"].contains(&names[r2.head].as_str()), "{}", names[r2.head]);
 }
 
+#[test]
+fn the_leg_length_is_the_reach_of_the_shortest_legs() {
+    // The test Spot's hind hooves rest 7.5 units above its front ones (as Spot's mesh stands):
+    // its hind legs reach 31.5 from their hips, its front legs 37 from the chest. The stride is
+    // one for all four legs, so it scales by what the shorter legs reach (a mean of 34.25 made
+    // the auto-rigged Spot's hind thighs swing 49 degrees in a walk and fold its flanks).
+    let (names, h, t, p) = spot();
+    let r = detect_roles(&Skeleton::new(&h, &t, &p, &names)).unwrap();
+    let reach = |group: usize| {
+        let l = r.legs.iter().find(|l| l.group == group).expect("leg");
+        let low = l.bones.iter().map(|&b| h[b][2].min(t[b][2])).fold(f32::INFINITY, f32::min);
+        h[l.bones[0]][2] - low
+    };
+    let (front, hind) = (reach(0), reach(1));
+    assert!((front - 37.0).abs() < 1e-3 && (hind - 31.5).abs() < 1e-3, "{front} {hind}");
+    assert!((r.leg_length - hind).abs() < 1e-3, "{} (hind legs {hind}, front {front})", r.leg_length);
+}
+
 fn named(names: &[String], ids: &[usize]) -> Vec<String> {
     ids.iter().map(|&i| names[i].clone()).collect()
 }

@@ -103,7 +103,11 @@ pub struct Roles {
     /// Lowest z of the skeleton and its height.
     pub ground: f32,
     pub height: f32,
-    /// Mean vertical reach of the legs (hip head to the ground), same unit as the input.
+    /// Vertical reach of the shortest leg (its top bone's head to its lowest point), same unit
+    /// as the input: the stride every leg can take. A quadruped's front legs reach from the top
+    /// of the shoulder blade, so this is mostly its hip height, the length gaits scale by
+    /// (Alexander and Jayes 1983); a rest pose with raised hind hooves (Spot's) walks on the
+    /// stride of its shorter hind legs.
     pub leg_length: f32,
     /// Whether every role bone descends from `root` in the input hierarchy (else the trees were
     /// joined where they touch, and moving the root bone would not move the whole body).
@@ -311,8 +315,8 @@ pub fn detect_roles(skeleton: &Skeleton) -> Result<Roles> {
         .chain([&trunk.head])
         .chain(leg_limbs.iter().flat_map(|l| &l.bones))
         .all(|&b| real_root(b) == root);
-    let leg_length = leg_limbs.iter().map(|l| rig.h(l.bones[0]).z - legs.low[l.bones[0]]).sum::<f32>()
-        / leg_limbs.len().max(1) as f32;
+    let leg_length =
+        leg_limbs.iter().map(|l| rig.h(l.bones[0]).z - legs.low[l.bones[0]]).reduce(f32::min).unwrap_or(0.0);
     Ok(Roles {
         root,
         spine: trunk.spine,
