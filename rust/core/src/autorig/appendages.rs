@@ -3,8 +3,8 @@
 //! Inputs: the centre-line [`Tree`] and its [`Voxels`], the leaves the body already uses (feet,
 //! hands, tail; not the head's own leaf, which may be an ear: a biped's head is its highest
 //! leaf), the head as a ball (`centre`, `radius`, unit frame), the solid's [`protrusions`] off
-//! that ball and the [`Body`] (its mirror plane). Output: pairs `[left, right]` of chains, each its root, middle and tip
-//! (unit frame), longest pair first.
+//! that ball and the [`Body`] (its mirror plane). Output: pairs `[left, right]` of chains, each
+//! its root, middle and tip (unit frame), longest pair first.
 //!
 //! Method: a free leaf whose path into the body (towards `hips`) enters the head's ball
 //! ([`BALL`] of its radius) without running along a limb (the paths of the leaves taken: a
@@ -123,14 +123,13 @@ pub(super) fn head_appendages(
             found.push((line.clone(), side.signum()));
         }
     }
-    let reflect = |p: DVec3| p - body.left * (2.0 * body.side(p));
     let tip = |line: &Line| line.at(line.len());
     // Pairs, nearest mirror images first; each appendage in one pair at most.
     let mut candidates: Vec<(f64, usize, usize)> = Vec::new();
     for (i, (a, sa)) in found.iter().enumerate() {
         for (j, (b, sb)) in found.iter().enumerate() {
             if *sa > 0.0 && *sb < 0.0 {
-                let d = (reflect(tip(a)) - tip(b)).length();
+                let d = (body.mirror(tip(a)) - tip(b)).length();
                 if d <= PAIR * a.len().max(b.len()) {
                     candidates.push((d, i, j));
                 }
@@ -167,7 +166,6 @@ pub(super) fn head_appendages(
 /// ahead (`forward`) more than up, the one reaching farthest ahead, its tip on the plane; without
 /// one, the front of the solid `vox` ahead of the centre.
 pub(super) fn snout(vox: &Voxels, body: &Body, centre: DVec3, forward: DVec3, protruding: &[Line]) -> DVec3 {
-    let on_plane = |p: DVec3| p - body.left * body.side(p);
     protruding
         .iter()
         .map(|l| (l.at(l.len()), l.len()))
@@ -176,7 +174,7 @@ pub(super) fn snout(vox: &Voxels, body: &Body, centre: DVec3, forward: DVec3, pr
             body.side(tip).abs() < len && d.dot(forward) > d.z.max(0.0)
         })
         .max_by(|a, b| (a.0 - centre).dot(forward).total_cmp(&(b.0 - centre).dot(forward)))
-        .map_or_else(|| centre + forward * vox.reach(centre, forward, 1.0), |(tip, _)| on_plane(tip))
+        .map_or_else(|| centre + forward * vox.reach(centre, forward, 1.0), |(tip, _)| body.onto_plane(tip))
 }
 
 /// The parts of the solid `vox` outside the ball [`BALL`] times `radius` round `centre` that end

@@ -437,8 +437,6 @@ fn side_roots(lines: [&Line; 2], fr: f64, body: &Body, spine: &Line, vox: &Voxel
 /// image (a hind leg stepping back) keeps its own joints, and so does a centre joint that far off the plane (a
 /// head turned aside).
 fn mirror(bones: &mut [Bone], body: &Body, decided: Option<Symmetric>) -> Symmetric {
-    let n = body.left;
-    let reflect = |p: DVec3| p - n * (2.0 * body.side(p));
     let twin = |bones: &[Bone], i: usize| {
         let name = twin_name(&bones[i].name)?;
         bones.iter().position(|b| b.name == name)
@@ -462,10 +460,10 @@ fn mirror(bones: &mut [Bone], body: &Body, decided: Option<Symmetric>) -> Symmet
             if let Some(j) = twin(bones, i).filter(|_| is_end || is_root) {
                 let mut off: f64 = 0.0;
                 if is_root {
-                    off = off.max((bones[i].head - reflect(bones[j].head)).length());
+                    off = off.max((bones[i].head - body.mirror(bones[j].head)).length());
                 }
                 if is_end {
-                    off = off.max((bones[i].tail - reflect(bones[j].tail)).length());
+                    off = off.max((bones[i].tail - body.mirror(bones[j].tail)).length());
                 }
                 if off > ASYMMETRY {
                     straying.push(limb(bones, i));
@@ -487,18 +485,18 @@ fn mirror(bones: &mut [Bone], body: &Body, decided: Option<Symmetric>) -> Symmet
             None => {
                 for (p, on) in [&mut bones[i].head, &mut bones[i].tail].into_iter().zip(decided.on_plane[i]) {
                     if on {
-                        *p -= n * body.side(*p);
+                        *p = body.onto_plane(*p);
                     }
                 }
             }
             Some(true) => {
                 if let Some(j) = twin(bones, i).filter(|_| !decided.straying.contains(&limb(bones, i))) {
-                    let head = (bones[i].head + reflect(bones[j].head)) * 0.5;
-                    let tail = (bones[i].tail + reflect(bones[j].tail)) * 0.5;
+                    let head = (bones[i].head + body.mirror(bones[j].head)) * 0.5;
+                    let tail = (bones[i].tail + body.mirror(bones[j].tail)) * 0.5;
                     bones[i].head = head;
                     bones[i].tail = tail;
-                    bones[j].head = reflect(head);
-                    bones[j].tail = reflect(tail);
+                    bones[j].head = body.mirror(head);
+                    bones[j].tail = body.mirror(tail);
                 }
             }
             Some(false) => {}

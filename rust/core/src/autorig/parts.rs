@@ -70,6 +70,16 @@ impl Body {
     pub(crate) fn side(&self, p: DVec3) -> f64 {
         p.dot(self.left) - self.plane
     }
+
+    /// The mirror image of `p` across the mirror plane.
+    pub(crate) fn mirror(&self, p: DVec3) -> DVec3 {
+        p - self.left * (2.0 * self.side(p))
+    }
+
+    /// `p` moved straight onto the mirror plane.
+    pub(crate) fn onto_plane(&self, p: DVec3) -> DVec3 {
+        p - self.left * self.side(p)
+    }
 }
 
 pub(crate) fn horizontal(v: DVec3) -> DVec3 {
