@@ -109,17 +109,9 @@ $(foreach v,42 45,$(eval $(call LTS_VENV,$(v))))
 test-blender-4.2: .venv-bpy42/.installed-bpy-$(BPY_42)
 test-blender-4.5: .venv-bpy45/.installed-bpy-$(BPY_45)
 test-blender-4.2 test-blender-4.5: test-blender-%: $(EXT_ZIP)
-	@# One pytest process per test file: in one long process Blender 4.2's glTF importer and
-	@# exporter segfault at random late in the run (also see conftest). The same tests, none skipped.
-	@# A file whose process dies by a signal (that crash, inside Blender) runs once more; a test
-	@# that fails is never retried.
-	@status=0; for f in blender_tests/test_*.py; do \
-	    echo "$$f"; .venv-bpy$(subst .,,$*)/bin/python -m pytest -q "$$f"; rc=$$?; \
-	    if [ $$rc -gt 128 ]; then \
-	        echo "$$f: the process died by signal $$((rc - 128)); running the file once more"; \
-	        .venv-bpy$(subst .,,$*)/bin/python -m pytest -q "$$f"; rc=$$?; \
-	    fi; [ $$rc -eq 0 ] || status=1; \
-	done; exit $$status
+	@# One pytest process per test file, and one per test of a file whose process died by a signal
+	@# (Blender 4.2 segfaults at random late in a long run; see scripts/lts_tests.py and conftest).
+	.venv-bpy$(subst .,,$*)/bin/python -m scripts.lts_tests
 
 ## Benchmarks (speed is measured here, never asserted in tests), run as modules from the checkout so
 ## that they import the helpers package testkit/ (whose measures the tests share) as they are.
